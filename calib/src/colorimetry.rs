@@ -1,0 +1,1 @@
+//! colorimetry (being written).

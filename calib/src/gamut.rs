@@ -1,0 +1,1 @@
+//! gamut (being written).

@@ -1,0 +1,18 @@
+//! Calibration for lumiwall: colorimetry, measurement plans and the wall solve.
+//!
+//! Measures each display through the `lumiwall-devices` traits (never a port
+//! directly), fits tone curves and their inverses, solves the common gamut, white and
+//! black of the wall (Kresse 2003, 3.3) and produces one `DisplayProfile` per display
+//! and eye; [`verify`] reads target colours back through the whole pipeline.
+
+pub mod colorimetry;
+pub mod commission;
+pub mod error;
+pub mod gamut;
+pub mod measure;
+pub mod report;
+pub mod solve;
+pub mod tone;
+pub mod verify;
+
+pub use error::CalibError;

@@ -1,0 +1,73 @@
+//! Typed device errors, each with a message a technician can act on.
+
+/// Errors from instruments and pattern outputs.
+#[derive(Debug, thiserror::Error)]
+pub enum DeviceError {
+    /// The instrument did not answer within the timeout.
+    #[error("{device} did not answer within {timeout_ms} ms; check cable, power and port")]
+    Timeout {
+        /// Device name (model and port).
+        device: String,
+        /// Timeout that expired.
+        timeout_ms: u64,
+    },
+    /// The instrument answered something that is not in its protocol.
+    #[error("{device} sent an unreadable answer {answer:?} to {command:?}")]
+    Garbled {
+        /// Device name.
+        device: String,
+        /// Command sent.
+        command: String,
+        /// What came back.
+        answer: String,
+    },
+    /// The reading is above the instrument's range.
+    #[error("{device} is over range; reduce the pattern level or use a neutral-density filter")]
+    OverRange {
+        /// Device name.
+        device: String,
+    },
+    /// The reading is below the level the instrument can measure reliably.
+    #[error("{device} reads {y_cd_m2:.4} cd/m², below its reliable limit {limit_cd_m2} cd/m²")]
+    TooDark {
+        /// Device name.
+        device: String,
+        /// What it read.
+        y_cd_m2: f64,
+        /// Its reliable lower limit.
+        limit_cd_m2: f64,
+    },
+    /// The instrument reported an error code.
+    #[error("{device} reported error {code}: {meaning}")]
+    Instrument {
+        /// Device name.
+        device: String,
+        /// Error code as sent by the instrument.
+        code: String,
+        /// What the manual says the code means.
+        meaning: String,
+    },
+    /// Port or pty I/O failed.
+    #[error("I/O error on {device}: {source}")]
+    Io {
+        /// Device name.
+        device: String,
+        /// Underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The display asked for does not exist.
+    #[error("no display {0} on this wall")]
+    NoSuchDisplay(String),
+    /// A wall description or device configuration is wrong.
+    #[error("configuration error: {0}")]
+    Config(String),
+}
+
+impl DeviceError {
+    /// True for errors after which retrying the same reading can succeed
+    /// (timeouts and garbled answers); false for errors a retry will not fix.
+    pub fn is_transient(&self) -> bool {
+        matches!(self, DeviceError::Timeout { .. } | DeviceError::Garbled { .. })
+    }
+}

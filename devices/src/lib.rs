@@ -1,0 +1,21 @@
+//! Instruments and displays for lumiwall.
+//!
+//! The traits [`Colorimeter`], [`PatternOutput`] and [`MeterPositioner`] are all that
+//! the calibration code sees of the hardware. Real drivers live in [`serial`]
+//! (colorimeters over a serial port); [`sim`] is the virtual wall: simulated
+//! projectors, screen and meter, the embedded default so that everything runs and is
+//! tested without hardware. [`xyz`] holds the measured quantity and the CIE 1931
+//! observer used to integrate spectra.
+
+pub mod error;
+pub mod traits;
+pub mod xyz;
+
+#[cfg(feature = "serial")]
+pub mod serial;
+#[cfg(feature = "sim")]
+pub mod sim;
+
+pub use error::DeviceError;
+pub use traits::{Colorimeter, DisplayId, Eye, DisplayInfo, MeterInfo, MeterPositioner, PatternOutput};
+pub use xyz::Xyz;

@@ -1,0 +1,1 @@
+//! Serial colorimeter drivers and their pty emulators.

@@ -1,0 +1,1 @@
+//! Scalar reference of the post-pass maths (being written).

@@ -1,0 +1,428 @@
+//! The `DisplayProfile` type and its file format.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::ProfileError;
+
+/// Version of the profile file format this build reads and writes.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// Smallest number of entries an inverse LUT may have.
+pub const MIN_LUT_ENTRIES: usize = 1024;
+
+/// Which eye a display serves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Eye {
+    /// Mono wall: the display serves both eyes.
+    Mono,
+    /// Left eye (e.g. Infitec "A" filter).
+    Left,
+    /// Right eye (e.g. Infitec "B" filter).
+    Right,
+}
+
+impl fmt::Display for Eye {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Eye::Mono => "mono",
+            Eye::Left => "left",
+            Eye::Right => "right",
+        })
+    }
+}
+
+/// Identifies one display (one projector, one eye) of a wall.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct DisplayKey {
+    /// Name of the wall (from the wall file).
+    pub wall: String,
+    /// Index of the projector in the wall file, 0-based.
+    pub display: u32,
+    /// Tile column, 0-based from the left.
+    pub tile_col: u32,
+    /// Tile row, 0-based from the top.
+    pub tile_row: u32,
+    /// Eye the display serves.
+    pub eye: Eye,
+}
+
+impl DisplayKey {
+    /// File stem used for this display's profile: `d007-c1r2-left`.
+    pub fn file_stem(&self) -> String {
+        format!(
+            "d{:03}-c{}r{}-{}",
+            self.display, self.tile_col, self.tile_row, self.eye
+        )
+    }
+}
+
+impl fmt::Display for DisplayKey {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} display {} (tile col {} row {}, {})",
+            self.wall, self.display, self.tile_col, self.tile_row, self.eye
+        )
+    }
+}
+
+/// How the display's black level is treated (Kresse 2003, 3.3.6).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BlackMode {
+    /// a) Black is ignored: the display adds its own black to every colour.
+    Ignore,
+    /// b) Individual black: the display's black is subtracted, colours below it clip at 0.
+    Individual,
+    /// c) Common black: every display shows the same (worst, raised) black for input 0;
+    ///    the input is shown on top of it.
+    Common,
+}
+
+/// What the post pass does with colours the display cannot show.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum OutOfGamut {
+    /// Out-of-gamut colours move toward the display white in xy, over-range colours are
+    /// scaled down at constant chromaticity.
+    Clip,
+    /// Out-of-gamut and over-range pixels are marked with false colours.
+    FalseColour,
+}
+
+/// One channel's measured tone curve and its inverse.
+///
+/// "Relative intensity" is the channel's linear light output with black removed,
+/// normalised to 1 at full drive; "drive" is the normalised input value 0..=1 sent
+/// to the display (code value / max code).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ToneCurve {
+    /// Samples `[drive, relative_intensity]` of the fitted, monotone forward curve,
+    /// increasing in drive, from `[0, 0]` to `[1, 1]`.
+    pub forward: Vec<[f64; 2]>,
+    /// Inverse LUT: entry `i` is the drive that gives relative intensity
+    /// `i / (len - 1)`. At least [`MIN_LUT_ENTRIES`] entries, non-decreasing, in 0..=1.
+    pub inverse_lut: Vec<f32>,
+}
+
+impl ToneCurve {
+    /// Drive for a relative intensity, by linear interpolation in the inverse LUT.
+    /// The intensity is clamped to 0..=1.
+    pub fn drive_for(&self, relative_intensity: f32) -> f32 {
+        let n = self.inverse_lut.len();
+        if n == 0 {
+            return 0.0;
+        }
+        let t = relative_intensity.clamp(0.0, 1.0) * (n - 1) as f32;
+        let i = (t.floor() as usize).min(n.saturating_sub(2));
+        let f = t - i as f32;
+        let a = self.inverse_lut[i];
+        let b = self.inverse_lut[(i + 1).min(n - 1)];
+        a + (b - a) * f
+    }
+
+    /// Relative intensity for a drive, by linear interpolation in the forward samples.
+    pub fn intensity_for(&self, drive: f64) -> f64 {
+        let s = &self.forward;
+        if s.is_empty() {
+            return 0.0;
+        }
+        let d = drive.clamp(0.0, 1.0);
+        let k = s.partition_point(|p| p[0] < d);
+        if k == 0 {
+            return s[0][1];
+        }
+        if k >= s.len() {
+            return s[s.len() - 1][1];
+        }
+        let (a, b) = (s[k - 1], s[k]);
+        let w = if b[0] > a[0] { (d - a[0]) / (b[0] - a[0]) } else { 0.0 };
+        a[1] + (b[1] - a[1]) * w
+    }
+}
+
+/// Flat-field attenuation texture (Kresse 3.4.3), applied in linear light.
+///
+/// `gain[row * width + col][c]` is the relative output of display channel `c` at that
+/// texel compared with the calibration spot; the post pass divides by it (bilinear).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FlatField {
+    /// Texture width in texels.
+    pub width: u32,
+    /// Texture height in texels.
+    pub height: u32,
+    /// Row-major gains per display channel, each in (0, 1].
+    pub gain: Vec<[f32; 3]>,
+}
+
+/// Facts about how a profile was measured.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct MeasurementInfo {
+    /// Instrument that measured (model and serial, or "virtual").
+    pub instrument: String,
+    /// Number of meter readings taken for this display.
+    pub readings: u32,
+    /// Largest relative additivity error |W − (R+G+B)| / Y_W seen, if checked.
+    pub additivity_error: Option<f64>,
+}
+
+/// Calibration profile of one display (one projector, one eye).
+///
+/// Post-pass maths, per pixel with linear-light input `xyz` (Y in cd/m²):
+/// `lin = (xyz_to_drive · xyz) / flat_gain(u, v) + drive_offset`, then out-of-gamut
+/// handling, then `drive_c = curves[c].drive_for(lin_c)`, then quantisation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DisplayProfile {
+    /// Always [`FORMAT_VERSION`] when written by this build.
+    pub format_version: u32,
+    /// Which display this is.
+    pub display: DisplayKey,
+    /// When the profile was made, RFC 3339 UTC.
+    pub created_utc: String,
+    /// Measured XYZ (cd/m²) of R, G, B at full drive, black subtracted: `[R, G, B]`.
+    pub primaries_xyz_cd_m2: [[f64; 3]; 3],
+    /// Measured black (all channels at drive 0), XYZ in cd/m².
+    pub black_xyz_cd_m2: [f64; 3],
+    /// Black handling chosen for the wall.
+    pub black_mode: BlackMode,
+    /// XYZ (cd/m²) the wall shows for input 0: the common black in `Common` mode, the
+    /// display's own black in `Ignore` and `Individual` mode.
+    pub shown_black_xyz_cd_m2: [f64; 3],
+    /// XYZ (cd/m²) of the wall's target white (common RGB = 1,1,1), black excluded.
+    pub target_white_xyz_cd_m2: [f64; 3],
+    /// xy chromaticities of the wall's common primaries `[R, G, B]`.
+    pub common_primaries_xy: [[f64; 2]; 3],
+    /// Row-major 3×3 matrix from XYZ (cd/m²) to linear relative channel intensity.
+    pub xyz_to_drive: [[f64; 3]; 3],
+    /// Black term added after the matrix, in linear relative channel intensity.
+    pub drive_offset: [f64; 3],
+    /// Linear relative intensity of each channel used for the target white.
+    pub channel_usage: [f64; 3],
+    /// Largest channel usage allowed by the solve (1.0, or e.g. 0.9 for lamp ageing).
+    pub headroom: f64,
+    /// Tone curves of R, G, B.
+    pub curves: [ToneCurve; 3],
+    /// Optional flat-field texture; `None` means no texture fetch at all.
+    pub flat_field: Option<FlatField>,
+    /// Out-of-gamut handling.
+    pub out_of_gamut: OutOfGamut,
+    /// Bits per channel of the display input (8, 10 or 16).
+    pub bit_depth: u32,
+    /// How it was measured.
+    pub measurement: MeasurementInfo,
+}
+
+fn finite3(v: &[f64; 3]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+impl DisplayProfile {
+    /// Checks internal consistency; returns a technician-readable reason on failure.
+    pub fn validate(&self) -> Result<(), ProfileError> {
+        let bad = |reason: String| ProfileError::Invalid {
+            display: self.display.to_string(),
+            reason,
+        };
+        if self.format_version != FORMAT_VERSION {
+            return Err(bad(format!(
+                "format version {} (expected {FORMAT_VERSION})",
+                self.format_version
+            )));
+        }
+        let arrays = [
+            ("black_xyz_cd_m2", &self.black_xyz_cd_m2),
+            ("shown_black_xyz_cd_m2", &self.shown_black_xyz_cd_m2),
+            ("target_white_xyz_cd_m2", &self.target_white_xyz_cd_m2),
+            ("drive_offset", &self.drive_offset),
+            ("channel_usage", &self.channel_usage),
+        ];
+        for (name, v) in arrays {
+            if !finite3(v) {
+                return Err(bad(format!("{name} has a non-finite value")));
+            }
+        }
+        if !self.xyz_to_drive.iter().all(finite3) || !self.primaries_xyz_cd_m2.iter().all(finite3)
+        {
+            return Err(bad("matrix has a non-finite value".into()));
+        }
+        if !(self.headroom > 0.0 && self.headroom <= 1.0) {
+            return Err(bad(format!("headroom {} is not in (0, 1]", self.headroom)));
+        }
+        if !matches!(self.bit_depth, 8 | 10 | 12 | 16) {
+            return Err(bad(format!(
+                "bit depth {} is not 8, 10, 12 or 16",
+                self.bit_depth
+            )));
+        }
+        for (c, curve) in self.curves.iter().enumerate() {
+            let ch = ["red", "green", "blue"][c];
+            if curve.inverse_lut.len() < MIN_LUT_ENTRIES {
+                return Err(bad(format!(
+                    "{ch} inverse LUT has {} entries, at least {MIN_LUT_ENTRIES} needed",
+                    curve.inverse_lut.len()
+                )));
+            }
+            if curve
+                .inverse_lut
+                .iter()
+                .any(|v| !v.is_finite() || !(0.0..=1.0).contains(v))
+            {
+                return Err(bad(format!("{ch} inverse LUT has a value outside 0..=1")));
+            }
+            if curve.inverse_lut.windows(2).any(|w| w[1] < w[0]) {
+                return Err(bad(format!("{ch} inverse LUT is not monotone")));
+            }
+        }
+        if let Some(ff) = &self.flat_field {
+            let n = ff.width as usize * ff.height as usize;
+            if ff.width == 0 || ff.height == 0 || ff.gain.len() != n {
+                return Err(bad(format!(
+                    "flat-field texture is {}×{} but holds {} texels",
+                    ff.width,
+                    ff.height,
+                    ff.gain.len()
+                )));
+            }
+            if ff
+                .gain
+                .iter()
+                .flatten()
+                .any(|g| !g.is_finite() || *g <= 0.0 || *g > 1.0)
+            {
+                return Err(bad("flat-field gain outside (0, 1]".into()));
+            }
+        }
+        Ok(())
+    }
+
+    /// Serialises to the profile JSON document.
+    pub fn to_json(&self) -> String {
+        // Serialising plain numbers and strings cannot fail.
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// Parses and validates a profile document; `origin` names it in errors.
+    pub fn from_json(text: &str, origin: &Path) -> Result<Self, ProfileError> {
+        let parse = |e: serde_json::Error| ProfileError::Parse {
+            path: origin.to_path_buf(),
+            message: e.to_string(),
+        };
+        let value: serde_json::Value = serde_json::from_str(text).map_err(parse)?;
+        let found = value
+            .get("format_version")
+            .and_then(|v| v.as_u64())
+            .ok_or_else(|| ProfileError::Parse {
+                path: origin.to_path_buf(),
+                message: "missing `format_version`".into(),
+            })?;
+        if found != u64::from(FORMAT_VERSION) {
+            return Err(ProfileError::Version {
+                path: origin.to_path_buf(),
+                found: u32::try_from(found).unwrap_or(u32::MAX),
+                expected: FORMAT_VERSION,
+            });
+        }
+        let profile: DisplayProfile = serde_json::from_value(value).map_err(parse)?;
+        profile.validate()?;
+        Ok(profile)
+    }
+
+    /// Reads and validates a profile file.
+    pub fn load(path: &Path) -> Result<Self, ProfileError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ProfileError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_json(&text, path)
+    }
+
+    /// Writes the profile atomically (temporary file, then rename), so a crash never
+    /// leaves a half-written profile behind.
+    pub fn save(&self, path: &Path) -> Result<(), ProfileError> {
+        self.validate()?;
+        write_atomic(path, self.to_json().as_bytes())
+    }
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ProfileError> {
+    let io = |source| ProfileError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(io)?;
+    }
+    let mut tmp: PathBuf = path.to_path_buf();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "profile".into());
+    tmp.set_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    std::fs::write(&tmp, bytes).map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(io)
+}
+
+/// All profiles of one wall, as written by `lumiwall commission` into one folder:
+/// one `<display>.json` per display and eye, and `wall.json` listing them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProfileSet {
+    /// Format version of the set manifest.
+    pub format_version: u32,
+    /// Wall name.
+    pub wall: String,
+    /// Profile file names relative to the folder, in display order.
+    pub files: Vec<String>,
+}
+
+impl ProfileSet {
+    /// Name of the manifest file inside a profile folder.
+    pub const MANIFEST: &'static str = "wall.json";
+
+    /// Writes every profile and then the manifest into `dir`.
+    pub fn save_dir(dir: &Path, wall: &str, profiles: &[DisplayProfile]) -> Result<(), ProfileError> {
+        let mut files = Vec::with_capacity(profiles.len());
+        for p in profiles {
+            let name = format!("{}.json", p.display.file_stem());
+            p.save(&dir.join(&name))?;
+            files.push(name);
+        }
+        let set = ProfileSet {
+            format_version: FORMAT_VERSION,
+            wall: wall.to_string(),
+            files,
+        };
+        let text = serde_json::to_string_pretty(&set).unwrap_or_default();
+        write_atomic(&dir.join(Self::MANIFEST), text.as_bytes())
+    }
+
+    /// Reads the manifest and every profile it lists.
+    pub fn load_dir(dir: &Path) -> Result<(String, Vec<DisplayProfile>), ProfileError> {
+        let path = dir.join(Self::MANIFEST);
+        let text = std::fs::read_to_string(&path).map_err(|source| ProfileError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        let set: ProfileSet = serde_json::from_str(&text).map_err(|e| ProfileError::Parse {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        if set.format_version != FORMAT_VERSION {
+            return Err(ProfileError::Version {
+                path,
+                found: set.format_version,
+                expected: FORMAT_VERSION,
+            });
+        }
+        let profiles = set
+            .files
+            .iter()
+            .map(|f| DisplayProfile::load(&dir.join(f)))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok((set.wall, profiles))
+    }
+}

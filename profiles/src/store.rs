@@ -1,0 +1,1 @@
+//! SQLite profile store (issue: see README). Filled in by the store work.

@@ -1,0 +1,1 @@
+//! photometry (being written).

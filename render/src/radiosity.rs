@@ -1,0 +1,1 @@
+//! radiosity (being written).

@@ -1,0 +1,91 @@
+//! `lumiwall`: the command line of the calibration station and renderer.
+//!
+//! Each subcommand lives in its own module (`cmd_*`); this file only parses the
+//! command line, sets up logging and maps errors to exit codes.
+
+mod cmd_apply;
+#[cfg(feature = "station")]
+mod cmd_commission;
+mod cmd_profiles;
+mod cmd_render;
+#[cfg(feature = "station")]
+mod cmd_verify;
+mod error;
+
+use clap::{Parser, Subcommand};
+
+pub use error::CliError;
+
+/// Multi-projector wall calibration station and photometric renderer.
+#[derive(Debug, Parser)]
+#[command(name = "lumiwall", version, about)]
+struct Cli {
+    /// More log output (repeat for more).
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    verbose: u8,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Measure every display of a wall and write one profile per display and eye.
+    #[cfg(feature = "station")]
+    Commission(cmd_commission::CommissionArgs),
+    /// Show target colours through the profiles and read them back with the meter.
+    #[cfg(feature = "station")]
+    Verify(cmd_verify::VerifyArgs),
+    /// Apply display profiles to an XYZ (cd/m²) frame: one output per display and eye.
+    Apply(cmd_apply::ApplyArgs),
+    /// Render a scene to an XYZ float image in cd/m².
+    Render(cmd_render::RenderArgs),
+    /// Inspect the profile store: history and drift.
+    Profiles(cmd_profiles::ProfilesArgs),
+    /// Benchmarks that print a table.
+    #[command(subcommand)]
+    Bench(BenchCommand),
+}
+
+#[derive(Debug, Subcommand)]
+enum BenchCommand {
+    /// Post-pass throughput (CPU reference, GPU, memcpy) and quantisation steps.
+    Apply(cmd_apply::BenchArgs),
+    /// Radiosity solvers: error against time, patches, links, memory.
+    Radiosity(cmd_render::BenchArgs),
+    /// Calibration accuracy against the number of meter readings per display.
+    #[cfg(feature = "station")]
+    Readings(cmd_commission::BenchArgs),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let level = match cli.verbose {
+        0 => "warn",
+        1 => "info",
+        _ => "debug",
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .init();
+
+    let result = match cli.command {
+        #[cfg(feature = "station")]
+        Command::Commission(a) => cmd_commission::run(a),
+        #[cfg(feature = "station")]
+        Command::Verify(a) => cmd_verify::run(a),
+        Command::Apply(a) => cmd_apply::run(a),
+        Command::Render(a) => cmd_render::run(a),
+        Command::Profiles(a) => cmd_profiles::run(a),
+        Command::Bench(BenchCommand::Apply(a)) => cmd_apply::bench(a),
+        Command::Bench(BenchCommand::Radiosity(a)) => cmd_render::bench(a),
+        #[cfg(feature = "station")]
+        Command::Bench(BenchCommand::Readings(a)) => cmd_commission::bench(a),
+    };
+    if let Err(e) = result {
+        eprintln!("lumiwall: error: {e}");
+        std::process::exit(e.exit_code());
+    }
+}
