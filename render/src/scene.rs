@@ -1,1 +1,20 @@
-//! scene (being written).
+//! What is lit and by what: polygons with photometric materials, area emitters,
+//! point/spot/goniometric lights and a camera, loaded from OBJ plus a TOML scene file.
+//!
+//! All light quantities are photometric and carried as CIE XYZ triples in which Y is
+//! the photometric quantity (luminance in cd/m², luminous intensity in cd, luminous
+//! reflectance). The file format is documented in `fixtures/scenes/README.md`.
+
+mod check;
+mod error;
+mod geom;
+mod load;
+mod types;
+
+pub use check::{check_polygons, CheckReport};
+pub use error::SceneError;
+pub use geom::{polygon_area_m2, polygon_normal, V3};
+pub use load::{load_scene, parse_scene_toml, SceneFile};
+pub use types::{
+    Camera, IntensityFn, Light, LightKind, Material, Polygon, Scene, SkyHook,
+};
