@@ -1,1 +1,326 @@
-//! commission (being written).
+//! Commissioning a whole wall: measure every display, keep each display's measurement
+//! on disk as soon as it is complete (so an interrupted run resumes), solve the wall,
+//! write one profile per display and eye, and the report.
+//!
+//! Run folder layout (inside the output folder):
+//!
+//! ```text
+//! <out>/run/run.json                     wall name and display list of the run
+//! <out>/run/<display>.measurement.json   one per completed display (MeasuredDisplay)
+//! <out>/<display>.json, <out>/wall.json  profiles (ProfileSet), written last
+//! <out>/report.md, <out>/report.html     the report (+ gamut.svg, usage.svg)
+//! ```
+//!
+//! Every file is written atomically (temporary file + rename,
+//! [`lumiwall_profiles::write_atomic`]); a display that fails mid-measurement leaves
+//! nothing behind, and profiles are only written after all displays are measured and
+//! the solve succeeded.
+
+use std::path::{Path, PathBuf};
+
+use lumiwall_devices::{DisplayId, DisplayInfo};
+use lumiwall_profiles::{DisplayKey, ProfileError, ProfileSet, write_atomic};
+use serde::{Deserialize, Serialize};
+
+use crate::CalibError;
+use crate::measure::{
+    MeasureError, MeasureOptions, MeasuredDisplay, Progress, Rig, display_key, measure_display,
+};
+use crate::report::{self, ReportInputs};
+use crate::solve::{SolveOptions, WallSolution, solve_wall};
+
+/// Version of the run-folder format.
+pub const RUN_FORMAT_VERSION: u32 = 1;
+
+/// Name of the run sub-folder inside the output folder.
+pub const RUN_DIR: &str = "run";
+
+/// How to commission.
+#[derive(Debug, Clone)]
+pub struct CommissionOptions {
+    /// Per-display measurement.
+    pub measure: MeasureOptions,
+    /// Wall solve.
+    pub solve: SolveOptions,
+    /// Continue an interrupted run: displays already measured in `<out>/run` are not
+    /// measured again. Without it, earlier measurements in the run folder are discarded.
+    pub resume: bool,
+}
+
+/// The manifest of a run folder.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunManifest {
+    /// [`RUN_FORMAT_VERSION`].
+    pub format_version: u32,
+    /// Wall name.
+    pub wall: String,
+    /// Displays of the wall, in order.
+    pub displays: Vec<DisplayKey>,
+    /// Measurement options of the run.
+    pub measure: MeasureOptions,
+}
+
+/// What a completed commissioning produced.
+#[derive(Debug, Clone)]
+pub struct CommissionOutcome {
+    /// Wall name.
+    pub wall: String,
+    /// Every display's measurement, in wall order.
+    pub measured: Vec<MeasuredDisplay>,
+    /// Displays whose measurement came from an earlier run.
+    pub resumed: Vec<DisplayId>,
+    /// The wall solve (profiles included).
+    pub solution: WallSolution,
+    /// Profile folder.
+    pub out_dir: PathBuf,
+    /// Report files written.
+    pub reports: Vec<PathBuf>,
+}
+
+/// Errors of a commissioning run.
+#[derive(Debug, thiserror::Error)]
+pub enum CommissionError {
+    /// Measuring a display failed; the completed displays are saved.
+    #[error(
+        "{source}\n{saved} of {total} displays are measured and saved in {}; no profiles were \
+         written. Fix the cause and re-run with --resume to continue.",
+        run_dir.display()
+    )]
+    Interrupted {
+        /// What failed.
+        #[source]
+        source: MeasureError,
+        /// Displays saved so far.
+        saved: usize,
+        /// Displays of the wall.
+        total: usize,
+        /// The run folder.
+        run_dir: PathBuf,
+    },
+    /// The solve failed.
+    #[error("solving the wall failed: {0}")]
+    Solve(#[from] CalibError),
+    /// Files could not be written or read.
+    #[error(transparent)]
+    Profile(#[from] ProfileError),
+    /// A run folder does not belong to this wall.
+    #[error(
+        "cannot resume from {}: {reason}. Choose another --out or re-run without --resume to \
+         start over",
+        run_dir.display()
+    )]
+    ResumeMismatch {
+        /// The run folder.
+        run_dir: PathBuf,
+        /// What differs.
+        reason: String,
+    },
+    /// A saved measurement cannot be read.
+    #[error(
+        "saved measurement {} is unreadable ({message}); delete it to measure that display again",
+        path.display()
+    )]
+    BadMeasurementFile {
+        /// The file.
+        path: PathBuf,
+        /// Parser message.
+        message: String,
+    },
+    /// File system error.
+    #[error("cannot access {}: {source}", path.display())]
+    Io {
+        /// Path concerned.
+        path: PathBuf,
+        /// Underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Nothing to measure.
+    #[error("the wall has no displays")]
+    NoDisplays,
+}
+
+fn measurement_path(run_dir: &Path, key: &DisplayKey) -> PathBuf {
+    run_dir.join(format!("{}.measurement.json", key.file_stem()))
+}
+
+fn to_json<T: Serialize>(v: &T) -> Vec<u8> {
+    // Plain numbers, strings and enums always serialise.
+    serde_json::to_vec_pretty(v).unwrap_or_default()
+}
+
+/// Reads a completed display's measurement from a run folder, if present.
+pub fn load_measurement(path: &Path) -> Result<Option<MeasuredDisplay>, CommissionError> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(source) => {
+            return Err(CommissionError::Io {
+                path: path.to_path_buf(),
+                source,
+            });
+        }
+    };
+    serde_json::from_str(&text)
+        .map(Some)
+        .map_err(|e| CommissionError::BadMeasurementFile {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
+}
+
+/// Prepares the run folder: checks or writes the manifest; without `resume`, removes
+/// measurements of earlier runs.
+fn prepare_run_dir(
+    run_dir: &Path,
+    manifest: &RunManifest,
+    resume: bool,
+) -> Result<(), CommissionError> {
+    let path = run_dir.join("run.json");
+    if resume && path.exists() {
+        let text = std::fs::read_to_string(&path).map_err(|source| CommissionError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        let old: RunManifest =
+            serde_json::from_str(&text).map_err(|e| CommissionError::ResumeMismatch {
+                run_dir: run_dir.to_path_buf(),
+                reason: format!("run.json is unreadable: {e}"),
+            })?;
+        if old.format_version != RUN_FORMAT_VERSION {
+            return Err(CommissionError::ResumeMismatch {
+                run_dir: run_dir.to_path_buf(),
+                reason: format!("run format version {}", old.format_version),
+            });
+        }
+        if old.wall != manifest.wall || old.displays != manifest.displays {
+            return Err(CommissionError::ResumeMismatch {
+                run_dir: run_dir.to_path_buf(),
+                reason: format!(
+                    "it holds a run of wall '{}' with {} displays, this is wall '{}' with {}",
+                    old.wall,
+                    old.displays.len(),
+                    manifest.wall,
+                    manifest.displays.len()
+                ),
+            });
+        }
+        if old.measure != manifest.measure {
+            tracing::warn!("resuming with different measurement options than the interrupted run");
+        }
+        return Ok(());
+    }
+    if !resume && run_dir.exists() {
+        for key in &manifest.displays {
+            let p = measurement_path(run_dir, key);
+            match std::fs::remove_file(&p) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(source) => return Err(CommissionError::Io { path: p, source }),
+            }
+        }
+    }
+    write_atomic(&path, &to_json(manifest))?;
+    Ok(())
+}
+
+/// Commissions a wall: measures every display (resuming if asked), solves, writes the
+/// profiles into `out_dir` and the report.
+pub fn commission(
+    wall: &str,
+    displays: &[DisplayInfo],
+    rig: &mut Rig<'_>,
+    out_dir: &Path,
+    opts: &CommissionOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<CommissionOutcome, CommissionError> {
+    let measured = measure_wall(wall, displays, rig, out_dir, opts, progress)?;
+    finish(wall, measured.0, measured.1, out_dir, opts)
+}
+
+/// The measuring half of [`commission`]: returns every display's measurement and the
+/// displays taken from an earlier run.
+pub fn measure_wall(
+    wall: &str,
+    displays: &[DisplayInfo],
+    rig: &mut Rig<'_>,
+    out_dir: &Path,
+    opts: &CommissionOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(Vec<MeasuredDisplay>, Vec<DisplayId>), CommissionError> {
+    if displays.is_empty() {
+        return Err(CommissionError::NoDisplays);
+    }
+    let run_dir = out_dir.join(RUN_DIR);
+    let keys: Vec<DisplayKey> = displays.iter().map(|d| display_key(wall, d)).collect();
+    let manifest = RunManifest {
+        format_version: RUN_FORMAT_VERSION,
+        wall: wall.to_string(),
+        displays: keys.clone(),
+        measure: opts.measure.clone(),
+    };
+    prepare_run_dir(&run_dir, &manifest, opts.resume)?;
+
+    let mut measured = Vec::with_capacity(displays.len());
+    let mut resumed = Vec::new();
+    for (i, (info, key)) in displays.iter().zip(&keys).enumerate() {
+        let path = measurement_path(&run_dir, key);
+        if opts.resume {
+            if let Some(m) = load_measurement(&path)? {
+                if m.measurement.key == *key {
+                    progress(Progress::Resumed {
+                        display: info.id,
+                        readings: m.measurement.readings,
+                    });
+                    resumed.push(info.id);
+                    measured.push(m);
+                    continue;
+                }
+            }
+        }
+        let m = measure_display(rig, info, key, &opts.measure, progress).map_err(|source| {
+            CommissionError::Interrupted {
+                source,
+                saved: i,
+                total: displays.len(),
+                run_dir: run_dir.clone(),
+            }
+        })?;
+        write_atomic(&path, &to_json(&m))?;
+        measured.push(m);
+    }
+    Ok((measured, resumed))
+}
+
+/// The solving half of [`commission`]: solve, write profiles and report.
+pub fn finish(
+    wall: &str,
+    measured: Vec<MeasuredDisplay>,
+    resumed: Vec<DisplayId>,
+    out_dir: &Path,
+    opts: &CommissionOptions,
+) -> Result<CommissionOutcome, CommissionError> {
+    let inputs: Vec<_> = measured.iter().map(|m| m.measurement.clone()).collect();
+    let solution = solve_wall(&inputs, &opts.solve)?;
+    ProfileSet::save_dir(out_dir, wall, &solution.profiles)?;
+    let report_in = ReportInputs {
+        wall,
+        measured: &measured,
+        solution: &solution,
+        solve: &opts.solve,
+    };
+    write_atomic(&out_dir.join("gamut.svg"), report::gamut_svg(&report_in).as_bytes())?;
+    write_atomic(&out_dir.join("usage.svg"), report::usage_svg(&report_in).as_bytes())?;
+    let md = out_dir.join("report.md");
+    write_atomic(&md, report::markdown(&report_in).as_bytes())?;
+    let html = out_dir.join("report.html");
+    write_atomic(&html, report::html(&report_in).as_bytes())?;
+    Ok(CommissionOutcome {
+        wall: wall.to_string(),
+        measured,
+        resumed,
+        solution,
+        out_dir: out_dir.to_path_buf(),
+        reports: vec![md, html],
+    })
+}

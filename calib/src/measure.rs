@@ -1,1 +1,657 @@
-//! measure (being written).
+//! Measuring one display with a spot meter: black, R/G/B at full drive, white (for the
+//! additivity check) and per-channel ramps with adaptive sample placement.
+//!
+//! Everything goes through the device traits ([`PatternOutput`], [`Colorimeter`],
+//! [`MeterPositioner`]); nothing here knows whether the meter is a real instrument on a
+//! serial port, the pty emulator or the simulator. The result is a
+//! [`DisplayMeasurement`] for [`crate::solve::solve_wall`] plus a [`MeasureLog`] that
+//! says what was read, repeated or skipped.
+//!
+//! Reading budget: a full calibration of one display costs at most
+//! [`MeasureOptions::budget`] meter readings (default 40). Black, the three primaries
+//! and white take five (more if black is below the meter's reliable limit and is
+//! averaged); the rest is spent on ramp samples, placed one at a time per channel where
+//! the current tone-curve estimate is least certain ([`crate::tone::suggest_next_drive`]).
+//!
+//! Low light: below the meter's reliable limit (about 1 cd/m² for a CS-100A class
+//! meter) a single reading is noisy. [`LowLight::Average`] repeats such readings and
+//! averages them (each repeat counts against the budget); [`LowLight::Skip`] drops ramp
+//! samples below the limit (black and the primaries are always averaged, never skipped).
+
+use lumiwall_devices::{
+    Colorimeter, DeviceError, DisplayId, DisplayInfo, MeterPositioner, PatternOutput, Xyz,
+};
+use lumiwall_profiles::DisplayKey;
+use serde::{Deserialize, Serialize};
+
+use crate::solve::DisplayMeasurement;
+
+/// Names of the three channels, for messages.
+pub const CHANNEL_NAMES: [&str; 3] = ["red", "green", "blue"];
+
+/// What to do with readings below the meter's reliable luminance limit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LowLight {
+    /// Repeat the reading this many times in all (≥ 1) and average.
+    Average {
+        /// Total readings averaged for one low-light sample (the first included).
+        repeats: u32,
+    },
+    /// Drop ramp samples below the limit (the tone curve is interpolated from (0, 0)
+    /// there); black and the primaries are still averaged with 4 repeats.
+    Skip,
+}
+
+/// How to measure one display.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MeasureOptions {
+    /// Meter readings allowed per display, repeats included.
+    pub budget: u32,
+    /// Calibration spot in normalised display coordinates (centre: 0.5, 0.5).
+    pub spot_uv: [f64; 2],
+    /// Low-light policy.
+    pub low_light: LowLight,
+    /// Reliable lower luminance limit in cd/m²; `None` takes the meter's own
+    /// [`lumiwall_devices::MeterInfo::min_reliable_cd_m2`].
+    pub low_light_limit_cd_m2: Option<f64>,
+    /// Extra attempts after a transient device error (timeout, garbled answer) before
+    /// the display is given up.
+    pub max_retries: u32,
+    /// Measure full white (needed for the additivity check).
+    pub measure_white: bool,
+}
+
+impl Default for MeasureOptions {
+    fn default() -> Self {
+        Self {
+            budget: 40,
+            spot_uv: [0.5, 0.5],
+            low_light: LowLight::Average { repeats: 4 },
+            low_light_limit_cd_m2: None,
+            max_retries: 2,
+            measure_white: true,
+        }
+    }
+}
+
+impl MeasureOptions {
+    /// Smallest budget that still measures black, R, G, B, W and two ramp samples per
+    /// channel.
+    pub const MIN_BUDGET: u32 = 11;
+}
+
+/// What a reading was of.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Patch {
+    /// All channels at 0.
+    Black,
+    /// One channel at full drive (0: red, 1: green, 2: blue).
+    Primary(usize),
+    /// All channels at full drive.
+    White,
+    /// One channel at the given drive.
+    Ramp(usize, f64),
+    /// Any drive triple (verification patches).
+    Drive([f64; 3]),
+}
+
+impl Patch {
+    /// The drive triple that shows this patch.
+    pub fn drive(&self) -> [f64; 3] {
+        match *self {
+            Patch::Black => [0.0; 3],
+            Patch::White => [1.0; 3],
+            Patch::Primary(c) => unit(c, 1.0),
+            Patch::Ramp(c, d) => unit(c, d),
+            Patch::Drive(d) => d,
+        }
+    }
+}
+
+impl std::fmt::Display for Patch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            Patch::Black => f.write_str("black"),
+            Patch::White => f.write_str("white"),
+            Patch::Primary(c) => write!(f, "full {}", CHANNEL_NAMES[c.min(2)]),
+            Patch::Ramp(c, d) => write!(f, "{} ramp at drive {d:.4}", CHANNEL_NAMES[c.min(2)]),
+            Patch::Drive(d) => write!(f, "drive ({:.4}, {:.4}, {:.4})", d[0], d[1], d[2]),
+        }
+    }
+}
+
+fn unit(c: usize, d: f64) -> [f64; 3] {
+    let mut v = [0.0; 3];
+    v[c.min(2)] = d;
+    v
+}
+
+/// Progress events, for a progress bar.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Progress {
+    /// A reading was taken on `display`.
+    Reading {
+        /// Display being measured.
+        display: DisplayId,
+        /// Readings taken on it so far (this one included).
+        readings: u32,
+        /// Its budget.
+        budget: u32,
+        /// What was read.
+        patch: Patch,
+    },
+    /// A display is completely measured.
+    DisplayDone {
+        /// The display.
+        display: DisplayId,
+        /// Readings it cost.
+        readings: u32,
+    },
+    /// A display's measurement was taken from an earlier, interrupted run.
+    Resumed {
+        /// The display.
+        display: DisplayId,
+        /// Readings it cost in that run.
+        readings: u32,
+    },
+}
+
+/// One sample as recorded in the log.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReadingRecord {
+    /// What was shown.
+    pub patch: Patch,
+    /// Averaged XYZ (cd/m²), black included; `None` if the sample was skipped.
+    pub xyz: Option<Xyz>,
+    /// Readings averaged (0 for none).
+    pub repeats: u32,
+    /// True when the first reading was below the reliable limit.
+    pub low_light: bool,
+}
+
+/// What happened while measuring one display.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct MeasureLog {
+    /// Every sample in order.
+    pub samples: Vec<ReadingRecord>,
+    /// Successful meter readings (repeats included).
+    pub readings: u32,
+    /// Failed attempts that a retry recovered from.
+    pub retries: u32,
+    /// Reliable luminance limit that was applied (cd/m²).
+    pub low_light_limit_cd_m2: f64,
+    /// Low-light policy that was applied.
+    pub low_light: Option<LowLight>,
+}
+
+impl MeasureLog {
+    /// Samples that were below the reliable limit and averaged.
+    pub fn averaged(&self) -> usize {
+        self.samples
+            .iter()
+            .filter(|s| s.low_light && s.xyz.is_some())
+            .count()
+    }
+
+    /// Samples that were below the reliable limit and skipped.
+    pub fn skipped(&self) -> usize {
+        self.samples.iter().filter(|s| s.xyz.is_none()).count()
+    }
+}
+
+/// A display's measurement and its log, as saved in a commissioning run folder.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct MeasuredDisplay {
+    /// The input to the solve.
+    pub measurement: DisplayMeasurement,
+    /// How it was taken.
+    pub log: MeasureLog,
+}
+
+/// Errors while measuring, each naming the display and the reading.
+#[derive(Debug, thiserror::Error)]
+pub enum MeasureError {
+    /// A reading failed and retries did not help (or the error is not transient).
+    #[error(
+        "{display}: reading {reading} ({patch}) failed after {attempts} attempt(s): {source}. {hint}"
+    )]
+    Reading {
+        /// Display being measured.
+        display: String,
+        /// Number of the reading on this display, 1-based.
+        reading: u32,
+        /// What was shown.
+        patch: Patch,
+        /// Attempts made.
+        attempts: u32,
+        /// The last device error.
+        #[source]
+        source: DeviceError,
+        /// What to check.
+        hint: String,
+    },
+    /// The pattern could not be shown.
+    #[error("{display}: cannot show {patch}: {source}; check the display's video input")]
+    Pattern {
+        /// Display being measured.
+        display: String,
+        /// What was to be shown.
+        patch: Patch,
+        /// The device error.
+        #[source]
+        source: DeviceError,
+    },
+    /// The meter could not be aimed.
+    #[error("{display}: cannot aim the meter at spot {uv:?}: {source}")]
+    Aim {
+        /// Display being measured.
+        display: String,
+        /// Spot.
+        uv: [f64; 2],
+        /// The device error.
+        #[source]
+        source: DeviceError,
+    },
+    /// The reading budget cannot cover a calibration.
+    #[error(
+        "a budget of {budget} readings per display is too small: at least {min} are needed \
+         (black, R, G, B, W and two ramp samples per channel)"
+    )]
+    BudgetTooSmall {
+        /// Budget asked for.
+        budget: u32,
+        /// Smallest workable budget.
+        min: u32,
+    },
+    /// A primary is not brighter than black: the display shows nothing, or the meter
+    /// looks elsewhere.
+    #[error(
+        "{display}: full {channel} reads {y_cd_m2:.3} cd/m², not brighter than black \
+         {black_cd_m2:.3} cd/m²; check that the display is on, shows the pattern, and that \
+         the meter is aimed at it"
+    )]
+    NoSignal {
+        /// Display being measured.
+        display: String,
+        /// Channel name.
+        channel: &'static str,
+        /// Primary luminance read.
+        y_cd_m2: f64,
+        /// Black luminance read.
+        black_cd_m2: f64,
+    },
+    /// The meter returned a non-finite or negative value.
+    #[error("{display}: reading {reading} ({patch}) returned an invalid value {xyz:?}; check the meter")]
+    Invalid {
+        /// Display being measured.
+        display: String,
+        /// Reading number.
+        reading: u32,
+        /// What was shown.
+        patch: Patch,
+        /// What came back.
+        xyz: Xyz,
+    },
+}
+
+impl MeasureError {
+    /// True when the meter itself failed (timeout, garbled, I/O): the run can be resumed
+    /// after fixing the instrument.
+    pub fn is_meter_failure(&self) -> bool {
+        matches!(self, MeasureError::Reading { .. })
+    }
+}
+
+fn hint_for(e: &DeviceError) -> String {
+    match e {
+        DeviceError::Timeout { .. } => {
+            "Check the meter's cable, power and port; then re-run with --resume to continue \
+             from the last completed display"
+                .into()
+        }
+        DeviceError::Garbled { .. } => {
+            "Check baud rate and cable (noise on the line); then re-run with --resume".into()
+        }
+        DeviceError::OverRange { .. } => {
+            "The display is too bright for the meter: fit a neutral-density filter or lower \
+             the projector's lamp mode"
+                .into()
+        }
+        DeviceError::TooDark { .. } => {
+            "Check that the meter is aimed at the lit display and its lens cap is off".into()
+        }
+        DeviceError::Io { .. } => "Check that the port still exists (USB unplugged?)".into(),
+        _ => "Check the meter and re-run with --resume".into(),
+    }
+}
+
+/// The three devices a measurement talks to.
+pub struct Rig<'a> {
+    /// Shows patterns.
+    pub pattern: &'a mut dyn PatternOutput,
+    /// Reads XYZ.
+    pub meter: &'a mut dyn Colorimeter,
+    /// Aims the meter.
+    pub positioner: &'a mut dyn MeterPositioner,
+}
+
+/// The `DisplayKey` of a display of wall `wall`.
+pub fn display_key(wall: &str, info: &DisplayInfo) -> DisplayKey {
+    DisplayKey {
+        wall: wall.to_string(),
+        display: info.id.0,
+        tile_col: info.tile_col,
+        tile_row: info.tile_row,
+        eye: info.eye,
+    }
+}
+
+/// Session state for one display: counts readings, retries transient errors, applies
+/// the low-light policy.
+pub struct Session<'r, 'a> {
+    rig: &'r mut Rig<'a>,
+    id: DisplayId,
+    name: String,
+    budget: u32,
+    max_retries: u32,
+    limit_cd_m2: f64,
+    low_light: LowLight,
+    /// The log so far.
+    pub log: MeasureLog,
+}
+
+impl<'r, 'a> Session<'r, 'a> {
+    /// Starts a session on `display`: aims the meter at `uv`.
+    pub fn start(
+        rig: &'r mut Rig<'a>,
+        display: &DisplayKey,
+        id: DisplayId,
+        uv: [f64; 2],
+        opts: &MeasureOptions,
+    ) -> Result<Self, MeasureError> {
+        let name = display.to_string();
+        rig.positioner
+            .aim(id, uv)
+            .map_err(|source| MeasureError::Aim {
+                display: name.clone(),
+                uv,
+                source,
+            })?;
+        let limit_cd_m2 = opts
+            .low_light_limit_cd_m2
+            .unwrap_or_else(|| rig.meter.info().min_reliable_cd_m2)
+            .max(0.0);
+        Ok(Self {
+            rig,
+            id,
+            name,
+            budget: opts.budget,
+            max_retries: opts.max_retries,
+            limit_cd_m2,
+            low_light: opts.low_light,
+            log: MeasureLog {
+                low_light_limit_cd_m2: limit_cd_m2,
+                low_light: Some(opts.low_light),
+                ..MeasureLog::default()
+            },
+        })
+    }
+
+    /// Readings still allowed.
+    pub fn remaining(&self) -> u32 {
+        self.budget.saturating_sub(self.log.readings)
+    }
+
+    fn read_once(
+        &mut self,
+        patch: Patch,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Xyz, MeasureError> {
+        let reading = self.log.readings + 1;
+        let mut attempts = 0;
+        loop {
+            attempts += 1;
+            match self.rig.meter.measure() {
+                Ok(xyz) => {
+                    if !xyz.is_finite() || xyz.y < -1e-6 {
+                        return Err(MeasureError::Invalid {
+                            display: self.name.clone(),
+                            reading,
+                            patch,
+                            xyz,
+                        });
+                    }
+                    self.log.readings += 1;
+                    progress(Progress::Reading {
+                        display: self.id,
+                        readings: self.log.readings,
+                        budget: self.budget,
+                        patch,
+                    });
+                    return Ok(xyz);
+                }
+                Err(e) if e.is_transient() && attempts <= self.max_retries => {
+                    tracing::warn!(display = %self.name, %patch, "transient meter error, retrying: {e}");
+                    self.log.retries += 1;
+                }
+                Err(source) => {
+                    return Err(MeasureError::Reading {
+                        display: self.name.clone(),
+                        reading,
+                        patch,
+                        attempts,
+                        hint: hint_for(&source),
+                        source,
+                    });
+                }
+            }
+        }
+    }
+
+    /// Shows `patch` and reads it, applying the low-light policy. `always_average`
+    /// averages even under [`LowLight::Skip`] (black, primaries). Returns `None` when the
+    /// sample was skipped. Repeats never exceed the budget.
+    pub fn sample(
+        &mut self,
+        patch: Patch,
+        always_average: bool,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Option<Xyz>, MeasureError> {
+        self.rig
+            .pattern
+            .show(self.id, patch.drive())
+            .map_err(|source| MeasureError::Pattern {
+                display: self.name.clone(),
+                patch,
+                source,
+            })?;
+        let first = self.read_once(patch, progress)?;
+        let low = first.y < self.limit_cd_m2;
+        if !low {
+            self.log.samples.push(ReadingRecord {
+                patch,
+                xyz: Some(first),
+                repeats: 1,
+                low_light: false,
+            });
+            return Ok(Some(first));
+        }
+        let repeats = match (self.low_light, always_average) {
+            (LowLight::Average { repeats }, _) => repeats.max(1),
+            (LowLight::Skip, true) => 4,
+            (LowLight::Skip, false) => {
+                self.log.samples.push(ReadingRecord {
+                    patch,
+                    xyz: None,
+                    repeats: 1,
+                    low_light: true,
+                });
+                return Ok(None);
+            }
+        };
+        let mut sum = first;
+        let mut n = 1;
+        while n < repeats && self.remaining() > 0 {
+            sum = sum + self.read_once(patch, progress)?;
+            n += 1;
+        }
+        let mean = sum * (1.0 / f64::from(n));
+        self.log.samples.push(ReadingRecord {
+            patch,
+            xyz: Some(mean),
+            repeats: n,
+            low_light: true,
+        });
+        Ok(Some(mean))
+    }
+}
+
+/// Relative intensity of a channel reading: the least-squares component of
+/// `reading − black` along the channel's black-subtracted full-drive XYZ.
+pub fn relative_intensity(reading: Xyz, black: Xyz, full: Xyz) -> f64 {
+    let p = (full - black).to_array();
+    let m = (reading - black).to_array();
+    let pp: f64 = p.iter().map(|v| v * v).sum();
+    if pp <= 0.0 {
+        return 0.0;
+    }
+    p.iter().zip(m.iter()).map(|(a, b)| a * b).sum::<f64>() / pp
+}
+
+/// Measures one display: black, primaries, white, then adaptive ramps until the budget
+/// is spent or every channel's ramp is good enough.
+pub fn measure_display(
+    rig: &mut Rig<'_>,
+    info: &DisplayInfo,
+    key: &DisplayKey,
+    opts: &MeasureOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<MeasuredDisplay, MeasureError> {
+    if opts.budget < MeasureOptions::MIN_BUDGET {
+        return Err(MeasureError::BudgetTooSmall {
+            budget: opts.budget,
+            min: MeasureOptions::MIN_BUDGET,
+        });
+    }
+    let instrument = {
+        let i = rig.meter.info();
+        format!("{} {}", i.model, i.serial)
+    };
+    let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
+
+    // Black: always averaged when dark (it usually is).
+    let black = s.sample(Patch::Black, true, progress)?.unwrap_or_default();
+    let mut primaries = [Xyz::default(); 3];
+    for (c, p) in primaries.iter_mut().enumerate() {
+        *p = s
+            .sample(Patch::Primary(c), true, progress)?
+            .unwrap_or_default();
+        if p.y <= black.y {
+            return Err(MeasureError::NoSignal {
+                display: key.to_string(),
+                channel: CHANNEL_NAMES[c],
+                y_cd_m2: p.y,
+                black_cd_m2: black.y,
+            });
+        }
+    }
+    let white = if opts.measure_white {
+        s.sample(Patch::White, true, progress)?
+    } else {
+        None
+    };
+
+    // Adaptive ramps, one sample per channel in turn.
+    let mut ramps: [Vec<(f64, Xyz)>; 3] = Default::default();
+    let mut rel: [Vec<(f64, f64)>; 3] = std::array::from_fn(|_| vec![(0.0, 0.0), (1.0, 1.0)]);
+    let mut done = [false; 3];
+    let mut c = 0usize;
+    while s.remaining() > 0 && !done.iter().all(|d| *d) {
+        if done[c] {
+            c = (c + 1) % 3;
+            continue;
+        }
+        match next_drive(&rel[c]) {
+            None => done[c] = true,
+            Some(d) => {
+                let d = quantise(d, info.bit_depth);
+                if rel[c].iter().any(|(x, _)| (x - d).abs() < 0.5 / code_max(info.bit_depth)) {
+                    done[c] = true;
+                } else {
+                    match s.sample(Patch::Ramp(c, d), false, progress)? {
+                        Some(xyz) => {
+                            ramps[c].push((d, xyz));
+                            let r = relative_intensity(xyz, black, primaries[c]);
+                            insert_sorted(&mut rel[c], (d, r));
+                        }
+                        None => {
+                            // Skipped as too dark: everything below is too dark as well;
+                            // record the drive so it is not proposed again, with the
+                            // intensity interpolated between its neighbours.
+                            let r = interpolate(&rel[c], d);
+                            insert_sorted(&mut rel[c], (d, r));
+                        }
+                    }
+                }
+            }
+        }
+        c = (c + 1) % 3;
+    }
+    let readings = s.log.readings;
+    let log = std::mem::take(&mut s.log);
+    progress(Progress::DisplayDone {
+        display: info.id,
+        readings,
+    });
+    Ok(MeasuredDisplay {
+        measurement: DisplayMeasurement {
+            key: key.clone(),
+            bit_depth: info.bit_depth,
+            black,
+            primaries,
+            white,
+            ramps,
+            readings,
+            instrument,
+        },
+        log,
+    })
+}
+
+fn code_max(bit_depth: u32) -> f64 {
+    f64::from((1u32 << bit_depth.clamp(1, 16)) - 1)
+}
+
+/// Rounds a drive to the display's code grid, so the sample is exactly what is shown.
+fn quantise(d: f64, bit_depth: u32) -> f64 {
+    let m = code_max(bit_depth);
+    (d.clamp(0.0, 1.0) * m).round() / m
+}
+
+fn insert_sorted(v: &mut Vec<(f64, f64)>, s: (f64, f64)) {
+    let k = v.partition_point(|p| p.0 < s.0);
+    v.insert(k, s);
+}
+
+fn interpolate(v: &[(f64, f64)], d: f64) -> f64 {
+    let k = v.partition_point(|p| p.0 < d);
+    if k == 0 {
+        return v.first().map_or(0.0, |p| p.1);
+    }
+    if k >= v.len() {
+        return v.last().map_or(1.0, |p| p.1);
+    }
+    let (a, b) = (v[k - 1], v[k]);
+    if b.0 > a.0 {
+        a.1 + (b.1 - a.1) * (d - a.0) / (b.0 - a.0)
+    } else {
+        a.1
+    }
+}
+
+/// Next ramp drive for a channel from the tone module's adaptive placement.
+fn next_drive(samples: &[(f64, f64)]) -> Option<f64> {
+    crate::tone::suggest_next_drive(samples)
+}

@@ -1,1 +1,577 @@
-//! verify (being written).
+//! Verification: show target colours through each display's profile, read them back
+//! with the meter and compare with what the wall should show (Kresse 3.3.8, DESIGN.md
+//! step 7).
+//!
+//! Targets are absolute XYZ inputs (cd/m², what the post pass receives). What the wall
+//! should then show depends on the black mode: `Ignore` adds the display's own black,
+//! `Individual` shows the input itself, `Common` adds the common black. Per patch the
+//! report gives ΔL % (luminance), Δxy and ΔE2000, where CIELAB is taken relative to the
+//! wall white as shown (luminance-absolute: a 5 % luminance error is a lightness error).
+//! In `Common` black mode the black (input 0) of every display is measured too and
+//! compared with the common black.
+
+use lumiwall_devices::{DisplayInfo, Xyz};
+use lumiwall_profiles::apply::{ApplyError, ApplyOptions, PreparedProfile};
+use lumiwall_profiles::{BlackMode, DisplayKey, DisplayProfile};
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::colorimetry::delta_e2000_xyz;
+use crate::measure::{MeasureError, MeasureOptions, Patch, Progress, Rig, Session};
+
+/// One target colour.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Target {
+    /// Short name ("grey 50 %", "skin light").
+    pub name: String,
+    /// Input XYZ in cd/m² (black excluded).
+    pub xyz: Xyz,
+}
+
+/// Why the default targets could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum VerifyError {
+    /// No profiles to verify.
+    #[error("no profiles given")]
+    NoProfiles,
+    /// The profiles were not made together (different white or common gamut).
+    #[error(
+        "profile of {display} has another target white or common gamut than the first one; \
+         verify only profiles of one commissioning run"
+    )]
+    Inconsistent {
+        /// The display that differs.
+        display: String,
+    },
+    /// A display of the wall has no profile.
+    #[error("no profile for {0} in the profile folder; re-run `lumiwall commission`")]
+    MissingProfile(String),
+    /// The common primaries do not span a colour space.
+    #[error("the profiles' common primaries are degenerate; re-run `lumiwall commission`")]
+    Degenerate,
+    /// A measurement failed.
+    #[error(transparent)]
+    Measure(#[from] MeasureError),
+    /// A profile cannot be used by the post pass.
+    #[error(transparent)]
+    Apply(#[from] ApplyError),
+}
+
+/// How to verify.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VerifyOptions {
+    /// Number of target colours (20 by default).
+    pub patches: usize,
+    /// Spot to read (normalised display coordinates).
+    pub spot_uv: [f64; 2],
+    /// Meter handling (retries, low-light averaging); the budget is ignored.
+    pub measure: MeasureOptions,
+    /// Readings averaged for the black comparison in `Common` mode.
+    pub black_repeats: u32,
+}
+
+impl Default for VerifyOptions {
+    fn default() -> Self {
+        Self {
+            patches: 20,
+            spot_uv: [0.5, 0.5],
+            measure: MeasureOptions::default(),
+            black_repeats: 8,
+        }
+    }
+}
+
+/// Result of one patch on one display.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PatchResult {
+    /// Display.
+    pub display: DisplayKey,
+    /// Target name.
+    pub target: String,
+    /// Drive values sent (0..=1).
+    pub drive: [f64; 3],
+    /// What the wall should show (cd/m², black included).
+    pub expected: Xyz,
+    /// What the meter read.
+    pub measured: Xyz,
+    /// Luminance error in percent of the expected luminance.
+    pub delta_l_percent: f64,
+    /// Chromaticity distance in xy.
+    pub delta_xy: f64,
+    /// CIEDE2000 relative to the wall white.
+    pub delta_e2000: f64,
+}
+
+/// Median and maximum of the errors of a group of patches.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    /// Patches in the group.
+    pub patches: usize,
+    /// Median ΔE2000.
+    pub median_de: f64,
+    /// Largest ΔE2000.
+    pub max_de: f64,
+    /// Median |ΔL| in percent.
+    pub median_abs_dl_percent: f64,
+    /// Largest |ΔL| in percent.
+    pub max_abs_dl_percent: f64,
+    /// Median Δxy.
+    pub median_dxy: f64,
+    /// Largest Δxy.
+    pub max_dxy: f64,
+}
+
+impl Summary {
+    /// Summarises a group of patches.
+    pub fn of<'a>(patches: impl IntoIterator<Item = &'a PatchResult>) -> Self {
+        let mut de = Vec::new();
+        let mut dl = Vec::new();
+        let mut dxy = Vec::new();
+        for p in patches {
+            de.push(p.delta_e2000);
+            dl.push(p.delta_l_percent.abs());
+            dxy.push(p.delta_xy);
+        }
+        Self {
+            patches: de.len(),
+            median_de: median(&mut de),
+            max_de: max(&de),
+            median_abs_dl_percent: median(&mut dl),
+            max_abs_dl_percent: max(&dl),
+            median_dxy: median(&mut dxy),
+            max_dxy: max(&dxy),
+        }
+    }
+}
+
+/// Median (mean of the middle two for even counts); NaN sorts last; 0 when empty.
+pub fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+fn max(v: &[f64]) -> f64 {
+    v.iter().copied().fold(0.0, f64::max)
+}
+
+/// One display's black compared with the common black.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BlackResult {
+    /// Display.
+    pub display: DisplayKey,
+    /// Expected (common) black, cd/m².
+    pub expected: Xyz,
+    /// Measured black (averaged), cd/m².
+    pub measured: Xyz,
+    /// Luminance difference in percent of the expected.
+    pub delta_l_percent: f64,
+    /// Chromaticity distance.
+    pub delta_xy: f64,
+}
+
+/// Tolerances of a verification.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Tolerances {
+    /// Largest ΔE2000 allowed on any patch.
+    pub max_de: f64,
+    /// Largest median ΔE2000 allowed, per display and overall.
+    pub median_de: f64,
+    /// Largest black luminance difference (percent) between a display and the common
+    /// black (`Common` mode only).
+    pub black_dl_percent: f64,
+    /// Largest black chromaticity difference (`Common` mode only).
+    pub black_dxy: f64,
+}
+
+impl Default for Tolerances {
+    /// 1.5 / 0.5 ΔE2000; black within a CS-100A's low-light error (5 %, 0.008 xy).
+    fn default() -> Self {
+        Self {
+            max_de: 1.5,
+            median_de: 0.5,
+            black_dl_percent: 5.0,
+            black_dxy: 0.008,
+        }
+    }
+}
+
+/// Everything a verification found.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VerifyReport {
+    /// Targets used.
+    pub targets: Vec<Target>,
+    /// Every patch on every display.
+    pub patches: Vec<PatchResult>,
+    /// Per display, in order.
+    pub per_display: Vec<(DisplayKey, Summary)>,
+    /// All patches together.
+    pub overall: Summary,
+    /// Black comparison (`Common` mode only).
+    pub black: Vec<BlackResult>,
+    /// Meter readings taken.
+    pub readings: u32,
+}
+
+impl VerifyReport {
+    /// Violations of `tol`, one technician-readable line each; empty when within.
+    pub fn violations(&self, tol: &Tolerances) -> Vec<String> {
+        let mut v = Vec::new();
+        for (key, s) in &self.per_display {
+            if s.max_de > tol.max_de {
+                v.push(format!(
+                    "{key}: max ΔE2000 {:.2} > {:.2}",
+                    s.max_de, tol.max_de
+                ));
+            }
+            if s.median_de > tol.median_de {
+                v.push(format!(
+                    "{key}: median ΔE2000 {:.2} > {:.2}",
+                    s.median_de, tol.median_de
+                ));
+            }
+        }
+        if self.overall.median_de > tol.median_de {
+            v.push(format!(
+                "overall median ΔE2000 {:.2} > {:.2}",
+                self.overall.median_de, tol.median_de
+            ));
+        }
+        for b in &self.black {
+            if b.delta_l_percent.abs() > tol.black_dl_percent || b.delta_xy > tol.black_dxy {
+                v.push(format!(
+                    "{}: black {:.3} cd/m² differs from the common black {:.3} cd/m² by {:+.1} % / Δxy {:.4}",
+                    b.display, b.measured.y, b.expected.y, b.delta_l_percent, b.delta_xy
+                ));
+            }
+        }
+        v
+    }
+
+    /// Per-patch table (plain text).
+    pub fn patch_table(&self) -> String {
+        let mut s = String::from(
+            "display          patch            exp Y cd/m²  meas Y cd/m²    ΔL %     Δxy   ΔE2000\n",
+        );
+        for p in &self.patches {
+            s.push_str(&format!(
+                "{:<16} {:<16} {:>11.3} {:>13.3} {:>7.2} {:>7.4} {:>8.3}\n",
+                p.display.file_stem(),
+                p.target,
+                p.expected.y,
+                p.measured.y,
+                p.delta_l_percent,
+                p.delta_xy,
+                p.delta_e2000
+            ));
+        }
+        s
+    }
+
+    /// Summary table (plain text): per display and overall, then the black check.
+    pub fn summary_table(&self) -> String {
+        let mut s = String::from(
+            "display          patches  median ΔE  max ΔE  median |ΔL| %  max |ΔL| %  median Δxy  max Δxy\n",
+        );
+        let row = |name: &str, m: &Summary| {
+            format!(
+                "{:<16} {:>7} {:>10.3} {:>7.3} {:>14.2} {:>11.2} {:>11.4} {:>8.4}\n",
+                name,
+                m.patches,
+                m.median_de,
+                m.max_de,
+                m.median_abs_dl_percent,
+                m.max_abs_dl_percent,
+                m.median_dxy,
+                m.max_dxy
+            )
+        };
+        for (key, m) in &self.per_display {
+            s.push_str(&row(&key.file_stem(), m));
+        }
+        s.push_str(&row("OVERALL", &self.overall));
+        if !self.black.is_empty() {
+            s.push_str("\ncommon black check (input 0 on every display)\n");
+            s.push_str("display          exp Y cd/m²  meas Y cd/m²    ΔL %     Δxy\n");
+            for b in &self.black {
+                s.push_str(&format!(
+                    "{:<16} {:>11.4} {:>13.4} {:>7.2} {:>7.4}\n",
+                    b.display.file_stem(),
+                    b.expected.y,
+                    b.measured.y,
+                    b.delta_l_percent,
+                    b.delta_xy
+                ));
+            }
+        }
+        s
+    }
+}
+
+/// Common-RGB (linear, 1 = target white) → XYZ matrix of a set of profiles.
+fn common_rgb_to_xyz(p: &DisplayProfile) -> Option<Matrix3<f64>> {
+    let cols: Vec<Vector3<f64>> = p
+        .common_primaries_xy
+        .iter()
+        .map(|[x, y]| {
+            if *y <= 0.0 {
+                Vector3::zeros()
+            } else {
+                Vector3::new(x / y, 1.0, (1.0 - x - y) / y)
+            }
+        })
+        .collect();
+    let m = Matrix3::from_columns(&cols);
+    let w = Vector3::from(p.target_white_xyz_cd_m2);
+    let s = m.try_inverse()? * w;
+    Some(m * Matrix3::from_diagonal(&s))
+}
+
+/// What `profile`'s display should show (cd/m², black included) for input `xyz`.
+pub fn expected_shown(profile: &DisplayProfile, xyz: Xyz) -> Xyz {
+    match profile.black_mode {
+        BlackMode::Ignore => xyz + Xyz::from_array(profile.black_xyz_cd_m2),
+        BlackMode::Individual => xyz,
+        BlackMode::Common => xyz + Xyz::from_array(profile.shown_black_xyz_cd_m2),
+    }
+}
+
+/// Linear relative channel intensities the profile asks for input `xyz`
+/// (`xyz_to_drive · xyz + drive_offset`, no flat field at the calibration spot).
+pub fn linear_intensity(profile: &DisplayProfile, xyz: Xyz) -> [f64; 3] {
+    let m = &profile.xyz_to_drive;
+    let v = xyz.to_array();
+    std::array::from_fn(|r| {
+        m[r][0] * v[0] + m[r][1] * v[1] + m[r][2] * v[2] + profile.drive_offset[r]
+    })
+}
+
+/// Drive values (0..=1) for input `xyz` at spot `uv` through the post pass
+/// ([`lumiwall_profiles::apply`], the same arithmetic the renderer runs).
+pub fn drive_for(prepared: &PreparedProfile, xyz: Xyz, uv: [f64; 2]) -> [f64; 3] {
+    let out = prepared.apply(
+        [xyz.x as f32, xyz.y as f32, xyz.z as f32],
+        [uv[0] as f32, uv[1] as f32],
+    );
+    out.drive.map(f64::from)
+}
+
+/// The default target colours (in common linear RGB, 1 = wall white), by name.
+const RGB_TARGETS: [(&str, [f64; 3]); 16] = [
+    ("grey 90 %", [0.9, 0.9, 0.9]),
+    ("grey 50 %", [0.5, 0.5, 0.5]),
+    ("grey 20 %", [0.2, 0.2, 0.2]),
+    ("grey 5 %", [0.05, 0.05, 0.05]),
+    ("red", [0.8, 0.08, 0.08]),
+    ("green", [0.08, 0.8, 0.08]),
+    ("blue", [0.08, 0.08, 0.8]),
+    ("cyan", [0.08, 0.7, 0.7]),
+    ("magenta", [0.7, 0.08, 0.7]),
+    ("yellow", [0.7, 0.7, 0.08]),
+    ("skin light", [0.7, 0.45, 0.33]),
+    ("skin dark", [0.32, 0.18, 0.12]),
+    ("foliage", [0.12, 0.25, 0.05]),
+    ("sky", [0.3, 0.45, 0.75]),
+    ("orange", [0.8, 0.35, 0.05]),
+    ("violet", [0.3, 0.1, 0.5]),
+];
+
+/// Dark targets: (name, colour in common RGB, luminance in cd/m²).
+const DARK_TARGETS: [(&str, [f64; 3], f64); 4] = [
+    ("dark grey 2", [1.0, 1.0, 1.0], 2.0),
+    ("dark grey 1", [1.0, 1.0, 1.0], 1.0),
+    ("dark red 1.5", [0.6, 0.15, 0.15], 1.5),
+    ("dark blue 1.5", [0.15, 0.2, 0.6], 1.5),
+];
+
+/// Van der Corput radical inverse, for deterministic extra targets.
+fn radical_inverse(mut i: u32, base: u32) -> f64 {
+    let mut f = 1.0;
+    let mut r = 0.0;
+    while i > 0 {
+        f /= f64::from(base);
+        r += f * f64::from(i % base);
+        i /= base;
+    }
+    r
+}
+
+/// True when every profile can show `xyz` with channel intensities in 0..=headroom
+/// (small tolerance).
+fn showable(profiles: &[DisplayProfile], xyz: Xyz) -> bool {
+    profiles.iter().all(|p| {
+        linear_intensity(p, xyz)
+            .iter()
+            .all(|l| *l >= -1e-6 && *l <= p.headroom + 1e-6)
+    })
+}
+
+/// The default `n` target colours for a wall: greys, primaries, secondaries, skin,
+/// foliage and sky, dark colours near 1–2 cd/m²; beyond 20, quasi-random colours.
+/// Every target is inside the common gamut, below the white and showable on every
+/// display; a target that is not (e.g. a dark colour below a display's black in
+/// `Individual` mode) is replaced by a brighter one.
+pub fn default_targets(profiles: &[DisplayProfile], n: usize) -> Result<Vec<Target>, VerifyError> {
+    let first = profiles.first().ok_or(VerifyError::NoProfiles)?;
+    for p in profiles {
+        let same = p
+            .target_white_xyz_cd_m2
+            .iter()
+            .zip(first.target_white_xyz_cd_m2.iter())
+            .all(|(a, b)| (a - b).abs() <= 1e-9 * b.abs().max(1.0))
+            && p.common_primaries_xy == first.common_primaries_xy;
+        if !same {
+            return Err(VerifyError::Inconsistent {
+                display: p.display.to_string(),
+            });
+        }
+    }
+    let m = common_rgb_to_xyz(first).ok_or(VerifyError::Degenerate)?;
+    let to_xyz = |rgb: [f64; 3]| {
+        let v = m * Vector3::from(rgb);
+        Xyz::new(v[0], v[1], v[2])
+    };
+    let mut out = Vec::with_capacity(n);
+    let push = |name: String, xyz: Xyz, out: &mut Vec<Target>| {
+        if out.len() < n && showable(profiles, xyz) {
+            out.push(Target { name, xyz });
+        }
+    };
+    for (name, rgb) in RGB_TARGETS {
+        push(name.to_string(), to_xyz(rgb), &mut out);
+    }
+    let white_y = first.target_white_xyz_cd_m2[1];
+    for (name, rgb, y) in DARK_TARGETS {
+        let c = to_xyz(rgb);
+        if c.y <= 0.0 {
+            continue;
+        }
+        // Raise a dark target step by step until every display can show it.
+        let mut level = y;
+        while level < 0.5 * white_y {
+            let xyz = c * (level / c.y);
+            if showable(profiles, xyz) {
+                let label = if (level - y).abs() < 1e-9 {
+                    name.to_string()
+                } else {
+                    format!("{name} @{level:.1}")
+                };
+                push(label, xyz, &mut out);
+                break;
+            }
+            level *= 1.25;
+        }
+    }
+    let mut i = 1u32;
+    while out.len() < n && i < 100_000 {
+        let rgb = [
+            0.05 + 0.85 * radical_inverse(i, 2),
+            0.05 + 0.85 * radical_inverse(i, 3),
+            0.05 + 0.85 * radical_inverse(i, 5),
+        ];
+        push(format!("mix {i}"), to_xyz(rgb), &mut out);
+        i += 1;
+    }
+    Ok(out)
+}
+
+fn delta_xy(a: Xyz, b: Xyz) -> f64 {
+    match (a.xy(), b.xy()) {
+        (Some(p), Some(q)) => ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt(),
+        _ => f64::NAN,
+    }
+}
+
+fn delta_l_percent(expected: Xyz, measured: Xyz) -> f64 {
+    if expected.y > 0.0 {
+        100.0 * (measured.y - expected.y) / expected.y
+    } else {
+        f64::NAN
+    }
+}
+
+/// Verifies every display: shows each target through its profile, reads it and
+/// compares. `displays` and `profiles` are matched by display index.
+pub fn verify_wall(
+    rig: &mut Rig<'_>,
+    displays: &[DisplayInfo],
+    profiles: &[DisplayProfile],
+    targets: &[Target],
+    opts: &VerifyOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<VerifyReport, VerifyError> {
+    let mut patches = Vec::new();
+    let mut per_display = Vec::new();
+    let mut black = Vec::new();
+    let mut readings = 0;
+    let mut mopts = opts.measure.clone();
+    mopts.budget = u32::MAX;
+    for info in displays {
+        let profile = profiles
+            .iter()
+            .find(|p| p.display.display == info.id.0 && p.display.eye == info.eye)
+            .ok_or_else(|| VerifyError::MissingProfile(info.name.clone()))?;
+        let key = &profile.display;
+        let prepared = PreparedProfile::new(profile, &ApplyOptions::default())?;
+        let reference_white = expected_shown(profile, Xyz::from_array(profile.target_white_xyz_cd_m2));
+        let mut s = Session::start(rig, key, info.id, opts.spot_uv, &mopts)?;
+        let start = patches.len();
+        for t in targets {
+            let drive = drive_for(&prepared, t.xyz, opts.spot_uv);
+            let measured = s
+                .sample(Patch::Drive(drive), true, progress)?
+                .unwrap_or_default();
+            let expected = expected_shown(profile, t.xyz);
+            patches.push(PatchResult {
+                display: key.clone(),
+                target: t.name.clone(),
+                drive,
+                expected,
+                measured,
+                delta_l_percent: delta_l_percent(expected, measured),
+                delta_xy: delta_xy(expected, measured),
+                delta_e2000: delta_e2000_xyz(expected, measured, reference_white),
+            });
+        }
+        if profile.black_mode == BlackMode::Common {
+            let drive = drive_for(&prepared, Xyz::default(), opts.spot_uv);
+            let patch = Patch::Drive(drive);
+            let mut sum = Xyz::default();
+            let n = opts.black_repeats.max(1);
+            for _ in 0..n {
+                sum = sum + s.sample(patch, true, progress)?.unwrap_or_default();
+            }
+            let measured = sum * (1.0 / f64::from(n));
+            let expected = Xyz::from_array(profile.shown_black_xyz_cd_m2);
+            black.push(BlackResult {
+                display: key.clone(),
+                expected,
+                measured,
+                delta_l_percent: delta_l_percent(expected, measured),
+                delta_xy: delta_xy(expected, measured),
+            });
+        }
+        readings += s.log.readings;
+        per_display.push((key.clone(), Summary::of(&patches[start..])));
+        progress(Progress::DisplayDone {
+            display: info.id,
+            readings: s.log.readings,
+        });
+    }
+    let overall = Summary::of(&patches);
+    Ok(VerifyReport {
+        targets: targets.to_vec(),
+        patches,
+        per_display,
+        overall,
+        black,
+        readings,
+    })
+}

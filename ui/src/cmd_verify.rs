@@ -1,12 +1,123 @@
-//! `lumiwall verify` (being written).
+//! `lumiwall verify`: show target colours through the profiles on the wall, read them
+//! with the meter, print per-patch ΔL %, Δxy, ΔE2000 and a summary table; exit code 3
+//! when the results are outside the user's tolerances.
+
+use std::path::PathBuf;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use lumiwall_calib::measure::{MeasureOptions, Progress};
+use lumiwall_calib::verify::{Tolerances, VerifyOptions, default_targets, verify_wall};
+use lumiwall_profiles::ProfileSet;
 
 use crate::CliError;
+use crate::cmd_commission::{MeterChoice, Noise, Station};
 
 /// Arguments of `lumiwall verify`.
 #[derive(Debug, clap::Args)]
-pub struct VerifyArgs {}
+pub struct VerifyArgs {
+    /// Wall description (TOML).
+    #[arg(long)]
+    pub wall: PathBuf,
+    /// Profile folder written by `lumiwall commission`.
+    #[arg(long)]
+    pub profiles: PathBuf,
+    /// Number of target colours per display.
+    #[arg(long, default_value_t = 20)]
+    pub patches: usize,
+    /// Largest ΔE2000 allowed on any patch.
+    #[arg(long, default_value_t = 1.5)]
+    pub max_de: f64,
+    /// Largest median ΔE2000 allowed (per display and overall).
+    #[arg(long, default_value_t = 0.5)]
+    pub median_de: f64,
+    /// Largest black luminance difference (%) from the common black (common mode).
+    #[arg(long, default_value_t = 5.0)]
+    pub black_dl: f64,
+    /// Largest black chromaticity difference from the common black (common mode).
+    #[arg(long, default_value_t = 0.008)]
+    pub black_dxy: f64,
+    /// Meter: emulated, direct or serial:PATH.
+    #[arg(long, default_value = "emulated")]
+    pub meter: MeterChoice,
+    /// Error model of the simulated meter.
+    #[arg(long, value_enum, default_value = "realistic")]
+    pub noise: Noise,
+    /// Speed of the emulated instrument: factor on its real measurement time.
+    #[arg(long, default_value_t = 0.1)]
+    pub time_scale: f64,
+    /// Print only the summary, not every patch.
+    #[arg(long)]
+    pub summary_only: bool,
+}
 
 /// Runs `lumiwall verify`.
-pub fn run(_args: VerifyArgs) -> Result<(), CliError> {
-    Err(CliError::failure("`lumiwall verify` is not built yet"))
+pub fn run(args: VerifyArgs) -> Result<(), CliError> {
+    let (wall_name, profiles) = ProfileSet::load_dir(&args.profiles).map_err(|e| {
+        CliError::input(format!(
+            "cannot read profiles in {}: {e}",
+            args.profiles.display()
+        ))
+    })?;
+    let mut station = Station::open(&args.wall, &args.meter, args.noise, args.time_scale)?;
+    if station.wall.name() != wall_name {
+        return Err(CliError::input(format!(
+            "the profiles in {} are for wall '{wall_name}', the wall file is '{}'",
+            args.profiles.display(),
+            station.wall.name()
+        )));
+    }
+    let displays = station.displays();
+    let targets =
+        default_targets(&profiles, args.patches).map_err(|e| CliError::input(e.to_string()))?;
+    let opts = VerifyOptions {
+        patches: args.patches,
+        measure: MeasureOptions::default(),
+        ..VerifyOptions::default()
+    };
+    let pb = ProgressBar::new((displays.len() * targets.len()) as u64);
+    pb.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} readings [{elapsed}, eta {eta}]")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let mut on_progress = |p: Progress| {
+        if let Progress::Reading { .. } = p {
+            pb.inc(1);
+        }
+    };
+    let mut rig = station.rig();
+    let report = verify_wall(
+        &mut rig,
+        &displays,
+        &profiles,
+        &targets,
+        &opts,
+        &mut on_progress,
+    );
+    pb.finish_and_clear();
+    let report = report.map_err(|e| CliError::failure(e.to_string()))?;
+    if !args.summary_only {
+        print!("{}", report.patch_table());
+        println!();
+    }
+    print!("{}", report.summary_table());
+    println!("{} meter readings", report.readings);
+    let tol = Tolerances {
+        max_de: args.max_de,
+        median_de: args.median_de,
+        black_dl_percent: args.black_dl,
+        black_dxy: args.black_dxy,
+    };
+    let violations = report.violations(&tol);
+    if violations.is_empty() {
+        println!(
+            "PASS: within max ΔE2000 {} and median ΔE2000 {}",
+            tol.max_de, tol.median_de
+        );
+        Ok(())
+    } else {
+        Err(CliError::tolerance(format!(
+            "verification outside tolerance:\n  {}",
+            violations.join("\n  ")
+        )))
+    }
 }
