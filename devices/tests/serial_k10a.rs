@@ -1,0 +1,403 @@
+//! The Klein K-10-A driver against its emulator, through a real pseudo-terminal:
+//! round trip of readings, every injected fault, the retry and resync policy.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::{Duration, Instant};
+
+use lumiwall_devices::serial::{
+    EmulatedPort, Emulator, EmulatorOptions, FaultPlan, K10aConfig, KleinK10a, LineDrop,
+    SlowAnswer, StatusFault,
+};
+use lumiwall_devices::{Colorimeter, DeviceError, MeterInfo, Xyz};
+
+/// A fake meter that answers a fixed list of readings in turn (cycling) and counts
+/// how often it was asked.
+struct ListMeter {
+    values: Vec<Xyz>,
+    calls: Arc<AtomicU32>,
+}
+
+impl Colorimeter for ListMeter {
+    fn info(&self) -> MeterInfo {
+        MeterInfo {
+            model: "list".into(),
+            serial: "0".into(),
+            min_reliable_cd_m2: 0.0,
+            max_cd_m2: f64::INFINITY,
+        }
+    }
+    fn measure(&mut self) -> Result<Xyz, DeviceError> {
+        let i = self.calls.fetch_add(1, Ordering::SeqCst) as usize;
+        Ok(self.values[i % self.values.len()])
+    }
+}
+
+/// Reading k (0-based) of the default fake: distinct, realistic values.
+fn value(k: usize) -> Xyz {
+    let y = 10.0 + 7.0 * k as f64;
+    Xyz::from_xy_luminance(0.3127, 0.3290, y)
+}
+
+fn start(faults: FaultPlan) -> (Emulator, EmulatedPort, Arc<AtomicU32>) {
+    start_with(faults, (0..50).map(value).collect())
+}
+
+fn start_with(faults: FaultPlan, values: Vec<Xyz>) -> (Emulator, EmulatedPort, Arc<AtomicU32>) {
+    let calls = Arc::new(AtomicU32::new(0));
+    let meter = ListMeter {
+        values,
+        calls: Arc::clone(&calls),
+    };
+    let (emu, port) = Emulator::spawn_with(
+        Box::new(meter),
+        faults,
+        EmulatorOptions::with_time_scale(0.01),
+    )
+    .unwrap();
+    (emu, port, calls)
+}
+
+fn config(timeout_ms: u64, retries: u32) -> K10aConfig {
+    K10aConfig {
+        read_timeout: Duration::from_millis(timeout_ms),
+        resync_timeout: Duration::from_millis(600),
+        retries,
+        ..K10aConfig::default()
+    }
+}
+
+/// Relative precision of the K-10 number format: a 15-bit mantissa normalised to
+/// [2^14, 2^15) and rounded, so the error is at most half a unit in 2^14.
+const KFLOAT_REL: f64 = 1.0 / 32768.0;
+
+fn assert_close(got: Xyz, want: Xyz) {
+    for (g, w) in got.to_array().iter().zip(want.to_array()) {
+        assert!(
+            (g - w).abs() <= w.abs() * KFLOAT_REL + 1e-300,
+            "got {got:?}, want {want:?}"
+        );
+    }
+}
+
+#[test]
+fn identifies_itself_and_round_trips_readings() {
+    let values = vec![
+        Xyz::new(95.047, 100.0, 108.883),
+        Xyz::new(0.0123, 0.0131, 0.0207),
+        Xyz::new(3100.5, 3999.0, 1.0e-3),
+        Xyz::new(41.24, 21.26, 1.93),
+        Xyz::new(-0.004, 0.0, 0.002),
+    ];
+    let (emu, port, calls) = start_with(FaultPlan::default(), values.clone());
+    let mut meter = port.open(config(1000, 0)).unwrap();
+    let info = meter.info();
+    assert_eq!(info.model, "Klein K-10-A");
+    assert_eq!(info.serial, "EMU000001");
+    for want in &values {
+        let got = meter.measure().unwrap();
+        assert_close(got, *want);
+    }
+    assert_eq!(calls.load(Ordering::SeqCst) as usize, values.len());
+    assert_eq!(emu.readings_requested() as usize, values.len());
+    emu.stop();
+}
+
+#[test]
+fn garbage_gives_garbled_then_next_reading_is_clean() {
+    let (_emu, port, _calls) = start(FaultPlan {
+        garbage_on: vec![1],
+        ..FaultPlan::default()
+    });
+    let mut meter = port.open(config(500, 0)).unwrap();
+    match meter.measure() {
+        Err(DeviceError::Garbled { command, .. }) => assert_eq!(command, "N5"),
+        other => panic!("expected Garbled, got {other:?}"),
+    }
+    // The backing meter was not asked for reading 1, so reading 2 carries value 0.
+    assert_close(meter.measure().unwrap(), value(0));
+    assert_close(meter.measure().unwrap(), value(1));
+}
+
+#[test]
+fn silent_meter_times_out_within_the_configured_time() {
+    let (_emu, port, _calls) = start(FaultPlan {
+        stop_after_readings: Some(1),
+        ..FaultPlan::default()
+    });
+    let timeout = Duration::from_millis(300);
+    let mut meter = port.open(config(300, 0)).unwrap();
+    assert_close(meter.measure().unwrap(), value(0));
+    let t0 = Instant::now();
+    let err = meter.measure().unwrap_err();
+    let elapsed = t0.elapsed();
+    match err {
+        DeviceError::Timeout { timeout_ms, .. } => assert_eq!(timeout_ms, 300),
+        other => panic!("expected Timeout, got {other:?}"),
+    }
+    assert!(elapsed >= timeout, "gave up early after {elapsed:?}");
+    assert!(
+        elapsed < timeout + Duration::from_millis(400),
+        "took {elapsed:?} for a {timeout:?} timeout"
+    );
+    // Still dead: the resync itself times out, again as a typed error.
+    assert!(matches!(meter.measure(), Err(DeviceError::Timeout { .. })));
+}
+
+#[test]
+fn over_range_is_reported() {
+    // Reading 1 by injected status, reading 3 because the light exceeds the
+    // K-10-A's 4000 cd/m² range.
+    let values = vec![
+        Xyz::new(50.0, 52.0, 60.0),
+        Xyz::new(4200.0, 4500.0, 3900.0),
+        Xyz::new(20.0, 21.0, 22.0),
+    ];
+    let (_emu, port, _calls) = start_with(
+        FaultPlan {
+            over_range_on: vec![1],
+            ..FaultPlan::default()
+        },
+        values.clone(),
+    );
+    let mut meter = port.open(config(500, 2)).unwrap();
+    assert!(matches!(
+        meter.measure(),
+        Err(DeviceError::OverRange { .. })
+    ));
+    assert_close(meter.measure().unwrap(), values[0]);
+    assert!(matches!(
+        meter.measure(),
+        Err(DeviceError::OverRange { .. })
+    ));
+    assert_close(meter.measure().unwrap(), values[2]);
+    // Over-range is not transient: no retries were spent on it.
+    assert_eq!(meter.stats().retries, 0);
+}
+
+#[test]
+fn retry_recovers_from_one_transient_fault() {
+    let (emu, port, _calls) = start(FaultPlan {
+        garbage_on: vec![1],
+        stop_after_readings: None,
+        slow_on: vec![SlowAnswer {
+            reading: 3,
+            delay_ms: 400,
+        }],
+        ..FaultPlan::default()
+    });
+    let mut meter = port.open(config(150, 1)).unwrap();
+    assert_close(meter.measure().unwrap(), value(0));
+    assert_eq!(meter.stats().retries, 1);
+    assert_eq!(emu.readings_requested(), 2);
+    // Reading 3 answers after 400 ms (value 1) — too late; the retry must not take
+    // that stale answer for its own but wait for the fresh one (value 2).
+    assert_close(meter.measure().unwrap(), value(2));
+    assert_eq!(meter.stats().retries, 2);
+}
+
+#[test]
+fn no_retry_when_retries_is_zero() {
+    let (emu, port, _calls) = start(FaultPlan {
+        garbage_on: vec![1],
+        ..FaultPlan::default()
+    });
+    let mut meter = port.open(config(500, 0)).unwrap();
+    assert!(matches!(meter.measure(), Err(DeviceError::Garbled { .. })));
+    assert_eq!(emu.readings_requested(), 1);
+    assert_eq!(meter.stats().retries, 0);
+}
+
+#[test]
+fn slow_answer_times_out_and_the_stale_answer_is_not_used() {
+    let (_emu, port, _calls) = start(FaultPlan {
+        slow_on: vec![SlowAnswer {
+            reading: 1,
+            delay_ms: 400,
+        }],
+        ..FaultPlan::default()
+    });
+    let mut meter = port.open(config(150, 0)).unwrap();
+    assert!(matches!(meter.measure(), Err(DeviceError::Timeout { .. })));
+    // The late answer to reading 1 carries value 0; the next reading must be value 1.
+    assert_close(meter.measure().unwrap(), value(1));
+}
+
+#[test]
+fn uniformly_slow_meter_works_with_a_long_enough_timeout() {
+    let (_emu, port, _calls) = start(FaultPlan {
+        answer_delay_ms: 120,
+        ..FaultPlan::default()
+    });
+    let mut meter = port.open(config(600, 0)).unwrap();
+    let t0 = Instant::now();
+    assert_close(meter.measure().unwrap(), value(0));
+    assert!(t0.elapsed() >= Duration::from_millis(120));
+}
+
+#[test]
+fn dropped_line_comes_back_and_retries_resume() {
+    let (_emu, port, _calls) = start(FaultPlan {
+        line_drops: vec![LineDrop {
+            at_reading: 2,
+            duration_ms: 250,
+        }],
+        ..FaultPlan::default()
+    });
+    let mut meter = port.open(config(150, 3)).unwrap();
+    assert_close(meter.measure().unwrap(), value(0));
+    assert_close(meter.measure().unwrap(), value(1));
+    assert!(meter.stats().retries >= 1);
+    assert_close(meter.measure().unwrap(), value(2));
+}
+
+#[test]
+fn instrument_status_codes_are_mapped() {
+    let codes = [
+        ('b', "black calibration"),
+        ('X', "firmware"),
+        ('L', "aiming lights"),
+        ('q', "not documented"),
+    ];
+    let status_on = codes
+        .iter()
+        .enumerate()
+        .map(|(i, &(code, _))| StatusFault {
+            reading: i as u32 + 1,
+            code,
+        })
+        .collect();
+    let (_emu, port, _calls) = start(FaultPlan {
+        status_on,
+        ..FaultPlan::default()
+    });
+    let mut meter = port.open(config(500, 2)).unwrap();
+    for (code, meaning) in codes {
+        match meter.measure() {
+            Err(DeviceError::Instrument {
+                code: got,
+                meaning: m,
+                ..
+            }) => {
+                assert_eq!(got, code.to_string());
+                assert!(m.contains(meaning), "{code}: {m}");
+            }
+            other => panic!("status {code}: expected Instrument, got {other:?}"),
+        }
+    }
+    // Instrument errors are not transient: nothing was retried.
+    assert_eq!(meter.stats().retries, 0);
+    assert_close(meter.measure().unwrap(), value(0));
+}
+
+#[test]
+fn auto_ranging_status_is_repeated_then_reported() {
+    let (_emu, port, _calls) = start(FaultPlan {
+        status_on: vec![
+            StatusFault {
+                reading: 1,
+                code: 'v',
+            },
+            StatusFault {
+                reading: 2,
+                code: 'u',
+            },
+            StatusFault {
+                reading: 4,
+                code: 'v',
+            },
+        ],
+        ..FaultPlan::default()
+    });
+    let mut meter = port.open(config(500, 0)).unwrap();
+    // Readings 1 and 2 are range changes, reading 3 succeeds.
+    assert_close(meter.measure().unwrap(), value(0));
+    assert_eq!(meter.stats().range_repeats, 2);
+    let mut strict = meter.config().clone();
+    strict.range_change_retries = 0;
+    meter.set_config(strict);
+    match meter.measure() {
+        Err(DeviceError::Instrument { code, meaning, .. }) => {
+            assert_eq!(code, "v");
+            assert!(meaning.contains("range"));
+        }
+        other => panic!("expected Instrument v, got {other:?}"),
+    }
+}
+
+#[test]
+fn too_dark_limit_is_enforced_when_configured() {
+    let values = vec![Xyz::new(0.09, 0.1, 0.11), Xyz::new(9.0, 10.0, 11.0)];
+    let (_emu, port, _calls) = start_with(FaultPlan::default(), values);
+    let mut cfg = config(500, 0);
+    cfg.too_dark_below_cd_m2 = Some(0.2);
+    let mut meter = port.open(cfg).unwrap();
+    match meter.measure() {
+        Err(DeviceError::TooDark {
+            y_cd_m2,
+            limit_cd_m2,
+            ..
+        }) => {
+            assert!((y_cd_m2 - 0.1).abs() < 1e-5);
+            assert_eq!(limit_cd_m2, 0.2);
+        }
+        other => panic!("expected TooDark, got {other:?}"),
+    }
+    assert!(meter.measure().is_ok());
+}
+
+#[test]
+fn wrong_model_is_refused() {
+    let meter = ListMeter {
+        values: vec![value(0)],
+        calls: Arc::new(AtomicU32::new(0)),
+    };
+    let options = EmulatorOptions {
+        model: "CS-200".into(),
+        ..EmulatorOptions::with_time_scale(0.01)
+    };
+    let (_emu, port) =
+        Emulator::spawn_with(Box::new(meter), FaultPlan::default(), options).unwrap();
+    match KleinK10a::open(port.path(), config(300, 0)) {
+        Err(DeviceError::Config(msg)) => assert!(msg.contains("CS-200"), "{msg}"),
+        other => panic!("expected Config error, got {other:?}"),
+    }
+}
+
+#[test]
+fn missing_port_is_an_io_error() {
+    match KleinK10a::open("/dev/lumiwall-no-such-port", config(100, 0)) {
+        Err(DeviceError::Io { device, .. }) => {
+            assert!(device.contains("/dev/lumiwall-no-such-port"))
+        }
+        other => panic!("expected Io error, got {other:?}"),
+    }
+}
+
+#[test]
+fn fault_plan_is_serde() {
+    let plan = FaultPlan {
+        stop_after_readings: Some(7),
+        garbage_on: vec![2],
+        over_range_on: vec![3],
+        status_on: vec![StatusFault {
+            reading: 4,
+            code: 'b',
+        }],
+        answer_delay_ms: 5,
+        slow_on: vec![SlowAnswer {
+            reading: 5,
+            delay_ms: 100,
+        }],
+        line_drops: vec![LineDrop {
+            at_reading: 6,
+            duration_ms: 200,
+        }],
+    };
+    let json = serde_json::to_string(&plan).unwrap();
+    let back: FaultPlan = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, plan);
+    let partial: FaultPlan = serde_json::from_str(r#"{"garbage_on":[3]}"#).unwrap();
+    assert_eq!(partial.garbage_on, vec![3]);
+    assert_eq!(partial.stop_after_readings, None);
+}
