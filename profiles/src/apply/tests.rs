@@ -1,0 +1,347 @@
+//! Unit tests of the scalar post pass against analytic references.
+#![allow(clippy::needless_range_loop)]
+
+use super::model::{AnalyticDisplay, ModelProfileSpec, ToneShape};
+use super::*;
+use crate::{BlackMode, DisplayKey, Eye, FlatField};
+
+fn key() -> DisplayKey {
+    DisplayKey {
+        wall: "test".into(),
+        display: 0,
+        tile_col: 0,
+        tile_row: 0,
+        eye: Eye::Mono,
+    }
+}
+
+/// Primaries of Kresse's Infitec common gamut (Tab. 5), white ≈ 77.86 cd/m².
+fn display(gamma: f64) -> AnalyticDisplay {
+    let prim = |x: f64, y: f64, lum: f64| [x / y * lum, lum, (1.0 - x - y) / y * lum];
+    AnalyticDisplay {
+        primaries_xyz_cd_m2: [
+            prim(0.625, 0.370, 20.0),
+            prim(0.286, 0.613, 52.0),
+            prim(0.140, 0.045, 6.0),
+        ],
+        black_xyz_cd_m2: prim(0.30, 0.32, 0.4),
+        tone: [ToneShape { gamma, s_mix: 0.0 }; 3],
+    }
+}
+
+/// The same display without black light (for tests of the colour maths alone).
+fn display_no_black(gamma: f64) -> AnalyticDisplay {
+    AnalyticDisplay {
+        black_xyz_cd_m2: [0.0; 3],
+        ..display(gamma)
+    }
+}
+
+fn spec(mode: BlackMode, oog: OutOfGamut, flat: Option<FlatField>) -> ModelProfileSpec {
+    let d = display(1.0);
+    let w = [0, 1, 2].map(|i| (0..3).map(|c| d.primaries_xyz_cd_m2[c][i]).sum::<f64>() * 0.9);
+    ModelProfileSpec {
+        display: key(),
+        black_mode: mode,
+        common_black_xyz_cd_m2: [0.6, 0.6, 0.7],
+        target_white_xyz_cd_m2: w,
+        lut_entries: 4096,
+        flat_field: flat,
+        out_of_gamut: oog,
+        bit_depth: 10,
+    }
+}
+
+fn xy_of(v: [f64; 3]) -> [f64; 2] {
+    let s = v[0] + v[1] + v[2];
+    [v[0] / s, v[1] / s]
+}
+
+#[test]
+fn linear_display_gives_the_matrix_drive() {
+    let d = display_no_black(1.0);
+    let prof = d
+        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, None))
+        .unwrap();
+    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    // Drive (0.2, 0.5, 0.7) ↔ XYZ = P · drive (independent: primaries sum).
+    let want = [0.2, 0.5, 0.7];
+    let xyz = mat3::mul_vec(&d.primaries_matrix(), &want).map(|v| v as f32);
+    let out = pp.apply(xyz, [0.5, 0.5]);
+    assert!(out.flags.is_empty(), "{:?}", out.flags);
+    for c in 0..3 {
+        assert!(
+            (f64::from(out.drive[c]) - want[c]).abs() < 1e-4,
+            "{:?}",
+            out.drive
+        );
+    }
+}
+
+#[test]
+fn same_arithmetic_as_tone_curve_drive_for() {
+    let d = display(2.2);
+    let prof = d
+        .profile(&spec(BlackMode::Individual, OutOfGamut::Clip, None))
+        .unwrap();
+    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    for i in 0..=1000 {
+        let a = i as f32 / 1000.0;
+        for c in 0..3 {
+            assert_eq!(pp.luts[c].drive_for(a), prof.curves[c].drive_for(a));
+        }
+    }
+}
+
+#[test]
+fn in_gamut_colours_round_trip_through_the_model() {
+    for mode in [BlackMode::Ignore, BlackMode::Individual, BlackMode::Common] {
+        let d = display(2.2);
+        let prof = d.profile(&spec(mode, OutOfGamut::Clip, None)).unwrap();
+        let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+        for k in 1..50 {
+            let lin = [k as f64 / 50.0, ((k * 7) % 50) as f64 / 50.0 + 0.01, 0.3];
+            let xyz: [f64; 3] = mat3::mul_vec(&d.primaries_matrix(), &lin);
+            // What the viewer should see for input xyz, per mode (Kresse 3.3.6).
+            let (input, expect) = match mode {
+                BlackMode::Ignore => (xyz, [0, 1, 2].map(|c| xyz[c] + d.black_xyz_cd_m2[c])),
+                BlackMode::Individual => {
+                    let v = [0, 1, 2].map(|c| xyz[c] + d.black_xyz_cd_m2[c]);
+                    (v, v)
+                }
+                BlackMode::Common => {
+                    let cb = [0.6, 0.6, 0.7];
+                    (xyz, [0, 1, 2].map(|c| xyz[c] + cb[c]))
+                }
+            };
+            let out = pp.apply(input.map(|v| v as f32), [0.5, 0.5]);
+            if mode == BlackMode::Common && !out.flags.is_empty() {
+                continue; // raised black may push bright colours over range
+            }
+            let shown = d.emitted_xyz(out.drive.map(f64::from), [1.0; 3]).unwrap();
+            for c in 0..3 {
+                let rel = (shown[c] - expect[c]).abs() / expect[1];
+                assert!(rel < 2e-3, "{mode:?} {lin:?}: {shown:?} vs {expect:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn out_of_gamut_moves_toward_white_at_constant_luminance() {
+    let d = display_no_black(1.0);
+    let prof = d
+        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, None))
+        .unwrap();
+    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    // Spectral-locus cyan (x .08, y .5) at 10 cd/m²: outside the triangle.
+    let (x, y, lum) = (0.08, 0.5, 10.0);
+    let xyz = [x / y * lum, lum, (1.0 - x - y) / y * lum];
+    let out = pp.apply(xyz.map(|v| v as f32), [0.5, 0.5]);
+    assert!(out.flags.contains(PixelFlags::OUT_OF_GAMUT));
+    assert!(!out.flags.contains(PixelFlags::OVER_RANGE));
+    // Linear display: drive is the linear intensity, so the shown colour is P · drive.
+    let shown = d.emitted_xyz(out.drive.map(f64::from), [1.0; 3]).unwrap();
+    assert!((shown[1] - lum).abs() < 1e-3 * lum, "luminance {shown:?}");
+    // On the segment from the input's xy to the white's xy …
+    let (p, w, s) = (xy_of(xyz), xy_of(prof.target_white_xyz_cd_m2), xy_of(shown));
+    let cross = (w[0] - p[0]) * (s[1] - p[1]) - (w[1] - p[1]) * (s[0] - p[0]);
+    assert!(cross.abs() < 1e-4, "not collinear: {p:?} {w:?} {s:?}");
+    // … at the gamut boundary (one channel at zero), i.e. the smallest move.
+    let min = out.drive.iter().cloned().fold(f32::INFINITY, f32::min);
+    assert!(min.abs() < 1e-4, "{:?}", out.drive);
+}
+
+#[test]
+fn over_range_keeps_chromaticity_and_hits_full_drive() {
+    let d = display_no_black(1.0);
+    let prof = d
+        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, None))
+        .unwrap();
+    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    for lum in [100.0f64, 1e3, 1e6, 1e20, 3e38] {
+        let xyz = [0.31 / 0.33 * lum, lum, 0.36 / 0.33 * lum];
+        let out = pp.apply(xyz.map(|v| v as f32), [0.5, 0.5]);
+        assert!(out.flags.contains(PixelFlags::OVER_RANGE), "{lum}");
+        let max = out.drive.iter().cloned().fold(0.0f32, f32::max);
+        assert!((max - 1.0).abs() < 1e-5, "{:?}", out.drive);
+        let shown = d.emitted_xyz(out.drive.map(f64::from), [1.0; 3]).unwrap();
+        let (a, b) = (xy_of(xyz), xy_of(shown));
+        assert!(
+            (a[0] - b[0]).abs() < 1e-4 && (a[1] - b[1]).abs() < 1e-4,
+            "{a:?} {b:?}"
+        );
+    }
+}
+
+#[test]
+fn invalid_negative_and_zero_inputs() {
+    let d = display(2.2);
+    let prof = d
+        .profile(&spec(BlackMode::Individual, OutOfGamut::Clip, None))
+        .unwrap();
+    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    for bad in [
+        [f32::NAN, 1.0, 1.0],
+        [1.0, f32::INFINITY, 1.0],
+        [1.0, 1.0, f32::NEG_INFINITY],
+    ] {
+        let out = pp.apply(bad, [0.5, 0.5]);
+        assert_eq!(out.flags, PixelFlags::INVALID);
+        assert_eq!(out.drive, [0.0; 3]);
+    }
+    assert_eq!(
+        pp.apply([1.0; 3], [f32::NAN, 0.5]).flags,
+        PixelFlags::INVALID
+    );
+    // Zero input in individual mode: below the display's black → black, flagged so.
+    let z = pp.apply([0.0; 3], [0.5, 0.5]);
+    assert_eq!(z.drive, [0.0; 3]);
+    assert!(z.flags.contains(PixelFlags::BELOW_BLACK));
+    assert!(!z.flags.contains(PixelFlags::OUT_OF_GAMUT));
+    // Negative luminance: out of gamut, black.
+    let n = pp.apply([-5.0, -5.0, -5.0], [0.5, 0.5]);
+    assert!(n.flags.contains(PixelFlags::OUT_OF_GAMUT));
+    assert_eq!(n.drive, [0.0; 3]);
+    // False colour: markers.
+    let fc = PreparedProfile::new(
+        &prof,
+        &ApplyOptions {
+            out_of_gamut: Some(OutOfGamut::FalseColour),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(fc.apply([f32::NAN; 3], [0.5, 0.5]).drive, MARKER_INVALID);
+    assert_eq!(fc.apply([-5.0; 3], [0.5, 0.5]).drive, MARKER_OUT_OF_GAMUT);
+    assert_eq!(fc.apply([1e6; 3], [0.5, 0.5]).drive, MARKER_OVER_RANGE);
+    // Below black only is not marked in false-colour mode (it is the mode's behaviour).
+    assert_eq!(fc.apply([0.0; 3], [0.5, 0.5]).drive, [0.0; 3]);
+}
+
+#[test]
+fn near_singular_matrices() {
+    let d = display(2.2);
+    let mut prof = d
+        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, None))
+        .unwrap();
+    // Nearly collinear primaries: green a hair off the red–blue line → huge entries.
+    let mut bad = prof.clone();
+    bad.xyz_to_drive = [[1e19, -1e19, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let err = PreparedProfile::new(&bad, &ApplyOptions::default()).unwrap_err();
+    assert!(matches!(err, ApplyError::Matrix { .. }), "{err}");
+    assert!(err.to_string().contains("re-measure"));
+    // Ill-conditioned but accepted: every output finite and in 0..=1 for wild inputs.
+    prof.xyz_to_drive = [[1e6, -1e6 + 1.0, 0.0], [-1e6, 1e6, 0.01], [0.0, 0.0, 0.01]];
+    prof.target_white_xyz_cd_m2 = [1.0, 1.0, 1.0];
+    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    for xyz in [
+        [1.0f32, 1.0, 1.0],
+        [1e6, 1e6, 1e6],
+        [3e38, -3e38, 3e38],
+        [-1.0, 2.0, -3.0],
+        [1e-30, 1e-30, 1e-30],
+        [0.0, 0.0, 0.0],
+    ] {
+        let out = pp.apply(xyz, [0.5, 0.5]);
+        assert!(
+            out.drive
+                .iter()
+                .all(|v| v.is_finite() && (0.0..=1.0).contains(v)),
+            "{xyz:?} → {out:?}"
+        );
+    }
+}
+
+#[test]
+fn flat_field_divides_bilinearly() {
+    let ff = FlatField {
+        width: 2,
+        height: 2,
+        gain: vec![[1.0; 3], [0.5; 3], [0.8; 3], [0.4; 3]],
+    };
+    let d = display_no_black(1.0);
+    let prof = d
+        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, Some(ff)))
+        .unwrap();
+    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    // Texel centres at 0.25 / 0.75; centre of the display = average of the four gains.
+    let g = pp.gain_at([0.5, 0.5]);
+    assert!((g[0] - 0.675).abs() < 1e-6);
+    assert_eq!(pp.gain_at([0.25, 0.25]), [1.0; 3]);
+    assert_eq!(pp.gain_at([0.0, 1.0]), [0.8; 3]); // clamped edge
+    let lin = [0.1, 0.2, 0.15];
+    let xyz = mat3::mul_vec(&d.primaries_matrix(), &lin).map(|v| v as f32);
+    let out = pp.apply(xyz, [0.75, 0.25]);
+    // The display emits 0.5× at that texel: drive must be 2× to show the same light.
+    let shown = d.emitted_xyz(out.drive.map(f64::from), [0.5; 3]).unwrap();
+    let want = mat3::mul_vec(&d.primaries_matrix(), &lin);
+    for c in 0..3 {
+        assert!(
+            (shown[c] - want[c]).abs() < 1e-4 * want[1],
+            "{shown:?} {want:?}"
+        );
+    }
+}
+
+#[test]
+fn quantisation_and_dither() {
+    assert_eq!(quantise(0.0, 1023, 0.5), 0);
+    assert_eq!(quantise(1.0, 1023, 0.5), 1023);
+    assert_eq!(quantise(0.5, 255, 0.5), 128);
+    assert_eq!(quantise(0.4999 / 255.0, 255, 0.5), 0);
+    assert_eq!(quantise(f32::NAN, 255, 0.5), 0);
+    assert_eq!(quantise(2.0, 255, 0.5), 255);
+    let mut seen = [false; 256];
+    for y in 0..16 {
+        for x in 0..16 {
+            let t = dither_threshold(x, y);
+            let i = (t * 256.0 - 0.5).round() as usize;
+            assert!(!seen[i]);
+            seen[i] = true;
+            assert_eq!(dither_threshold(x + 16, y + 32), t);
+        }
+    }
+    // 2×2 corner follows the Bayer ordering 0 8 / 12 4 (of 16 in the 4×4 matrix, ×16).
+    assert_eq!(dither_threshold(0, 0), 0.5 / 256.0);
+    assert_eq!(dither_threshold(1, 0), 128.5 / 256.0);
+    assert_eq!(dither_threshold(0, 1), 192.5 / 256.0);
+    assert_eq!(dither_threshold(1, 1), 64.5 / 256.0);
+    // Dithered mean over a tile reproduces a drive between codes.
+    let drive = 100.3 / 255.0;
+    let mean: f64 = (0..256)
+        .map(|i| f64::from(quantise(drive, 255, dither_threshold(i % 16, i / 16))))
+        .sum::<f64>()
+        / 256.0;
+    assert!((mean - 100.3).abs() < 0.01, "{mean}");
+}
+
+#[test]
+fn unusable_profiles_are_typed_errors() {
+    let d = display(2.2);
+    let mut prof = d
+        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, None))
+        .unwrap();
+    prof.target_white_xyz_cd_m2 = [0.0, 0.0, 0.0];
+    assert!(matches!(
+        PreparedProfile::new(&prof, &ApplyOptions::default()),
+        Err(ApplyError::White { .. })
+    ));
+    let prof = d
+        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, None))
+        .unwrap();
+    let opts = ApplyOptions {
+        bit_depth: Some(9),
+        ..Default::default()
+    };
+    assert!(matches!(
+        PreparedProfile::new(&prof, &opts),
+        Err(ApplyError::BitDepth(9))
+    ));
+    let mut bad = prof.clone();
+    bad.curves[1].inverse_lut[10] = 0.9; // non-monotone LUT
+    assert!(matches!(
+        apply_pixel(&bad, [1.0; 3], [0.5; 2], &ApplyOptions::default()),
+        Err(ApplyError::Profile(_))
+    ));
+}
