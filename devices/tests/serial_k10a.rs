@@ -1,5 +1,6 @@
 //! The Klein K-10-A driver against its emulator, through a real pseudo-terminal:
 //! round trip of readings, every injected fault, the retry and resync policy.
+#![cfg(feature = "serial")]
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU32, Ordering};
