@@ -1,6 +1,7 @@
 //! Input checks and repair of triangle meshes (Kresse 2.2.6).
 
-use super::indexed::IndexedMesh;
+use super::indexed::{IndexedMesh, dot, len, sub, tri_normal};
+use std::collections::{HashMap, HashSet, VecDeque};
 
 /// Tolerances of [`check_and_repair_with`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -64,12 +65,407 @@ pub fn check_and_repair(mesh: &mut IndexedMesh) -> MeshReport {
 }
 
 /// Checks and repairs `mesh` in place. Never panics on any input.
-pub fn check_and_repair_with(mesh: &mut IndexedMesh, _options: &RepairOptions) -> MeshReport {
-    MeshReport {
+///
+/// Steps, in order:
+/// 1. triangles with an out-of-range index or a non-finite corner are dropped;
+/// 2. vertices within `weld_tolerance_m` are welded (first one wins);
+/// 3. degenerate triangles (repeated vertex after welding, area < `min_area_m2`) and
+///    duplicates (same three vertices in any order) are removed;
+/// 4. T-vertices: a vertex lying inside a boundary edge (within the weld tolerance)
+///    splits the triangle owning that edge, repeated until none is left;
+/// 5. orientation: across manifold edges (exactly two triangles) windings are made
+///    consistent by breadth-first propagation; per component the majority winding
+///    of the input is kept (a closed shell may be a solid seen from outside or a room
+///    seen from inside, so no inside/outside guess is made);
+/// 6. unreferenced vertices are removed.
+///
+/// Non-manifold edges (more than two triangles) are reported but left as they are;
+/// orientation is not propagated across them.
+pub fn check_and_repair_with(mesh: &mut IndexedMesh, options: &RepairOptions) -> MeshReport {
+    let mut report = MeshReport {
         input_vertices: mesh.positions.len(),
         input_triangles: mesh.triangles.len(),
-        output_vertices: mesh.positions.len(),
-        output_triangles: mesh.triangles.len(),
         ..MeshReport::default()
+    };
+    let tol = if options.weld_tolerance_m.is_finite() {
+        options.weld_tolerance_m.max(0.0)
+    } else {
+        0.0
+    };
+    let min_area = if options.min_area_m2.is_finite() {
+        options.min_area_m2.max(0.0)
+    } else {
+        0.0
+    };
+
+    // 1. invalid triangles
+    let n_pos = mesh.positions.len();
+    let finite: Vec<bool> = mesh
+        .positions
+        .iter()
+        .map(|p| p.iter().all(|v| v.is_finite()))
+        .collect();
+    let before = mesh.triangles.len();
+    mesh.triangles.retain(|t| {
+        t.iter()
+            .all(|&i| (i as usize) < n_pos && finite[i as usize])
+    });
+    report.invalid_triangles_removed = before - mesh.triangles.len();
+
+    // 2. weld
+    let remap = weld(&mesh.positions, &finite, tol);
+    report.vertices_welded = remap
+        .iter()
+        .enumerate()
+        .filter(|(i, r)| finite[*i] && **r as usize != *i)
+        .count();
+    for t in &mut mesh.triangles {
+        for i in t.iter_mut() {
+            *i = remap[*i as usize];
+        }
+    }
+
+    // 3. degenerate and duplicate triangles
+    let before = mesh.triangles.len();
+    let positions = &mesh.positions;
+    mesh.triangles.retain(|t| {
+        t[0] != t[1]
+            && t[1] != t[2]
+            && t[0] != t[2]
+            && 0.5 * len(tri_normal(&corners(positions, t))) >= min_area
+    });
+    report.degenerate_triangles_removed = before - mesh.triangles.len();
+    let before = mesh.triangles.len();
+    let mut seen = HashSet::with_capacity(mesh.triangles.len());
+    mesh.triangles.retain(|t| {
+        let mut k = *t;
+        k.sort_unstable();
+        seen.insert(k)
+    });
+    report.duplicate_triangles_removed = before - mesh.triangles.len();
+
+    // 4. T-vertices
+    report.t_vertices_fixed = fix_t_vertices(mesh, tol, min_area);
+
+    // 5. orientation
+    let topo = orient(mesh);
+    report.triangles_flipped = topo.flipped;
+    report.components = topo.components;
+    report.non_orientable_components = topo.non_orientable;
+
+    // 6. unused vertices
+    let mut used = vec![u32::MAX; mesh.positions.len()];
+    let mut new_pos = Vec::new();
+    for t in &mut mesh.triangles {
+        for i in t.iter_mut() {
+            let u = &mut used[*i as usize];
+            if *u == u32::MAX {
+                *u = new_pos.len() as u32;
+                new_pos.push(mesh.positions[*i as usize]);
+            }
+            *i = *u;
+        }
+    }
+    report.unused_vertices_removed =
+        mesh.positions.len() - new_pos.len() - report.vertices_welded;
+    mesh.positions = new_pos;
+
+    let edges = edge_map(&mesh.triangles);
+    report.non_manifold_edges = edges.values().filter(|v| v.len() > 2).count();
+    report.boundary_edges = edges.values().filter(|v| v.len() == 1).count();
+    report.output_vertices = mesh.positions.len();
+    report.output_triangles = mesh.triangles.len();
+    report
+}
+
+fn corners(p: &[[f64; 3]], t: &[u32; 3]) -> [[f64; 3]; 3] {
+    [p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]]
+}
+
+type Cell = (i64, i64, i64);
+
+fn cell_of(p: [f64; 3], h: f64) -> Cell {
+    // `as` saturates for huge values, which only merges far-away cells (still correct
+    // because distances are re-checked).
+    (
+        (p[0] / h).floor() as i64,
+        (p[1] / h).floor() as i64,
+        (p[2] / h).floor() as i64,
+    )
+}
+
+fn neighbours(c: Cell) -> impl Iterator<Item = Cell> {
+    (-1i64..=1).flat_map(move |dx| {
+        (-1i64..=1).flat_map(move |dy| {
+            (-1i64..=1).map(move |dz| {
+                (
+                    c.0.saturating_add(dx),
+                    c.1.saturating_add(dy),
+                    c.2.saturating_add(dz),
+                )
+            })
+        })
+    })
+}
+
+/// Maps each vertex to its representative (the first vertex within `tol`).
+fn weld(pos: &[[f64; 3]], finite: &[bool], tol: f64) -> Vec<u32> {
+    let mut remap: Vec<u32> = (0..pos.len() as u32).collect();
+    if tol > 0.0 {
+        let mut grid: HashMap<Cell, Vec<u32>> = HashMap::new();
+        for (i, p) in pos.iter().enumerate() {
+            if !finite[i] {
+                continue;
+            }
+            let c = cell_of(*p, tol);
+            let found = neighbours(c).find_map(|nc| {
+                grid.get(&nc).and_then(|v| {
+                    v.iter()
+                        .copied()
+                        .find(|&j| len(sub(pos[j as usize], *p)) <= tol)
+                })
+            });
+            match found {
+                Some(j) => remap[i] = j,
+                None => grid.entry(c).or_default().push(i as u32),
+            }
+        }
+    } else {
+        let mut exact: HashMap<[u64; 3], u32> = HashMap::new();
+        for (i, p) in pos.iter().enumerate() {
+            if finite[i] {
+                let key = [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()];
+                remap[i] = *exact.entry(key).or_insert(i as u32);
+            }
+        }
+    }
+    remap
+}
+
+/// Undirected edge (min, max) → list of (triangle, traversed min→max).
+fn edge_map(tris: &[[u32; 3]]) -> HashMap<(u32, u32), Vec<(u32, bool)>> {
+    let mut m: HashMap<(u32, u32), Vec<(u32, bool)>> = HashMap::with_capacity(tris.len() * 2);
+    for (ti, t) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let key = (a.min(b), a.max(b));
+            m.entry(key).or_default().push((ti as u32, a < b));
+        }
+    }
+    m
+}
+
+fn fix_t_vertices(mesh: &mut IndexedMesh, tol: f64, min_area: f64) -> usize {
+    let mut fixed = 0;
+    for _pass in 0..16 {
+        let edges = edge_map(&mesh.triangles);
+        let boundary: Vec<((u32, u32), u32)> = edges
+            .iter()
+            .filter(|(_, v)| v.len() == 1)
+            .map(|(k, v)| (*k, v[0].0))
+            .collect();
+        if boundary.is_empty() {
+            break;
+        }
+        // grid of referenced vertices with a cell of about the mean boundary-edge length
+        let pos = &mesh.positions;
+        let mean_len = boundary
+            .iter()
+            .map(|((a, b), _)| len(sub(pos[*a as usize], pos[*b as usize])))
+            .sum::<f64>()
+            / boundary.len() as f64;
+        let h = mean_len.max(tol * 4.0).max(1e-12);
+        if !h.is_finite() {
+            break;
+        }
+        let mut referenced = vec![false; pos.len()];
+        for t in &mesh.triangles {
+            for &i in t {
+                referenced[i as usize] = true;
+            }
+        }
+        let mut grid: HashMap<Cell, Vec<u32>> = HashMap::new();
+        for (i, p) in pos.iter().enumerate() {
+            if referenced[i] {
+                grid.entry(cell_of(*p, h)).or_default().push(i as u32);
+            }
+        }
+        // per triangle: the first edge (by corner) with T-vertices, and those vertices
+        let mut splits: HashMap<u32, (usize, Vec<(f64, u32)>)> = HashMap::new();
+        for ((a, b), tri) in boundary {
+            let (pa, pb) = (pos[a as usize], pos[b as usize]);
+            let ab = sub(pb, pa);
+            let l = len(ab);
+            if !(l > 2.0 * tol) {
+                continue;
+            }
+            let steps = ((l / h).ceil() as usize).clamp(1, 1_000_000);
+            let mut cand: Vec<u32> = Vec::new();
+            for s in 0..=steps {
+                let f = s as f64 / steps as f64;
+                let p = [pa[0] + ab[0] * f, pa[1] + ab[1] * f, pa[2] + ab[2] * f];
+                for nc in neighbours(cell_of(p, h)) {
+                    if let Some(v) = grid.get(&nc) {
+                        cand.extend_from_slice(v);
+                    }
+                }
+            }
+            cand.sort_unstable();
+            cand.dedup();
+            let mut on_edge: Vec<(f64, u32)> = Vec::new();
+            for v in cand {
+                if v == a || v == b {
+                    continue;
+                }
+                let pv = pos[v as usize];
+                let s = dot(sub(pv, pa), ab) / (l * l);
+                if s * l <= tol || (1.0 - s) * l <= tol {
+                    continue;
+                }
+                let foot = [pa[0] + ab[0] * s, pa[1] + ab[1] * s, pa[2] + ab[2] * s];
+                if len(sub(pv, foot)) <= tol {
+                    on_edge.push((s, v));
+                }
+            }
+            if on_edge.is_empty() {
+                continue;
+            }
+            let t = mesh.triangles[tri as usize];
+            let Some(k) = (0..3).find(|&k| {
+                let (x, y) = (t[k], t[(k + 1) % 3]);
+                (x.min(y), x.max(y)) == (a, b)
+            }) else {
+                continue;
+            };
+            // order along the triangle's own direction of the edge
+            if t[k] != a {
+                for e in &mut on_edge {
+                    e.0 = 1.0 - e.0;
+                }
+            }
+            on_edge.sort_by(|x, y| x.0.total_cmp(&y.0));
+            splits.entry(tri).or_insert((k, on_edge));
+        }
+        if splits.is_empty() {
+            break;
+        }
+        let mut new_tris = Vec::with_capacity(mesh.triangles.len() + splits.len() * 2);
+        for (ti, t) in mesh.triangles.iter().enumerate() {
+            match splits.get(&(ti as u32)) {
+                None => new_tris.push(*t),
+                Some((k, verts)) => {
+                    let (x, y, z) = (t[*k], t[(*k + 1) % 3], t[(*k + 2) % 3]);
+                    let mut chain = vec![x];
+                    chain.extend(verts.iter().map(|v| v.1));
+                    chain.push(y);
+                    for w in chain.windows(2) {
+                        let nt = [w[0], w[1], z];
+                        if 0.5 * len(tri_normal(&corners(&mesh.positions, &nt))) >= min_area {
+                            new_tris.push(nt);
+                        }
+                    }
+                    fixed += verts.len();
+                }
+            }
+        }
+        mesh.triangles = new_tris;
+    }
+    fixed
+}
+
+struct Orientation {
+    flipped: usize,
+    components: usize,
+    non_orientable: usize,
+}
+
+fn orient(mesh: &mut IndexedMesh) -> Orientation {
+    let n = mesh.triangles.len();
+    let edges = edge_map(&mesh.triangles);
+    // adjacency over manifold edges: (neighbour, same direction on the shared edge)
+    let mut adj: Vec<Vec<(u32, bool)>> = vec![Vec::new(); n];
+    // connectivity over any shared edge (for the component count)
+    let mut uf = UnionFind::new(n);
+    for v in edges.values() {
+        for w in v.windows(2) {
+            uf.union(w[0].0 as usize, w[1].0 as usize);
+        }
+        if v.len() == 2 && v[0].0 != v[1].0 {
+            let same = v[0].1 == v[1].1;
+            adj[v[0].0 as usize].push((v[1].0, same));
+            adj[v[1].0 as usize].push((v[0].0, same));
+        }
+    }
+    let mut flip: Vec<Option<bool>> = vec![None; n];
+    let mut flipped = 0;
+    let mut non_orientable_roots = HashSet::new();
+    let mut queue = VecDeque::new();
+    for seed in 0..n {
+        if flip[seed].is_some() {
+            continue;
+        }
+        flip[seed] = Some(false);
+        queue.push_back(seed);
+        let mut members = vec![seed];
+        let mut conflict = false;
+        while let Some(t) = queue.pop_front() {
+            let ft = flip[t].unwrap_or(false);
+            for &(nb, same) in &adj[t] {
+                let want = ft ^ same;
+                match flip[nb as usize] {
+                    None => {
+                        flip[nb as usize] = Some(want);
+                        members.push(nb as usize);
+                        queue.push_back(nb as usize);
+                    }
+                    Some(f) if f != want => conflict = true,
+                    Some(_) => {}
+                }
+            }
+        }
+        if conflict {
+            non_orientable_roots.insert(uf.find(seed));
+        }
+        // keep the majority winding of the input
+        let to_flip = members.iter().filter(|&&m| flip[m] == Some(true)).count();
+        let invert = 2 * to_flip > members.len();
+        for &m in &members {
+            let f = flip[m].unwrap_or(false) ^ invert;
+            if f {
+                mesh.triangles[m].swap(1, 2);
+                flipped += 1;
+            }
+        }
+    }
+    let components: HashSet<usize> = (0..n).map(|i| uf.find(i)).collect();
+    Orientation {
+        flipped,
+        components: components.len(),
+        non_orientable: non_orientable_roots.len(),
+    }
+}
+
+struct UnionFind {
+    parent: Vec<usize>,
+}
+
+impl UnionFind {
+    fn new(n: usize) -> Self {
+        Self {
+            parent: (0..n).collect(),
+        }
+    }
+    fn find(&mut self, mut x: usize) -> usize {
+        while self.parent[x] != x {
+            self.parent[x] = self.parent[self.parent[x]];
+            x = self.parent[x];
+        }
+        x
+    }
+    fn union(&mut self, a: usize, b: usize) {
+        let (ra, rb) = (self.find(a), self.find(b));
+        if ra != rb {
+            self.parent[ra.max(rb)] = ra.min(rb);
+        }
     }
 }

@@ -2,7 +2,10 @@
 //! floor, vaulted ceiling, walls, columns and arches, lit by a mix of point, spot and
 //! goniometric lights (Kresse's Siena cathedral scale: 150 000 polygons, 500 lights).
 
-use super::indexed::IndexedMesh;
+use super::indexed::{IndexedMesh, add, cross, dot, scale, sub};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::f64::consts::{PI, TAU};
 use crate::photometry::{IntensityDistribution, LightFrame};
 
 /// Kind of a generated light.
@@ -52,13 +55,299 @@ pub struct GeneratedScene {
 }
 
 /// Generates a scene with at least `triangles` triangles and exactly `lights`
-/// lights, deterministic for a given `seed`.
+/// lights (cycling point, spot, goniometric), deterministic for a given `seed`.
+///
+/// Layout: a nave along +x made of bays 6 m long and 12 m wide, each with floor,
+/// side walls up to the springing line at 9 m, a barrel vault, two columns (radius
+/// 0.4 m) carrying arches of the arcade towards the next bay, and on alternating
+/// sides a closed side chapel (room) 4 m deep. Both ends of the nave are closed by
+/// walls and lunettes. Surfaces facing into air are front faces: room surfaces face
+/// inwards, columns and arches outwards. The tessellation density is raised until the
+/// triangle count reaches `triangles`; lights are placed at random in the nave (90 %)
+/// and in the chapels.
 pub fn generate_scale_scene(triangles: usize, lights: usize, seed: u64) -> GeneratedScene {
-    let _ = (triangles, lights, seed);
-    GeneratedScene {
-        mesh: IndexedMesh::default(),
-        triangle_material: Vec::new(),
-        materials: Vec::new(),
-        lights: Vec::new(),
+    let target = triangles.max(1);
+    let bays = ((target as f64 / 500.0).sqrt().round() as usize).clamp(2, 400);
+    // per-bay count ≈ 23 n² + 32 n; start just below and grow
+    let per_bay = target as f64 / bays as f64;
+    let mut n = (((per_bay / 23.0).sqrt()) as usize).clamp(2, 2000);
+    loop {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut b = Builder::new(&mut rng);
+        b.nave(bays, n);
+        if b.mesh.triangles.len() >= target || n >= 4000 {
+            let lights = b.lights(lights, bays);
+            return GeneratedScene {
+                mesh: b.mesh,
+                triangle_material: b.tri_mat,
+                materials: b.materials,
+                lights,
+            };
+        }
+        n += 1.max(n / 16);
     }
+}
+
+const BAY_LEN: f64 = 6.0;
+const NAVE_W: f64 = 12.0;
+const SPRING_Z: f64 = 9.0;
+const COLUMN_Y: f64 = 4.0;
+const COLUMN_R: f64 = 0.4;
+const COLUMN_H: f64 = 6.0;
+const CHAPEL_D: f64 = 4.0;
+const CHAPEL_H: f64 = 6.0;
+const WALL_T: f64 = 0.3;
+
+#[derive(Clone, Copy)]
+enum Mat {
+    Floor = 0,
+    Wall = 1,
+    Vault = 2,
+    Column = 3,
+    Arch = 4,
+    Chapel = 5,
+}
+
+struct Builder<'r> {
+    rng: &'r mut ChaCha8Rng,
+    mesh: IndexedMesh,
+    tri_mat: Vec<u32>,
+    materials: Vec<GeneratedMaterial>,
+}
+
+impl<'r> Builder<'r> {
+    fn new(rng: &'r mut ChaCha8Rng) -> Self {
+        let base = [
+            ("floor", 0.3),
+            ("wall", 0.6),
+            ("vault", 0.7),
+            ("column", 0.5),
+            ("arch", 0.55),
+            ("chapel", 0.65),
+        ];
+        let materials = base
+            .iter()
+            .map(|(name, r)| GeneratedMaterial {
+                name: (*name).to_string(),
+                reflectance: (r + rng.random_range(-0.05f64..0.05)).clamp(0.05, 0.95),
+            })
+            .collect();
+        Self {
+            rng,
+            mesh: IndexedMesh::default(),
+            tri_mat: Vec::new(),
+            materials,
+        }
+    }
+
+    /// A parametric patch p(u, v), u, v ∈ [0, 1], `nu` × `nv` quads split in two;
+    /// the winding is chosen so that the normal agrees with `facing(p)` at the patch
+    /// centre.
+    fn patch<F, G>(&mut self, f: F, nu: usize, nv: usize, mat: Mat, facing: G)
+    where
+        F: Fn(f64, f64) -> [f64; 3],
+        G: Fn([f64; 3]) -> [f64; 3],
+    {
+        let (nu, nv) = (nu.max(1), nv.max(1));
+        let base = self.mesh.positions.len() as u32;
+        for j in 0..=nv {
+            for i in 0..=nu {
+                self.mesh
+                    .positions
+                    .push(f(i as f64 / nu as f64, j as f64 / nv as f64));
+            }
+        }
+        let c = f(0.5, 0.5);
+        let du = sub(f(0.5 + 0.25 / nu as f64, 0.5), f(0.5 - 0.25 / nu as f64, 0.5));
+        let dv = sub(f(0.5, 0.5 + 0.25 / nv as f64), f(0.5, 0.5 - 0.25 / nv as f64));
+        let flip = dot(cross(du, dv), facing(c)) < 0.0;
+        let idx = |i: usize, j: usize| base + (j * (nu + 1) + i) as u32;
+        for j in 0..nv {
+            for i in 0..nu {
+                let (a, b, cc, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
+                for t in [[a, b, cc], [a, cc, d]] {
+                    let t = if flip { [t[0], t[2], t[1]] } else { t };
+                    self.mesh.triangles.push(t);
+                    self.tri_mat.push(mat as u32);
+                }
+            }
+        }
+    }
+
+    fn quad(&mut self, o: [f64; 3], u: [f64; 3], v: [f64; 3], nu: usize, nv: usize, mat: Mat, facing: [f64; 3]) {
+        self.patch(
+            |a, b| add(o, add(scale(u, a), scale(v, b))),
+            nu,
+            nv,
+            mat,
+            |_| facing,
+        );
+    }
+
+    fn nave(&mut self, bays: usize, n: usize) {
+        let r = NAVE_W / 2.0;
+        let len_total = bays as f64 * BAY_LEN;
+        for bay in 0..bays {
+            let x0 = bay as f64 * BAY_LEN;
+            let xm = x0 + BAY_LEN / 2.0;
+            // floor, walls, vault
+            self.quad([x0, -r, 0.0], [BAY_LEN, 0.0, 0.0], [0.0, NAVE_W, 0.0], n, 2 * n, Mat::Floor, [0.0, 0.0, 1.0]);
+            self.quad([x0, -r, 0.0], [BAY_LEN, 0.0, 0.0], [0.0, 0.0, SPRING_Z], n, n, Mat::Wall, [0.0, 1.0, 0.0]);
+            self.quad([x0, r, 0.0], [BAY_LEN, 0.0, 0.0], [0.0, 0.0, SPRING_Z], n, n, Mat::Wall, [0.0, -1.0, 0.0]);
+            self.patch(
+                |u, v| {
+                    let phi = v * PI;
+                    [x0 + u * BAY_LEN, r * phi.cos(), SPRING_Z + r * phi.sin()]
+                },
+                n,
+                2 * n,
+                Mat::Vault,
+                |p| [0.0, -p[1], SPRING_Z - p[2]],
+            );
+            // columns
+            for side in [-1.0, 1.0] {
+                let (cx, cy) = (xm, side * COLUMN_Y);
+                self.patch(
+                    |u, v| {
+                        let th = u * TAU;
+                        [cx + COLUMN_R * th.cos(), cy + COLUMN_R * th.sin(), v * COLUMN_H]
+                    },
+                    2 * n,
+                    2 * n,
+                    Mat::Column,
+                    |p| [p[0] - cx, p[1] - cy, 0.0],
+                );
+                // arch towards the next bay's column
+                if bay + 1 < bays {
+                    self.arch(xm, xm + BAY_LEN, cy, n);
+                }
+            }
+            // side chapel on alternating sides, outside the wall
+            let side = if bay % 2 == 0 { 1.0 } else { -1.0 };
+            let y_in = side * (r + WALL_T);
+            let y_out = side * (r + WALL_T + CHAPEL_D);
+            self.room(
+                [x0 + 0.5, y_in.min(y_out), 0.0],
+                [x0 + BAY_LEN - 0.5, y_in.max(y_out), CHAPEL_H],
+                n.div_ceil(2),
+            );
+        }
+        // end walls and lunettes
+        for (x, facing) in [(0.0, 1.0), (len_total, -1.0)] {
+            self.quad([x, -r, 0.0], [0.0, NAVE_W, 0.0], [0.0, 0.0, SPRING_Z], 2 * n, n, Mat::Wall, [facing, 0.0, 0.0]);
+            self.patch(
+                |u, v| {
+                    let phi = u * PI;
+                    let rr = v * r;
+                    [x, rr * phi.cos(), SPRING_Z + rr * phi.sin()]
+                },
+                2 * n,
+                n,
+                Mat::Wall,
+                |_| [facing, 0.0, 0.0],
+            );
+        }
+    }
+
+    fn arch(&mut self, xa: f64, xb: f64, y: f64, n: usize) {
+        let xm = 0.5 * (xa + xb);
+        let rad = 0.5 * (xb - xa) - COLUMN_R;
+        let depth = 0.6;
+        let t = COLUMN_R;
+        let zc = COLUMN_H;
+        let on = |theta: f64, rr: f64, yy: f64| [xm + rr * theta.cos(), yy, zc + rr * theta.sin()];
+        let centre = [xm, y, zc];
+        // intrados (underside), extrados (top), two faces
+        self.patch(|u, v| on(u * PI, rad, y - t + 2.0 * t * v), 2 * n, 1, Mat::Arch, |p| sub(centre, [p[0], y, p[2]]));
+        self.patch(|u, v| on(u * PI, rad + depth, y - t + 2.0 * t * v), 2 * n, 1, Mat::Arch, |p| sub([p[0], y, p[2]], centre));
+        for s in [-1.0, 1.0] {
+            self.patch(|u, v| on(u * PI, rad + depth * v, y + s * t), 2 * n, 1, Mat::Arch, |_| [0.0, s, 0.0]);
+        }
+    }
+
+    /// Closed box room with inward-facing walls.
+    fn room(&mut self, lo: [f64; 3], hi: [f64; 3], n: usize) {
+        let d = sub(hi, lo);
+        let m = Mat::Chapel;
+        self.quad(lo, [d[0], 0.0, 0.0], [0.0, d[1], 0.0], n, n, m, [0.0, 0.0, 1.0]);
+        self.quad([lo[0], lo[1], hi[2]], [d[0], 0.0, 0.0], [0.0, d[1], 0.0], n, n, m, [0.0, 0.0, -1.0]);
+        self.quad(lo, [d[0], 0.0, 0.0], [0.0, 0.0, d[2]], n, n, m, [0.0, 1.0, 0.0]);
+        self.quad([lo[0], hi[1], lo[2]], [d[0], 0.0, 0.0], [0.0, 0.0, d[2]], n, n, m, [0.0, -1.0, 0.0]);
+        self.quad(lo, [0.0, d[1], 0.0], [0.0, 0.0, d[2]], n, n, m, [1.0, 0.0, 0.0]);
+        self.quad([hi[0], lo[1], lo[2]], [0.0, d[1], 0.0], [0.0, 0.0, d[2]], n, n, m, [-1.0, 0.0, 0.0]);
+    }
+
+    fn lights(&mut self, count: usize, bays: usize) -> Vec<GeneratedLight> {
+        let len_total = bays as f64 * BAY_LEN;
+        let gonio = batwing();
+        (0..count)
+            .map(|i| {
+                let in_chapel = self.rng.random_bool(0.1);
+                let position = if in_chapel {
+                    let bay = self.rng.random_range(0..bays);
+                    let side = if bay % 2 == 0 { 1.0 } else { -1.0 };
+                    let y = side * (NAVE_W / 2.0 + WALL_T + CHAPEL_D / 2.0);
+                    [bay as f64 * BAY_LEN + BAY_LEN / 2.0, y, CHAPEL_H - 0.5]
+                } else {
+                    [
+                        self.rng.random_range(0.5..len_total - 0.5),
+                        self.rng.random_range(-2.5..2.5),
+                        self.rng.random_range(3.0..SPRING_Z - 0.5),
+                    ]
+                };
+                let flux_lm = self.rng.random_range(500.0..5000.0);
+                let kind = match i % 3 {
+                    0 => GeneratedLightKind::Point,
+                    1 => GeneratedLightKind::Spot,
+                    _ => GeneratedLightKind::Goniometric,
+                };
+                let tilt = [
+                    self.rng.random_range(-0.5..0.5),
+                    self.rng.random_range(-0.5..0.5),
+                    -1.0,
+                ];
+                let (frame, distribution) = match kind {
+                    GeneratedLightKind::Point => (
+                        LightFrame::identity(),
+                        IntensityDistribution::isotropic(1.0).scaled_to_flux(flux_lm),
+                    ),
+                    GeneratedLightKind::Spot => {
+                        let outer = self.rng.random_range(0.3..0.8);
+                        (
+                            LightFrame::aimed(tilt),
+                            IntensityDistribution::spot(1.0, 0.6 * outer, outer).scaled_to_flux(flux_lm),
+                        )
+                    }
+                    GeneratedLightKind::Goniometric => {
+                        (LightFrame::aimed(tilt), gonio.clone().scaled_to_flux(flux_lm))
+                    }
+                };
+                GeneratedLight {
+                    kind,
+                    position,
+                    frame,
+                    distribution,
+                }
+            })
+            .collect()
+    }
+}
+
+/// A batwing-like goniometric table (10° steps, mild C dependence), 1 cd peak scale.
+fn batwing() -> IntensityDistribution {
+    let c: Vec<f64> = (0..36).map(|k| k as f64 * 10.0).collect();
+    let g: Vec<f64> = (0..=18).map(|k| k as f64 * 10.0).collect();
+    let mut cd = Vec::with_capacity(c.len() * g.len());
+    for cc in &c {
+        for gg in &g {
+            let (cr, gr) = (cc.to_radians(), gg.to_radians());
+            let down = if *gg <= 90.0 {
+                gr.cos() + 0.8 * (2.0 * gr).sin().powi(2)
+            } else {
+                0.05
+            };
+            cd.push(down * (1.0 + 0.2 * (2.0 * cr).cos()));
+        }
+    }
+    IntensityDistribution::from_c_gamma_table(&c, &g, &cd).unwrap_or_else(|_| IntensityDistribution::isotropic(1.0))
 }
