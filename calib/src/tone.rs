@@ -1,1 +1,368 @@
-//! tone (being written).
+//! Tone-curve fit and exact inverse (Kresse 2003, 3.3.4).
+//!
+//! Method, per channel:
+//! 1. Drop nothing silently: non-finite samples or drives outside 0..=1 are errors;
+//!    samples at the same drive are averaged; intensities are normalised by the mean of
+//!    the full-drive samples (if any).
+//! 2. Weighted isotonic regression (pool-adjacent-violators) with the end points (0, 0)
+//!    and (1, 1) pinned by very large weights, so noisy, non-monotone ramps become
+//!    monotone; each pooled block becomes one knot at its weighted mean drive.
+//! 3. A shape-preserving monotone cubic (Fritsch–Carlson / PCHIP, as SciPy's
+//!    `PchipInterpolator`) through the knots in a perceptual domain
+//!    `u = intensity^(1/γ̂)`, with γ̂ the least-squares log–log slope of the knots. A pure
+//!    power law is then a straight line in `u` and is recovered exactly; S-curves are
+//!    close to straight. The power map is monotone, so the curve stays monotone.
+//! 4. The inverse LUT is built by bisection on that interpolant: entry `i` is the lowest
+//!    drive whose intensity reaches `i/(n−1)` (flat regions map to their lowest drive).
+//!
+//! [`suggest_next_drive`] places ramp samples adaptively: it splits the ramp segment
+//! that is longest in the (drive, cube-root intensity) plane.
+
+use lumiwall_profiles::{MIN_LUT_ENTRIES, ToneCurve};
+
+use crate::CalibError;
+
+/// Weight of the pinned end points (0, 0) and (1, 1) in the isotonic regression.
+const ANCHOR_WEIGHT: f64 = 1e9;
+/// Drives closer than this are treated as the same drive.
+const SAME_DRIVE: f64 = 1e-9;
+/// Number of forward samples stored in a [`ToneCurve`].
+pub const FORWARD_SAMPLES: usize = 513;
+/// Range allowed for the perceptual-domain exponent γ̂.
+const GAMMA_RANGE: (f64, f64) = (0.25, 6.0);
+
+/// A fitted, monotone non-decreasing tone curve: relative intensity as a function of
+/// drive, with `eval(0) = 0` and `eval(1) = 1`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MonotoneCurve {
+    /// Knot drives, strictly increasing, first 0 and last 1.
+    drives: Vec<f64>,
+    /// Knot values in the perceptual domain `u = intensity^(1/gamma)`, non-decreasing.
+    u: Vec<f64>,
+    /// PCHIP slopes du/ddrive at the knots.
+    slopes: Vec<f64>,
+    /// Exponent of the perceptual domain.
+    gamma: f64,
+}
+
+impl MonotoneCurve {
+    /// Relative intensity (0..=1) at `drive` (clamped to 0..=1).
+    pub fn eval(&self, drive: f64) -> f64 {
+        let d = drive.clamp(0.0, 1.0);
+        let n = self.drives.len();
+        let k = self.drives.partition_point(|x| *x <= d).clamp(1, n - 1) - 1;
+        let (x0, x1) = (self.drives[k], self.drives[k + 1]);
+        let h = x1 - x0;
+        let t = ((d - x0) / h).clamp(0.0, 1.0);
+        let (t2, t3) = (t * t, t * t * t);
+        let u = (2.0 * t3 - 3.0 * t2 + 1.0) * self.u[k]
+            + (t3 - 2.0 * t2 + t) * h * self.slopes[k]
+            + (-2.0 * t3 + 3.0 * t2) * self.u[k + 1]
+            + (t3 - t2) * h * self.slopes[k + 1];
+        u.clamp(0.0, 1.0).powf(self.gamma)
+    }
+
+    /// Lowest drive whose intensity reaches `intensity` (clamped to 0..=1), by
+    /// bisection to 1e-12 in drive.
+    pub fn inverse(&self, intensity: f64) -> f64 {
+        let target = intensity.clamp(0.0, 1.0);
+        if target <= 0.0 {
+            return 0.0;
+        }
+        let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
+        for _ in 0..48 {
+            let mid = 0.5 * (lo + hi);
+            if self.eval(mid) >= target {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        hi
+    }
+
+    /// Exponent γ̂ of the perceptual interpolation domain (≈ the display gamma).
+    pub fn gamma(&self) -> f64 {
+        self.gamma
+    }
+
+    /// The knots `[drive, intensity]` after isotonic regression.
+    pub fn knots(&self) -> Vec<[f64; 2]> {
+        self.drives
+            .iter()
+            .zip(&self.u)
+            .map(|(d, u)| [*d, u.powf(self.gamma)])
+            .collect()
+    }
+
+    /// Builds the profile's [`ToneCurve`]: [`FORWARD_SAMPLES`] forward samples evenly
+    /// spaced in drive and an inverse LUT of `lut_entries` (≥ [`MIN_LUT_ENTRIES`]).
+    pub fn to_tone_curve(&self, lut_entries: usize) -> Result<ToneCurve, CalibError> {
+        if lut_entries < MIN_LUT_ENTRIES {
+            return Err(CalibError::InvalidOption {
+                option: "lut_entries".into(),
+                reason: format!("{lut_entries} is below the minimum of {MIN_LUT_ENTRIES}"),
+            });
+        }
+        let forward = (0..FORWARD_SAMPLES)
+            .map(|i| {
+                let d = i as f64 / (FORWARD_SAMPLES - 1) as f64;
+                [d, self.eval(d)]
+            })
+            .collect();
+        let mut inverse_lut = Vec::with_capacity(lut_entries);
+        let mut prev = 0.0_f32;
+        for i in 0..lut_entries {
+            let t = i as f64 / (lut_entries - 1) as f64;
+            let d = (self.inverse(t) as f32).clamp(0.0, 1.0).max(prev);
+            inverse_lut.push(d);
+            prev = d;
+        }
+        Ok(ToneCurve {
+            forward,
+            inverse_lut,
+        })
+    }
+}
+
+/// Weighted pool-adjacent-violators: non-decreasing least-squares fit. Returns blocks
+/// as `(weighted mean drive, value, weight)`.
+fn pava(points: &[(f64, f64, f64)]) -> Vec<(f64, f64, f64)> {
+    // Each block: (sum w·x, sum w·y, sum w).
+    let mut blocks: Vec<(f64, f64, f64)> = Vec::with_capacity(points.len());
+    for &(x, y, w) in points {
+        blocks.push((w * x, w * y, w));
+        while blocks.len() > 1 {
+            let n = blocks.len();
+            let (a, b) = (blocks[n - 2], blocks[n - 1]);
+            if a.1 / a.2 > b.1 / b.2 {
+                blocks.truncate(n - 2);
+                blocks.push((a.0 + b.0, a.1 + b.1, a.2 + b.2));
+            } else {
+                break;
+            }
+        }
+    }
+    blocks
+        .into_iter()
+        .map(|(sx, sy, w)| (sx / w, sy / w, w))
+        .collect()
+}
+
+/// PCHIP (Fritsch–Carlson, SciPy's end conditions) slopes for strictly increasing `x`.
+fn pchip_slopes(x: &[f64], y: &[f64]) -> Vec<f64> {
+    let n = x.len();
+    let h: Vec<f64> = x.windows(2).map(|w| w[1] - w[0]).collect();
+    let delta: Vec<f64> = (0..n - 1).map(|k| (y[k + 1] - y[k]) / h[k]).collect();
+    if n == 2 {
+        return vec![delta[0], delta[0]];
+    }
+    let mut d = vec![0.0; n];
+    for k in 1..n - 1 {
+        let (a, b) = (delta[k - 1], delta[k]);
+        if a * b > 0.0 {
+            let w1 = 2.0 * h[k] + h[k - 1];
+            let w2 = h[k] + 2.0 * h[k - 1];
+            d[k] = (w1 + w2) / (w1 / a + w2 / b);
+        }
+    }
+    let end = |h0: f64, h1: f64, m0: f64, m1: f64| -> f64 {
+        let d = ((2.0 * h0 + h1) * m0 - h0 * m1) / (h0 + h1);
+        if d.signum() != m0.signum() || m0 == 0.0 {
+            0.0
+        } else if m0.signum() != m1.signum() && d.abs() > 3.0 * m0.abs() {
+            3.0 * m0
+        } else {
+            d
+        }
+    };
+    d[0] = end(h[0], h[1], delta[0], delta[1]);
+    d[n - 1] = end(h[n - 2], h[n - 3], delta[n - 2], delta[n - 3]);
+    d
+}
+
+/// Fits the monotone curve through `samples` `(drive 0..=1, relative intensity)`; see
+/// the module docs for the method. `what` names the ramp in errors.
+pub fn fit_monotone_named(samples: &[(f64, f64)], what: &str) -> Result<MonotoneCurve, CalibError> {
+    for &(d, i) in samples {
+        if !d.is_finite() {
+            return Err(CalibError::NonFinite {
+                what: format!("{what}: drive"),
+                value: d,
+            });
+        }
+        if !i.is_finite() {
+            return Err(CalibError::NonFinite {
+                what: format!("{what}: intensity at drive {d:.4}"),
+                value: i,
+            });
+        }
+        if !(0.0..=1.0).contains(&d) {
+            return Err(CalibError::InvalidOption {
+                option: format!("{what}: drive"),
+                reason: format!("{d} is outside 0..=1"),
+            });
+        }
+    }
+    let mut sorted: Vec<(f64, f64)> = samples.to_vec();
+    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // Average samples at the same drive.
+    let mut merged: Vec<(f64, f64, f64)> = Vec::with_capacity(sorted.len());
+    for (d, i) in sorted {
+        match merged.last_mut() {
+            Some(last) if (d - last.0).abs() <= SAME_DRIVE => {
+                last.1 = (last.1 * last.2 + i) / (last.2 + 1.0);
+                last.2 += 1.0;
+            }
+            _ => merged.push((d, i, 1.0)),
+        }
+    }
+    let full = merged
+        .iter()
+        .find(|m| m.0 >= 1.0 - SAME_DRIVE)
+        .map(|m| m.1)
+        .unwrap_or(1.0);
+    let interior: Vec<(f64, f64, f64)> = merged
+        .iter()
+        .copied()
+        .filter(|m| m.0 > SAME_DRIVE && m.0 < 1.0 - SAME_DRIVE)
+        .collect();
+    if interior.is_empty() {
+        return Err(CalibError::TooFewSamples {
+            what: what.to_string(),
+            got: 0,
+            need: 1,
+        });
+    }
+    let brightest = interior.iter().map(|m| m.1).fold(full, f64::max);
+    if !(full > 0.0) || !(brightest > 0.0) {
+        return Err(CalibError::NoSignal {
+            what: what.to_string(),
+            full_drive: full,
+        });
+    }
+    let mut pts: Vec<(f64, f64, f64)> = Vec::with_capacity(interior.len() + 2);
+    pts.push((0.0, 0.0, ANCHOR_WEIGHT));
+    pts.extend(interior.iter().map(|m| (m.0, m.1 / full, m.2)));
+    pts.push((1.0, 1.0, ANCHOR_WEIGHT));
+    let blocks = pava(&pts);
+    // Knots: pinned ends, pooled interior blocks strictly inside (0, 1).
+    let mut drives = vec![0.0];
+    let mut vals = vec![0.0];
+    for (k, b) in blocks.iter().enumerate() {
+        let is_end = k == 0 || k + 1 == blocks.len();
+        if !is_end && b.0 > SAME_DRIVE && b.0 < 1.0 - SAME_DRIVE {
+            drives.push(b.0);
+            vals.push(b.1.clamp(0.0, 1.0));
+        }
+    }
+    drives.push(1.0);
+    vals.push(1.0);
+    // Isotonic output is non-decreasing; clamping keeps it so.
+    let gamma = estimate_gamma(&drives, &vals);
+    let u: Vec<f64> = vals.iter().map(|v| v.powf(1.0 / gamma)).collect();
+    let slopes = pchip_slopes(&drives, &u);
+    Ok(MonotoneCurve {
+        drives,
+        u,
+        slopes,
+        gamma,
+    })
+}
+
+/// Least-squares log–log slope through (1, 1) of the interior knots with usable values.
+fn estimate_gamma(drives: &[f64], vals: &[f64]) -> f64 {
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (d, v) in drives.iter().zip(vals) {
+        if *d > 0.02 && *d < 0.98 && *v > 1e-4 && *v < 0.999 {
+            let (lx, ly) = (d.ln(), v.ln());
+            sxy += lx * ly;
+            sxx += lx * lx;
+        }
+    }
+    if sxx > 0.0 {
+        (sxy / sxx).clamp(GAMMA_RANGE.0, GAMMA_RANGE.1)
+    } else {
+        2.2
+    }
+}
+
+/// Fits a monotone tone curve to `samples` `(drive 0..=1, relative intensity with black
+/// removed, ≈1 at full drive)` and builds its inverse LUT of `lut_entries` entries.
+///
+/// Errors: a non-finite sample, a drive outside 0..=1, no sample strictly between drive
+/// 0 and 1, full drive not brighter than black, or `lut_entries` below
+/// [`MIN_LUT_ENTRIES`].
+pub fn fit_tone_curve(samples: &[(f64, f64)], lut_entries: usize) -> Result<ToneCurve, CalibError> {
+    fit_monotone_named(samples, "tone ramp")?.to_tone_curve(lut_entries)
+}
+
+/// Largest drive step below which [`suggest_next_drive`] stops suggesting (one 8-bit
+/// code value).
+pub const MIN_DRIVE_STEP: f64 = 1.0 / 255.0;
+
+/// Next drive to measure on a ramp, given the samples so far `(drive, relative
+/// intensity)`: full drive first if it is missing, then the midpoint (in drive) of the
+/// segment that is longest in the plane of drive and cube-root intensity, i.e. where
+/// the ramp is least resolved perceptually. Drive 0 (black) is implicit. Returns
+/// `None` once every segment is shorter than [`MIN_DRIVE_STEP`] in drive, or when a
+/// sample is not finite.
+pub fn suggest_next_drive(samples: &[(f64, f64)]) -> Option<f64> {
+    if samples.iter().any(|s| !s.0.is_finite() || !s.1.is_finite()) {
+        return None;
+    }
+    if !samples.iter().any(|s| s.0 >= 1.0 - SAME_DRIVE) {
+        return Some(1.0);
+    }
+    let full = samples
+        .iter()
+        .filter(|s| s.0 >= 1.0 - SAME_DRIVE)
+        .map(|s| s.1)
+        .sum::<f64>()
+        / samples.iter().filter(|s| s.0 >= 1.0 - SAME_DRIVE).count() as f64;
+    let scale = if full > 0.0 { full } else { 1.0 };
+    let mut pts: Vec<(f64, f64)> = vec![(0.0, 0.0)];
+    pts.extend(
+        samples
+            .iter()
+            .filter(|s| s.0 > SAME_DRIVE && s.0 <= 1.0)
+            .map(|s| (s.0, (s.1 / scale).clamp(0.0, 1.0).cbrt())),
+    );
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut best: Option<(f64, f64)> = None; // (length, midpoint)
+    for w in pts.windows(2) {
+        let dd = w[1].0 - w[0].0;
+        if dd < MIN_DRIVE_STEP {
+            continue;
+        }
+        let len = dd.hypot(w[1].1 - w[0].1);
+        if best.is_none_or(|b| len > b.0) {
+            best = Some((len, 0.5 * (w[0].0 + w[1].0)));
+        }
+    }
+    best.map(|b| b.1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pava_pools_violators() {
+        let out = pava(&[
+            (0.0, 0.0, 1.0),
+            (0.5, 0.6, 1.0),
+            (0.6, 0.4, 1.0),
+            (1.0, 1.0, 1.0),
+        ]);
+        assert_eq!(out.len(), 3);
+        assert!((out[1].1 - 0.5).abs() < 1e-12 && (out[1].0 - 0.55).abs() < 1e-12);
+    }
+
+    #[test]
+    fn pchip_reproduces_a_line() {
+        let x = [0.0, 0.1, 0.5, 1.0];
+        let s = pchip_slopes(&x, &x);
+        assert!(s.iter().all(|d| (d - 1.0).abs() < 1e-12));
+    }
+}
