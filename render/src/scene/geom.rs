@@ -31,12 +31,3 @@ pub fn polygon_normal(vertices: &[V3]) -> Option<V3> {
         None
     }
 }
-
-/// Centroid of the vertices.
-pub fn vertex_mean(vertices: &[V3]) -> V3 {
-    let mut c = V3::zeros();
-    for v in vertices {
-        c += v;
-    }
-    c / vertices.len().max(1) as f64
-}

@@ -1,0 +1,92 @@
+//! The error-against-time record every solver returns, and the stop rule.
+
+use std::time::Duration;
+
+/// One report of a running solve.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct CurvePoint {
+    /// Wall time since the solve started in seconds.
+    pub time_s: f64,
+    /// Iterations (gather sweeps or shots) so far.
+    pub iteration: usize,
+    /// Estimated relative error of the solution (solve + discretisation), area-weighted
+    /// over Y (luminous exitance).
+    pub estimated_error: f64,
+    /// Estimated relative error of the linear solve alone (residual-based).
+    pub solve_error: f64,
+    /// Estimated relative discretisation error (link bounds / unshot energy).
+    pub discretization_error: f64,
+    /// Leaf elements (patches) at this point.
+    pub patches: usize,
+    /// Links (hierarchical) or form factors evaluated (progressive).
+    pub links: usize,
+}
+
+/// The error/time curve of one solve.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct ErrorCurve {
+    /// Reports in time order.
+    pub points: Vec<CurvePoint>,
+}
+
+impl ErrorCurve {
+    /// The last report, if any.
+    pub fn last(&self) -> Option<&CurvePoint> {
+        self.points.last()
+    }
+
+    /// CSV text with a header line.
+    pub fn to_csv(&self) -> String {
+        let mut s = String::from(
+            "time_s,iteration,estimated_error,solve_error,discretization_error,patches,links\n",
+        );
+        for p in &self.points {
+            s.push_str(&format!(
+                "{:.6},{},{:.6e},{:.6e},{:.6e},{},{}\n",
+                p.time_s,
+                p.iteration,
+                p.estimated_error,
+                p.solve_error,
+                p.discretization_error,
+                p.patches,
+                p.links
+            ));
+        }
+        s
+    }
+}
+
+/// When a solve stops and how often it reports.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StopRule {
+    /// Requested relative error (e.g. 0.01 for 1 %).
+    pub target_error: f64,
+    /// Wall-time limit.
+    pub time_limit: Option<Duration>,
+    /// Hard cap on iterations (gather sweeps or shots).
+    pub max_iterations: usize,
+}
+
+impl Default for StopRule {
+    fn default() -> Self {
+        Self {
+            target_error: 0.01,
+            time_limit: None,
+            max_iterations: 100_000,
+        }
+    }
+}
+
+/// Why a solve stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum StopReason {
+    /// The estimated error reached the target.
+    Converged,
+    /// The time limit was reached first.
+    TimeLimit,
+    /// The iteration cap was reached first.
+    IterationLimit,
+    /// The mesh cannot be refined further (minimum element size) and the solve has
+    /// converged on it; the estimate stays above the target.
+    RefinementExhausted,
+}

@@ -1,0 +1,143 @@
+//! Form factors: the exact differential-area-to-polygon form factor (Lambert's contour
+//! integral, after clipping the polygon to the receiver's tangent half-space) and the
+//! area-to-area form factor by adaptive quadrature over the receiver with the exact
+//! inner integral, returning an error estimate.
+
+use crate::scene::V3;
+
+use super::quadrature;
+
+/// Differential area at `x` with unit normal `n` to the polygon `poly` (convex, any
+/// number of vertices). One-sided: only the polygon's front (right-hand normal
+/// `poly_normal`) emits; returns 0 when `x` is behind it. Unoccluded.
+pub fn point_to_polygon(x: &V3, n: &V3, poly: &[V3], poly_normal: &V3) -> f64 {
+    // one-sided emitter: x must lie in front of the source plane
+    if poly_normal.dot(&(x - poly[0])) <= 0.0 {
+        return 0.0;
+    }
+    // clip against the receiver's tangent plane n·(v − x) ≥ 0
+    let m = poly.len();
+    let mut small = [V3::zeros(); 12];
+    let mut big = Vec::new();
+    let clipped: &mut [V3] = if m + 2 <= small.len() {
+        &mut small[..]
+    } else {
+        big.resize(m + 2, V3::zeros());
+        &mut big[..]
+    };
+    let mut k = 0usize;
+    for i in 0..m {
+        let a = poly[i];
+        let b = poly[(i + 1) % m];
+        let da = n.dot(&(a - x));
+        let db = n.dot(&(b - x));
+        if da >= 0.0 {
+            if k < clipped.len() {
+                clipped[k] = a;
+                k += 1;
+            }
+            if db < 0.0 && da > 0.0 && k < clipped.len() {
+                clipped[k] = a + (b - a) * (da / (da - db));
+                k += 1;
+            }
+        } else if db > 0.0 && k < clipped.len() {
+            clipped[k] = a + (b - a) * (da / (da - db));
+            k += 1;
+        }
+    }
+    if k < 3 {
+        return 0.0;
+    }
+    let mut sum = 0.0;
+    for i in 0..k {
+        let ra = clipped[i] - x;
+        let rb = clipped[(i + 1) % k] - x;
+        let c = ra.cross(&rb);
+        let cn = c.norm();
+        if cn <= 1e-300 {
+            continue;
+        }
+        let beta = cn.atan2(ra.dot(&rb));
+        sum += beta * n.dot(&c) / cn;
+    }
+    (sum / std::f64::consts::TAU).abs()
+}
+
+/// An area-averaged form factor with an estimate of its quadrature error.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FormFactor {
+    /// F from the receiver to the source (fraction of the receiver's outgoing flux
+    /// reaching the source; the receiver-area average of the point form factor).
+    pub value: f64,
+    /// Estimated absolute quadrature error of `value`.
+    pub error: f64,
+}
+
+fn unit_normal(v: &[V3]) -> V3 {
+    crate::scene::polygon_normal(v).unwrap_or_else(V3::z)
+}
+
+fn average(recv: &[V3], rn: &V3, src: &[V3], sn: &V3, order: usize, buf: &mut Vec<(V3, f64)>) -> f64 {
+    quadrature::points(recv, order, buf);
+    buf.iter()
+        .map(|(p, w)| w * point_to_polygon(p, rn, src, sn))
+        .sum()
+}
+
+fn adaptive(
+    recv: &[V3],
+    rn: &V3,
+    src: &[V3],
+    sn: &V3,
+    coarse: f64,
+    tol: f64,
+    depth: u32,
+    buf: &mut Vec<(V3, f64)>,
+) -> (f64, f64) {
+    let kids = quadrature::split4(recv);
+    let areas: Vec<f64> = kids.iter().map(|k| crate::scene::polygon_area_m2(k)).collect();
+    let total: f64 = areas.iter().sum();
+    let vals: Vec<f64> = kids
+        .iter()
+        .map(|k| average(k, rn, src, sn, 4, buf))
+        .collect();
+    let fine: f64 = vals.iter().zip(&areas).map(|(v, a)| v * a).sum::<f64>() / total;
+    let diff = (fine - coarse).abs();
+    if diff <= tol || depth == 0 {
+        return (fine, diff);
+    }
+    let mut value = 0.0;
+    let mut err = 0.0;
+    for ((k, v), a) in kids.iter().zip(&vals).zip(&areas) {
+        let (fv, fe) = adaptive(k, rn, src, sn, *v, tol, depth - 1, buf);
+        value += fv * a / total;
+        err += fe * a / total;
+    }
+    (value, err)
+}
+
+/// Form factor from polygon `recv` to polygon `src` (both convex, triangles/quads or
+/// fanned n-gons), unoccluded, to an absolute tolerance `tol` by adaptive receiver
+/// subdivision (order-4 Gauss–Legendre per cell, exact inner contour integral).
+pub fn polygon_to_polygon(recv: &[V3], src: &[V3], tol: f64) -> FormFactor {
+    let rn = unit_normal(recv);
+    let sn = unit_normal(src);
+    let mut buf = Vec::new();
+    if recv.len() > 4 {
+        // fan into triangles, area-weighted
+        let mut value = 0.0;
+        let mut err = 0.0;
+        let total = crate::scene::polygon_area_m2(recv);
+        for i in 1..recv.len() - 1 {
+            let tri = [recv[0], recv[i], recv[i + 1]];
+            let a = crate::scene::polygon_area_m2(&tri);
+            let f = polygon_to_polygon(&tri, src, tol);
+            value += f.value * a / total;
+            err += f.error * a / total;
+        }
+        return FormFactor { value, error: err };
+    }
+    let coarse = average(recv, &rn, src, &sn, 4, &mut buf);
+    let (value, error) = adaptive(recv, &rn, src, &sn, coarse, tol, 10, &mut buf);
+    FormFactor { value, error }
+}

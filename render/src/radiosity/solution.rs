@@ -1,0 +1,123 @@
+//! A solved piecewise-constant radiosity: leaf patches with their luminous exitance,
+//! looked up by point (for images, comparisons and per-vertex output).
+
+use crate::scene::V3;
+
+use super::curve::{ErrorCurve, StopReason};
+use super::visibility::point_in_convex;
+
+/// One leaf patch of a solution.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Patch {
+    /// Input polygon it lies on.
+    pub polygon: usize,
+    /// Corner vertices in metres (3 or 4, same winding as the polygon).
+    pub vertices: Vec<V3>,
+    /// Unit normal.
+    pub normal: V3,
+    /// Area in m².
+    pub area_m2: f64,
+    /// Radiosity as XYZ luminous exitance (Y in lm/m²); luminance is this / π.
+    pub exitance_xyz: [f64; 3],
+    /// Irradiance as XYZ (Y in lux) received by the patch.
+    pub irradiance_xyz: [f64; 3],
+}
+
+/// Counters of a solve.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct SolveStats {
+    /// Leaf patches.
+    pub patches: usize,
+    /// All elements of the hierarchy (or mesh).
+    pub elements: usize,
+    /// Links (hierarchical) or form factors evaluated (progressive).
+    pub links: usize,
+    /// Gather sweeps or shots.
+    pub iterations: usize,
+    /// Shadow rays cast.
+    pub shadow_rays: u64,
+    /// Links/pairs that skipped all visibility work (classified fully visible).
+    pub visibility_skipped: u64,
+    /// Links/pairs that needed shadow rays.
+    pub visibility_tested: u64,
+    /// Approximate memory of the solver's data structures in bytes.
+    pub memory_bytes: usize,
+    /// Wall time in seconds.
+    pub time_s: f64,
+    /// Extrapolation steps applied (geometric-series acceleration).
+    pub extrapolations: usize,
+}
+
+/// The result of a solve.
+#[derive(Debug, Clone)]
+pub struct Solution {
+    /// Leaf patches.
+    pub patches: Vec<Patch>,
+    /// For each input polygon, the indices of its patches.
+    pub by_polygon: Vec<Vec<usize>>,
+    /// Error against time.
+    pub curve: ErrorCurve,
+    /// Why it stopped.
+    pub stop: StopReason,
+    /// Counters.
+    pub stats: SolveStats,
+}
+
+impl Solution {
+    /// Builds the per-polygon index.
+    pub fn index(patches: &[Patch], polygons: usize) -> Vec<Vec<usize>> {
+        let mut by = vec![Vec::new(); polygons];
+        for (i, p) in patches.iter().enumerate() {
+            if let Some(v) = by.get_mut(p.polygon) {
+                v.push(i);
+            }
+        }
+        by
+    }
+
+    /// The patch of polygon `polygon` that contains `point` (projected into its plane);
+    /// the nearest patch centre if none contains it (points on the boundary).
+    pub fn patch_at(&self, polygon: usize, point: &V3) -> Option<&Patch> {
+        let list = self.by_polygon.get(polygon)?;
+        let mut best: Option<(f64, usize)> = None;
+        for &i in list {
+            let p = &self.patches[i];
+            let q = point - p.normal * p.normal.dot(&(point - p.vertices[0]));
+            if point_in_convex(&p.vertices, &p.normal, &q) {
+                return Some(p);
+            }
+            let c = p.vertices.iter().sum::<V3>() / p.vertices.len() as f64;
+            let d = (c - q).norm_squared();
+            if best.is_none_or(|(bd, _)| d < bd) {
+                best = Some((d, i));
+            }
+        }
+        best.map(|(_, i)| &self.patches[i])
+    }
+
+    /// Total area of all patches in m².
+    pub fn total_area_m2(&self) -> f64 {
+        self.patches.iter().map(|p| p.area_m2).sum()
+    }
+
+    /// Area-weighted relative L1 difference in Y between `self` and `reference`,
+    /// sampled at the reference's patch centres: Σ A |B − B_ref| / Σ A B_ref.
+    pub fn relative_error_against(&self, reference: &Solution) -> f64 {
+        let mut num = 0.0;
+        let mut den = 0.0;
+        for r in &reference.patches {
+            let c = r.vertices.iter().sum::<V3>() / r.vertices.len() as f64;
+            let b = self
+                .patch_at(r.polygon, &c)
+                .map(|p| p.exitance_xyz[1])
+                .unwrap_or(0.0);
+            num += r.area_m2 * (b - r.exitance_xyz[1]).abs();
+            den += r.area_m2 * r.exitance_xyz[1];
+        }
+        if den > 0.0 {
+            num / den
+        } else {
+            0.0
+        }
+    }
+}
