@@ -26,6 +26,10 @@ pub struct InstrumentSpec {
     pub noise_floor_y_cd_m2: f64,
     /// Ratio of X/Z to Y zero-light noise.
     pub xz_noise_factor: f64,
+    /// 1σ relative luminance repeatability of one reading at high luminance.
+    pub repeatability_lum_rel: f64,
+    /// 1σ repeatability of x and y of one reading at high luminance.
+    pub repeatability_xy: f64,
     /// Time of one default-speed reading in the instrument (s).
     pub measurement_time_s: f64,
     /// Serial line speed (baud).
@@ -33,6 +37,39 @@ pub struct InstrumentSpec {
 }
 
 impl InstrumentSpec {
+    /// 1σ zero-light noise of Y for one reading (cd/m²), taking the SDK's
+    /// negative-reading threshold `noise_floor_y_cd_m2` as a 2σ bound.
+    pub fn dark_sigma_y_cd_m2(&self) -> f64 {
+        self.noise_floor_y_cd_m2 / 2.0
+    }
+
+    /// The simulator's meter error model for this instrument, `seed` playing the
+    /// serial number. Systematic bounds are the accuracy figures; the low-light noise
+    /// terms are the dark noise referred to `min_reliable_cd_m2`: relative luminance
+    /// σ_Y/Y and, for a white (x ≈ y ≈ 1/3) with X/Z noise `k`·σ_Y, the
+    /// chromaticity σ_x ≈ σ_Y·√(5k²+1)/(9·Y).
+    #[cfg(feature = "sim")]
+    pub fn sim_meter_model(&self, seed: u64) -> crate::sim::MeterModel {
+        let sigma = self.dark_sigma_y_cd_m2();
+        let k = self.xz_noise_factor;
+        let y_ref = self.min_reliable_cd_m2;
+        let mut m = crate::sim::MeterModel::noiseless();
+        m.model = format!("Klein {} (simulated)", self.model);
+        m.seed = seed;
+        m.lum_systematic_rel = self.luminance_accuracy_rel;
+        m.xy_systematic = self.xy_accuracy;
+        m.lum_noise_rel = self.repeatability_lum_rel;
+        m.xy_noise = self.repeatability_xy;
+        m.low_light_cd_m2 = y_ref;
+        m.lum_low_light_rel = sigma / y_ref;
+        m.xy_low_light = sigma * (5.0 * k * k + 1.0).sqrt() / (9.0 * y_ref);
+        m.min_reliable_cd_m2 = self.min_reliable_cd_m2;
+        m.floor_cd_m2 = self.min_cd_m2;
+        m.max_cd_m2 = self.max_cd_m2;
+        m.display_digits = None;
+        m
+    }
+
     /// Time to send `bytes` bytes at the line speed with 8N1 framing (10 bits a byte), s.
     pub fn transmit_time_s(&self, bytes: usize) -> f64 {
         bytes as f64 * 10.0 / f64::from(self.baud_rate)
@@ -50,7 +87,8 @@ impl InstrumentSpec {
 ///   reading as a fault, and uses three times that for X and Z.
 /// * Accuracy: the maker's datasheet was not available; ±3 % luminance and
 ///   ±0.004 xy are chosen conservatively (no better than the CS-100A figures in
-///   DESIGN.md).
+///   DESIGN.md). High-light repeatability (1σ 0.1 % and 0.0005 xy) is likewise
+///   assumed equal to the CS-100A's.
 /// * Timing: `N5` gives 8 readings a second (Klein SDK `COLOR_8PERSECOND`); 9600 baud
 ///   8N1 (Klein SDK and ArgyllCMS).
 pub const KLEIN_K10A: InstrumentSpec = InstrumentSpec {
@@ -62,6 +100,8 @@ pub const KLEIN_K10A: InstrumentSpec = InstrumentSpec {
     xy_accuracy: 0.004,
     noise_floor_y_cd_m2: 0.019,
     xz_noise_factor: 3.0,
+    repeatability_lum_rel: 0.001,
+    repeatability_xy: 0.0005,
     measurement_time_s: 0.125,
     baud_rate: 9600,
 };
