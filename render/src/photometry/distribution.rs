@@ -409,16 +409,16 @@ impl IntensityDistribution {
     }
 
     /// Total luminous flux in lm: the integral of I over the sphere (exact for the
-    /// bilinear interpolant of a table; composite Simpson in γ for analytic shapes).
+    /// bilinear interpolant of a table; composite Gauss–Legendre in γ for analytic shapes).
     pub fn total_flux_lm(&self) -> f64 {
         let raw = match &self.shape {
             Shape::Isotropic { cd } => {
                 let f = |_g: f64| *cd;
-                TAU * simpson_sin(&f, &[0.0, PI])
+                TAU * integrate_sin(&f, &[0.0, PI])
             }
             Shape::Spot { cd, inner, outer } => {
                 let f = |g: f64| cd * spot_falloff(g, *inner, *outer);
-                TAU * simpson_sin(&f, &[0.0, *inner, *outer])
+                TAU * integrate_sin(&f, &[0.0, *inner, *outer])
             }
             Shape::Table(t) => t.flux(),
         };
@@ -511,26 +511,38 @@ fn spot_falloff(gamma: f64, inner: f64, outer: f64) -> f64 {
     }
 }
 
-/// ∫ f(γ) sin γ dγ from `breaks[0]` to π with composite Simpson between breaks.
-fn simpson_sin(f: &dyn Fn(f64) -> f64, breaks: &[f64]) -> f64 {
+/// ∫ f(γ) sin γ dγ from `breaks[0]` to π, composite 4-point Gauss–Legendre between
+/// the breaks (never evaluated exactly at a break, where f may jump).
+fn integrate_sin(f: &dyn Fn(f64) -> f64, breaks: &[f64]) -> f64 {
+    const X: [f64; 4] = [
+        -0.861_136_311_594_052_6,
+        -0.339_981_043_584_856_3,
+        0.339_981_043_584_856_3,
+        0.861_136_311_594_052_6,
+    ];
+    const W: [f64; 4] = [
+        0.347_854_845_137_453_9,
+        0.652_145_154_862_546_1,
+        0.652_145_154_862_546_1,
+        0.347_854_845_137_453_9,
+    ];
     let mut pts: Vec<f64> = breaks.to_vec();
     pts.push(PI);
-    pts.dedup_by(|a, b| (*a - *b).abs() < 1e-15);
     let mut total = 0.0;
     for w in pts.windows(2) {
         let (a, b) = (w[0], w[1]);
         if b <= a {
             continue;
         }
-        let n = 2048;
+        let n = 256;
         let h = (b - a) / n as f64;
-        let g = |x: f64| f(x) * x.sin();
-        let mut s = g(a) + g(b);
-        for i in 1..n {
-            let x = a + h * i as f64;
-            s += if i % 2 == 1 { 4.0 } else { 2.0 } * g(x);
+        for i in 0..n {
+            let mid = a + (i as f64 + 0.5) * h;
+            for (x, wt) in X.iter().zip(W) {
+                let g = mid + 0.5 * h * x;
+                total += 0.5 * h * wt * f(g) * g.sin();
+            }
         }
-        total += s * h / 3.0;
     }
     total
 }
