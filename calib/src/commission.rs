@@ -23,11 +23,13 @@ use lumiwall_profiles::{DisplayKey, ProfileError, ProfileSet, write_atomic};
 use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
+use crate::colorimetry::cct_to_xy;
 use crate::measure::{
-    MeasureError, MeasureOptions, MeasuredDisplay, Progress, Rig, display_key, measure_display,
+    MeasureError, MeasureOptions, MeasuredDisplay, Progress, RampFocus, Rig, display_key,
+    measure_display, white_capacity,
 };
 use crate::report::{self, ReportInputs};
-use crate::solve::{SolveOptions, WallSolution, solve_wall};
+use crate::solve::{SolveOptions, WallSolution, WhiteTarget, solve_wall};
 
 /// Version of the run-folder format.
 pub const RUN_FORMAT_VERSION: u32 = 1;
@@ -261,9 +263,31 @@ pub fn measure_wall(
     };
     prepare_run_dir(&run_dir, &manifest, opts.resume)?;
 
-    let mut measured = Vec::with_capacity(displays.len());
+    let mut measured: Vec<MeasuredDisplay> = Vec::with_capacity(displays.len());
     let mut resumed = Vec::new();
+    let white_xy = match opts.solve.white {
+        WhiteTarget::Xy(xy) => Some(xy),
+        WhiteTarget::Cct(k) => cct_to_xy(k).ok(),
+        WhiteTarget::NativeOf(_) => None,
+    };
     for (i, (info, key)) in displays.iter().zip(&keys).enumerate() {
+        // Focus the ramps on the part of each channel the common white will use; the
+        // wall white can be no brighter than what every display measured so far reaches.
+        let mut mopts = opts.measure.clone();
+        if mopts.focus.is_none() {
+            mopts.focus = white_xy.map(|white_xy| RampFocus {
+                white_xy,
+                headroom: opts.solve.headroom,
+                white_y_cd_m2: measured
+                    .iter()
+                    .filter_map(|m| {
+                        let mm = &m.measurement;
+                        white_capacity(mm.black, &mm.primaries, white_xy, opts.solve.headroom)
+                            .map(|c| c.0)
+                    })
+                    .reduce(f64::min),
+            });
+        }
         let path = measurement_path(&run_dir, key);
         if opts.resume {
             if let Some(m) = load_measurement(&path)? {
@@ -278,7 +302,7 @@ pub fn measure_wall(
                 }
             }
         }
-        let m = measure_display(rig, info, key, &opts.measure, progress).map_err(|source| {
+        let m = measure_display(rig, info, key, &mopts, progress).map_err(|source| {
             CommissionError::Interrupted {
                 source,
                 saved: i,

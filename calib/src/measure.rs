@@ -15,8 +15,12 @@
 //!
 //! Low light: below the meter's reliable limit (about 1 cd/m² for a CS-100A class
 //! meter) a single reading is noisy. [`LowLight::Average`] repeats such readings and
-//! averages them (each repeat counts against the budget); [`LowLight::Skip`] drops ramp
-//! samples below the limit (black and the primaries are always averaged, never skipped).
+//! averages them in xyY (each repeat counts against the budget); [`LowLight::Skip`]
+//! drops ramp samples below the limit (black and the primaries are always averaged,
+//! never skipped). A reading the meter refuses as too dark costs a reading and is left
+//! out of the average. Of a ramp sample below the limit only the luminance is used: its
+//! chromaticity is replaced by the channel's ([`luminance_only`]), because a meter's
+//! xy noise grows as 1/Y in the dark while a channel's chromaticity does not change.
 
 use lumiwall_devices::{
     Colorimeter, DeviceError, DisplayId, DisplayInfo, MeterPositioner, PatternOutput, Xyz,
@@ -60,6 +64,27 @@ pub struct MeasureOptions {
     pub max_retries: u32,
     /// Measure full white (needed for the additivity check).
     pub measure_white: bool,
+    /// Readings averaged for each full-drive primary; `None` chooses from the budget
+    /// (1 for budgets below 24, up to 4 for 48 and more). Averaging matters for very
+    /// saturated primaries (an Infitec blue has y ≈ 0.02, so the meter's xy noise
+    /// becomes a large relative error in Z).
+    pub primary_repeats: Option<u32>,
+    /// Where the ramps should be dense: the part of each channel that the common white
+    /// will use. `None` spreads samples over the whole ramp.
+    pub focus: Option<RampFocus>,
+}
+
+/// Information to concentrate ramp samples on the used part of each channel.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RampFocus {
+    /// Chromaticity of the wall's target white.
+    pub white_xy: [f64; 2],
+    /// Largest channel usage the solve allows (headroom).
+    pub headroom: f64,
+    /// Upper bound of the wall white's luminance known so far (cd/m²), e.g. the
+    /// smallest white luminance reachable by the displays measured before; `None` uses
+    /// the display's own.
+    pub white_y_cd_m2: Option<f64>,
 }
 
 impl Default for MeasureOptions {
@@ -71,6 +96,8 @@ impl Default for MeasureOptions {
             low_light_limit_cd_m2: None,
             max_retries: 2,
             measure_white: true,
+            primary_repeats: None,
+            focus: None,
         }
     }
 }
@@ -79,7 +106,39 @@ impl MeasureOptions {
     /// Smallest budget that still measures black, R, G, B, W and two ramp samples per
     /// channel.
     pub const MIN_BUDGET: u32 = 11;
+
+    /// Readings per primary for this budget.
+    pub fn primary_repeats(&self) -> u32 {
+        self.primary_repeats
+            .unwrap_or_else(|| (self.budget.saturating_sub(16) / 8).clamp(1, 4))
+            .max(1)
+    }
 }
+
+/// Largest luminance (cd/m²) of a white of chromaticity `white_xy` that a display with
+/// these readings can show with every channel at most `headroom`, and the channel
+/// intensities per cd/m² of that white. `None` when the white is outside the display's
+/// gamut or the primaries are degenerate.
+pub fn white_capacity(
+    black: Xyz,
+    primaries: &[Xyz; 3],
+    white_xy: [f64; 2],
+    headroom: f64,
+) -> Option<(f64, [f64; 3])> {
+    let cols: Vec<nalgebra::Vector3<f64>> = primaries
+        .iter()
+        .map(|p| nalgebra::Vector3::from((*p - black).to_array()))
+        .collect();
+    let m = nalgebra::Matrix3::from_columns(&cols).try_inverse()?;
+    let w = Xyz::from_xy_luminance(white_xy[0], white_xy[1], 1.0);
+    let lin = m * nalgebra::Vector3::from(w.to_array());
+    if lin.iter().any(|v| !v.is_finite() || *v <= 0.0) {
+        return None;
+    }
+    let y = headroom / lin.max();
+    Some((y, [lin[0], lin[1], lin[2]]))
+}
+
 
 /// What a reading was of.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -404,37 +463,32 @@ impl<'r, 'a> Session<'r, 'a> {
         self.budget.saturating_sub(self.log.readings)
     }
 
+    /// One meter reading with bounded retries of transient errors. A reading the meter
+    /// refuses as too dark ([`DeviceError::TooDark`]) costs a reading and gives `None`.
     fn read_once(
         &mut self,
         patch: Patch,
         progress: &mut dyn FnMut(Progress),
-    ) -> Result<Xyz, MeasureError> {
+    ) -> Result<Option<Xyz>, MeasureError> {
         let reading = self.log.readings + 1;
         let mut attempts = 0;
         loop {
             attempts += 1;
-            match self.rig.meter.measure() {
-                Ok(xyz) => {
-                    if !xyz.is_finite() || xyz.y < -1e-6 {
-                        return Err(MeasureError::Invalid {
-                            display: self.name.clone(),
-                            reading,
-                            patch,
-                            xyz,
-                        });
-                    }
-                    self.log.readings += 1;
-                    progress(Progress::Reading {
-                        display: self.id,
-                        readings: self.log.readings,
-                        budget: self.budget,
+            let result = match self.rig.meter.measure() {
+                Ok(xyz) if !xyz.is_finite() || xyz.y < -1e-6 => {
+                    return Err(MeasureError::Invalid {
+                        display: self.name.clone(),
+                        reading,
                         patch,
+                        xyz,
                     });
-                    return Ok(xyz);
                 }
+                Ok(xyz) => Some(xyz),
+                Err(DeviceError::TooDark { .. }) => None,
                 Err(e) if e.is_transient() && attempts <= self.max_retries => {
                     tracing::warn!(display = %self.name, %patch, "transient meter error, retrying: {e}");
                     self.log.retries += 1;
+                    continue;
                 }
                 Err(source) => {
                     return Err(MeasureError::Reading {
@@ -446,13 +500,24 @@ impl<'r, 'a> Session<'r, 'a> {
                         source,
                     });
                 }
-            }
+            };
+            self.log.readings += 1;
+            progress(Progress::Reading {
+                display: self.id,
+                readings: self.log.readings,
+                budget: self.budget,
+                patch,
+            });
+            return Ok(result);
         }
     }
 
-    /// Shows `patch` and reads it, applying the low-light policy. `always_average`
-    /// averages even under [`LowLight::Skip`] (black, primaries). Returns `None` when the
-    /// sample was skipped. Repeats never exceed the budget.
+    /// Shows `patch` and reads it, applying the low-light policy. A reading below the
+    /// reliable limit (or refused as too dark) is repeated and the successful readings
+    /// averaged under [`LowLight::Average`], or always when `always_average` is set
+    /// (black, primaries); under [`LowLight::Skip`] the sample is dropped. Returns
+    /// `None` when the sample was skipped or every reading was refused as too dark.
+    /// Repeats never exceed the budget.
     pub fn sample(
         &mut self,
         patch: Patch,
@@ -468,44 +533,108 @@ impl<'r, 'a> Session<'r, 'a> {
                 source,
             })?;
         let first = self.read_once(patch, progress)?;
-        let low = first.y < self.limit_cd_m2;
-        if !low {
+        if let Some(x) = first.filter(|x| x.y >= self.limit_cd_m2) {
             self.log.samples.push(ReadingRecord {
                 patch,
-                xyz: Some(first),
+                xyz: Some(x),
                 repeats: 1,
                 low_light: false,
             });
-            return Ok(Some(first));
+            return Ok(Some(x));
         }
         let repeats = match (self.low_light, always_average) {
             (LowLight::Average { repeats }, _) => repeats.max(1),
             (LowLight::Skip, true) => 4,
-            (LowLight::Skip, false) => {
-                self.log.samples.push(ReadingRecord {
-                    patch,
-                    xyz: None,
-                    repeats: 1,
-                    low_light: true,
-                });
-                return Ok(None);
-            }
+            (LowLight::Skip, false) => 0,
         };
-        let mut sum = first;
+        // Average in xyY: a meter's noise is (near) Gaussian in x, y and Y, while X and
+        // Z of a dark, saturated colour have heavy tails (Z ∝ 1/y).
+        let mut sum = [0.0f64; 3];
+        let mut ok = 0u32;
         let mut n = 1;
-        while n < repeats && self.remaining() > 0 {
-            sum = sum + self.read_once(patch, progress)?;
+        let add = |x: Xyz, sum: &mut [f64; 3]| {
+            let c = x.xy().unwrap_or([1.0 / 3.0, 1.0 / 3.0]);
+            sum[0] += c[0];
+            sum[1] += c[1];
+            sum[2] += x.y;
+        };
+        if let Some(x) = first {
+            add(x, &mut sum);
+            ok = 1;
+        }
+        while repeats > 0 && n < repeats && self.remaining() > 0 {
+            if let Some(x) = self.read_once(patch, progress)? {
+                add(x, &mut sum);
+                ok += 1;
+            }
             n += 1;
         }
-        let mean = sum * (1.0 / f64::from(n));
+        let mean = (repeats > 0 && ok > 0).then(|| {
+            let k = 1.0 / f64::from(ok);
+            Xyz::from_xy_luminance(sum[0] * k, sum[1] * k, sum[2] * k)
+        });
         self.log.samples.push(ReadingRecord {
             patch,
-            xyz: Some(mean),
+            xyz: mean,
             repeats: n,
             low_light: true,
         });
+        Ok(mean)
+    }
+}
+
+impl Session<'_, '_> {
+    /// Shows `patch` and averages `repeats` readings (in xyY), or more under the
+    /// low-light policy when the patch is dark. `None` when every reading was refused as
+    /// too dark.
+    pub fn repeated(
+        &mut self,
+        patch: Patch,
+        repeats: u32,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Option<Xyz>, MeasureError> {
+        let first = self.sample(patch, true, progress)?;
+        let Some(first) = first else {
+            return Ok(None);
+        };
+        if first.y < self.limit_cd_m2 || repeats <= 1 {
+            return Ok(Some(first));
+        }
+        let mut sum = [0.0f64; 3];
+        let mut n = 0.0;
+        for x in std::iter::once(Some(first)).chain(
+            (1..repeats)
+                .map(|_| self.read_once(patch, progress))
+                .collect::<Result<Vec<_>, _>>()?,
+        ) {
+            if let (Some(x), Some(c)) = (x, x.and_then(|v| v.xy())) {
+                sum[0] += c[0];
+                sum[1] += c[1];
+                sum[2] += x.y;
+                n += 1.0;
+            }
+        }
+        let mean = Xyz::from_xy_luminance(sum[0] / n, sum[1] / n, sum[2] / n);
+        if let Some(r) = self.log.samples.last_mut() {
+            r.xyz = Some(mean);
+            r.repeats = n as u32;
+        }
         Ok(Some(mean))
     }
+}
+
+/// A dark single-channel reading with its unreliable chromaticity replaced: black plus
+/// the channel's full-drive colour scaled to the reading's luminance above black.
+/// Below the meter's reliable limit only the luminance of a reading is kept (a
+/// channel's chromaticity above black is constant; the meter's xy noise at low light
+/// is not).
+pub fn luminance_only(reading: Xyz, black: Xyz, full: Xyz) -> Xyz {
+    let span = full.y - black.y;
+    if span <= 0.0 {
+        return reading;
+    }
+    let k = ((reading.y - black.y) / span).max(0.0);
+    black + (full - black) * k
 }
 
 /// Relative intensity of a channel reading: the least-squares component of
@@ -541,12 +670,14 @@ pub fn measure_display(
     };
     let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
 
-    // Black: always averaged when dark (it usually is).
+    // Black: always averaged when dark (it usually is); a black the meter refuses as
+    // too dark even on repeats is below its floor and taken as 0.
     let black = s.sample(Patch::Black, true, progress)?.unwrap_or_default();
     let mut primaries = [Xyz::default(); 3];
+    let primary_repeats = opts.primary_repeats();
     for (c, p) in primaries.iter_mut().enumerate() {
         *p = s
-            .sample(Patch::Primary(c), true, progress)?
+            .repeated(Patch::Primary(c), primary_repeats, progress)?
             .unwrap_or_default();
         if p.y <= black.y {
             return Err(MeasureError::NoSignal {
@@ -566,6 +697,16 @@ pub fn measure_display(
     // Adaptive ramps, one sample per channel in turn.
     let mut ramps: [Vec<(f64, Xyz)>; 3] = Default::default();
     let mut rel: [Vec<(f64, f64)>; 3] = std::array::from_fn(|_| vec![(0.0, 0.0), (1.0, 1.0)]);
+    // Expected usage of each channel for the wall white: ramp samples are placed as if
+    // that were the full range.
+    let usage: [f64; 3] = opts
+        .focus
+        .and_then(|f| {
+            let (own_y, per_cd) = white_capacity(black, &primaries, f.white_xy, f.headroom)?;
+            let y = f.white_y_cd_m2.map_or(own_y, |h| h.min(own_y));
+            Some(per_cd.map(|v| (v * y).clamp(0.02, 1.0)))
+        })
+        .unwrap_or([1.0; 3]);
     let mut done = [false; 3];
     let mut c = 0usize;
     while s.remaining() > 0 && !done.iter().all(|d| *d) {
@@ -573,7 +714,7 @@ pub fn measure_display(
             c = (c + 1) % 3;
             continue;
         }
-        match next_drive(&rel[c]) {
+        match next_drive(&rel[c], usage[c]) {
             None => done[c] = true,
             Some(d) => {
                 let d = quantise(d, info.bit_depth);
@@ -581,7 +722,8 @@ pub fn measure_display(
                     done[c] = true;
                 } else {
                     match s.sample(Patch::Ramp(c, d), false, progress)? {
-                        Some(xyz) => {
+                        Some(raw) => {
+                            let xyz = luminance_only(raw, black, primaries[c]);
                             ramps[c].push((d, xyz));
                             let r = relative_intensity(xyz, black, primaries[c]);
                             insert_sorted(&mut rel[c], (d, r));
@@ -651,7 +793,22 @@ fn interpolate(v: &[(f64, f64)], d: f64) -> f64 {
     }
 }
 
-/// Next ramp drive for a channel from the tone module's adaptive placement.
-fn next_drive(samples: &[(f64, f64)]) -> Option<f64> {
-    crate::tone::suggest_next_drive(samples)
+/// Next ramp drive for a channel from the tone module's adaptive placement, with the
+/// intensities rescaled so that the expected `usage` counts as the full range (above
+/// it, segments count by their drive length only).
+fn next_drive(samples: &[(f64, f64)], usage: f64) -> Option<f64> {
+    if usage >= 1.0 {
+        return crate::tone::suggest_next_drive(samples);
+    }
+    let scaled: Vec<(f64, f64)> = samples
+        .iter()
+        .map(|&(d, r)| {
+            if d >= 1.0 {
+                (d, 1.0)
+            } else {
+                (d, (r / usage).min(1.0))
+            }
+        })
+        .collect();
+    crate::tone::suggest_next_drive(&scaled)
 }
