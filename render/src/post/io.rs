@@ -1,0 +1,303 @@
+//! Reading frames into the post pass and writing display images out of it.
+//!
+//! **OpenEXR convention.** A frame is linear CIE XYZ with Y in cd/m². Accepted channel
+//! sets (first valid layer, a `layer.` prefix is ignored): `X, Y, Z`; `R, G, B` holding
+//! X, Y, Z in that order (many tools only write RGB — the values are *not* RGB); or a
+//! single `Y` (luminance in cd/m²), shown in the chromaticity of the white given in
+//! [`ReadOptions::white_for_luminance_xyz`] (the wall's target white). NaN/Inf and
+//! negative values are errors naming the count and the first pixel, unless
+//! [`ReadOptions::sanitize`] (both replaced by 0) or [`ReadOptions::allow_negative`]
+//! (negatives pass through and are handled as out of gamut) is set.
+//!
+//! **PNG input** is uncalibrated sRGB: decoded with the fixed ideal sRGB curve
+//! (Kresse 3.3.5), then mapped to XYZ cd/m² by a matrix such as
+//! [`rgb_to_xyz_matrix`](lumiwall_profiles::apply::rgb_to_xyz_matrix) for the wall white.
+//!
+//! **PNG output**: 8-bit codes as an 8-bit RGB PNG; 10-, 12- and 16-bit codes as a
+//! 16-bit RGB PNG with the code in the most significant bits (`value = code << (16 −
+//! bits)`, so a 10-bit code 1023 is stored as 65472); the display driver recovers the
+//! code with `value >> (16 − bits)`.
+
+use std::path::Path;
+
+use exr::prelude::{
+    AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, ReadChannels,
+    ReadLayers, SmallVec, WritableImage,
+};
+use lumiwall_profiles::apply::srgb_to_xyz;
+
+use super::{CodeImage, PostError, XyzFrame};
+
+/// How to read an input frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReadOptions {
+    /// Pass negative values through (they are shown as out of gamut) instead of failing.
+    pub allow_negative: bool,
+    /// Replace NaN, ±Inf and negative values with 0 instead of failing.
+    pub sanitize: bool,
+    /// White (XYZ cd/m², only the chromaticity is used) for a luminance-only EXR.
+    pub white_for_luminance_xyz: [f64; 3],
+}
+
+/// What [`read_exr`] replaced or let through.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct InputReport {
+    /// NaN or infinite values found (replaced by 0 when sanitising).
+    pub non_finite: u64,
+    /// Negative values found (replaced by 0 when sanitising).
+    pub negative: u64,
+    /// The file held luminance only.
+    pub luminance_only: bool,
+}
+
+fn exr_err(path: &Path) -> impl Fn(exr::error::Error) -> PostError + '_ {
+    move |e| PostError::Exr {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+fn short_name(full: &str) -> &str {
+    full.rsplit('.').next().unwrap_or(full)
+}
+
+/// Reads an OpenEXR frame (see the module doc for the channel convention).
+pub fn read_exr(path: &Path, opts: &ReadOptions) -> Result<(XyzFrame, InputReport), PostError> {
+    if !path.exists() {
+        return Err(PostError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+        });
+    }
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(exr_err(path))?;
+    let layer = image.layer_data;
+    let (w, h) = (layer.size.x(), layer.size.y());
+    let list = &layer.channel_data.list;
+    let names: Vec<String> = list.iter().map(|c| c.name.to_string()).collect();
+    let find = |want: &str| {
+        list.iter()
+            .find(|c| short_name(&c.name.to_string()) == want)
+            .map(|c| &c.sample_data)
+    };
+    let channels_err = || PostError::Channels {
+        path: path.to_path_buf(),
+        found: names.join(", "),
+    };
+    let mut report = InputReport::default();
+    let sets: [Option<[&FlatSamples; 3]>; 2] = [
+        match (find("X"), find("Y"), find("Z")) {
+            (Some(x), Some(y), Some(z)) => Some([x, y, z]),
+            _ => None,
+        },
+        match (find("R"), find("G"), find("B")) {
+            (Some(x), Some(y), Some(z)) => Some([x, y, z]),
+            _ => None,
+        },
+    ];
+    let n = w * h;
+    let mut pixels = vec![[0f32; 3]; n];
+    if let Some(chans) = sets.into_iter().flatten().next() {
+        for (c, samples) in chans.iter().enumerate() {
+            if samples.len() != n {
+                return Err(channels_err());
+            }
+            for (p, v) in pixels.iter_mut().zip(samples.values_as_f32()) {
+                p[c] = v;
+            }
+        }
+    } else if let (Some(y), 1) = (find("Y"), list.len()) {
+        if y.len() != n {
+            return Err(channels_err());
+        }
+        let wt = opts.white_for_luminance_xyz;
+        if !(wt[1] > 0.0 && wt.iter().all(|v| v.is_finite())) {
+            return Err(PostError::SizeMismatch(format!(
+                "luminance-only EXR {} needs a white with positive luminance, got {wt:?}",
+                path.display()
+            )));
+        }
+        let (kx, kz) = ((wt[0] / wt[1]) as f32, (wt[2] / wt[1]) as f32);
+        for (p, v) in pixels.iter_mut().zip(y.values_as_f32()) {
+            *p = [v * kx, v, v * kz];
+        }
+        report.luminance_only = true;
+    } else {
+        return Err(channels_err());
+    }
+    check_values(path, &mut pixels, w as u32, opts, &mut report)?;
+    Ok((XyzFrame::new(w as u32, h as u32, pixels)?, report))
+}
+
+/// Counts NaN/Inf and negative values; fails, sanitises or passes them per `opts`.
+pub fn check_values(
+    path: &Path,
+    pixels: &mut [[f32; 3]],
+    width: u32,
+    opts: &ReadOptions,
+    report: &mut InputReport,
+) -> Result<(), PostError> {
+    let mut first_bad = None;
+    let mut first_neg = None;
+    for (i, p) in pixels.iter().enumerate() {
+        for v in p {
+            if !v.is_finite() {
+                report.non_finite += 1;
+                first_bad.get_or_insert(i);
+            } else if *v < 0.0 {
+                report.negative += 1;
+                first_neg.get_or_insert(i);
+            }
+        }
+    }
+    let at = |i: usize| {
+        (
+            (i % width.max(1) as usize) as u32,
+            (i / width.max(1) as usize) as u32,
+        )
+    };
+    if opts.sanitize {
+        for v in pixels.iter_mut().flatten() {
+            if !v.is_finite() || *v < 0.0 {
+                *v = 0.0;
+            }
+        }
+        return Ok(());
+    }
+    if let Some(i) = first_bad {
+        let (x, y) = at(i);
+        return Err(PostError::BadValues {
+            path: path.to_path_buf(),
+            count: report.non_finite,
+            what: "NaN or infinite",
+            first_x: x,
+            first_y: y,
+            flag: "--sanitize",
+        });
+    }
+    if let (Some(i), false) = (first_neg, opts.allow_negative) {
+        let (x, y) = at(i);
+        return Err(PostError::BadValues {
+            path: path.to_path_buf(),
+            count: report.negative,
+            what: "negative",
+            first_x: x,
+            first_y: y,
+            flag: "--allow-negative (or --sanitize)",
+        });
+    }
+    Ok(())
+}
+
+/// Writes a frame as a float EXR with channels `X, Y, Z` (or `R, G, B` holding X, Y, Z
+/// when `rgb_names`).
+pub fn write_exr(path: &Path, frame: &XyzFrame, rgb_names: bool) -> Result<(), PostError> {
+    let names = if rgb_names {
+        ["R", "G", "B"]
+    } else {
+        ["X", "Y", "Z"]
+    };
+    let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = (0..3)
+        .map(|c| {
+            AnyChannel::new(
+                names[c],
+                FlatSamples::F32(frame.pixels.iter().map(|p| p[c]).collect()),
+            )
+        })
+        .collect();
+    let layer = Layer::new(
+        (frame.width as usize, frame.height as usize),
+        LayerAttributes::default(),
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(list),
+    );
+    Image::from_layer(layer)
+        .write()
+        .to_file(path)
+        .map_err(exr_err(path))
+}
+
+/// Reads an 8- or 16-bit PNG as uncalibrated sRGB and maps it to XYZ cd/m² with
+/// `rgb_to_xyz` (linear relative RGB → XYZ, e.g. for the wall white).
+pub fn read_png_srgb(path: &Path, rgb_to_xyz: &[[f64; 3]; 3]) -> Result<XyzFrame, PostError> {
+    let img = image::ImageReader::open(path)
+        .map_err(|source| PostError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?
+        .with_guessed_format()
+        .map_err(|source| PostError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?
+        .decode()
+        .map_err(|e| PostError::Png {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+    let rgb = img.to_rgb32f();
+    let (w, h) = rgb.dimensions();
+    let pixels = rgb.pixels().map(|p| srgb_to_xyz(p.0, rgb_to_xyz)).collect();
+    XyzFrame::new(w, h, pixels)
+}
+
+/// Writes display codes as a PNG (8-bit, or 16-bit with the code in the high bits; see
+/// the module doc).
+pub fn write_png(path: &Path, img: &CodeImage) -> Result<(), PostError> {
+    let png_err = |e: image::ImageError| PostError::Png {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| PostError::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+    }
+    if img.bit_depth == 8 {
+        let data: Vec<u8> = img.codes.iter().flatten().map(|v| *v as u8).collect();
+        let buf = image::RgbImage::from_raw(img.width, img.height, data)
+            .ok_or_else(|| PostError::SizeMismatch("code image size".into()))?;
+        buf.save_with_format(path, image::ImageFormat::Png)
+            .map_err(png_err)
+    } else {
+        let shift = 16 - img.bit_depth.min(16);
+        let data: Vec<u16> = img.codes.iter().flatten().map(|v| v << shift).collect();
+        let buf =
+            image::ImageBuffer::<image::Rgb<u16>, Vec<u16>>::from_raw(img.width, img.height, data)
+                .ok_or_else(|| PostError::SizeMismatch("code image size".into()))?;
+        buf.save_with_format(path, image::ImageFormat::Png)
+            .map_err(png_err)
+    }
+}
+
+/// Reads a PNG written by [`write_png`] back into code values of `bit_depth` bits.
+pub fn read_png_codes(path: &Path, bit_depth: u32) -> Result<(u32, u32, Vec<[u16; 3]>), PostError> {
+    let img = image::ImageReader::open(path)
+        .map_err(|source| PostError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?
+        .decode()
+        .map_err(|e| PostError::Png {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+    let (w, h) = (img.width(), img.height());
+    let codes = if bit_depth == 8 {
+        img.to_rgb8().pixels().map(|p| p.0.map(u16::from)).collect()
+    } else {
+        let shift = 16 - bit_depth.min(16);
+        img.to_rgb16()
+            .pixels()
+            .map(|p| p.0.map(|v| v >> shift))
+            .collect()
+    };
+    Ok((w, h, codes))
+}
