@@ -402,3 +402,13 @@ fn fault_plan_is_serde() {
     assert_eq!(partial.garbage_on, vec![3]);
     assert_eq!(partial.stop_after_readings, None);
 }
+
+#[test]
+fn port_can_be_reopened_after_the_driver_is_dropped() {
+    let (_emu, port, _calls) = start(FaultPlan::default());
+    let mut first = port.open(config(500, 0)).unwrap();
+    assert_close(first.measure().unwrap(), value(0));
+    drop(first);
+    let mut second = port.open(config(500, 0)).unwrap();
+    assert_close(second.measure().unwrap(), value(1));
+}

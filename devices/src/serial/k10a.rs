@@ -116,6 +116,19 @@ pub struct KleinK10a {
     needs_resync: bool,
     last: Option<MeasurementAnswer>,
     stats: ExchangeStats,
+    #[cfg(unix)]
+    exclusive_guard: Option<serialport::TTYPort>,
+}
+
+impl Drop for KleinK10a {
+    fn drop(&mut self) {
+        #[cfg(unix)]
+        if let Some(mut guard) = self.exclusive_guard.take()
+            && let Err(e) = guard.set_exclusive(false)
+        {
+            tracing::debug!("{}: releasing the exclusive lock failed: {e}", self.device);
+        }
+    }
 }
 
 impl std::fmt::Debug for KleinK10a {
@@ -135,6 +148,10 @@ impl KleinK10a {
     /// auto-ranging, identifies it (`P0`) and switches the aiming lights off.
     pub fn open(path: &str, config: K10aConfig) -> Result<Self, DeviceError> {
         let device = format!("Klein K-10 meter on {path}");
+        let io_err = |e: serialport::Error| DeviceError::Io {
+            device: device.clone(),
+            source: std::io::Error::from(e),
+        };
         let builder = serialport::new(path, proto::BAUD_RATE)
             .data_bits(DataBits::Eight)
             .parity(Parity::None)
@@ -142,12 +159,29 @@ impl KleinK10a {
             .flow_control(FlowControl::None)
             .timeout(config.read_timeout);
         #[cfg(unix)]
-        let builder = builder.exclusive(config.exclusive);
-        let port = builder.open().map_err(|e| DeviceError::Io {
-            device: device.clone(),
-            source: std::io::Error::from(e),
-        })?;
-        Self::from_port(port, path, config)
+        {
+            let native = builder
+                .exclusive(config.exclusive)
+                .open_native()
+                .map_err(io_err)?;
+            // A duplicate handle to lift the exclusive lock on drop, so that the
+            // port can be opened again while another process keeps it open (as the
+            // emulator does with its pseudo-terminal).
+            let guard = if config.exclusive {
+                native.try_clone_native().ok()
+            } else {
+                None
+            };
+            let mut meter = Self::unstarted(Box::new(native), path, config);
+            meter.exclusive_guard = guard;
+            meter.start_up()?;
+            Ok(meter)
+        }
+        #[cfg(not(unix))]
+        {
+            let port = builder.open().map_err(io_err)?;
+            Self::from_port(port, path, config)
+        }
     }
 
     /// Wraps an already opened port (settings must be 9600 8N1); `name` is used in
@@ -157,7 +191,13 @@ impl KleinK10a {
         name: &str,
         config: K10aConfig,
     ) -> Result<Self, DeviceError> {
-        let mut meter = Self {
+        let mut meter = Self::unstarted(port, name, config);
+        meter.start_up()?;
+        Ok(meter)
+    }
+
+    fn unstarted(port: Box<dyn SerialPort>, name: &str, config: K10aConfig) -> Self {
+        Self {
             port,
             config,
             device: format!("Klein K-10 meter on {name}"),
@@ -166,9 +206,9 @@ impl KleinK10a {
             needs_resync: true,
             last: None,
             stats: ExchangeStats::default(),
-        };
-        meter.start_up()?;
-        Ok(meter)
+            #[cfg(unix)]
+            exclusive_guard: None,
+        }
     }
 
     fn start_up(&mut self) -> Result<(), DeviceError> {
@@ -385,6 +425,10 @@ impl KleinK10a {
     ) -> Result<bool, DeviceError> {
         let mut chunk = [0u8; 64];
         while !done(buf) {
+            if buf.len() > 4096 {
+                // Only the tail matters to the callers; bound the memory.
+                buf.drain(..buf.len() - 64);
+            }
             let now = Instant::now();
             if now >= deadline {
                 return Ok(false);
