@@ -1,0 +1,233 @@
+//! The simulated spot colorimeter and its error model.
+//!
+//! Errors are applied in xyY: a per-instrument systematic luminance gain and xy
+//! offset (drawn once from the instrument seed), per-reading Gaussian noise whose
+//! standard deviation grows as luminance falls below `low_light_cd_m2`, and display
+//! rounding. Limits: over `max_cd_m2` → [`DeviceError::OverRange`]; below
+//! `floor_cd_m2` → [`DeviceError::TooDark`]; between the floor and
+//! `min_reliable_cd_m2` the meter still answers, with larger noise.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
+
+use super::wall::VirtualWall;
+use crate::{Colorimeter, DeviceError, MeterInfo, Xyz};
+
+/// Error model of a spot colorimeter.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeterModel {
+    /// Model name reported by [`Colorimeter::info`].
+    pub model: String,
+    /// Instrument seed: fixes its systematic errors (like a serial number).
+    pub seed: u64,
+    /// Bound of the systematic luminance gain error (drawn uniformly in ±bound).
+    pub lum_systematic_rel: f64,
+    /// Bound of the systematic x and y offsets (each drawn uniformly in ±bound).
+    pub xy_systematic: f64,
+    /// 1σ relative luminance noise per reading at high luminance.
+    pub lum_noise_rel: f64,
+    /// Added 1σ relative luminance noise at `low_light_cd_m2`, growing ∝ 1/Y below.
+    pub lum_low_light_rel: f64,
+    /// 1σ noise of x and y per reading at high luminance.
+    pub xy_noise: f64,
+    /// Added 1σ xy noise at `low_light_cd_m2`, growing ∝ 1/Y below.
+    pub xy_low_light: f64,
+    /// Luminance where the low-light noise terms are referenced (cd/m²).
+    pub low_light_cd_m2: f64,
+    /// Below this the maker calls readings unreliable (cd/m²); informative.
+    pub min_reliable_cd_m2: f64,
+    /// Below this the meter refuses with [`DeviceError::TooDark`] (cd/m²).
+    pub floor_cd_m2: f64,
+    /// Above this the meter reports [`DeviceError::OverRange`] (cd/m²).
+    pub max_cd_m2: f64,
+    /// Significant digits of the luminance display and decimals of x, y
+    /// (`None`: no rounding).
+    pub display_digits: Option<u32>,
+}
+
+impl MeterModel {
+    /// A perfect meter: no systematic error, no noise, no rounding, no limits; reads
+    /// exactly [`VirtualWall::emitted_xyz`].
+    pub fn noiseless() -> Self {
+        Self {
+            model: "ideal meter (simulated)".into(),
+            seed: 0,
+            lum_systematic_rel: 0.0,
+            xy_systematic: 0.0,
+            lum_noise_rel: 0.0,
+            lum_low_light_rel: 0.0,
+            xy_noise: 0.0,
+            xy_low_light: 0.0,
+            low_light_cd_m2: 1.0,
+            min_reliable_cd_m2: 0.0,
+            floor_cd_m2: 0.0,
+            max_cd_m2: f64::INFINITY,
+            display_digits: None,
+        }
+    }
+
+    /// Konica Minolta CS-100A per its datasheet: luminance accuracy ±2 % and xy
+    /// ±0.004 (illuminant A) as the bounds of the per-instrument error; repeatability
+    /// 0.2 % + 1 digit and xy 0.001 (2σ) per reading; range 0.01–299 900 cd/m²,
+    /// unreliable below ~1 cd/m² (Kresse 3.3.7); 4-digit display. `seed` plays the
+    /// serial number.
+    pub fn cs100a(seed: u64) -> Self {
+        Self {
+            model: "Konica Minolta CS-100A (simulated)".into(),
+            seed,
+            lum_systematic_rel: 0.02,
+            xy_systematic: 0.004,
+            lum_noise_rel: 0.001,
+            lum_low_light_rel: 0.004,
+            xy_noise: 0.0005,
+            xy_low_light: 0.002,
+            low_light_cd_m2: 1.0,
+            min_reliable_cd_m2: 1.0,
+            floor_cd_m2: 0.01,
+            max_cd_m2: 299_900.0,
+            display_digits: Some(4),
+        }
+    }
+
+    /// 1σ relative luminance noise at `y_cd_m2`.
+    pub fn lum_sigma_rel(&self, y_cd_m2: f64) -> f64 {
+        self.lum_noise_rel + self.lum_low_light_rel * self.low_light_cd_m2 / y_cd_m2.max(1e-9)
+    }
+
+    /// 1σ x (and y) noise at `y_cd_m2`.
+    pub fn xy_sigma(&self, y_cd_m2: f64) -> f64 {
+        self.xy_noise + self.xy_low_light * self.low_light_cd_m2 / y_cd_m2.max(1e-9)
+    }
+}
+
+/// A simulated colorimeter reading a [`VirtualWall`] at the spot its positioner aimed
+/// at. `Send`: it can be moved into a serial emulator thread.
+#[derive(Debug, Clone)]
+pub struct SimMeter {
+    wall: VirtualWall,
+    model: MeterModel,
+    systematic_gain: f64,
+    systematic_xy: [f64; 2],
+    rng: ChaCha8Rng,
+}
+
+fn round_sig(v: f64, digits: u32) -> f64 {
+    if v == 0.0 || !v.is_finite() {
+        return v;
+    }
+    let mag = v.abs().log10().floor() as i32;
+    let scale = 10f64.powi(digits as i32 - 1 - mag);
+    (v * scale).round() / scale
+}
+
+impl SimMeter {
+    /// A meter with error model `model` on `wall`.
+    pub fn new(wall: VirtualWall, model: MeterModel) -> Self {
+        let mut sys = ChaCha8Rng::seed_from_u64(model.seed ^ 0x005e_edc5_100a);
+        let mut draw = |b: f64| {
+            if b > 0.0 {
+                sys.random_range(-b..=b)
+            } else {
+                0.0
+            }
+        };
+        let systematic_gain = 1.0 + draw(model.lum_systematic_rel);
+        let systematic_xy = [draw(model.xy_systematic), draw(model.xy_systematic)];
+        let rng = ChaCha8Rng::seed_from_u64(wall.seed() ^ model.seed.rotate_left(32));
+        Self {
+            wall,
+            model,
+            systematic_gain,
+            systematic_xy,
+            rng,
+        }
+    }
+
+    /// The error model.
+    pub fn model(&self) -> &MeterModel {
+        &self.model
+    }
+
+    /// This instrument's systematic errors: luminance gain (1 = none) and xy offset.
+    pub fn systematic_error(&self) -> (f64, [f64; 2]) {
+        (self.systematic_gain, self.systematic_xy)
+    }
+
+    fn name(&self) -> String {
+        format!("{} #{}", self.model.model, self.model.seed)
+    }
+
+    fn apply_errors(&mut self, truth: Xyz) -> Result<Xyz, DeviceError> {
+        let m = &self.model;
+        let y_true = truth.y;
+        if !truth.is_finite() {
+            return Err(DeviceError::Garbled {
+                device: self.name(),
+                command: "measure".into(),
+                answer: format!("{truth:?}"),
+            });
+        }
+        if y_true * self.systematic_gain > m.max_cd_m2 {
+            return Err(DeviceError::OverRange {
+                device: self.name(),
+            });
+        }
+        let Some([x, y]) = truth.xy() else {
+            return Err(DeviceError::TooDark {
+                device: self.name(),
+                y_cd_m2: y_true,
+                limit_cd_m2: m.floor_cd_m2,
+            });
+        };
+        let sl = m.lum_sigma_rel(y_true);
+        let sxy = m.xy_sigma(y_true);
+        let n: [f64; 3] = std::array::from_fn(|_| self.rng.sample::<f64, _>(StandardNormal));
+        let mut lum = y_true * self.systematic_gain * (1.0 + sl * n[0]);
+        let mut xm = x + self.systematic_xy[0] + sxy * n[1];
+        let mut ym = y + self.systematic_xy[1] + sxy * n[2];
+        if let Some(d) = m.display_digits {
+            lum = round_sig(lum, d);
+            let k = 10f64.powi(d as i32);
+            xm = (xm * k).round() / k;
+            ym = (ym * k).round() / k;
+        }
+        if lum < m.floor_cd_m2 || lum <= 0.0 || ym <= 0.0 {
+            return Err(DeviceError::TooDark {
+                device: self.name(),
+                y_cd_m2: lum.max(0.0),
+                limit_cd_m2: m.floor_cd_m2,
+            });
+        }
+        if m.lum_noise_rel == 0.0
+            && m.lum_low_light_rel == 0.0
+            && m.xy_noise == 0.0
+            && m.xy_low_light == 0.0
+            && self.systematic_gain == 1.0
+            && self.systematic_xy == [0.0, 0.0]
+            && m.display_digits.is_none()
+        {
+            // Perfect meter: hand back the exact tristimulus values (no xyY round trip).
+            return Ok(truth);
+        }
+        Ok(Xyz::from_xy_luminance(xm, ym, lum))
+    }
+}
+
+impl Colorimeter for SimMeter {
+    fn info(&self) -> MeterInfo {
+        MeterInfo {
+            model: self.model.model.clone(),
+            serial: format!("SIM-{}", self.model.seed),
+            min_reliable_cd_m2: self.model.min_reliable_cd_m2,
+            max_cd_m2: self.model.max_cd_m2,
+        }
+    }
+
+    fn measure(&mut self) -> Result<Xyz, DeviceError> {
+        let truth = self.wall.read_spot()?;
+        self.apply_errors(truth)
+    }
+}

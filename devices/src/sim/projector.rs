@@ -1,0 +1,338 @@
+//! One simulated display (one projector, one eye): its spectra reduced to per-channel
+//! XYZ once at construction, and the per-reading model (quantisation, transfer
+//! curves, falloff, ageing, warm-up, non-additivity).
+
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+
+use super::curve::TransferCurve;
+use super::observer::{Spectrum, cie1931};
+use super::spectra::{self, Band};
+use super::wall_file::{AgeingSpec, FalloffSpec, ProjectorSpec, WallFile, WarmupSpec};
+use crate::{DeviceError, DisplayId, DisplayInfo, Eye};
+
+/// Everything the simulator knows about one display, fixed at construction.
+#[derive(Debug, Clone)]
+pub struct SimDisplay {
+    /// Static facts.
+    pub info: DisplayInfo,
+    /// XYZ (cd/m², Y = luminance) of each channel at full drive, black excluded, at
+    /// the centre, new lamp, warmed up, head-on on a gain-1 screen.
+    pub channel_xyz: [[f64; 3]; 3],
+    /// XYZ of black (all channels at drive 0), same conditions.
+    pub black_xyz: [f64; 3],
+    /// XYZ of the full DLP white segment (multiplied by min of the channel intensities).
+    pub white_segment_xyz: [f64; 3],
+    /// Transfer curves, R, G, B.
+    pub curves: [TransferCurve; 3],
+    /// Falloff (after scatter).
+    pub falloff: FalloffSpec,
+    /// Lamp ageing model.
+    pub ageing: AgeingSpec,
+    /// Warm-up model.
+    pub warmup: WarmupSpec,
+    /// Lamp hours at simulation start.
+    pub lamp_hours_at_start: f64,
+    /// Relative lamp power after scatter and overrides.
+    pub lamp_power: f64,
+    /// Tile geometry: lower-left corner (m) and size (m) on the wall.
+    pub tile_origin_m: [f64; 2],
+    /// Tile size (m).
+    pub tile_size_m: [f64; 2],
+    /// Throw distance behind the screen (m).
+    pub throw_m: f64,
+}
+
+/// Conditions of one reading besides drive and spot.
+#[derive(Debug, Clone, Copy)]
+pub struct Conditions {
+    /// Lamp hours now.
+    pub lamp_hours: f64,
+    /// Minutes since switch-on now.
+    pub minutes_on: f64,
+}
+
+fn uniform(rng: &mut ChaCha8Rng, half_width: f64) -> f64 {
+    if half_width > 0.0 {
+        rng.random_range(-half_width..=half_width)
+    } else {
+        0.0
+    }
+}
+
+fn check_finite_nonneg(what: &str, v: f64) -> Result<(), DeviceError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        Err(DeviceError::Config(format!(
+            "{what} must be a finite number >= 0, got {v}"
+        )))
+    }
+}
+
+/// Validates the projector model of a wall file.
+pub fn validate_spec(p: &ProjectorSpec) -> Result<(), DeviceError> {
+    if !(1..=16).contains(&p.bit_depth) {
+        return Err(DeviceError::Config(format!(
+            "projector.bit_depth must be 1..=16, got {}",
+            p.bit_depth
+        )));
+    }
+    if !(p.lamp.white_cd_m2.is_finite() && p.lamp.white_cd_m2 > 0.0) {
+        return Err(DeviceError::Config(format!(
+            "projector.lamp.white_cd_m2 must be > 0, got {}",
+            p.lamp.white_cd_m2
+        )));
+    }
+    if !(1000.0..=30000.0).contains(&p.lamp.cct_k) {
+        return Err(DeviceError::Config(format!(
+            "projector.lamp.cct_k must be in 1000..=30000 K, got {}",
+            p.lamp.cct_k
+        )));
+    }
+    for (name, c) in ["red", "green", "blue"].iter().zip(p.curves.curves()) {
+        c.validate()
+            .map_err(|e| DeviceError::Config(format!("projector.curves.{name}: {e}")))?;
+    }
+    check_finite_nonneg("projector.white_segment", p.white_segment)?;
+    check_finite_nonneg("projector.lamp_hours", p.lamp_hours)?;
+    check_finite_nonneg("projector.throw_m", p.throw_m)?;
+    for v in p.black.leak.iter().chain([&p.black.stray]) {
+        check_finite_nonneg("projector.black leak/stray", *v)?;
+    }
+    Ok(())
+}
+
+impl SimDisplay {
+    /// Builds display `index` of `wall` on tile (`col`, `row`) for `eye`, drawing its
+    /// manufacturing scatter from `rng`.
+    pub fn build(
+        wall: &WallFile,
+        index: u32,
+        col: u32,
+        row: u32,
+        eye: Eye,
+        rng: &mut ChaCha8Rng,
+    ) -> Result<Self, DeviceError> {
+        let p = &wall.projector;
+        let sc = &wall.scatter;
+        let obs = cie1931()?;
+
+        // Manufacturing scatter, always drawn in the same order.
+        let mut lamp_power = 1.0 + uniform(rng, sc.lamp_power_rel);
+        let panel_shift: [f64; 3] = std::array::from_fn(|_| uniform(rng, sc.panel_shift_nm));
+        let comb_shift: [f64; 3] = std::array::from_fn(|_| uniform(rng, sc.comb_shift_nm));
+        let mut gain: [f64; 3] = std::array::from_fn(|_| 1.0 + uniform(rng, sc.channel_gain_rel));
+        let mut curves = p.curves.curves();
+        for c in &mut curves {
+            c.gamma = (c.gamma + uniform(rng, sc.gamma)).max(0.3);
+            c.s_weight = (c.s_weight + uniform(rng, sc.curve_shape)).clamp(0.0, 1.0);
+            c.s_centre = (c.s_centre + uniform(rng, sc.curve_shape)).clamp(0.05, 0.95);
+        }
+        let mut falloff = p.falloff;
+        for a in &mut falloff.vignetting {
+            *a = (*a * (1.0 + uniform(rng, sc.vignetting_rel))).max(0.0);
+        }
+        falloff.hotspot_offset[0] += uniform(rng, sc.hotspot_offset);
+        falloff.hotspot_offset[1] += uniform(rng, sc.hotspot_offset);
+        let mut lamp_hours = match sc.lamp_hours {
+            Some([lo, hi]) if hi > lo => rng.random_range(lo..=hi),
+            Some([lo, _]) => lo,
+            None => p.lamp_hours,
+        };
+        let mut white_segment = p.white_segment;
+
+        let eye_gain = match eye {
+            Eye::Mono => p.channel_gain.mono,
+            Eye::Left => p.channel_gain.left,
+            Eye::Right => p.channel_gain.right,
+        };
+        for c in 0..3 {
+            gain[c] *= eye_gain[c];
+        }
+        for o in wall.overrides.iter().filter(|o| o.display == index) {
+            if let Some(h) = o.lamp_hours {
+                lamp_hours = h;
+            }
+            if let Some(k) = o.lamp_power {
+                lamp_power *= k;
+            }
+            if let Some(g) = o.channel_gain {
+                for c in 0..3 {
+                    gain[c] *= g[c];
+                }
+            }
+            if let Some(w) = o.white_segment {
+                white_segment = w;
+            }
+        }
+        check_finite_nonneg("override lamp_hours", lamp_hours)?;
+        check_finite_nonneg("lamp power after overrides", lamp_power)?;
+        for g in gain {
+            check_finite_nonneg("channel gain after overrides", g)?;
+        }
+
+        // Spectra.
+        let lamp = spectra::lamp(
+            p.lamp.kind,
+            p.lamp.cct_k,
+            p.lamp.line_fwhm_nm,
+            p.lamp.red_deficit,
+        );
+        let comb = match eye {
+            Eye::Mono => Spectrum::constant(1.0),
+            Eye::Left | Eye::Right => {
+                let spec = if eye == Eye::Left {
+                    &wall.infitec.left
+                } else {
+                    &wall.infitec.right
+                };
+                let bands: Vec<Band> = spec
+                    .bands
+                    .iter()
+                    .enumerate()
+                    .map(|(i, b)| b.shifted(comb_shift[i % 3]))
+                    .collect();
+                spectra::comb(&bands, spec.leak)
+            }
+        };
+        let lamp_y = obs.tristimulus(&lamp)[1];
+        if lamp_y.is_nan() || lamp_y <= 0.0 {
+            return Err(DeviceError::Config(
+                "lamp spectrum has no luminance in 360–830 nm".into(),
+            ));
+        }
+        let scale = p.lamp.white_cd_m2 * lamp_power / lamp_y;
+        let through_comb = lamp.mul(&comb);
+        let panels: Vec<Spectrum> = p
+            .panel
+            .bands()
+            .iter()
+            .zip(panel_shift)
+            .map(|(b, s)| b.shifted(s).spectrum())
+            .collect();
+        let channel_xyz: [[f64; 3]; 3] = std::array::from_fn(|c| {
+            obs.tristimulus(&through_comb.mul(&panels[c]))
+                .map(|v| v * scale * gain[c])
+        });
+        let leak = panels
+            .iter()
+            .zip(p.black.leak)
+            .fold(Spectrum::constant(p.black.stray), |acc, (s, k)| {
+                acc.add(&s.scaled(k))
+            });
+        let black_xyz = obs.tristimulus(&through_comb.mul(&leak)).map(|v| v * scale);
+        let white_segment_xyz = obs
+            .tristimulus(&through_comb)
+            .map(|v| v * scale * white_segment);
+
+        let (cols, rows) = (wall.tiles.cols, wall.tiles.rows);
+        let (w, h) = (wall.tiles.width_m, wall.tiles.height_m);
+        let info = DisplayInfo {
+            id: DisplayId(index),
+            name: format!("tile c{col}r{row} {eye}"),
+            tile_col: col,
+            tile_row: row,
+            eye,
+            bit_depth: p.bit_depth,
+        };
+        debug_assert!(col < cols && row < rows);
+        Ok(Self {
+            info,
+            channel_xyz,
+            black_xyz,
+            white_segment_xyz,
+            curves,
+            falloff,
+            ageing: p.ageing,
+            warmup: p.warmup,
+            lamp_hours_at_start: lamp_hours,
+            lamp_power,
+            tile_origin_m: [col as f64 * w, (rows - 1 - row) as f64 * h],
+            tile_size_m: [w, h],
+            throw_m: p.throw_m,
+        })
+    }
+
+    /// Drive after quantisation to the display's bit depth (code / max code).
+    pub fn quantise(&self, drive: f64) -> f64 {
+        let max_code = ((1u64 << self.info.bit_depth) - 1) as f64;
+        (drive.clamp(0.0, 1.0) * max_code).round() / max_code
+    }
+
+    /// Relative intensity (black removed, 1 at full drive) of channel `c` for a drive,
+    /// after quantisation.
+    pub fn relative_intensity(&self, c: usize, drive: f64) -> f64 {
+        self.curves[c].intensity(self.quantise(drive))
+    }
+
+    /// Spatial factor per channel at `uv` (1 at the centre).
+    pub fn falloff_factor(&self, uv: [f64; 2]) -> [f64; 3] {
+        let f = &self.falloff;
+        let r2 = ((uv[0] - 0.5).powi(2) + (uv[1] - 0.5).powi(2)) / 0.5;
+        let hot = |u: f64, v: f64| {
+            let du = u - 0.5 - f.hotspot_offset[0];
+            let dv = v - 0.5 - f.hotspot_offset[1];
+            let s = f.hotspot_sigma.max(1e-6);
+            1.0 + f.hotspot_gain * (-(du * du + dv * dv) / (2.0 * s * s)).exp()
+        };
+        let h = hot(uv[0], uv[1]) / hot(0.5, 0.5);
+        std::array::from_fn(|c| h / (1.0 + f.vignetting[c] * r2).powi(2))
+    }
+
+    /// Lamp-ageing factor per channel after `hours` of operation.
+    pub fn ageing_factor(&self, hours: f64) -> [f64; 3] {
+        let a = &self.ageing;
+        let h = hours.max(0.0);
+        let loss = a.fast_loss * (1.0 - (-h / a.fast_hours.max(1e-6)).exp())
+            + a.slow_loss_per_1000h * h / 1000.0;
+        std::array::from_fn(|c| (1.0 - a.channel_weight[c] * loss).max(0.02))
+    }
+
+    /// Warm-up factor per channel `minutes` after switch-on.
+    pub fn warmup_factor(&self, minutes: f64) -> [f64; 3] {
+        let w = &self.warmup;
+        let e = (-minutes.max(0.0) / w.minutes.max(1e-6)).exp();
+        std::array::from_fn(|c| 1.0 - w.deficit[c] * e)
+    }
+
+    /// Spot position on the wall (m; x right, y up from the wall's lower-left
+    /// corner, z = 0 on the screen); `uv` has v = 0 at the top of the image.
+    pub fn spot_m(&self, uv: [f64; 2]) -> [f64; 3] {
+        [
+            self.tile_origin_m[0] + uv[0] * self.tile_size_m[0],
+            self.tile_origin_m[1] + (1.0 - uv[1]) * self.tile_size_m[1],
+            0.0,
+        ]
+    }
+
+    /// Lens position (m), behind the tile centre.
+    pub fn lens_m(&self) -> [f64; 3] {
+        [
+            self.tile_origin_m[0] + 0.5 * self.tile_size_m[0],
+            self.tile_origin_m[1] + 0.5 * self.tile_size_m[1],
+            -self.throw_m,
+        ]
+    }
+
+    /// Noiseless XYZ (cd/m², black included) for quantised `drive` at `uv`, before
+    /// the screen's view-dependent gain.
+    pub fn emitted(&self, drive: [f64; 3], uv: [f64; 2], cond: Conditions) -> [f64; 3] {
+        let f: [f64; 3] = std::array::from_fn(|c| self.relative_intensity(c, drive[c]));
+        let fall = self.falloff_factor(uv);
+        let age = self.ageing_factor(cond.lamp_hours);
+        let warm = self.warmup_factor(cond.minutes_on);
+        let k: [f64; 3] = std::array::from_fn(|c| fall[c] * age[c] * warm[c]);
+        let k_mean = (k[0] + k[1] + k[2]) / 3.0;
+        let white = f[0].min(f[1]).min(f[2]);
+        let mut xyz = [0.0; 3];
+        for (i, out) in xyz.iter_mut().enumerate() {
+            *out = self.black_xyz[i] * k_mean
+                + (0..3)
+                    .map(|c| f[c] * k[c] * self.channel_xyz[c][i])
+                    .sum::<f64>()
+                + white * k_mean * self.white_segment_xyz[i];
+        }
+        xyz
+    }
+}

@@ -1,0 +1,343 @@
+//! The virtual wall: a cheap, cloneable handle over the shared simulator state, and
+//! the pattern output and meter positioner that act on it.
+
+use std::path::Path;
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use super::meter::{MeterModel, SimMeter};
+use super::projector::{Conditions, SimDisplay, validate_spec};
+use super::screen;
+use super::wall_file::{Stereo, WallFile};
+use crate::{DeviceError, DisplayId, DisplayInfo, Eye, MeterPositioner, PatternOutput, Xyz};
+
+#[derive(Debug)]
+struct WallState {
+    file: WallFile,
+    displays: Vec<SimDisplay>,
+    /// Simulated seconds since the simulation started.
+    clock_s: f64,
+    shown: Option<(DisplayId, [f64; 3])>,
+    aimed: Option<(DisplayId, [f64; 2])>,
+}
+
+impl WallState {
+    fn display(&self, id: DisplayId) -> Result<&SimDisplay, DeviceError> {
+        self.displays.get(id.0 as usize).ok_or_else(|| {
+            DeviceError::NoSuchDisplay(format!(
+                "{id} (wall {:?} has displays #0..#{})",
+                self.file.name,
+                self.displays.len().saturating_sub(1)
+            ))
+        })
+    }
+
+    fn conditions(&self, d: &SimDisplay) -> Conditions {
+        Conditions {
+            lamp_hours: d.lamp_hours_at_start + self.clock_s / 3600.0,
+            minutes_on: self.file.clock.minutes_since_switch_on + self.clock_s / 60.0,
+        }
+    }
+
+    fn emitted(&self, id: DisplayId, drive: [f64; 3], uv: [f64; 2]) -> Result<Xyz, DeviceError> {
+        let d = self.display(id)?;
+        check_drive(drive)?;
+        check_uv(uv)?;
+        let xyz = d.emitted(drive, uv, self.conditions(d));
+        let spot = d.spot_m(uv);
+        let meter = screen::meter_position_m(&self.file.meter, spot);
+        let g = screen::gain(&self.file.screen, d.lens_m(), spot, meter);
+        Ok(Xyz::from_array(xyz.map(|v| v * g)))
+    }
+}
+
+fn check_drive(drive: [f64; 3]) -> Result<(), DeviceError> {
+    if drive
+        .iter()
+        .all(|d| d.is_finite() && (0.0..=1.0).contains(d))
+    {
+        Ok(())
+    } else {
+        Err(DeviceError::Config(format!(
+            "pattern drive {drive:?} is outside 0..=1 per channel"
+        )))
+    }
+}
+
+fn check_uv(uv: [f64; 2]) -> Result<(), DeviceError> {
+    if uv.iter().all(|d| d.is_finite() && (0.0..=1.0).contains(d)) {
+        Ok(())
+    } else {
+        Err(DeviceError::Config(format!(
+            "meter spot uv {uv:?} is outside the display (0..=1)"
+        )))
+    }
+}
+
+/// A simulated projection wall. Cloning is cheap: all clones (and the pattern
+/// output, positioner and meters made from it) share one state, so a meter on
+/// another thread sees the patterns shown here.
+#[derive(Debug, Clone)]
+pub struct VirtualWall {
+    state: Arc<Mutex<WallState>>,
+}
+
+impl VirtualWall {
+    /// Loads a wall file (TOML).
+    pub fn from_toml_file(path: &Path) -> Result<Self, DeviceError> {
+        let text = std::fs::read_to_string(path).map_err(|source| DeviceError::Io {
+            device: format!("wall file {}", path.display()),
+            source,
+        })?;
+        Self::from_toml_str(&text)
+            .map_err(|e| DeviceError::Config(format!("wall file {}: {e}", path.display())))
+    }
+
+    /// Builds a wall from TOML text.
+    pub fn from_toml_str(text: &str) -> Result<Self, DeviceError> {
+        let file: WallFile =
+            toml::from_str(text).map_err(|e| DeviceError::Config(format!("wall TOML: {e}")))?;
+        Self::from_wall_file(file)
+    }
+
+    /// Builds a wall from a parsed wall file.
+    pub fn from_wall_file(file: WallFile) -> Result<Self, DeviceError> {
+        validate_spec(&file.projector)?;
+        let t = &file.tiles;
+        if t.cols == 0 || t.rows == 0 || t.cols * t.rows > 4096 {
+            return Err(DeviceError::Config(format!(
+                "tiles must be at least 1×1 and at most 4096 in all, got {}×{}",
+                t.cols, t.rows
+            )));
+        }
+        if !(t.width_m > 0.0 && t.height_m > 0.0) {
+            return Err(DeviceError::Config(
+                "tiles.width_m and tiles.height_m must be > 0".into(),
+            ));
+        }
+        if !(file.clock.seconds_per_reading >= 0.0 && file.clock.seconds_per_reading.is_finite()) {
+            return Err(DeviceError::Config(
+                "clock.seconds_per_reading must be a finite number >= 0".into(),
+            ));
+        }
+        let eyes: &[Eye] = match file.stereo {
+            Stereo::Mono => &[Eye::Mono],
+            Stereo::Infitec => &[Eye::Left, Eye::Right],
+        };
+        let n = t.cols * t.rows * eyes.len() as u32;
+        if let Some(o) = file.overrides.iter().find(|o| o.display >= n) {
+            return Err(DeviceError::Config(format!(
+                "override for display {} but the wall has only {n} displays",
+                o.display
+            )));
+        }
+        let mut displays = Vec::with_capacity(n as usize);
+        for &eye in eyes {
+            for row in 0..t.rows {
+                for col in 0..t.cols {
+                    let index = displays.len() as u32;
+                    let mut rng = ChaCha8Rng::seed_from_u64(file.seed);
+                    rng.set_stream(u64::from(index) + 1);
+                    displays.push(SimDisplay::build(&file, index, col, row, eye, &mut rng)?);
+                }
+            }
+        }
+        Ok(Self {
+            state: Arc::new(Mutex::new(WallState {
+                file,
+                displays,
+                clock_s: 0.0,
+                shown: None,
+                aimed: None,
+            })),
+        })
+    }
+
+    fn lock(&self) -> MutexGuard<'_, WallState> {
+        // A panic in another thread cannot leave the state half-updated (every update
+        // is a single assignment), so a poisoned lock is safe to reuse.
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Name of the wall.
+    pub fn name(&self) -> String {
+        self.lock().file.name.clone()
+    }
+
+    /// Seed of the wall.
+    pub fn seed(&self) -> u64 {
+        self.lock().file.seed
+    }
+
+    /// The parsed wall file.
+    pub fn wall_file(&self) -> WallFile {
+        self.lock().file.clone()
+    }
+
+    /// The displays in wall order.
+    pub fn displays(&self) -> Vec<DisplayInfo> {
+        self.lock()
+            .displays
+            .iter()
+            .map(|d| d.info.clone())
+            .collect()
+    }
+
+    /// A pattern output showing on this wall.
+    pub fn pattern_output(&self) -> SimPatternOutput {
+        SimPatternOutput { wall: self.clone() }
+    }
+
+    /// A positioner aiming the meter on this wall.
+    pub fn positioner(&self) -> SimPositioner {
+        SimPositioner { wall: self.clone() }
+    }
+
+    /// A meter with error model `model` reading this wall.
+    pub fn meter(&self, model: MeterModel) -> SimMeter {
+        SimMeter::new(self.clone(), model)
+    }
+
+    /// Noiseless XYZ (cd/m², black included) that display `id` sends to the meter
+    /// position at `uv` for `drive` (0..=1 per channel, quantised to its bit depth),
+    /// at the current simulation time. Does not advance the clock.
+    pub fn emitted_xyz(
+        &self,
+        id: DisplayId,
+        drive: [f64; 3],
+        uv: [f64; 2],
+    ) -> Result<Xyz, DeviceError> {
+        self.lock().emitted(id, drive, uv)
+    }
+
+    /// The true primaries of display `id` at its centre now, as a perfect meter
+    /// would read them (black included): black, red, green, blue, white.
+    pub fn true_primaries(&self, id: DisplayId) -> Result<TruePrimaries, DeviceError> {
+        let s = self.lock();
+        let c = [0.5, 0.5];
+        Ok(TruePrimaries {
+            black: s.emitted(id, [0.0; 3], c)?,
+            red: s.emitted(id, [1.0, 0.0, 0.0], c)?,
+            green: s.emitted(id, [0.0, 1.0, 0.0], c)?,
+            blue: s.emitted(id, [0.0, 0.0, 1.0], c)?,
+            white: s.emitted(id, [1.0; 3], c)?,
+        })
+    }
+
+    /// True relative intensity (black removed, 1 at full drive) of `channel`
+    /// (0 = R, 1 = G, 2 = B) of display `id` for `drive`, after quantisation: the
+    /// curve a calibration should recover.
+    pub fn true_relative_intensity(
+        &self,
+        id: DisplayId,
+        channel: usize,
+        drive: f64,
+    ) -> Result<f64, DeviceError> {
+        let s = self.lock();
+        let d = s.display(id)?;
+        if channel > 2 {
+            return Err(DeviceError::Config(format!(
+                "channel {channel} does not exist (0 = red, 1 = green, 2 = blue)"
+            )));
+        }
+        check_drive([drive; 3])?;
+        Ok(d.relative_intensity(channel, drive))
+    }
+
+    /// Lamp hours of display `id` now.
+    pub fn lamp_hours(&self, id: DisplayId) -> Result<f64, DeviceError> {
+        let s = self.lock();
+        let d = s.display(id)?;
+        Ok(s.conditions(d).lamp_hours)
+    }
+
+    /// Simulated seconds since the simulation started.
+    pub fn elapsed_s(&self) -> f64 {
+        self.lock().clock_s
+    }
+
+    /// Lets `hours` of lamp operation pass (ageing and clock; lamps stay on).
+    pub fn advance_hours(&self, hours: f64) {
+        if hours.is_finite() && hours > 0.0 {
+            self.lock().clock_s += hours * 3600.0;
+        }
+    }
+
+    /// Lets `seconds` pass on the simulation clock.
+    pub fn advance_seconds(&self, seconds: f64) {
+        if seconds.is_finite() && seconds > 0.0 {
+            self.lock().clock_s += seconds;
+        }
+    }
+
+    /// What the meter sees now (noiseless); advances the clock by one reading.
+    pub(crate) fn read_spot(&self) -> Result<Xyz, DeviceError> {
+        let mut s = self.lock();
+        let (id, uv) = s.aimed.ok_or_else(|| {
+            DeviceError::Config(
+                "the simulated meter is not aimed at any display; aim it with the positioner first"
+                    .into(),
+            )
+        })?;
+        let drive = match s.shown {
+            Some((shown, drive)) if shown == id => drive,
+            _ => [0.0; 3],
+        };
+        let xyz = s.emitted(id, drive, uv)?;
+        s.clock_s += s.file.clock.seconds_per_reading;
+        Ok(xyz)
+    }
+}
+
+/// True primaries of a display (black included in each).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TruePrimaries {
+    /// All channels at 0.
+    pub black: Xyz,
+    /// Red at full drive.
+    pub red: Xyz,
+    /// Green at full drive.
+    pub green: Xyz,
+    /// Blue at full drive.
+    pub blue: Xyz,
+    /// All channels at full drive.
+    pub white: Xyz,
+}
+
+/// Shows patterns on a [`VirtualWall`].
+#[derive(Debug, Clone)]
+pub struct SimPatternOutput {
+    wall: VirtualWall,
+}
+
+impl PatternOutput for SimPatternOutput {
+    fn displays(&self) -> Vec<DisplayInfo> {
+        self.wall.displays()
+    }
+
+    fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError> {
+        let mut s = self.wall.lock();
+        s.display(display)?;
+        check_drive(drive)?;
+        s.shown = Some((display, drive));
+        Ok(())
+    }
+}
+
+/// Aims the simulated meter.
+#[derive(Debug, Clone)]
+pub struct SimPositioner {
+    wall: VirtualWall,
+}
+
+impl MeterPositioner for SimPositioner {
+    fn aim(&mut self, display: DisplayId, uv: [f64; 2]) -> Result<(), DeviceError> {
+        let mut s = self.wall.lock();
+        s.display(display)?;
+        check_uv(uv)?;
+        s.aimed = Some((display, uv));
+        Ok(())
+    }
+}
