@@ -177,8 +177,8 @@ proptest! {
         let stop = Arc::new(AtomicBool::new(false));
         let (_slave, path, handle) = scripted_instrument(reply.clone(), Arc::clone(&stop));
         let cfg = K10aConfig {
-            read_timeout: Duration::from_millis(60),
-            resync_timeout: Duration::from_millis(60),
+            read_timeout: Duration::from_millis(100),
+            resync_timeout: Duration::from_millis(100),
             retries: 0,
             range_change_retries: 1,
             ..K10aConfig::default()

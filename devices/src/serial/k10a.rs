@@ -214,8 +214,11 @@ impl KleinK10a {
     fn start_up(&mut self) -> Result<(), DeviceError> {
         // Resync doubles as "switch on auto-ranging" (J8), which ArgyllCMS also
         // sends at start-up.
+        // The handshake tolerates at least two transient failures whatever the
+        // reading retry policy: a meter that was just plugged in or a busy host
+        // should not fail the open.
         let mut last_err = None;
-        for _ in 0..=self.config.retries {
+        for _ in 0..=self.config.retries.max(2) {
             match self.resync().and_then(|()| self.identify()) {
                 Ok(()) => {
                     last_err = None;
