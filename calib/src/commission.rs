@@ -9,6 +9,7 @@
 //! <out>/run/<display>.measurement.json   one per completed display (MeasuredDisplay)
 //! <out>/<display>.json, <out>/wall.json  profiles (ProfileSet), written last
 //! <out>/report.md, <out>/report.html     the report (+ gamut.svg, usage.svg)
+//! <out>/meter-correction.json            the meter's estimated xy offset (if used)
 //! ```
 //!
 //! Every file is written atomically (temporary file + rename,
@@ -24,12 +25,13 @@ use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
 use crate::colorimetry::cct_to_xy;
+use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall};
 use crate::measure::{
     MeasureError, MeasureOptions, MeasuredDisplay, Progress, RampFocus, Rig, display_key,
-    measure_display, white_capacity,
+    luminance_only, measure_display, white_capacity,
 };
 use crate::report::{self, ReportInputs};
-use crate::solve::{SolveOptions, WallSolution, WhiteTarget, solve_wall};
+use crate::solve::{DisplayMeasurement, SolveOptions, WallSolution, WhiteTarget, solve_wall};
 
 /// Version of the run-folder format.
 pub const RUN_FORMAT_VERSION: u32 = 1;
@@ -47,6 +49,9 @@ pub struct CommissionOptions {
     /// Continue an interrupted run: displays already measured in `<out>/run` are not
     /// measured again. Without it, earlier measurements in the run folder are discarded.
     pub resume: bool,
+    /// Estimate the meter's systematic xy offset from the displays' additivity and
+    /// correct the readings with it (see [`crate::measure::meter_offset`]).
+    pub meter_correction: bool,
 }
 
 /// The manifest of a run folder.
@@ -77,6 +82,8 @@ pub struct CommissionOutcome {
     pub out_dir: PathBuf,
     /// Report files written.
     pub reports: Vec<PathBuf>,
+    /// The meter correction applied, if any.
+    pub meter_correction: Option<MeterCorrection>,
 }
 
 /// Errors of a commissioning run.
@@ -324,14 +331,51 @@ pub fn finish(
     out_dir: &Path,
     opts: &CommissionOptions,
 ) -> Result<CommissionOutcome, CommissionError> {
-    let inputs: Vec<_> = measured.iter().map(|m| m.measurement.clone()).collect();
+    let correction_path = out_dir.join(MeterCorrection::FILE);
+    let correction = if opts.meter_correction {
+        let instrument = measured
+            .first()
+            .map(|m| m.measurement.instrument.clone())
+            .unwrap_or_default();
+        let readings: Vec<_> = measured
+            .iter()
+            .map(|m| {
+                let mm = &m.measurement;
+                (mm.black, mm.primaries, mm.white)
+            })
+            .collect();
+        estimate_wall(&instrument, &readings)
+    } else {
+        None
+    };
+    let inputs: Vec<_> = measured
+        .iter()
+        .map(|m| match &correction {
+            Some(c) => corrected_measurement(&m.measurement, c.xy_offset),
+            None => m.measurement.clone(),
+        })
+        .collect();
     let solution = solve_wall(&inputs, &opts.solve)?;
+    match &correction {
+        Some(c) => write_atomic(&correction_path, &to_json(c))?,
+        None => match std::fs::remove_file(&correction_path) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(source) => {
+                return Err(CommissionError::Io {
+                    path: correction_path,
+                    source,
+                });
+            }
+        },
+    }
     ProfileSet::save_dir(out_dir, wall, &solution.profiles)?;
     let report_in = ReportInputs {
         wall,
         measured: &measured,
         solution: &solution,
         solve: &opts.solve,
+        meter_correction: correction.as_ref(),
     };
     write_atomic(&out_dir.join("gamut.svg"), report::gamut_svg(&report_in).as_bytes())?;
     write_atomic(&out_dir.join("usage.svg"), report::usage_svg(&report_in).as_bytes())?;
@@ -346,5 +390,26 @@ pub fn finish(
         solution,
         out_dir: out_dir.to_path_buf(),
         reports: vec![md, html],
+        meter_correction: correction,
     })
+}
+
+/// A measurement with every reading corrected by the meter's xy offset (ramps keep
+/// their luminance and take the corrected channel colour).
+pub fn corrected_measurement(m: &DisplayMeasurement, offset: [f64; 2]) -> DisplayMeasurement {
+    let black = correct(m.black, offset);
+    let primaries = m.primaries.map(|p| correct(p, offset));
+    let mut ramps = m.ramps.clone();
+    for (c, ramp) in ramps.iter_mut().enumerate() {
+        for s in ramp.iter_mut() {
+            s.1 = luminance_only(s.1, black, primaries[c]);
+        }
+    }
+    DisplayMeasurement {
+        black,
+        primaries,
+        white: m.white.map(|w| correct(w, offset)),
+        ramps,
+        ..m.clone()
+    }
 }

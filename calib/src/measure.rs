@@ -22,6 +22,8 @@
 //! chromaticity is replaced by the channel's ([`luminance_only`]), because a meter's
 //! xy noise grows as 1/Y in the dark while a channel's chromaticity does not change.
 
+pub mod meter_offset;
+
 use lumiwall_devices::{
     Colorimeter, DeviceError, DisplayId, DisplayInfo, MeterPositioner, PatternOutput, Xyz,
 };

@@ -10,6 +10,7 @@ use std::fmt::Write as _;
 use lumiwall_devices::Xyz;
 use lumiwall_profiles::{DisplayProfile, Eye};
 
+use crate::measure::meter_offset::MeterCorrection;
 use crate::measure::{CHANNEL_NAMES, MeasuredDisplay};
 use crate::solve::{SolveOptions, WallSolution};
 
@@ -27,6 +28,8 @@ pub struct ReportInputs<'a> {
     pub solution: &'a WallSolution,
     /// Options of the solve.
     pub solve: &'a SolveOptions,
+    /// The meter's xy correction, if one was applied.
+    pub meter_correction: Option<&'a MeterCorrection>,
 }
 
 /// xy of the spectral locus from a CIE 1931 CMF table (CSV `wavelength_nm,x_bar,y_bar,
@@ -324,6 +327,18 @@ fn tables_markdown(r: &ReportInputs<'_>) -> String {
         s,
         "| meter readings | {total} in all, at most {max} per display |"
     );
+    if let Some(c) = r.meter_correction {
+        let _ = writeln!(
+            s,
+            "| meter xy correction | {} offset x {:+.4} y {:+.4} from the additivity of {} displays (median additivity error {:.2} % → {:.2} %) |",
+            c.instrument,
+            c.xy_offset[0],
+            c.xy_offset[1],
+            c.displays_used,
+            c.additivity_before * 100.0,
+            c.additivity_after * 100.0
+        );
+    }
     if !sol.warnings.is_empty() {
         s.push_str("\n**Warnings**\n\n");
         for w in &sol.warnings {

@@ -17,6 +17,7 @@ use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::colorimetry::delta_e2000_xyz;
+use crate::measure::meter_offset::CorrectedMeter;
 use crate::measure::{MeasureError, MeasureOptions, Patch, Progress, Rig, Session};
 
 /// One target colour.
@@ -68,6 +69,8 @@ pub struct VerifyOptions {
     pub measure: MeasureOptions,
     /// Readings averaged for the black comparison in `Common` mode.
     pub black_repeats: u32,
+    /// The meter's xy correction from commissioning (same instrument), if any.
+    pub meter_xy_offset: Option<[f64; 2]>,
 }
 
 impl Default for VerifyOptions {
@@ -77,6 +80,7 @@ impl Default for VerifyOptions {
             spot_uv: [0.5, 0.5],
             measure: MeasureOptions::default(),
             black_repeats: 8,
+            meter_xy_offset: None,
         }
     }
 }
@@ -513,6 +517,16 @@ pub fn verify_wall(
     let mut readings = 0;
     let mut mopts = opts.measure.clone();
     mopts.budget = u32::MAX;
+    let mut corrected = CorrectedMeter {
+        inner: &mut *rig.meter,
+        xy_offset: opts.meter_xy_offset.unwrap_or([0.0; 2]),
+    };
+    let mut rig = Rig {
+        pattern: &mut *rig.pattern,
+        meter: &mut corrected,
+        positioner: &mut *rig.positioner,
+    };
+    let rig = &mut rig;
     for info in displays {
         let profile = profiles
             .iter()

@@ -249,6 +249,10 @@ pub struct CommissionArgs {
     /// Continue an interrupted run from the measurements saved in OUT/run.
     #[arg(long)]
     pub resume: bool,
+    /// Do not estimate and correct the meter's systematic xy offset from the displays'
+    /// additivity (use for walls of non-additive displays such as DLP).
+    #[arg(long)]
+    pub no_meter_correction: bool,
 }
 
 /// Parses `avg:N` or `skip`.
@@ -306,6 +310,7 @@ pub fn run(args: CommissionArgs) -> Result<(), CliError> {
         },
         solve,
         resume: args.resume,
+        meter_correction: !args.no_meter_correction,
     };
     println!(
         "commissioning {wall}: {} displays, budget {} readings per display, meter {:?}",
@@ -384,6 +389,15 @@ fn print_outcome(o: &CommissionOutcome, elapsed: Duration) {
             ["red", "green", "blue"][s.limiting.1.min(2)]
         );
     }
+    if let Some(c) = &o.meter_correction {
+        println!(
+            "meter xy correction: x {:+.4} y {:+.4} (median additivity error {:.2} % -> {:.2} %)",
+            c.xy_offset[0],
+            c.xy_offset[1],
+            c.additivity_before * 100.0,
+            c.additivity_after * 100.0
+        );
+    }
     for w in &s.warnings {
         println!("warning: {w}");
     }
@@ -450,6 +464,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
                 },
                 solve,
                 resume: false,
+                meter_correction: true,
             };
             let mut rig = station.rig();
             let o = commission(&wall, &displays, &mut rig, &out, &opts, &mut |_| {})
@@ -463,12 +478,16 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             let profiles = &o.solution.profiles;
             let targets = default_targets(profiles, args.patches)
                 .map_err(|e| CliError::failure(e.to_string()))?;
+            let vopts = VerifyOptions {
+                meter_xy_offset: o.meter_correction.as_ref().map(|c| c.xy_offset),
+                ..VerifyOptions::default()
+            };
             let report = verify_wall(
                 &mut rig,
                 &displays,
                 profiles,
                 &targets,
-                &VerifyOptions::default(),
+                &vopts,
                 &mut |_| {},
             )
             .map_err(|e| CliError::failure(e.to_string()))?;

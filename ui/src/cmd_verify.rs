@@ -2,10 +2,12 @@
 //! with the meter, print per-patch ΔL %, Δxy, ΔE2000 and a summary table; exit code 3
 //! when the results are outside the user's tolerances.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use indicatif::{ProgressBar, ProgressStyle};
+use lumiwall_calib::measure::meter_offset::MeterCorrection;
 use lumiwall_calib::measure::{MeasureOptions, Progress};
+use lumiwall_devices::Colorimeter;
 use lumiwall_calib::verify::{Tolerances, VerifyOptions, default_targets, verify_wall};
 use lumiwall_profiles::ProfileSet;
 
@@ -50,6 +52,41 @@ pub struct VerifyArgs {
     pub summary_only: bool,
 }
 
+/// The xy correction saved by `lumiwall commission` for this instrument, if any.
+fn load_meter_correction(
+    dir: &Path,
+    meter: &dyn Colorimeter,
+) -> Result<Option<[f64; 2]>, CliError> {
+    let path = dir.join(MeterCorrection::FILE);
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => {
+            return Err(CliError::input(format!(
+                "cannot read {}: {e}",
+                path.display()
+            )));
+        }
+    };
+    let c: MeterCorrection = serde_json::from_str(&text)
+        .map_err(|e| CliError::input(format!("{} is not valid: {e}", path.display())))?;
+    let info = meter.info();
+    let instrument = format!("{} {}", info.model, info.serial);
+    if c.instrument != instrument {
+        eprintln!(
+            "lumiwall: note: the meter correction in {} is for '{}', this meter is '{instrument}'; not applied",
+            path.display(),
+            c.instrument
+        );
+        return Ok(None);
+    }
+    println!(
+        "applying the meter xy correction from commissioning: x {:+.4} y {:+.4}",
+        c.xy_offset[0], c.xy_offset[1]
+    );
+    Ok(Some(c.xy_offset))
+}
+
 /// Runs `lumiwall verify`.
 pub fn run(args: VerifyArgs) -> Result<(), CliError> {
     let (wall_name, profiles) = ProfileSet::load_dir(&args.profiles).map_err(|e| {
@@ -69,8 +106,10 @@ pub fn run(args: VerifyArgs) -> Result<(), CliError> {
     let displays = station.displays();
     let targets =
         default_targets(&profiles, args.patches).map_err(|e| CliError::input(e.to_string()))?;
+    let meter_xy_offset = load_meter_correction(&args.profiles, station.meter.as_ref())?;
     let opts = VerifyOptions {
         patches: args.patches,
+        meter_xy_offset,
         measure: MeasureOptions::default(),
         ..VerifyOptions::default()
     };

@@ -1,0 +1,200 @@
+//! Estimating a colorimeter's systematic chromaticity offset from display additivity.
+//!
+//! A colorimeter's datasheet accuracy (CS-100A: ±0.004 xy) is a per-instrument
+//! systematic error. If it acts as an offset in xy, readings stop being additive: the
+//! reading of white differs from the sum of the readings of R, G and B (minus twice
+//! black), most for very saturated primaries (an Infitec blue at y ≈ 0.02 turns an
+//! offset of 0.004 in y into 20 % in Z). An additive display (LCD, 3-chip) obeys
+//! `W = R + G + B − 2·K` exactly, so the offset `δ` that restores additivity of the
+//! readings is an estimate of the meter's error. Only the y part matters and can be
+//! found: an offset in x moves X by `δx·(X+Y+Z)` and Z by the opposite, a linear map
+//! of XYZ that keeps readings additive (and so is consistent between commissioning
+//! and verification), while an offset in y is not linear (X, Z ∝ 1/y). Per display
+//! `δy` is found by Gauss–Newton on the three additivity residuals; over a wall the
+//! median of the per-display estimates is used, so that a single non-additive display
+//! (DLP white segment) does not bias it. The correction is applied to the commissioning
+//! readings and, with the same instrument, to the verification readings.
+
+use lumiwall_devices::{Colorimeter, DeviceError, MeterInfo, Xyz};
+use serde::{Deserialize, Serialize};
+
+/// A reading with its chromaticity moved by `-offset` (luminance kept).
+pub fn correct(reading: Xyz, offset: [f64; 2]) -> Xyz {
+    match reading.xy() {
+        Some([x, y]) if y - offset[1] > 0.0 => {
+            Xyz::from_xy_luminance(x - offset[0], y - offset[1], reading.y)
+        }
+        _ => reading,
+    }
+}
+
+fn residual(offset: [f64; 2], black: Xyz, primaries: &[Xyz; 3], white: Xyz) -> [f64; 3] {
+    let c = |v: Xyz| correct(v, offset);
+    let sum = c(primaries[0]) + c(primaries[1]) + c(primaries[2]) - c(black) * 2.0;
+    let w = c(white);
+    let s = white.y.max(1e-12);
+    [(w.x - sum.x) / s, (w.y - sum.y) / s, (w.z - sum.z) / s]
+}
+
+fn norm2(r: &[f64; 3]) -> f64 {
+    r.iter().map(|v| v * v).sum()
+}
+
+/// Offset `δ = (0, δy)` that makes one display's readings additive, with the relative
+/// additivity error before and after. `None` when the readings are unusable.
+pub fn estimate_offset(
+    black: Xyz,
+    primaries: &[Xyz; 3],
+    white: Xyz,
+) -> Option<([f64; 2], f64, f64)> {
+    if !(white.y > 0.0) || primaries.iter().any(|p| p.xy().is_none()) {
+        return None;
+    }
+    let mut d = [0.0f64; 2];
+    let before = norm2(&residual(d, black, primaries, white)).sqrt();
+    let h = 1e-6;
+    for _ in 0..30 {
+        let r = residual(d, black, primaries, white);
+        let ry = residual([0.0, d[1] + h], black, primaries, white);
+        let j: Vec<f64> = (0..3).map(|i| (ry[i] - r[i]) / h).collect();
+        let jj: f64 = j.iter().map(|v| v * v).sum();
+        if !(jj > 1e-300) {
+            return None;
+        }
+        let step = -j.iter().zip(&r).map(|(a, b)| a * b).sum::<f64>() / jj;
+        d[1] += step;
+        if !d[1].is_finite() || d[1].abs() > 0.05 {
+            return None;
+        }
+        if step.abs() < 1e-10 {
+            break;
+        }
+    }
+    let after = norm2(&residual(d, black, primaries, white)).sqrt();
+    Some((d, before, after))
+}
+
+/// The chromaticity correction of one instrument, as saved beside the profiles.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MeterCorrection {
+    /// Instrument it belongs to ("model serial").
+    pub instrument: String,
+    /// Offset subtracted from every reading's xy.
+    pub xy_offset: [f64; 2],
+    /// Displays whose readings gave an estimate.
+    pub displays_used: usize,
+    /// Median relative additivity error before the correction.
+    pub additivity_before: f64,
+    /// Median relative additivity error after it.
+    pub additivity_after: f64,
+}
+
+impl MeterCorrection {
+    /// File name inside a profile folder.
+    pub const FILE: &'static str = "meter-correction.json";
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Wall-level estimate: the component-wise median of the per-display estimates of
+/// displays with a white reading. `None` when no display has one.
+pub fn estimate_wall(
+    instrument: &str,
+    displays: &[(Xyz, [Xyz; 3], Option<Xyz>)],
+) -> Option<MeterCorrection> {
+    let est: Vec<([f64; 2], f64, f64)> = displays
+        .iter()
+        .filter_map(|(k, p, w)| estimate_offset(*k, p, (*w)?))
+        .collect();
+    if est.is_empty() {
+        return None;
+    }
+    let xy_offset = [
+        median(est.iter().map(|e| e.0[0]).collect()),
+        median(est.iter().map(|e| e.0[1]).collect()),
+    ];
+    let after: Vec<f64> = displays
+        .iter()
+        .filter_map(|(k, p, w)| {
+            let w = (*w)?;
+            Some(norm2(&residual(xy_offset, *k, p, w)).sqrt())
+        })
+        .collect();
+    Some(MeterCorrection {
+        instrument: instrument.to_string(),
+        xy_offset,
+        displays_used: est.len(),
+        additivity_before: median(est.iter().map(|e| e.1).collect()),
+        additivity_after: median(after),
+    })
+}
+
+/// A colorimeter whose readings are corrected by a known xy offset.
+pub struct CorrectedMeter<'a> {
+    /// The instrument.
+    pub inner: &'a mut dyn Colorimeter,
+    /// Offset subtracted from every reading's xy.
+    pub xy_offset: [f64; 2],
+}
+
+impl Colorimeter for CorrectedMeter<'_> {
+    fn info(&self) -> MeterInfo {
+        self.inner.info()
+    }
+
+    fn measure(&mut self) -> Result<Xyz, DeviceError> {
+        self.inner.measure().map(|x| correct(x, self.xy_offset))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Readings of an additive display through a meter with a known xy offset: the
+    /// estimate recovers the offset.
+    #[test]
+    fn recovers_a_known_offset() {
+        let k = Xyz::new(0.3, 0.3, 0.5);
+        let p = [
+            Xyz::new(110.0, 55.0, 0.8),
+            Xyz::new(8.0, 47.0, 4.5),
+            Xyz::new(46.0, 6.0, 246.0),
+        ];
+        let w = p[0] + p[1] + p[2] - k * 2.0;
+        let off = [0.003, -0.0035];
+        let read = |v: Xyz| correct(v, [-off[0], -off[1]]);
+        let (d, before, after) =
+            estimate_offset(read(k), &p.map(read), read(w)).expect("estimate");
+        assert!(d[0] == 0.0 && (d[1] - off[1]).abs() < 2e-5, "{d:?}");
+        assert!(before > 0.01 && after < 1e-4, "{before} {after}");
+        // The x part left in is linear in XYZ: corrected readings are additive again.
+        let c = |v: Xyz| correct(read(v), d);
+        let r = c(w) - (c(p[0]) + c(p[1]) + c(p[2]) - c(k) * 2.0);
+        assert!(r.x.abs().max(r.z.abs()) < 1e-3 * w.y, "{r:?}");
+    }
+
+    #[test]
+    fn additive_readings_give_zero_offset() {
+        let k = Xyz::new(0.3, 0.3, 0.5);
+        let p = [
+            Xyz::new(110.0, 55.0, 0.8),
+            Xyz::new(8.0, 47.0, 4.5),
+            Xyz::new(46.0, 6.0, 246.0),
+        ];
+        let w = p[0] + p[1] + p[2] - k * 2.0;
+        let (d, _, after) = estimate_offset(k, &p, w).expect("estimate");
+        assert!(d[0].abs() < 1e-9 && d[1].abs() < 1e-9 && after < 1e-9);
+    }
+}
