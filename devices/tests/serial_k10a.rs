@@ -412,3 +412,53 @@ fn port_can_be_reopened_after_the_driver_is_dropped() {
     let mut second = port.open(config(500, 0)).unwrap();
     assert_close(second.measure().unwrap(), value(1));
 }
+
+#[test]
+fn emulator_takes_the_instruments_measurement_time() {
+    // N5: 1/8 s per reading plus 15 bytes at 9600 baud 8N1 (15.625 ms) = 140.625 ms,
+    // here at half speed.
+    let meter = ListMeter {
+        values: vec![value(0)],
+        calls: Arc::new(AtomicU32::new(0)),
+    };
+    let (_emu, port) = Emulator::spawn_with(
+        Box::new(meter),
+        FaultPlan::default(),
+        EmulatorOptions::with_time_scale(0.5),
+    )
+    .unwrap();
+    let mut meter = port.open(config(1000, 0)).unwrap();
+    let t0 = Instant::now();
+    for _ in 0..4 {
+        meter.measure().unwrap();
+    }
+    let per_reading = t0.elapsed() / 4;
+    assert!(
+        per_reading >= Duration::from_micros(70_312),
+        "{per_reading:?} per reading"
+    );
+    assert!(per_reading < Duration::from_millis(300), "{per_reading:?}");
+}
+
+#[test]
+fn emulator_without_instrument_time_is_fast() {
+    let meter = ListMeter {
+        values: (0..10).map(value).collect(),
+        calls: Arc::new(AtomicU32::new(0)),
+    };
+    let (_emu, port) = Emulator::spawn_with(
+        Box::new(meter),
+        FaultPlan::default(),
+        EmulatorOptions::with_time_scale(0.0),
+    )
+    .unwrap();
+    let mut meter = port.open(config(1000, 0)).unwrap();
+    let n = 200;
+    let t0 = Instant::now();
+    for k in 0..n {
+        assert_close(meter.measure().unwrap(), value(k % 10));
+    }
+    let elapsed = t0.elapsed();
+    eprintln!("{n} readings through the pty in {elapsed:?}");
+    assert!(elapsed < Duration::from_secs(4), "{elapsed:?}");
+}
