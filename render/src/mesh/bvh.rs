@@ -100,8 +100,15 @@ enum Step {
 }
 
 enum Tree {
-    Leaf { bounds: Aabb, items: Vec<u32> },
-    Inner { bounds: Aabb, left: Box<Tree>, right: Box<Tree> },
+    Leaf {
+        bounds: Aabb,
+        items: Vec<u32>,
+    },
+    Inner {
+        bounds: Aabb,
+        left: Box<Tree>,
+        right: Box<Tree>,
+    },
 }
 
 struct Prim {
@@ -347,7 +354,11 @@ impl Bvh {
     /// tested).
     pub fn occluded_with_margin(&self, from: [f64; 3], to: [f64; 3], margin: f64) -> bool {
         let dir = sub(to, from);
-        let m = if margin.is_finite() { margin.clamp(0.0, 0.5) } else { 1e-6 };
+        let m = if margin.is_finite() {
+            margin.clamp(0.0, 0.5)
+        } else {
+            1e-6
+        };
         let mut hit = false;
         self.traverse(from, dir, m, 1.0 - m, |tri_index, t_lim| {
             let tri = &self.tris[tri_index as usize];

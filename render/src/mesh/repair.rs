@@ -70,7 +70,7 @@ pub fn check_and_repair(mesh: &mut IndexedMesh) -> MeshReport {
 /// 1. triangles with an out-of-range index or a non-finite corner are dropped;
 /// 2. vertices within `weld_tolerance_m` are welded (first one wins);
 /// 3. degenerate triangles (repeated vertex after welding, area < `min_area_m2`) and
-///    duplicates (same three vertices in any order) are removed;
+///    duplicates (same three vertices in any order) are removed (again after step 4);
 /// 4. T-vertices: a vertex lying inside a boundary edge (within the weld tolerance)
 ///    splits the triangle owning that edge, repeated until none is left;
 /// 5. orientation: across manifold edges (exactly two triangles) windings are made
@@ -129,23 +129,14 @@ pub fn check_and_repair_with(mesh: &mut IndexedMesh, options: &RepairOptions) ->
     let before = mesh.triangles.len();
     let positions = &mesh.positions;
     mesh.triangles.retain(|t| {
-        t[0] != t[1]
-            && t[1] != t[2]
-            && t[0] != t[2]
-            && 0.5 * len(tri_normal(&corners(positions, t))) >= min_area
+        t[0] != t[1] && t[1] != t[2] && t[0] != t[2] && area_ok(&corners(positions, t), min_area)
     });
     report.degenerate_triangles_removed = before - mesh.triangles.len();
-    let before = mesh.triangles.len();
-    let mut seen = HashSet::with_capacity(mesh.triangles.len());
-    mesh.triangles.retain(|t| {
-        let mut k = *t;
-        k.sort_unstable();
-        seen.insert(k)
-    });
-    report.duplicate_triangles_removed = before - mesh.triangles.len();
+    report.duplicate_triangles_removed = remove_duplicates(&mut mesh.triangles);
 
-    // 4. T-vertices
+    // 4. T-vertices (splitting overlapping input can create duplicates: drop them too)
     report.t_vertices_fixed = fix_t_vertices(mesh, tol, min_area);
+    report.duplicate_triangles_removed += remove_duplicates(&mut mesh.triangles);
 
     // 5. orientation
     let topo = orient(mesh);
@@ -166,8 +157,7 @@ pub fn check_and_repair_with(mesh: &mut IndexedMesh, options: &RepairOptions) ->
             *i = *u;
         }
     }
-    report.unused_vertices_removed =
-        mesh.positions.len() - new_pos.len() - report.vertices_welded;
+    report.unused_vertices_removed = mesh.positions.len() - new_pos.len() - report.vertices_welded;
     mesh.positions = new_pos;
 
     let edges = edge_map(&mesh.triangles);
@@ -176,6 +166,25 @@ pub fn check_and_repair_with(mesh: &mut IndexedMesh, options: &RepairOptions) ->
     report.output_vertices = mesh.positions.len();
     report.output_triangles = mesh.triangles.len();
     report
+}
+
+/// Removes triangles with the same three vertices as an earlier one (any order or
+/// winding); returns how many.
+fn remove_duplicates(tris: &mut Vec<[u32; 3]>) -> usize {
+    let before = tris.len();
+    let mut seen = HashSet::with_capacity(tris.len());
+    tris.retain(|t| {
+        let mut k = *t;
+        k.sort_unstable();
+        seen.insert(k)
+    });
+    before - tris.len()
+}
+
+/// Area is finite (no overflow for huge coordinates) and at least `min_area`.
+fn area_ok(c: &[[f64; 3]; 3], min_area: f64) -> bool {
+    let a = 0.5 * len(tri_normal(c));
+    a.is_finite() && a >= min_area
 }
 
 fn corners(p: &[[f64; 3]], t: &[u32; 3]) -> [[f64; 3]; 3] {
@@ -360,7 +369,7 @@ fn fix_t_vertices(mesh: &mut IndexedMesh, tol: f64, min_area: f64) -> usize {
                     chain.push(y);
                     for w in chain.windows(2) {
                         let nt = [w[0], w[1], z];
-                        if 0.5 * len(tri_normal(&corners(&mesh.positions, &nt))) >= min_area {
+                        if area_ok(&corners(&mesh.positions, &nt), min_area) {
                             new_tris.push(nt);
                         }
                     }

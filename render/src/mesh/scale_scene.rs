@@ -2,11 +2,11 @@
 //! floor, vaulted ceiling, walls, columns and arches, lit by a mix of point, spot and
 //! goniometric lights (Kresse's Siena cathedral scale: 150 000 polygons, 500 lights).
 
-use super::indexed::{IndexedMesh, add, cross, dot, scale, sub};
+use super::indexed::{IndexedMesh, add, cross, dot, len, scale, sub};
+use crate::photometry::{IntensityDistribution, LightFrame};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::{PI, TAU};
-use crate::photometry::{IntensityDistribution, LightFrame};
 
 /// Kind of a generated light.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -67,24 +67,42 @@ pub struct GeneratedScene {
 /// and in the chapels.
 pub fn generate_scale_scene(triangles: usize, lights: usize, seed: u64) -> GeneratedScene {
     let target = triangles.max(1);
-    let bays = ((target as f64 / 500.0).sqrt().round() as usize).clamp(2, 400);
-    // per-bay count ≈ 23 n² + 32 n; start just below and grow
-    let per_bay = target as f64 / bays as f64;
-    let mut n = (((per_bay / 23.0).sqrt()) as usize).clamp(2, 2000);
-    loop {
+    let build = |bays: usize, n: usize| {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut b = Builder::new(&mut rng);
         b.nave(bays, n);
-        if b.mesh.triangles.len() >= target || n >= 4000 {
-            let lights = b.lights(lights, bays);
-            return GeneratedScene {
-                mesh: b.mesh,
-                triangle_material: b.tri_mat,
-                materials: b.materials,
-                lights,
-            };
+        let count = b.mesh.triangles.len();
+        (count, b.mesh, b.tri_mat, b.materials)
+    };
+    let count = |bays: usize, n: usize| build(bays, n).0;
+    // about sqrt(target/500) bays; then the smallest density reaching the target,
+    // then the fewest bays at that density (overshoot below one bay).
+    let max_bays = ((target as f64 / 500.0).sqrt().round() as usize).clamp(2, 400);
+    let per_bay = target as f64 / max_bays as f64;
+    let mut n = (((per_bay / 23.0).sqrt()) as usize)
+        .saturating_sub(2)
+        .max(2);
+    while n < 4000 && count(max_bays, n) < target {
+        n += 1.max(n / 32);
+    }
+    let (mut lo, mut hi) = (2usize, max_bays);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if count(mid, n) >= target {
+            hi = mid
+        } else {
+            lo = mid + 1
         }
-        n += 1.max(n / 16);
+    }
+    let bays = lo;
+    let (_, mesh, triangle_material, materials) = build(bays, n);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x9E37_79B9_7F4A_7C15);
+    let lights = lights_for(&mut rng, lights, bays);
+    GeneratedScene {
+        mesh,
+        triangle_material,
+        materials,
+        lights,
     }
 }
 
@@ -108,15 +126,14 @@ enum Mat {
     Chapel = 5,
 }
 
-struct Builder<'r> {
-    rng: &'r mut ChaCha8Rng,
+struct Builder {
     mesh: IndexedMesh,
     tri_mat: Vec<u32>,
     materials: Vec<GeneratedMaterial>,
 }
 
-impl<'r> Builder<'r> {
-    fn new(rng: &'r mut ChaCha8Rng) -> Self {
+impl Builder {
+    fn new(rng: &mut ChaCha8Rng) -> Self {
         let base = [
             ("floor", 0.3),
             ("wall", 0.6),
@@ -133,7 +150,6 @@ impl<'r> Builder<'r> {
             })
             .collect();
         Self {
-            rng,
             mesh: IndexedMesh::default(),
             tri_mat: Vec::new(),
             materials,
@@ -158,8 +174,14 @@ impl<'r> Builder<'r> {
             }
         }
         let c = f(0.5, 0.5);
-        let du = sub(f(0.5 + 0.25 / nu as f64, 0.5), f(0.5 - 0.25 / nu as f64, 0.5));
-        let dv = sub(f(0.5, 0.5 + 0.25 / nv as f64), f(0.5, 0.5 - 0.25 / nv as f64));
+        let du = sub(
+            f(0.5 + 0.25 / nu as f64, 0.5),
+            f(0.5 - 0.25 / nu as f64, 0.5),
+        );
+        let dv = sub(
+            f(0.5, 0.5 + 0.25 / nv as f64),
+            f(0.5, 0.5 - 0.25 / nv as f64),
+        );
         let flip = dot(cross(du, dv), facing(c)) < 0.0;
         let idx = |i: usize, j: usize| base + (j * (nu + 1) + i) as u32;
         for j in 0..nv {
@@ -167,6 +189,10 @@ impl<'r> Builder<'r> {
                 let (a, b, cc, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
                 for t in [[a, b, cc], [a, cc, d]] {
                     let t = if flip { [t[0], t[2], t[1]] } else { t };
+                    let p = |k: usize| self.mesh.positions[t[k] as usize];
+                    if len(cross(sub(p(1), p(0)), sub(p(2), p(0)))) < 1e-12 {
+                        continue; // collapsed quad corner (e.g. the centre of a lunette)
+                    }
                     self.mesh.triangles.push(t);
                     self.tri_mat.push(mat as u32);
                 }
@@ -174,7 +200,16 @@ impl<'r> Builder<'r> {
         }
     }
 
-    fn quad(&mut self, o: [f64; 3], u: [f64; 3], v: [f64; 3], nu: usize, nv: usize, mat: Mat, facing: [f64; 3]) {
+    fn quad(
+        &mut self,
+        o: [f64; 3],
+        u: [f64; 3],
+        v: [f64; 3],
+        nu: usize,
+        nv: usize,
+        mat: Mat,
+        facing: [f64; 3],
+    ) {
         self.patch(
             |a, b| add(o, add(scale(u, a), scale(v, b))),
             nu,
@@ -191,9 +226,33 @@ impl<'r> Builder<'r> {
             let x0 = bay as f64 * BAY_LEN;
             let xm = x0 + BAY_LEN / 2.0;
             // floor, walls, vault
-            self.quad([x0, -r, 0.0], [BAY_LEN, 0.0, 0.0], [0.0, NAVE_W, 0.0], n, 2 * n, Mat::Floor, [0.0, 0.0, 1.0]);
-            self.quad([x0, -r, 0.0], [BAY_LEN, 0.0, 0.0], [0.0, 0.0, SPRING_Z], n, n, Mat::Wall, [0.0, 1.0, 0.0]);
-            self.quad([x0, r, 0.0], [BAY_LEN, 0.0, 0.0], [0.0, 0.0, SPRING_Z], n, n, Mat::Wall, [0.0, -1.0, 0.0]);
+            self.quad(
+                [x0, -r, 0.0],
+                [BAY_LEN, 0.0, 0.0],
+                [0.0, NAVE_W, 0.0],
+                n,
+                2 * n,
+                Mat::Floor,
+                [0.0, 0.0, 1.0],
+            );
+            self.quad(
+                [x0, -r, 0.0],
+                [BAY_LEN, 0.0, 0.0],
+                [0.0, 0.0, SPRING_Z],
+                n,
+                n,
+                Mat::Wall,
+                [0.0, 1.0, 0.0],
+            );
+            self.quad(
+                [x0, r, 0.0],
+                [BAY_LEN, 0.0, 0.0],
+                [0.0, 0.0, SPRING_Z],
+                n,
+                n,
+                Mat::Wall,
+                [0.0, -1.0, 0.0],
+            );
             self.patch(
                 |u, v| {
                     let phi = v * PI;
@@ -210,7 +269,11 @@ impl<'r> Builder<'r> {
                 self.patch(
                     |u, v| {
                         let th = u * TAU;
-                        [cx + COLUMN_R * th.cos(), cy + COLUMN_R * th.sin(), v * COLUMN_H]
+                        [
+                            cx + COLUMN_R * th.cos(),
+                            cy + COLUMN_R * th.sin(),
+                            v * COLUMN_H,
+                        ]
                     },
                     2 * n,
                     2 * n,
@@ -234,7 +297,15 @@ impl<'r> Builder<'r> {
         }
         // end walls and lunettes
         for (x, facing) in [(0.0, 1.0), (len_total, -1.0)] {
-            self.quad([x, -r, 0.0], [0.0, NAVE_W, 0.0], [0.0, 0.0, SPRING_Z], 2 * n, n, Mat::Wall, [facing, 0.0, 0.0]);
+            self.quad(
+                [x, -r, 0.0],
+                [0.0, NAVE_W, 0.0],
+                [0.0, 0.0, SPRING_Z],
+                2 * n,
+                n,
+                Mat::Wall,
+                [facing, 0.0, 0.0],
+            );
             self.patch(
                 |u, v| {
                     let phi = u * PI;
@@ -251,17 +322,38 @@ impl<'r> Builder<'r> {
 
     fn arch(&mut self, xa: f64, xb: f64, y: f64, n: usize) {
         let xm = 0.5 * (xa + xb);
-        let rad = 0.5 * (xb - xa) - COLUMN_R;
-        let depth = 0.6;
-        let t = COLUMN_R;
+        // the arch foot rests on the column top between 0.45 m and 0.05 m from the
+        // column axis, 0.6 m wide: no column vertex lies on an arch edge (no
+        // T-vertices) and neighbouring arches do not overlap
+        let rad = 0.5 * (xb - xa) - 0.45;
+        let depth = 0.4;
+        let t = 0.3;
         let zc = COLUMN_H;
         let on = |theta: f64, rr: f64, yy: f64| [xm + rr * theta.cos(), yy, zc + rr * theta.sin()];
         let centre = [xm, y, zc];
         // intrados (underside), extrados (top), two faces
-        self.patch(|u, v| on(u * PI, rad, y - t + 2.0 * t * v), 2 * n, 1, Mat::Arch, |p| sub(centre, [p[0], y, p[2]]));
-        self.patch(|u, v| on(u * PI, rad + depth, y - t + 2.0 * t * v), 2 * n, 1, Mat::Arch, |p| sub([p[0], y, p[2]], centre));
+        self.patch(
+            |u, v| on(u * PI, rad, y - t + 2.0 * t * v),
+            2 * n,
+            1,
+            Mat::Arch,
+            |p| sub(centre, [p[0], y, p[2]]),
+        );
+        self.patch(
+            |u, v| on(u * PI, rad + depth, y - t + 2.0 * t * v),
+            2 * n,
+            1,
+            Mat::Arch,
+            |p| sub([p[0], y, p[2]], centre),
+        );
         for s in [-1.0, 1.0] {
-            self.patch(|u, v| on(u * PI, rad + depth * v, y + s * t), 2 * n, 1, Mat::Arch, |_| [0.0, s, 0.0]);
+            self.patch(
+                |u, v| on(u * PI, rad + depth * v, y + s * t),
+                2 * n,
+                1,
+                Mat::Arch,
+                |_| [0.0, s, 0.0],
+            );
         }
     }
 
@@ -269,41 +361,91 @@ impl<'r> Builder<'r> {
     fn room(&mut self, lo: [f64; 3], hi: [f64; 3], n: usize) {
         let d = sub(hi, lo);
         let m = Mat::Chapel;
-        self.quad(lo, [d[0], 0.0, 0.0], [0.0, d[1], 0.0], n, n, m, [0.0, 0.0, 1.0]);
-        self.quad([lo[0], lo[1], hi[2]], [d[0], 0.0, 0.0], [0.0, d[1], 0.0], n, n, m, [0.0, 0.0, -1.0]);
-        self.quad(lo, [d[0], 0.0, 0.0], [0.0, 0.0, d[2]], n, n, m, [0.0, 1.0, 0.0]);
-        self.quad([lo[0], hi[1], lo[2]], [d[0], 0.0, 0.0], [0.0, 0.0, d[2]], n, n, m, [0.0, -1.0, 0.0]);
-        self.quad(lo, [0.0, d[1], 0.0], [0.0, 0.0, d[2]], n, n, m, [1.0, 0.0, 0.0]);
-        self.quad([hi[0], lo[1], lo[2]], [0.0, d[1], 0.0], [0.0, 0.0, d[2]], n, n, m, [-1.0, 0.0, 0.0]);
+        self.quad(
+            lo,
+            [d[0], 0.0, 0.0],
+            [0.0, d[1], 0.0],
+            n,
+            n,
+            m,
+            [0.0, 0.0, 1.0],
+        );
+        self.quad(
+            [lo[0], lo[1], hi[2]],
+            [d[0], 0.0, 0.0],
+            [0.0, d[1], 0.0],
+            n,
+            n,
+            m,
+            [0.0, 0.0, -1.0],
+        );
+        self.quad(
+            lo,
+            [d[0], 0.0, 0.0],
+            [0.0, 0.0, d[2]],
+            n,
+            n,
+            m,
+            [0.0, 1.0, 0.0],
+        );
+        self.quad(
+            [lo[0], hi[1], lo[2]],
+            [d[0], 0.0, 0.0],
+            [0.0, 0.0, d[2]],
+            n,
+            n,
+            m,
+            [0.0, -1.0, 0.0],
+        );
+        self.quad(
+            lo,
+            [0.0, d[1], 0.0],
+            [0.0, 0.0, d[2]],
+            n,
+            n,
+            m,
+            [1.0, 0.0, 0.0],
+        );
+        self.quad(
+            [hi[0], lo[1], lo[2]],
+            [0.0, d[1], 0.0],
+            [0.0, 0.0, d[2]],
+            n,
+            n,
+            m,
+            [-1.0, 0.0, 0.0],
+        );
     }
+}
 
-    fn lights(&mut self, count: usize, bays: usize) -> Vec<GeneratedLight> {
+fn lights_for(rng: &mut ChaCha8Rng, count: usize, bays: usize) -> Vec<GeneratedLight> {
+    {
         let len_total = bays as f64 * BAY_LEN;
         let gonio = batwing();
         (0..count)
             .map(|i| {
-                let in_chapel = self.rng.random_bool(0.1);
+                let in_chapel = rng.random_bool(0.1);
                 let position = if in_chapel {
-                    let bay = self.rng.random_range(0..bays);
+                    let bay = rng.random_range(0..bays);
                     let side = if bay % 2 == 0 { 1.0 } else { -1.0 };
                     let y = side * (NAVE_W / 2.0 + WALL_T + CHAPEL_D / 2.0);
                     [bay as f64 * BAY_LEN + BAY_LEN / 2.0, y, CHAPEL_H - 0.5]
                 } else {
                     [
-                        self.rng.random_range(0.5..len_total - 0.5),
-                        self.rng.random_range(-2.5..2.5),
-                        self.rng.random_range(3.0..SPRING_Z - 0.5),
+                        rng.random_range(0.5..len_total - 0.5),
+                        rng.random_range(-2.5..2.5),
+                        rng.random_range(3.0..SPRING_Z - 0.5),
                     ]
                 };
-                let flux_lm = self.rng.random_range(500.0..5000.0);
+                let flux_lm = rng.random_range(500.0..5000.0);
                 let kind = match i % 3 {
                     0 => GeneratedLightKind::Point,
                     1 => GeneratedLightKind::Spot,
                     _ => GeneratedLightKind::Goniometric,
                 };
                 let tilt = [
-                    self.rng.random_range(-0.5..0.5),
-                    self.rng.random_range(-0.5..0.5),
+                    rng.random_range(-0.5..0.5),
+                    rng.random_range(-0.5..0.5),
                     -1.0,
                 ];
                 let (frame, distribution) = match kind {
@@ -312,15 +454,17 @@ impl<'r> Builder<'r> {
                         IntensityDistribution::isotropic(1.0).scaled_to_flux(flux_lm),
                     ),
                     GeneratedLightKind::Spot => {
-                        let outer = self.rng.random_range(0.3..0.8);
+                        let outer = rng.random_range(0.3..0.8);
                         (
                             LightFrame::aimed(tilt),
-                            IntensityDistribution::spot(1.0, 0.6 * outer, outer).scaled_to_flux(flux_lm),
+                            IntensityDistribution::spot(1.0, 0.6 * outer, outer)
+                                .scaled_to_flux(flux_lm),
                         )
                     }
-                    GeneratedLightKind::Goniometric => {
-                        (LightFrame::aimed(tilt), gonio.clone().scaled_to_flux(flux_lm))
-                    }
+                    GeneratedLightKind::Goniometric => (
+                        LightFrame::aimed(tilt),
+                        gonio.clone().scaled_to_flux(flux_lm),
+                    ),
                 };
                 GeneratedLight {
                     kind,
@@ -349,5 +493,6 @@ fn batwing() -> IntensityDistribution {
             cd.push(down * (1.0 + 0.2 * (2.0 * cr).cos()));
         }
     }
-    IntensityDistribution::from_c_gamma_table(&c, &g, &cd).unwrap_or_else(|_| IntensityDistribution::isotropic(1.0))
+    IntensityDistribution::from_c_gamma_table(&c, &g, &cd)
+        .unwrap_or_else(|_| IntensityDistribution::isotropic(1.0))
 }
