@@ -32,7 +32,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
 use crate::colorimetry::cct_to_xy;
-use crate::gamut::{Xy, common_gamut_named, signed_area};
+use crate::gamut::{MIN_TRIANGLE_AREA, Xy, common_gamut_named, signed_area};
 use crate::tone::fit_monotone_named;
 
 const CHANNELS: [&str; 3] = ["red", "green", "blue"];
@@ -127,7 +127,7 @@ struct Prepared {
     p: Matrix3<f64>,
     p_inv: Matrix3<f64>,
     black: Vector3<f64>,
-    curves: [ToneCurve; 3],
+    curves: Option<[ToneCurve; 3]>,
     additivity_error: Option<f64>,
 }
 
@@ -195,7 +195,7 @@ fn validate_options(o: &SolveOptions) -> Result<(), CalibError> {
     Ok(())
 }
 
-fn prepare(m: &DisplayMeasurement, lut_entries: usize) -> Result<Prepared, CalibError> {
+fn prepare(m: &DisplayMeasurement, lut_entries: Option<usize>) -> Result<Prepared, CalibError> {
     let name = m.key.to_string();
     check_xyz(&format!("{name}: black reading"), m.black)?;
     for (c, p) in m.primaries.iter().enumerate() {
@@ -214,15 +214,28 @@ fn prepare(m: &DisplayMeasurement, lut_entries: usize) -> Result<Prepared, Calib
             });
         }
     }
+    let tri: Vec<Xy> = cols.iter().filter_map(|c| xyz_of(c).xy()).collect();
+    let area = if tri.len() == 3 {
+        signed_area(tri[0], tri[1], tri[2]).abs()
+    } else {
+        0.0
+    };
+    if area < MIN_TRIANGLE_AREA {
+        return Err(CalibError::DegeneratePrimaries {
+            display: name,
+            area,
+            min_area: MIN_TRIANGLE_AREA,
+        });
+    }
     let p = Matrix3::from_columns(&cols);
     let p_inv = p
         .try_inverse()
         .ok_or_else(|| CalibError::DegeneratePrimaries {
             display: name.clone(),
-            area: 0.0,
-            min_area: crate::gamut::MIN_TRIANGLE_AREA,
+            area,
+            min_area: MIN_TRIANGLE_AREA,
         })?;
-    let fit = |c: usize| -> Result<ToneCurve, CalibError> {
+    let fit = |c: usize, entries: usize| -> Result<ToneCurve, CalibError> {
         let what = format!("{name}: {} ramp", CHANNELS[c]);
         let pc = cols[c];
         let norm2 = pc.norm_squared();
@@ -232,9 +245,12 @@ fn prepare(m: &DisplayMeasurement, lut_entries: usize) -> Result<Prepared, Calib
             samples.push((drive, (vec3(xyz) - black).dot(&pc) / norm2));
         }
         samples.push((1.0, 1.0));
-        fit_monotone_named(&samples, &what)?.to_tone_curve(lut_entries)
+        fit_monotone_named(&samples, &what)?.to_tone_curve(entries)
     };
-    let curves = [fit(0)?, fit(1)?, fit(2)?];
+    let curves = match lut_entries {
+        Some(entries) => Some([fit(0, entries)?, fit(1, entries)?, fit(2, entries)?]),
+        None => None,
+    };
     let additivity_error = m.white.and_then(|w| {
         let sum = cols[0] + cols[1] + cols[2] + black;
         let wy = w.y;
@@ -311,39 +327,18 @@ pub fn solve_wall_in_gamut(
     }
     let prepared = measurements
         .iter()
-        .map(|m| prepare(m, options.lut_entries))
+        .map(|m| prepare(m, Some(options.lut_entries)))
         .collect::<Result<Vec<_>, _>>()?;
     let mut warnings = Vec::new();
-
-    // Target white chromaticity.
-    let white_xy = match options.white {
-        WhiteTarget::Xy(xy) => xy,
-        WhiteTarget::Cct(k) => cct_to_xy(k)?,
-        WhiteTarget::NativeOf(i) => {
-            let p = prepared.get(i).ok_or_else(|| CalibError::InvalidOption {
-                option: "white".into(),
-                reason: format!(
-                    "native white of display index {i}, but only {} displays were measured",
-                    measurements.len()
-                ),
-            })?;
-            xyz_of(&(p.p * Vector3::new(1.0, 1.0, 1.0)))
-                .xy()
-                .ok_or_else(|| CalibError::InvalidOption {
-                    option: "white".into(),
-                    reason: format!("display index {i} has no native white"),
-                })?
-        }
-    };
-    if !(white_xy.iter().all(|v| v.is_finite()) && white_xy[1] > 0.0 && white_xy[0] > 0.0)
-        || white_xy[0] + white_xy[1] >= 1.0
-    {
-        return Err(CalibError::InvalidOption {
-            option: "white".into(),
-            reason: format!("xy {white_xy:?} is not a valid chromaticity"),
-        });
-    }
+    let ws = white_from_prepared(
+        &prepared,
+        measurements,
+        options.white,
+        options.headroom,
+        options.black_mode,
+    )?;
     let cg = common_primaries_xy;
+    let white_xy = ws.white_xy;
     let inside = (0..3).all(|e| {
         signed_area(cg[e], cg[(e + 1) % 3], white_xy) * signed_area(cg[0], cg[1], cg[2]) >= 0.0
     });
@@ -353,74 +348,11 @@ pub fn solve_wall_in_gamut(
             white_xy[0], white_xy[1]
         ));
     }
-    let w_unit = vec3(Xyz::from_xy_luminance(white_xy[0], white_xy[1], 1.0));
-
-    // Common black (computed always, used in Common mode).
-    let common_black = common_black(&prepared)?;
-
-    // Offsets per black mode, in channel space.
-    let offsets: Vec<Vector3<f64>> = prepared
-        .iter()
-        .map(|p| match options.black_mode {
-            BlackMode::Ignore => Vector3::zeros(),
-            BlackMode::Individual => -(p.p_inv * p.black),
-            BlackMode::Common => p.p_inv * (common_black - p.black),
-        })
-        .collect();
-
-    // Luminance scale.
     let h = options.headroom;
-    let mut y_white = f64::INFINITY;
-    let mut limiting = (0, 0);
-    for (i, p) in prepared.iter().enumerate() {
-        let a = p.p_inv * w_unit;
-        let name = measurements[i].key.to_string();
-        for c in 0..3 {
-            if !(a[c] > 0.0) {
-                return Err(CalibError::UnreachableWhite {
-                    display: name,
-                    reason: format!(
-                        "target white xy ({:.4}, {:.4}) is outside this display's gamut: its {} channel would need {:.4} (negative light)",
-                        white_xy[0], white_xy[1], CHANNELS[c], a[c]
-                    ),
-                });
-            }
-            let room = h - offsets[i][c];
-            if room <= 0.0 {
-                return Err(CalibError::UnreachableWhite {
-                    display: name,
-                    reason: format!(
-                        "the common black alone needs {:.3} of the {} channel, more than the headroom {h}; choose black mode individual or check the black readings",
-                        offsets[i][c], CHANNELS[c]
-                    ),
-                });
-            }
-            let y = room / a[c];
-            if y < y_white {
-                y_white = y;
-                limiting = (i, c);
-            }
-        }
-    }
-    // In Individual mode the white must also be bright enough that no channel goes
-    // negative once the display's own black is subtracted.
-    for (i, p) in prepared.iter().enumerate() {
-        let a = p.p_inv * w_unit;
-        for c in 0..3 {
-            let need = -offsets[i][c] / a[c];
-            if need > y_white {
-                let name = measurements[i].key.to_string();
-                return Err(CalibError::UnreachableWhite {
-                    display: name,
-                    reason: format!(
-                        "its black (Y {:.3} cd/m²) is above the wall's white: the white can be at most {:.3} cd/m² (limited by display index {} {}), but this display's {} channel needs a white of at least {:.3} cd/m² to stay above its own black; use black mode common or ignore, or fix this display's black",
-                        p.black[1], y_white, limiting.0, CHANNELS[limiting.1], CHANNELS[c], need
-                    ),
-                });
-            }
-        }
-    }
-    let white = w_unit * y_white;
+    let white = vec3(ws.white_xyz_cd_m2);
+    let common_black = vec3(ws.common_black_xyz_cd_m2);
+    let offsets: Vec<Vector3<f64>> = ws.drive_offsets.iter().map(|o| Vector3::from(*o)).collect();
+    let limiting = ws.limiting;
 
     // Profiles.
     let created_utc = now_rfc3339();
@@ -478,7 +410,10 @@ pub fn solve_wall_in_gamut(
             drive_offset: arr(&offsets[i]),
             channel_usage: arr(&usage),
             headroom: h,
-            curves: p.curves.clone(),
+            curves: p.curves.clone().ok_or_else(|| CalibError::InvalidOption {
+                option: "curves".into(),
+                reason: "tone curves were not fitted".into(),
+            })?,
             flat_field: None,
             out_of_gamut: options.out_of_gamut,
             bit_depth: m.bit_depth,
@@ -498,6 +433,170 @@ pub fn solve_wall_in_gamut(
         common_black_xyz_cd_m2: xyz_of(&common_black),
         limiting,
         warnings,
+    })
+}
+
+/// The wall's white and black, solved from primaries and blacks alone (no tone curves).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WhiteSolution {
+    /// Target white chromaticity.
+    pub white_xy: [f64; 2],
+    /// The wall's white (input for common RGB 1,1,1), XYZ in cd/m², black excluded.
+    pub white_xyz_cd_m2: Xyz,
+    /// The common black (least-luminance black every display can show), cd/m².
+    pub common_black_xyz_cd_m2: Xyz,
+    /// `(display index, channel)` at exactly the headroom.
+    pub limiting: (usize, usize),
+    /// Per display: the black term added after the matrix (linear channel intensity).
+    pub drive_offsets: Vec<[f64; 3]>,
+    /// Per display: linear channel intensities driven for the white input.
+    pub channel_usage: Vec<[f64; 3]>,
+}
+
+/// Solves only white and black (Kresse 3.3.3, 3.3.6) from the displays' black and
+/// full-drive primaries (ramps are not used and may be empty): the largest white of the
+/// target chromaticity such that the most limited channel of any display is at exactly
+/// `headroom`, with the black offset of `black_mode`.
+pub fn solve_white(
+    measurements: &[DisplayMeasurement],
+    white: WhiteTarget,
+    headroom: f64,
+    black_mode: BlackMode,
+) -> Result<WhiteSolution, CalibError> {
+    if !(headroom > 0.0 && headroom <= 1.0) {
+        return Err(CalibError::InvalidOption {
+            option: "headroom".into(),
+            reason: format!("{headroom} is not in (0, 1]"),
+        });
+    }
+    if measurements.is_empty() {
+        return Err(CalibError::InvalidOption {
+            option: "measurements".into(),
+            reason: "no display measured".into(),
+        });
+    }
+    let prepared = measurements
+        .iter()
+        .map(|m| prepare(m, None))
+        .collect::<Result<Vec<_>, _>>()?;
+    white_from_prepared(&prepared, measurements, white, headroom, black_mode)
+}
+
+fn white_from_prepared(
+    prepared: &[Prepared],
+    measurements: &[DisplayMeasurement],
+    white: WhiteTarget,
+    headroom: f64,
+    black_mode: BlackMode,
+) -> Result<WhiteSolution, CalibError> {
+    // Target white chromaticity.
+    let white_xy = match white {
+        WhiteTarget::Xy(xy) => xy,
+        WhiteTarget::Cct(k) => cct_to_xy(k)?,
+        WhiteTarget::NativeOf(i) => {
+            let p = prepared.get(i).ok_or_else(|| CalibError::InvalidOption {
+                option: "white".into(),
+                reason: format!(
+                    "native white of display index {i}, but only {} displays were measured",
+                    measurements.len()
+                ),
+            })?;
+            xyz_of(&(p.p * Vector3::new(1.0, 1.0, 1.0)))
+                .xy()
+                .ok_or_else(|| CalibError::InvalidOption {
+                    option: "white".into(),
+                    reason: format!("display index {i} has no native white"),
+                })?
+        }
+    };
+    if !(white_xy.iter().all(|v| v.is_finite()) && white_xy[1] > 0.0 && white_xy[0] > 0.0)
+        || white_xy[0] + white_xy[1] >= 1.0
+    {
+        return Err(CalibError::InvalidOption {
+            option: "white".into(),
+            reason: format!("xy {white_xy:?} is not a valid chromaticity"),
+        });
+    }
+    let w_unit = vec3(Xyz::from_xy_luminance(white_xy[0], white_xy[1], 1.0));
+
+    // Common black (computed always, used in Common mode).
+    let common_black = common_black(prepared)?;
+
+    // Offsets per black mode, in channel space.
+    let offsets: Vec<Vector3<f64>> = prepared
+        .iter()
+        .map(|p| match black_mode {
+            BlackMode::Ignore => Vector3::zeros(),
+            BlackMode::Individual => -(p.p_inv * p.black),
+            BlackMode::Common => p.p_inv * (common_black - p.black),
+        })
+        .collect();
+
+    // Luminance scale.
+    let h = headroom;
+    let mut y_white = f64::INFINITY;
+    let mut limiting = (0, 0);
+    for (i, p) in prepared.iter().enumerate() {
+        let a = p.p_inv * w_unit;
+        let name = measurements[i].key.to_string();
+        for c in 0..3 {
+            if !(a[c] > 0.0) {
+                return Err(CalibError::UnreachableWhite {
+                    display: name,
+                    reason: format!(
+                        "target white xy ({:.4}, {:.4}) is outside this display's gamut: its {} channel would need {:.4} (negative light)",
+                        white_xy[0], white_xy[1], CHANNELS[c], a[c]
+                    ),
+                });
+            }
+            let room = h - offsets[i][c];
+            if room <= 0.0 {
+                return Err(CalibError::UnreachableWhite {
+                    display: name,
+                    reason: format!(
+                        "the common black alone needs {:.3} of the {} channel, more than the headroom {h}; choose black mode individual or check the black readings",
+                        offsets[i][c], CHANNELS[c]
+                    ),
+                });
+            }
+            let y = room / a[c];
+            if y < y_white {
+                y_white = y;
+                limiting = (i, c);
+            }
+        }
+    }
+    // In Individual mode the white must also be bright enough that no channel goes
+    // negative once the display's own black is subtracted.
+    for (i, p) in prepared.iter().enumerate() {
+        let a = p.p_inv * w_unit;
+        for c in 0..3 {
+            let need = -offsets[i][c] / a[c];
+            if need > y_white {
+                let name = measurements[i].key.to_string();
+                return Err(CalibError::UnreachableWhite {
+                    display: name,
+                    reason: format!(
+                        "its black (Y {:.3} cd/m²) is above the wall's white: the white can be at most {:.3} cd/m² (limited by display index {} {}), but this display's {} channel needs a white of at least {:.3} cd/m² to stay above its own black; use black mode common or ignore, or fix this display's black",
+                        p.black[1], y_white, limiting.0, CHANNELS[limiting.1], CHANNELS[c], need
+                    ),
+                });
+            }
+        }
+    }
+    let white = w_unit * y_white;
+    let channel_usage = prepared
+        .iter()
+        .zip(&offsets)
+        .map(|(p, o)| arr(&(p.p_inv * white + o)))
+        .collect();
+    Ok(WhiteSolution {
+        white_xy,
+        white_xyz_cd_m2: xyz_of(&white),
+        common_black_xyz_cd_m2: xyz_of(&common_black),
+        limiting,
+        drive_offsets: offsets.iter().map(arr).collect(),
+        channel_usage,
     })
 }
 
