@@ -20,7 +20,7 @@
 use std::path::{Path, PathBuf};
 
 use lumiwall_devices::{DisplayId, DisplayInfo};
-use lumiwall_profiles::{DisplayKey, ProfileError, ProfileSet, write_atomic};
+use lumiwall_profiles::{BlackMode, DisplayKey, ProfileError, ProfileSet, write_atomic};
 use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
@@ -293,6 +293,7 @@ pub fn measure_wall(
                             .map(|c| c.0)
                     })
                     .reduce(f64::min),
+                toe_samples: opts.solve.black_mode == BlackMode::Common,
             });
         }
         let path = measurement_path(&run_dir, key);

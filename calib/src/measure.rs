@@ -87,6 +87,10 @@ pub struct RampFocus {
     /// smallest white luminance reachable by the displays measured before; `None` uses
     /// the display's own.
     pub white_y_cd_m2: Option<f64>,
+    /// Also sample each channel's toe where it gives about the display's own black
+    /// luminance (what a common black adds on top of a display's black), so that
+    /// `Common` black mode lands on the common black.
+    pub toe_samples: bool,
 }
 
 impl Default for MeasureOptions {
@@ -709,39 +713,84 @@ pub fn measure_display(
             Some(per_cd.map(|v| (v * y).clamp(0.02, 1.0)))
         })
         .unwrap_or([1.0; 3]);
-    let mut done = [false; 3];
-    let mut c = 0usize;
-    while s.remaining() > 0 && !done.iter().all(|d| *d) {
-        if done[c] {
-            c = (c + 1) % 3;
-            continue;
+    // Toe samples (Common black mode) cost up to 3 low-light samples; they are taken
+    // once the adaptive ramps have given a first estimate of each curve.
+    let toe = opts.focus.is_some_and(|f| f.toe_samples);
+    let repeats_dark = match opts.low_light {
+        LowLight::Average { repeats } => repeats.max(1),
+        LowLight::Skip => 1,
+    };
+    let reserve = if toe { 3 * repeats_dark } else { 0 };
+    let step = |s: &mut Session<'_, '_>,
+                    c: usize,
+                    d: f64,
+                    rel: &mut [Vec<(f64, f64)>; 3],
+                    ramps: &mut [Vec<(f64, Xyz)>; 3],
+                    progress: &mut dyn FnMut(Progress)|
+     -> Result<(), MeasureError> {
+        match s.sample(Patch::Ramp(c, d), false, progress)? {
+            Some(raw) => {
+                let xyz = luminance_only(raw, black, primaries[c]);
+                ramps[c].push((d, xyz));
+                let r = relative_intensity(xyz, black, primaries[c]);
+                insert_sorted(&mut rel[c], (d, r));
+            }
+            None => {
+                // Skipped as too dark: record the drive so it is not proposed again,
+                // with the intensity interpolated between its neighbours.
+                let r = interpolate(&rel[c], d);
+                insert_sorted(&mut rel[c], (d, r));
+            }
         }
-        match next_drive(&rel[c], usage[c]) {
-            None => done[c] = true,
-            Some(d) => {
-                let d = quantise(d, info.bit_depth);
-                if rel[c].iter().any(|(x, _)| (x - d).abs() < 0.5 / code_max(info.bit_depth)) {
-                    done[c] = true;
-                } else {
-                    match s.sample(Patch::Ramp(c, d), false, progress)? {
-                        Some(raw) => {
-                            let xyz = luminance_only(raw, black, primaries[c]);
-                            ramps[c].push((d, xyz));
-                            let r = relative_intensity(xyz, black, primaries[c]);
-                            insert_sorted(&mut rel[c], (d, r));
-                        }
-                        None => {
-                            // Skipped as too dark: everything below is too dark as well;
-                            // record the drive so it is not proposed again, with the
-                            // intensity interpolated between its neighbours.
-                            let r = interpolate(&rel[c], d);
-                            insert_sorted(&mut rel[c], (d, r));
+        Ok(())
+    };
+    let lsb = 0.5 / code_max(info.bit_depth);
+    let adaptive = |s: &mut Session<'_, '_>,
+                        keep: u32,
+                        rel: &mut [Vec<(f64, f64)>; 3],
+                        ramps: &mut [Vec<(f64, Xyz)>; 3],
+                        progress: &mut dyn FnMut(Progress)|
+     -> Result<(), MeasureError> {
+        let mut done = [false; 3];
+        let mut c = 0usize;
+        while s.remaining() > keep && !done.iter().all(|d| *d) {
+            if !done[c] {
+                match next_drive(&rel[c], usage[c]) {
+                    None => done[c] = true,
+                    Some(d) => {
+                        let d = quantise(d, info.bit_depth);
+                        if rel[c].iter().any(|(x, _)| (x - d).abs() < lsb) {
+                            done[c] = true;
+                        } else {
+                            step(s, c, d, rel, ramps, progress)?;
                         }
                     }
                 }
             }
+            c = (c + 1) % 3;
         }
-        c = (c + 1) % 3;
+        Ok(())
+    };
+    adaptive(&mut s, reserve, &mut rel, &mut ramps, progress)?;
+    if toe {
+        for c in 0..3 {
+            let span = primaries[c].y - black.y;
+            if span <= 0.0 || s.remaining() == 0 {
+                continue;
+            }
+            let target = (black.y / span).clamp(1e-4, 0.5);
+            let d = quantise(drive_at(&rel[c], target), info.bit_depth);
+            if d > 0.0 && !rel[c].iter().any(|(x, _)| (x - d).abs() < lsb) {
+                s.sample(Patch::Ramp(c, d), false, progress)?;
+                // `sample` logged it; feed it into the curve like any ramp sample.
+                if let Some(raw) = s.log.samples.last().and_then(|r| r.xyz) {
+                    let xyz = luminance_only(raw, black, primaries[c]);
+                    ramps[c].push((d, xyz));
+                    insert_sorted(&mut rel[c], (d, relative_intensity(xyz, black, primaries[c])));
+                }
+            }
+        }
+        adaptive(&mut s, 0, &mut rel, &mut ramps, progress)?;
     }
     let readings = s.log.readings;
     let log = std::mem::take(&mut s.log);
@@ -772,6 +821,19 @@ fn code_max(bit_depth: u32) -> f64 {
 fn quantise(d: f64, bit_depth: u32) -> f64 {
     let m = code_max(bit_depth);
     (d.clamp(0.0, 1.0) * m).round() / m
+}
+
+/// Drive where the samples, interpolated linearly in drive and cube-root intensity,
+/// reach relative intensity `target`.
+fn drive_at(v: &[(f64, f64)], target: f64) -> f64 {
+    let t = target.max(0.0).cbrt();
+    for w in v.windows(2) {
+        let (a, b) = (w[0].1.max(0.0).cbrt(), w[1].1.max(0.0).cbrt());
+        if t <= b && b > a {
+            return w[0].0 + (w[1].0 - w[0].0) * ((t - a) / (b - a)).clamp(0.0, 1.0);
+        }
+    }
+    v.last().map_or(1.0, |p| p.0)
 }
 
 fn insert_sorted(v: &mut Vec<(f64, f64)>, s: (f64, f64)) {
