@@ -495,7 +495,11 @@ impl KleinK10a {
                 DeviceError::Garbled {
                     device: self.device.clone(),
                     command: "J8 (resync)".to_string(),
-                    answer: format!("{}", buf.escape_ascii()),
+                    answer: format!(
+                        "{} bytes without an acknowledgement, ending {}",
+                        buf.len(),
+                        buf[buf.len().saturating_sub(32)..].escape_ascii()
+                    ),
                 }
             });
         }
