@@ -73,15 +73,14 @@ impl Aabb {
         }
     }
     fn grow(&mut self, p: [f64; 3]) {
-        for k in 0..3 {
-            self.min[k] = self.min[k].min(p[k]);
-            self.max[k] = self.max[k].max(p[k]);
-        }
+        self.merge(&Aabb { min: p, max: p });
     }
     fn merge(&mut self, o: &Aabb) {
-        for k in 0..3 {
-            self.min[k] = self.min[k].min(o.min[k]);
-            self.max[k] = self.max[k].max(o.max[k]);
+        for (m, v) in self.min.iter_mut().zip(o.min) {
+            *m = m.min(v);
+        }
+        for (m, v) in self.max.iter_mut().zip(o.max) {
+            *m = m.max(v);
         }
     }
     fn area(&self) -> f64 {
@@ -134,7 +133,7 @@ fn build_tree(prims: &[Prim], mut items: Vec<u32>) -> Tree {
     } else {
         2
     };
-    if !(ext[axis] > 0.0) {
+    if ext[axis].is_nan() || ext[axis] <= 0.0 {
         // all centroids coincide (or are not finite): split in the middle of the list
         if items.len() <= 4 * LEAF_MAX {
             return Tree::Leaf { bounds, items };
@@ -484,7 +483,7 @@ fn ray_triangle(
     let p = cross(d, e2);
     let det = dot(e1, p);
     let scale = dot(e1, e1).sqrt() * dot(e2, e2).sqrt() * dot(d, d).sqrt();
-    if !(det.abs() > 1e-14 * scale) {
+    if det.is_nan() || det.abs() <= 1e-14 * scale {
         return None;
     }
     let inv = 1.0 / det;

@@ -305,7 +305,7 @@ fn fix_t_vertices(mesh: &mut IndexedMesh, tol: f64, min_area: f64) -> usize {
             let (pa, pb) = (pos[a as usize], pos[b as usize]);
             let ab = sub(pb, pa);
             let l = len(ab);
-            if !(l > 2.0 * tol) {
+            if l.is_nan() || l <= 2.0 * tol {
                 continue;
             }
             let steps = ((l / h).ceil() as usize).clamp(1, 1_000_000);

@@ -200,6 +200,7 @@ impl Builder {
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn quad(
         &mut self,
         o: [f64; 3],

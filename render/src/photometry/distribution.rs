@@ -100,10 +100,7 @@ impl GonioTable {
         }
         check_increasing(c_deg, "C")?;
         let given: Vec<f64> = c_deg.iter().map(|c| wrap_deg(*c)).collect();
-        let mut full: Vec<f64> = given
-            .iter()
-            .flat_map(|c| symmetry.images(*c))
-            .collect();
+        let mut full: Vec<f64> = given.iter().flat_map(|c| symmetry.images(*c)).collect();
         full.sort_by(f64::total_cmp);
         full.dedup_by(|a, b| (*a - *b).abs() < ANGLE_TOL_DEG);
         let ng = gamma_deg.len();
@@ -179,8 +176,7 @@ impl GonioTable {
                 if h <= 0.0 {
                     continue;
                 }
-                s += fa * (a.cos() - b.cos())
-                    + (fb - fa) / h * (b.sin() - a.sin() - h * b.cos());
+                s += fa * (a.cos() - b.cos()) + (fb - fa) / h * (b.sin() - a.sin() - h * b.cos());
             }
             s
         };
@@ -189,8 +185,16 @@ impl GonioTable {
         }
         (0..n)
             .map(|i| {
-                let prev = if i == 0 { self.c_rad[n - 1] - TAU } else { self.c_rad[i - 1] };
-                let next = if i + 1 == n { self.c_rad[0] + TAU } else { self.c_rad[i + 1] };
+                let prev = if i == 0 {
+                    self.c_rad[n - 1] - TAU
+                } else {
+                    self.c_rad[i - 1]
+                };
+                let next = if i + 1 == n {
+                    self.c_rad[0] + TAU
+                } else {
+                    self.c_rad[i + 1]
+                };
                 0.5 * (next - prev) * row_integral(i)
             })
             .sum()
@@ -215,7 +219,11 @@ impl GonioTable {
             m
         };
         let slack = max_step(&self.gamma_rad, false)
-            + if self.c_rad.len() > 1 { max_step(&self.c_rad, true) } else { 0.0 };
+            + if self.c_rad.len() > 1 {
+                max_step(&self.c_rad, true)
+            } else {
+                0.0
+            };
         let limit = (half_angle + slack).min(PI);
         let cos_limit = limit.cos();
         let ng = self.ng();
@@ -241,7 +249,11 @@ impl GonioTable {
 }
 
 fn lerp_c(t: &GonioTable, i0: usize, i1: usize, c0: f64, c1: f64, c: f64, gamma: f64) -> f64 {
-    let w = if c1 > c0 { ((c - c0) / (c1 - c0)).clamp(0.0, 1.0) } else { 0.0 };
+    let w = if c1 > c0 {
+        ((c - c0) / (c1 - c0)).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     t.value(i0, gamma) * (1.0 - w) + t.value(i1, gamma) * w
 }
 
@@ -273,14 +285,8 @@ fn direction_of(c: f64, gamma: f64) -> [f64; 3] {
 
 #[derive(Debug, Clone, PartialEq)]
 enum Shape {
-    Isotropic {
-        cd: f64,
-    },
-    Spot {
-        cd: f64,
-        inner: f64,
-        outer: f64,
-    },
+    Isotropic { cd: f64 },
+    Spot { cd: f64, inner: f64, outer: f64 },
     Table(GonioTable),
 }
 
@@ -361,7 +367,11 @@ impl IntensityDistribution {
         Ok(Self::with_shape(Shape::Table(table), "table"))
     }
 
-    pub(crate) fn from_table(table: GonioTable, name: String, declared_flux_lm: Option<f64>) -> Self {
+    pub(crate) fn from_table(
+        table: GonioTable,
+        name: String,
+        declared_flux_lm: Option<f64>,
+    ) -> Self {
         Self {
             shape: Shape::Table(table),
             scale: 1.0,
@@ -460,7 +470,11 @@ impl IntensityDistribution {
         let Some(axis) = normalize(axis_local) else {
             return self.max_intensity_cd();
         };
-        let half = if half_angle_rad.is_finite() { half_angle_rad.max(0.0) } else { PI };
+        let half = if half_angle_rad.is_finite() {
+            half_angle_rad.max(0.0)
+        } else {
+            PI
+        };
         let raw = match &self.shape {
             Shape::Isotropic { cd } => *cd,
             Shape::Spot { cd, inner, outer } => {
@@ -546,4 +560,3 @@ fn integrate_sin(f: &dyn Fn(f64) -> f64, breaks: &[f64]) -> f64 {
     }
     total
 }
-

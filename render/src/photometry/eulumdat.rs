@@ -38,7 +38,12 @@ impl<'a> Lines<'a> {
         parse_num(t, line, what)
     }
 
-    fn next_int(&mut self, what: &str, min: i64, max: i64) -> Result<(i64, usize), PhotometryError> {
+    fn next_int(
+        &mut self,
+        what: &str,
+        min: i64,
+        max: i64,
+    ) -> Result<(i64, usize), PhotometryError> {
         let (v, line) = self.next_f64(what)?;
         if v.fract() != 0.0 || v < min as f64 || v > max as f64 {
             return Err(PhotometryError::Parse {
@@ -82,7 +87,11 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
     let _dg = l.next_f64("distance between γ angles Dg (line 7)")?;
     let _report = l.next_text("measurement report number (line 8)")?;
     let (name, _) = l.next_text("luminaire name (line 9)")?;
-    for what in ["luminaire number (line 10)", "file name (line 11)", "date/user (line 12)"] {
+    for what in [
+        "luminaire number (line 10)",
+        "file name (line 11)",
+        "date/user (line 12)",
+    ] {
         l.next_text(what)?;
     }
     for i in 13..=21 {
@@ -155,11 +164,13 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
         3 | 4 => 4,
         _ => 1,
     };
-    if mc % need_div != 0 {
+    if !mc.is_multiple_of(need_div) {
         return Err(PhotometryError::Parse {
             format: FORMAT,
             line: mc_line,
-            message: format!("Mc = {mc} must be divisible by {need_div} for symmetry indicator {isym}"),
+            message: format!(
+                "Mc = {mc} must be divisible by {need_div} for symmetry indicator {isym}"
+            ),
         });
     }
     let (first_idx, count, symmetry) = match isym {
@@ -187,7 +198,11 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
     let c_given: Vec<f64> = (0..count)
         .map(|k| {
             let idx = first_idx + k;
-            if idx >= mc { c_all[idx - mc] + 360.0 } else { c_all[idx] }
+            if idx >= mc {
+                c_all[idx - mc] + 360.0
+            } else {
+                c_all[idx]
+            }
         })
         .collect();
     let to_cd = lamp_flux / 1000.0 * if conversion > 0.0 { conversion } else { 1.0 };
@@ -208,6 +223,14 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
         }
     })?;
     let declared = (lorl > 0.0).then_some(lamp_flux * lorl / 100.0);
-    let name = if name.is_empty() { "EULUMDAT luminaire" } else { name };
-    Ok(IntensityDistribution::from_table(table, name.to_string(), declared))
+    let name = if name.is_empty() {
+        "EULUMDAT luminaire"
+    } else {
+        name
+    };
+    Ok(IntensityDistribution::from_table(
+        table,
+        name.to_string(),
+        declared,
+    ))
 }

@@ -171,7 +171,11 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
                 message: format!(
                     "photometric type {} ({}) — only type C (1, architectural luminaires) is read; convert the file to type C in the photometry software",
                     ptype,
-                    if ptype == 2.0 { "B, floodlights" } else { "A, automotive" }
+                    if ptype == 2.0 {
+                        "B, floodlights"
+                    } else {
+                        "A, automotive"
+                    }
                 ),
             });
         }
@@ -231,18 +235,18 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
             ),
         });
     };
-    let factor = multiplier * positive_or_one(ballast) * positive_or_one(ballast_lamp) * tilt_factor;
+    let factor =
+        multiplier * positive_or_one(ballast) * positive_or_one(ballast_lamp) * tilt_factor;
     let rows: Vec<Vec<f64>> = cd
         .chunks(n_vert)
         .map(|r| r.iter().map(|v| v * factor).collect())
         .collect();
-    let table = GonioTable::unfold(&horiz, &vert, &rows, symmetry).map_err(|e| {
-        PhotometryError::Parse {
+    let table =
+        GonioTable::unfold(&horiz, &vert, &rows, symmetry).map_err(|e| PhotometryError::Parse {
             format: FORMAT,
             line: hl,
             message: e.to_string(),
-        }
-    })?;
+        })?;
     let declared = (lumens_per_lamp > 0.0 && n_lamps > 0.0).then_some(lumens_per_lamp * n_lamps);
     Ok(IntensityDistribution::from_table(table, name, declared))
 }

@@ -35,7 +35,11 @@ pub fn direct_illuminance_lux(
     }
     let emit_dir_world = [-l[0], -l[1], -l[2]];
     let intensity = light.intensity_cd(frame.to_local(emit_dir_world));
-    let vis = if visibility.is_finite() { visibility.clamp(0.0, 1.0) } else { 0.0 };
+    let vis = if visibility.is_finite() {
+        visibility.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     intensity * cos_e / d2 * vis
 }
 
@@ -66,6 +70,7 @@ impl PointLight {
 
     /// Luminous intensity (cd) this light sends towards a world direction.
     pub fn intensity_towards_cd(&self, dir_world: [f64; 3]) -> f64 {
-        self.distribution.intensity_cd(self.frame.to_local(dir_world))
+        self.distribution
+            .intensity_cd(self.frame.to_local(dir_world))
     }
 }

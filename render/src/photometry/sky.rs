@@ -56,7 +56,11 @@ const D: f64 = -3.0;
 const E: f64 = 0.45;
 
 fn gradation(cos_z: f64) -> f64 {
-    if cos_z <= 1e-12 { 1.0 } else { 1.0 + A * (B / cos_z).exp() }
+    if cos_z <= 1e-12 {
+        1.0
+    } else {
+        1.0 + A * (B / cos_z).exp()
+    }
 }
 
 fn indicatrix(chi: f64) -> f64 {
@@ -204,4 +208,3 @@ impl Sky {
 fn sanitize(v: f64) -> f64 {
     if v.is_finite() && v > 0.0 { v } else { 0.0 }
 }
-
