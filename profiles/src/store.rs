@@ -314,6 +314,21 @@ impl ProfileStore {
             .conn
             .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)
             .map_err(|err| e("starting the transaction", err))?;
+        let existing: Option<i64> = tx
+            .query_row(
+                "SELECT id FROM runs WHERE wall = ?1 AND started_unix_ms = ?2",
+                params![run.wall, run.started_utc.as_millisecond()],
+                |r| r.get(0),
+            )
+            .optional()
+            .map_err(|err| e("looking for the same run", err))?;
+        if let Some(existing) = existing {
+            return Err(StoreError::DuplicateRun {
+                wall: run.wall.clone(),
+                time: run.started_utc.to_string(),
+                existing,
+            });
+        }
         tx.execute(
             "INSERT INTO runs (wall, started_utc, started_unix_ms, source, note, lumiwall_version)
              VALUES (?1, ?2, ?3, ?4, ?5, ?6)",

@@ -120,6 +120,19 @@ pub enum StoreError {
     /// A run handed to `record` is inconsistent; nothing was written.
     #[error("run not recorded: {0}")]
     InvalidRun(String),
+    /// The wall already has a run at exactly this time (the same run recorded twice).
+    #[error(
+        "wall {wall} already has run {existing} at {time}; it is probably already recorded \
+         (give another time if it really is a different run)"
+    )]
+    DuplicateRun {
+        /// Wall name.
+        wall: String,
+        /// Time of the run, RFC 3339.
+        time: String,
+        /// Id of the run already stored.
+        existing: i64,
+    },
     /// A date or time given by the user could not be read.
     #[error(
         "cannot read time {text:?}: {message}; give a date (2026-11-20, midnight UTC) or an \

@@ -19,14 +19,17 @@ pub const APPLICATION_ID: i32 = 0x4C55_4D49;
 /// Name of the table that records which migrations were applied.
 pub const VERSION_TABLE: &str = "lumiwall_schema";
 
+/// The version table itself: one row per applied migration. Created before the
+/// first migration and never changed (a store at version 0 has only this table).
+pub const VERSION_TABLE_SQL: &str = "CREATE TABLE IF NOT EXISTS lumiwall_schema (
+         version     INTEGER PRIMARY KEY,
+         applied_utc TEXT NOT NULL
+     );";
+
 /// SQL of each migration; entry `i` takes the store from version `i` to `i + 1`.
 pub const MIGRATIONS: &[&str] = &[
     // 1: runs and their profiles.
-    "CREATE TABLE lumiwall_schema (
-         version     INTEGER PRIMARY KEY,
-         applied_utc TEXT NOT NULL
-     );
-     CREATE TABLE runs (
+    "CREATE TABLE runs (
          id               INTEGER PRIMARY KEY,
          wall             TEXT NOT NULL,
          started_utc      TEXT NOT NULL,
@@ -35,7 +38,7 @@ pub const MIGRATIONS: &[&str] = &[
          note             TEXT NOT NULL,
          lumiwall_version TEXT NOT NULL
      );
-     CREATE INDEX runs_by_wall_time ON runs (wall, started_unix_ms);
+     CREATE UNIQUE INDEX runs_by_wall_time ON runs (wall, started_unix_ms);
      CREATE TABLE profiles (
          run_id         INTEGER NOT NULL REFERENCES runs (id) ON DELETE CASCADE,
          display        INTEGER NOT NULL CHECK (display >= 0),
@@ -151,6 +154,8 @@ pub fn prepare(conn: &mut Connection, path: &Path) -> Result<(), StoreError> {
             supported: SCHEMA_VERSION,
         });
     }
+    tx.execute_batch(VERSION_TABLE_SQL)
+        .map_err(|e| sql_err(path, "creating the schema version table", e))?;
     let now = jiff::Timestamp::now().to_string();
     for (i, sql) in MIGRATIONS.iter().enumerate().skip(current as usize) {
         let version = i as u32 + 1;
