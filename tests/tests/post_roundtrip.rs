@@ -223,6 +223,9 @@ fn round_trip_infitec_pair_8_bit_single_pixels_are_quantisation_limited() {
     // Undithered 8-bit pixels: bounded by about one code step (looser bound, reported).
     let wall = VirtualWall::from_toml_file(&wall_file("infitec-pair.toml")).unwrap();
     for (mean, worst) in round_trip(&wall, false) {
-        assert!(worst < 1.0 && mean < 0.2, "ΔE2000 mean {mean:.3}, max {worst:.3}");
+        assert!(
+            worst < 1.0 && mean < 0.2,
+            "ΔE2000 mean {mean:.3}, max {worst:.3}"
+        );
     }
 }
