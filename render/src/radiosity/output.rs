@@ -1,1 +1,305 @@
-//! (being written)
+//! Writing results: the error/time curve (CSV, PNG plot), per-vertex radiosity (PLY),
+//! and an XYZ float OpenEXR image (channels X, Y, Z; Y = luminance in cd/m²) from a
+//! pinhole camera by z-buffered rasterisation of the solved patches with per-vertex
+//! (Gouraud) interpolation.
+
+use std::collections::HashMap;
+use std::f64::consts::PI;
+use std::path::Path;
+
+use crate::scene::{Camera, V3};
+
+use super::curve::ErrorCurve;
+use super::solution::Solution;
+use super::RadiosityError;
+
+fn out_err(path: &Path, e: impl std::fmt::Display) -> RadiosityError {
+    RadiosityError::Output {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// Writes the curve as CSV.
+pub fn write_curve_csv(curve: &ErrorCurve, path: &Path) -> Result<(), RadiosityError> {
+    std::fs::write(path, curve.to_csv()).map_err(|e| out_err(path, e))
+}
+
+/// Per-vertex luminance: for every patch corner the area-weighted mean luminance
+/// (XYZ, Y in cd/m²) of the patches of the same polygon that share that corner.
+pub fn vertex_luminance(sol: &Solution) -> Vec<Vec<[f64; 3]>> {
+    let key = |poly: usize, v: &V3| {
+        let q = |c: f64| (c * 1e6).round() as i64;
+        (poly, q(v.x), q(v.y), q(v.z))
+    };
+    let mut acc: HashMap<(usize, i64, i64, i64), ([f64; 3], f64)> = HashMap::new();
+    for p in &sol.patches {
+        for v in &p.vertices {
+            let e = acc.entry(key(p.polygon, v)).or_insert(([0.0; 3], 0.0));
+            for c in 0..3 {
+                e.0[c] += p.area_m2 * p.exitance_xyz[c] / PI;
+            }
+            e.1 += p.area_m2;
+        }
+    }
+    sol.patches
+        .iter()
+        .map(|p| {
+            p.vertices
+                .iter()
+                .map(|v| {
+                    let (s, a) = acc[&key(p.polygon, v)];
+                    s.map(|x| x / a.max(1e-300))
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Writes an ASCII PLY: one face per patch, vertex properties X, Y, Z luminance in cd/m².
+pub fn write_ply(sol: &Solution, path: &Path) -> Result<(), RadiosityError> {
+    let lum = vertex_luminance(sol);
+    let nverts: usize = sol.patches.iter().map(|p| p.vertices.len()).sum();
+    let mut s = format!(
+        "ply\nformat ascii 1.0\ncomment lumiwall radiosity; X Y Z are luminance in cd/m2 (Y photometric), positions in m\nelement vertex {nverts}\nproperty float x\nproperty float y\nproperty float z\nproperty float lum_X\nproperty float lum_Y\nproperty float lum_Z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        sol.patches.len()
+    );
+    for (p, l) in sol.patches.iter().zip(&lum) {
+        for (v, c) in p.vertices.iter().zip(l) {
+            s.push_str(&format!("{} {} {} {} {} {}\n", v.x, v.y, v.z, c[0], c[1], c[2]));
+        }
+    }
+    let mut k = 0;
+    for p in &sol.patches {
+        s.push_str(&p.vertices.len().to_string());
+        for _ in &p.vertices {
+            s.push_str(&format!(" {k}"));
+            k += 1;
+        }
+        s.push('\n');
+    }
+    std::fs::write(path, s).map_err(|e| out_err(path, e))
+}
+
+/// Rasterises the solution seen from `camera`: XYZ luminance per pixel (cd/m²), row
+/// major from the top-left; background 0.
+pub fn render_image(sol: &Solution, camera: &Camera) -> Vec<[f32; 3]> {
+    let (w, h) = (camera.width_px as usize, camera.height_px as usize);
+    let fwd = (camera.look_at - camera.position).normalize();
+    let right = fwd.cross(&camera.up).normalize();
+    let up = right.cross(&fwd);
+    let f = 0.5 * h as f64 / (0.5 * camera.vfov_deg.to_radians()).tan();
+    let near = 1e-4;
+    let project = |p: &V3| -> Option<(f64, f64, f64)> {
+        let d = p - camera.position;
+        let z = d.dot(&fwd);
+        if z < near {
+            return None;
+        }
+        Some((0.5 * w as f64 + f * d.dot(&right) / z, 0.5 * h as f64 - f * d.dot(&up) / z, z))
+    };
+    let lum = vertex_luminance(sol);
+    let mut img = vec![[0f32; 3]; w * h];
+    let mut zbuf = vec![f64::INFINITY; w * h];
+    for (p, l) in sol.patches.iter().zip(&lum) {
+        // back-facing patches are not seen (one-sided surfaces)
+        if p.normal.dot(&(camera.position - p.vertices[0])) <= 0.0 {
+            continue;
+        }
+        let proj: Option<Vec<(f64, f64, f64)>> = p.vertices.iter().map(project).collect();
+        let Some(proj) = proj else { continue };
+        for t in 1..proj.len() - 1 {
+            let tri = [proj[0], proj[t], proj[t + 1]];
+            let val = [l[0], l[t], l[t + 1]];
+            let minx = tri.iter().map(|v| v.0).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
+            let maxx = tri.iter().map(|v| v.0).fold(f64::NEG_INFINITY, f64::max).ceil().min(w as f64) as usize;
+            let miny = tri.iter().map(|v| v.1).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
+            let maxy = tri.iter().map(|v| v.1).fold(f64::NEG_INFINITY, f64::max).ceil().min(h as f64) as usize;
+            let area = (tri[1].0 - tri[0].0) * (tri[2].1 - tri[0].1) - (tri[2].0 - tri[0].0) * (tri[1].1 - tri[0].1);
+            if area.abs() < 1e-12 {
+                continue;
+            }
+            for y in miny..maxy {
+                for x in minx..maxx {
+                    let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+                    let e = |a: (f64, f64, f64), b: (f64, f64, f64)| (b.0 - a.0) * (py - a.1) - (px - a.0) * (b.1 - a.1);
+                    let b0 = e(tri[1], tri[2]) / area;
+                    let b1 = e(tri[2], tri[0]) / area;
+                    let b2 = e(tri[0], tri[1]) / area;
+                    if b0 < -1e-9 || b1 < -1e-9 || b2 < -1e-9 {
+                        continue;
+                    }
+                    // perspective-correct interpolation
+                    let iz = b0 / tri[0].2 + b1 / tri[1].2 + b2 / tri[2].2;
+                    let z = 1.0 / iz;
+                    let i = y * w + x;
+                    if z >= zbuf[i] {
+                        continue;
+                    }
+                    zbuf[i] = z;
+                    let c: [f32; 3] = std::array::from_fn(|k| {
+                        (z * (b0 * val[0][k] / tri[0].2 + b1 * val[1][k] / tri[1].2 + b2 * val[2][k] / tri[2].2)) as f32
+                    });
+                    img[i] = c;
+                }
+            }
+        }
+    }
+    img
+}
+
+/// Writes an XYZ float OpenEXR (channels X, Y, Z; cd/m²).
+pub fn write_exr(img: &[[f32; 3]], width: usize, height: usize, path: &Path) -> Result<(), RadiosityError> {
+    use exr::prelude::*;
+    let channels = SpecificChannels::build()
+        .with_channel("X")
+        .with_channel("Y")
+        .with_channel("Z")
+        .with_pixel_fn(|pos: Vec2<usize>| {
+            let p = img[pos.y() * width + pos.x()];
+            (p[0], p[1], p[2])
+        });
+    Image::from_channels((width, height), channels)
+        .write()
+        .to_file(path)
+        .map_err(|e| out_err(path, e))
+}
+
+// --- a tiny 3×5 bitmap font for the plot labels ---
+fn glyph(c: char) -> [u8; 5] {
+    match c {
+        '0' => [7, 5, 5, 5, 7],
+        '1' => [2, 6, 2, 2, 7],
+        '2' => [7, 1, 7, 4, 7],
+        '3' => [7, 1, 7, 1, 7],
+        '4' => [5, 5, 7, 1, 1],
+        '5' => [7, 4, 7, 1, 7],
+        '6' => [7, 4, 7, 5, 7],
+        '7' => [7, 1, 1, 1, 1],
+        '8' => [7, 5, 7, 5, 7],
+        '9' => [7, 5, 7, 1, 7],
+        '.' => [0, 0, 0, 0, 2],
+        '%' => [5, 1, 2, 4, 5],
+        's' => [0, 7, 4, 1, 7],
+        'e' => [0, 7, 7, 4, 7],
+        '-' => [0, 0, 7, 0, 0],
+        _ => [0; 5],
+    }
+}
+
+fn text(img: &mut image::RgbImage, x: i64, y: i64, s: &str, scale: i64, col: [u8; 3]) {
+    for (k, c) in s.chars().enumerate() {
+        let g = glyph(c);
+        for (row, bits) in g.iter().enumerate() {
+            for bit in 0..3 {
+                if bits & (4 >> bit) != 0 {
+                    for dy in 0..scale {
+                        for dx in 0..scale {
+                            let px = x + (k as i64 * 4 + bit) * scale + dx;
+                            let py = y + row as i64 * scale + dy;
+                            if px >= 0 && py >= 0 && (px as u32) < img.width() && (py as u32) < img.height() {
+                                img.put_pixel(px as u32, py as u32, image::Rgb(col));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn line(img: &mut image::RgbImage, a: (f64, f64), b: (f64, f64), col: [u8; 3]) {
+    let n = ((b.0 - a.0).abs().max((b.1 - a.1).abs()).ceil() as usize).max(1);
+    for i in 0..=n {
+        let t = i as f64 / n as f64;
+        let (x, y) = (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t);
+        for (dx, dy) in [(0, 0), (1, 0), (0, 1)] {
+            let (px, py) = (x as i64 + dx, y as i64 + dy);
+            if px >= 0 && py >= 0 && (px as u32) < img.width() && (py as u32) < img.height() {
+                img.put_pixel(px as u32, py as u32, image::Rgb(col));
+            }
+        }
+    }
+}
+
+/// Plots estimated relative error (log scale, labelled in %) against wall time in s
+/// for one or more curves (each with its colour) and writes a PNG.
+pub fn plot_curves_png(curves: &[(&ErrorCurve, [u8; 3])], target: Option<f64>, path: &Path) -> Result<(), RadiosityError> {
+    let (w, h) = (800u32, 500u32);
+    let (l, r, t, b) = (90.0, 20.0, 20.0, 50.0);
+    let mut img = image::RgbImage::from_pixel(w, h, image::Rgb([255, 255, 255]));
+    let pts: Vec<(f64, f64)> = curves
+        .iter()
+        .flat_map(|(c, _)| c.points.iter().map(|p| (p.time_s, p.estimated_error)))
+        .filter(|(_, e)| *e > 0.0 && e.is_finite())
+        .collect();
+    let tmax = pts.iter().map(|p| p.0).fold(1e-3, f64::max);
+    let emin = pts.iter().map(|p| p.1).fold(target.unwrap_or(1.0), f64::min).max(1e-8);
+    let emax = pts.iter().map(|p| p.1).fold(emin * 10.0, f64::max);
+    let (d0, d1) = (emin.log10().floor(), emax.log10().ceil());
+    let sx = |tt: f64| l + (w as f64 - l - r) * tt / tmax;
+    let sy = |e: f64| t + (h as f64 - t - b) * (d1 - e.max(1e-300).log10()) / (d1 - d0).max(1.0);
+    let grey = [200, 200, 200];
+    let black = [0, 0, 0];
+    let mut d = d0;
+    while d <= d1 + 1e-9 {
+        let y = sy(10f64.powf(d));
+        line(&mut img, (l, y), (w as f64 - r, y), grey);
+        let pct = 100.0 * 10f64.powf(d);
+        let label = if pct >= 1.0 { format!("{pct:.0}%") } else { format!("{pct:.0e}%") };
+        text(&mut img, 5, y as i64 - 5, &label, 2, black);
+        d += 1.0;
+    }
+    for k in 0..=4 {
+        let tt = tmax * k as f64 / 4.0;
+        let x = sx(tt);
+        line(&mut img, (x, t), (x, h as f64 - b), grey);
+        text(&mut img, x as i64 - 10, h as i64 - b as i64 + 10, &format!("{tt:.2}s"), 2, black);
+    }
+    line(&mut img, (l, t), (l, h as f64 - b), black);
+    line(&mut img, (l, h as f64 - b), (w as f64 - r, h as f64 - b), black);
+    if let Some(tg) = target {
+        let y = sy(tg);
+        let mut x = l;
+        while x < w as f64 - r {
+            line(&mut img, (x, y), (x + 6.0, y), [0, 150, 0]);
+            x += 12.0;
+        }
+    }
+    for (c, col) in curves {
+        let mut prev: Option<(f64, f64)> = None;
+        for p in &c.points {
+            if !(p.estimated_error > 0.0 && p.estimated_error.is_finite()) {
+                continue;
+            }
+            let q = (sx(p.time_s), sy(p.estimated_error));
+            if let Some(a) = prev {
+                line(&mut img, a, q, *col);
+            }
+            prev = Some(q);
+        }
+    }
+    img.save(path).map_err(|e| out_err(path, e))
+}
+
+/// Writes a tone-mapped sRGB preview PNG of an XYZ luminance image (exposure set so
+/// that the 99th-percentile luminance maps to white). For looking, not measuring.
+pub fn write_preview_png(img: &[[f32; 3]], width: usize, height: usize, path: &Path) -> Result<(), RadiosityError> {
+    let mut ys: Vec<f32> = img.iter().map(|p| p[1]).filter(|y| *y > 0.0).collect();
+    ys.sort_by(f32::total_cmp);
+    let white = ys.get(ys.len() * 99 / 100).copied().unwrap_or(1.0).max(1e-12) as f64;
+    let enc = |v: f64| {
+        let v = v.clamp(0.0, 1.0);
+        let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+        (s * 255.0).round() as u8
+    };
+    let mut out = image::RgbImage::new(width as u32, height as u32);
+    for (i, p) in img.iter().enumerate() {
+        let (x, y, z) = (p[0] as f64 / white, p[1] as f64 / white, p[2] as f64 / white);
+        let r = 3.2406 * x - 1.5372 * y - 0.4986 * z;
+        let g = -0.9689 * x + 1.8758 * y + 0.0415 * z;
+        let b = 0.0557 * x - 0.2040 * y + 1.0570 * z;
+        out.put_pixel((i % width) as u32, (i / width) as u32, image::Rgb([enc(r), enc(g), enc(b)]));
+    }
+    out.save(path).map_err(|e| out_err(path, e))
+}
