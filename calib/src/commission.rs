@@ -378,8 +378,14 @@ pub fn finish(
         solve: &opts.solve,
         meter_correction: correction.as_ref(),
     };
-    write_atomic(&out_dir.join("gamut.svg"), report::gamut_svg(&report_in).as_bytes())?;
-    write_atomic(&out_dir.join("usage.svg"), report::usage_svg(&report_in).as_bytes())?;
+    write_atomic(
+        &out_dir.join("gamut.svg"),
+        report::gamut_svg(&report_in).as_bytes(),
+    )?;
+    write_atomic(
+        &out_dir.join("usage.svg"),
+        report::usage_svg(&report_in).as_bytes(),
+    )?;
     let md = out_dir.join("report.md");
     write_atomic(&md, report::markdown(&report_in).as_bytes())?;
     let html = out_dir.join("report.html");

@@ -145,7 +145,6 @@ pub fn white_capacity(
     Some((y, [lin[0], lin[1], lin[2]]))
 }
 
-
 /// What a reading was of.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -348,7 +347,9 @@ pub enum MeasureError {
         black_cd_m2: f64,
     },
     /// The meter returned a non-finite or negative value.
-    #[error("{display}: reading {reading} ({patch}) returned an invalid value {xyz:?}; check the meter")]
+    #[error(
+        "{display}: reading {reading} ({patch}) returned an invalid value {xyz:?}; check the meter"
+    )]
     Invalid {
         /// Display being measured.
         display: String,
@@ -722,11 +723,11 @@ pub fn measure_display(
     };
     let reserve = if toe { 3 * repeats_dark } else { 0 };
     let step = |s: &mut Session<'_, '_>,
-                    c: usize,
-                    d: f64,
-                    rel: &mut [Vec<(f64, f64)>; 3],
-                    ramps: &mut [Vec<(f64, Xyz)>; 3],
-                    progress: &mut dyn FnMut(Progress)|
+                c: usize,
+                d: f64,
+                rel: &mut [Vec<(f64, f64)>; 3],
+                ramps: &mut [Vec<(f64, Xyz)>; 3],
+                progress: &mut dyn FnMut(Progress)|
      -> Result<(), MeasureError> {
         match s.sample(Patch::Ramp(c, d), false, progress)? {
             Some(raw) => {
@@ -746,10 +747,10 @@ pub fn measure_display(
     };
     let lsb = 0.5 / code_max(info.bit_depth);
     let adaptive = |s: &mut Session<'_, '_>,
-                        keep: u32,
-                        rel: &mut [Vec<(f64, f64)>; 3],
-                        ramps: &mut [Vec<(f64, Xyz)>; 3],
-                        progress: &mut dyn FnMut(Progress)|
+                    keep: u32,
+                    rel: &mut [Vec<(f64, f64)>; 3],
+                    ramps: &mut [Vec<(f64, Xyz)>; 3],
+                    progress: &mut dyn FnMut(Progress)|
      -> Result<(), MeasureError> {
         let mut done = [false; 3];
         let mut c = 0usize;
@@ -786,7 +787,10 @@ pub fn measure_display(
                 if let Some(raw) = s.log.samples.last().and_then(|r| r.xyz) {
                     let xyz = luminance_only(raw, black, primaries[c]);
                     ramps[c].push((d, xyz));
-                    insert_sorted(&mut rel[c], (d, relative_intensity(xyz, black, primaries[c])));
+                    insert_sorted(
+                        &mut rel[c],
+                        (d, relative_intensity(xyz, black, primaries[c])),
+                    );
                 }
             }
         }

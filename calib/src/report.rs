@@ -128,7 +128,11 @@ pub fn gamut_svg(r: &ReportInputs<'_>) -> String {
             pts.join(" ")
         );
         for (nm, p) in &locus {
-            if [460.0, 480.0, 500.0, 520.0, 540.0, 560.0, 580.0, 600.0, 620.0].contains(nm) {
+            if [
+                460.0, 480.0, 500.0, 520.0, 540.0, 560.0, 580.0, 600.0, 620.0,
+            ]
+            .contains(nm)
+            {
                 let (a, b) = px(*p);
                 let _ = write!(
                     s,
@@ -413,7 +417,9 @@ pub fn markdown(r: &ReportInputs<'_>) -> String {
     let mut s = format!("# Commissioning report: {}\n\n", r.wall);
     s.push_str(&tables_markdown(r));
     s.push_str("\n## Plots\n\n![xy chromaticity: every display's gamut, the common gamut and the white](gamut.svg)\n\n");
-    s.push_str("![channel usage per display for the common white (cf. Kresse 2003, Abb. 27)](usage.svg)\n");
+    s.push_str(
+        "![channel usage per display for the common white (cf. Kresse 2003, Abb. 27)](usage.svg)\n",
+    );
     s
 }
 

@@ -534,7 +534,8 @@ pub fn verify_wall(
             .ok_or_else(|| VerifyError::MissingProfile(info.name.clone()))?;
         let key = &profile.display;
         let prepared = PreparedProfile::new(profile, &ApplyOptions::default())?;
-        let reference_white = expected_shown(profile, Xyz::from_array(profile.target_white_xyz_cd_m2));
+        let reference_white =
+            expected_shown(profile, Xyz::from_array(profile.target_white_xyz_cd_m2));
         let mut s = Session::start(rig, key, info.id, opts.spot_uv, &mopts)?;
         let start = patches.len();
         for t in targets {

@@ -108,7 +108,9 @@ pub fn parse_white(s: &str) -> Result<WhiteTarget, String> {
             .collect::<Result<_, _>>()
             .map_err(|_| format!("'{s}' is not a chromaticity like xy:0.291,0.300"))?;
         if v.len() != 2 || !(v[0] > 0.0 && v[1] > 0.0 && v[0] + v[1] < 1.0) {
-            return Err(format!("'{s}' is not a valid chromaticity like xy:0.291,0.300"));
+            return Err(format!(
+                "'{s}' is not a valid chromaticity like xy:0.291,0.300"
+            ));
         }
         return Ok(WhiteTarget::Xy([v[0], v[1]]));
     }
@@ -162,14 +164,15 @@ impl Station {
                     EmulatorOptions::with_time_scale(time_scale),
                 )
                 .map_err(|e| CliError::failure(format!("cannot start the meter emulator: {e}")))?;
-                let driver = port
-                    .open(driver_config())
-                    .map_err(|e| CliError::failure(format!("cannot open the emulated meter: {e}")))?;
+                let driver = port.open(driver_config()).map_err(|e| {
+                    CliError::failure(format!("cannot open the emulated meter: {e}"))
+                })?;
                 (Box::new(driver), Some(emu))
             }
             MeterChoice::Serial(path) => {
-                let driver = KleinK10a::open(path, driver_config())
-                    .map_err(|e| CliError::failure(format!("cannot open the meter on {path}: {e}")))?;
+                let driver = KleinK10a::open(path, driver_config()).map_err(|e| {
+                    CliError::failure(format!("cannot open the meter on {path}: {e}"))
+                })?;
                 (Box::new(driver), None)
             }
         };
@@ -268,7 +271,11 @@ pub fn parse_low_light(s: &str) -> Result<LowLight, String> {
 }
 
 /// Solve options from the command line.
-pub fn solve_options(white: WhiteTarget, black: BlackArg, headroom: f64) -> Result<SolveOptions, CliError> {
+pub fn solve_options(
+    white: WhiteTarget,
+    black: BlackArg,
+    headroom: f64,
+) -> Result<SolveOptions, CliError> {
     if !(headroom > 0.0 && headroom <= 1.0) {
         return Err(CliError::input(format!(
             "--headroom {headroom} must be in (0, 1]"
@@ -331,7 +338,9 @@ pub fn run(args: CommissionArgs) -> Result<(), CliError> {
     let mut done_readings = 0u64;
     let started = Instant::now();
     let mut on_progress = |p: Progress| match p {
-        Progress::Reading { display, readings, .. } => {
+        Progress::Reading {
+            display, readings, ..
+        } => {
             pb.set_position(done_readings + u64::from(readings));
             pb.set_message(format!("display {}", name_of(display.0)));
         }
@@ -350,7 +359,14 @@ pub fn run(args: CommissionArgs) -> Result<(), CliError> {
         }
     };
     let mut rig = station.rig();
-    let outcome = commission(&wall, &displays, &mut rig, &args.out, &opts, &mut on_progress);
+    let outcome = commission(
+        &wall,
+        &displays,
+        &mut rig,
+        &args.out,
+        &opts,
+        &mut on_progress,
+    );
     pb.finish_and_clear();
     let outcome = outcome.map_err(|e| CliError::failure(e.to_string()))?;
     print_outcome(&outcome, started.elapsed());
@@ -401,11 +417,7 @@ fn print_outcome(o: &CommissionOutcome, elapsed: Duration) {
     for w in &s.warnings {
         println!("warning: {w}");
     }
-    println!(
-        "profiles: {}/{}",
-        o.out_dir.display(),
-        ProfileSet::MANIFEST
-    );
+    println!("profiles: {}/{}", o.out_dir.display(), ProfileSet::MANIFEST);
     for r in &o.reports {
         println!("report: {}", r.display());
     }
@@ -482,15 +494,8 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
                 meter_xy_offset: o.meter_correction.as_ref().map(|c| c.xy_offset),
                 ..VerifyOptions::default()
             };
-            let report = verify_wall(
-                &mut rig,
-                &displays,
-                profiles,
-                &targets,
-                &vopts,
-                &mut |_| {},
-            )
-            .map_err(|e| CliError::failure(e.to_string()))?;
+            let report = verify_wall(&mut rig, &displays, profiles, &targets, &vopts, &mut |_| {})
+                .map_err(|e| CliError::failure(e.to_string()))?;
             println!(
                 "{:<10} {:>7} {:>16} {:>14.3} {:>10.3} {:>8.2} {:>9.1}",
                 format!("{noise:?}").to_lowercase(),

@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use indicatif::{ProgressBar, ProgressStyle};
 use lumiwall_calib::measure::meter_offset::MeterCorrection;
 use lumiwall_calib::measure::{MeasureOptions, Progress};
-use lumiwall_devices::Colorimeter;
 use lumiwall_calib::verify::{Tolerances, VerifyOptions, default_targets, verify_wall};
+use lumiwall_devices::Colorimeter;
 use lumiwall_profiles::ProfileSet;
 
 use crate::CliError;

@@ -175,8 +175,7 @@ mod tests {
         let w = p[0] + p[1] + p[2] - k * 2.0;
         let off = [0.003, -0.0035];
         let read = |v: Xyz| correct(v, [-off[0], -off[1]]);
-        let (d, before, after) =
-            estimate_offset(read(k), &p.map(read), read(w)).expect("estimate");
+        let (d, before, after) = estimate_offset(read(k), &p.map(read), read(w)).expect("estimate");
         assert!(d[0] == 0.0 && (d[1] - off[1]).abs() < 2e-5, "{d:?}");
         assert!(before > 0.01 && after < 1e-4, "{before} {after}");
         // The x part left in is linear in XYZ: corrected readings are additive again.
