@@ -1,9 +1,10 @@
 //! Per-channel electro-optical transfer curves of a simulated projector.
 //!
-//! `f(d) = (1 − β)·d^γ + β·S(d)` where `S` is a logistic ramp rescaled to run from
-//! 0 at d = 0 to 1 at d = 1. The logistic part gives a near-linear toe at black and a
-//! shoulder near full drive, so the curve is S-shaped and its log-log slope varies
-//! along the ramp: it is not a pure power law (Kresse 3.3.1, Abb. 18).
+//! `f(d) = h((1 − β)·d^γ + β·S(d))` where `S` is a logistic ramp rescaled to run
+//! from 0 at d = 0 to 1 at d = 1 and `h(x) = (1 − e^(−s·x))/(1 − e^(−s))` a
+//! shoulder. The logistic part gives a near-linear toe at black, the shoulder
+//! compresses the top, so the curve is S-shaped (convex low, concave high) and its
+//! log-log slope varies along the ramp: it is not a pure power law (Kresse 3.3.1).
 
 use serde::{Deserialize, Serialize};
 
@@ -21,6 +22,9 @@ pub struct TransferCurve {
     pub s_centre: f64,
     /// Steepness k of the logistic (per unit drive, > 0).
     pub s_steepness: f64,
+    /// Shoulder strength s (>= 0; 0 = no shoulder).
+    #[serde(default)]
+    pub shoulder: f64,
 }
 
 impl TransferCurve {
@@ -35,7 +39,12 @@ impl TransferCurve {
         let s = |x: f64| logistic(self.s_steepness * (x - self.s_centre));
         let (s0, s1) = (s(0.0), s(1.0));
         let ramp = if s1 > s0 { (s(d) - s0) / (s1 - s0) } else { d };
-        (1.0 - self.s_weight) * power + self.s_weight * ramp
+        let x = (1.0 - self.s_weight) * power + self.s_weight * ramp;
+        if self.shoulder > 1e-9 {
+            (-(self.shoulder * x)).exp_m1() / (-self.shoulder).exp_m1()
+        } else {
+            x
+        }
     }
 
     /// Checks the parameters; returns a description of the first problem.
@@ -59,6 +68,12 @@ impl TransferCurve {
             return Err(format!(
                 "curve s_steepness must be > 0, got {}",
                 self.s_steepness
+            ));
+        }
+        if !(self.shoulder.is_finite() && (0.0..=20.0).contains(&self.shoulder)) {
+            return Err(format!(
+                "curve shoulder must be in 0..=20, got {}",
+                self.shoulder
             ));
         }
         Ok(())

@@ -140,6 +140,9 @@ impl SimDisplay {
             Some([lo, _]) => lo,
             None => p.lamp_hours,
         };
+        for c in &mut curves {
+            c.shoulder = (c.shoulder * (1.0 + uniform(rng, 4.0 * sc.curve_shape))).max(0.0);
+        }
         let mut white_segment = p.white_segment;
 
         let eye_gain = match eye {

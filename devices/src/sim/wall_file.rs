@@ -271,18 +271,21 @@ impl Default for CurvesSpec {
                 s_weight: 0.30,
                 s_centre: 0.56,
                 s_steepness: 9.0,
+                shoulder: 1.3,
             },
             green: TransferCurve {
                 gamma: 2.25,
                 s_weight: 0.25,
                 s_centre: 0.50,
                 s_steepness: 10.0,
+                shoulder: 1.6,
             },
             blue: TransferCurve {
                 gamma: 2.05,
                 s_weight: 0.38,
                 s_centre: 0.62,
                 s_steepness: 8.0,
+                shoulder: 1.1,
             },
         }
     }
@@ -496,7 +499,8 @@ pub struct ScatterSpec {
     /// Absolute change of each curve's γ.
     #[serde(default)]
     pub gamma: f64,
-    /// Absolute change of each curve's s_weight and s_centre.
+    /// Absolute change of each curve's s_weight and s_centre; relative change of its
+    /// shoulder is 4× this.
     #[serde(default)]
     pub curve_shape: f64,
     /// Relative change of the vignetting coefficients.
@@ -592,7 +596,7 @@ fn d_stray() -> f64 {
     0.0002
 }
 fn d_vignetting() -> [f64; 3] {
-    [0.18, 0.20, 0.24]
+    [0.18, 0.20, 0.23]
 }
 fn d_hot() -> f64 {
     0.04

@@ -1,0 +1,245 @@
+//! The simulated meter: exact when noiseless, CS-100A statistics when realistic,
+//! typed errors at its limits, usable from another thread, and fast.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use lumiwall_devices::sim::{MeterModel, VirtualWall};
+use lumiwall_devices::{Colorimeter, DeviceError, DisplayId, MeterPositioner, PatternOutput, Xyz};
+
+fn wall(name: &str) -> VirtualWall {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../fixtures/walls")
+        .join(name);
+    VirtualWall::from_toml_file(&p).unwrap()
+}
+
+const C: [f64; 2] = [0.5, 0.5];
+
+fn mean_std(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    let s = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    (m, s)
+}
+
+#[test]
+fn noiseless_meter_reads_exactly_what_is_emitted() {
+    let w = wall("heyewall-48.toml");
+    let (mut out, mut pos, mut meter) = (
+        w.pattern_output(),
+        w.positioner(),
+        w.meter(MeterModel::noiseless()),
+    );
+    for (id, drive, uv) in [
+        (DisplayId(3), [1.0, 0.0, 0.0], C),
+        (DisplayId(30), [0.2, 0.9, 0.4], [0.1, 0.8]),
+        (DisplayId(47), [0.0; 3], C),
+    ] {
+        out.show(id, drive).unwrap();
+        pos.aim(id, uv).unwrap();
+        let truth = w.emitted_xyz(id, drive, uv).unwrap();
+        let t0 = w.elapsed_s();
+        assert_eq!(meter.measure().unwrap(), truth);
+        assert_eq!(w.elapsed_s() - t0, 1.0, "one reading = seconds_per_reading");
+    }
+    // Aimed at a display that is not showing the pattern: it reads that display's black.
+    out.show(DisplayId(4), [1.0; 3]).unwrap();
+    pos.aim(DisplayId(5), C).unwrap();
+    let black = w.emitted_xyz(DisplayId(5), [0.0; 3], C).unwrap();
+    assert_eq!(meter.measure().unwrap(), black);
+}
+
+#[test]
+fn meter_must_be_aimed() {
+    let w = wall("mono-2x1.toml");
+    let err = w.meter(MeterModel::noiseless()).measure().unwrap_err();
+    assert!(matches!(err, DeviceError::Config(_)), "{err}");
+}
+
+/// CS-100A datasheet: accuracy Lv ±2 %, xy ±0.004; repeatability 0.2 % + 1 digit,
+/// xy 0.001 (2σ). 500 readings of a ~100 cd/m² patch.
+#[test]
+fn cs100a_statistics_at_100_cd_m2_match_the_datasheet() {
+    let w = wall("mono-2x1.toml");
+    let (mut out, mut pos) = (w.pattern_output(), w.positioner());
+    // Find a grey level near 100 cd/m².
+    let d = (0..=255)
+        .map(|c| c as f64 / 255.0)
+        .find(|&d| w.emitted_xyz(DisplayId(0), [d; 3], C).unwrap().y > 100.0)
+        .unwrap();
+    out.show(DisplayId(0), [d; 3]).unwrap();
+    pos.aim(DisplayId(0), C).unwrap();
+    for seed in [1, 2, 3] {
+        let mut m = w.meter(MeterModel::cs100a(seed));
+        let truth = w.emitted_xyz(DisplayId(0), [d; 3], C).unwrap();
+        let r: Vec<Xyz> = (0..500).map(|_| m.measure().unwrap()).collect();
+        let (ly, sy) = mean_std(&r.iter().map(|x| x.y).collect::<Vec<_>>());
+        let (mx, sx) = mean_std(&r.iter().map(|x| x.xy().unwrap()[0]).collect::<Vec<_>>());
+        let (my, sy2) = mean_std(&r.iter().map(|x| x.xy().unwrap()[1]).collect::<Vec<_>>());
+        let t = truth.xy().unwrap();
+        println!(
+            "seed {seed}: Y {ly:.2} (true {:.2}) σ {:.3} %, x {mx:.4} σ {sx:.5}, y {my:.4} σ {sy2:.5}",
+            truth.y,
+            100.0 * sy / ly
+        );
+        // Repeatability: 0.2 % 2σ plus a digit; well inside the 2 % accuracy spec.
+        assert!(
+            sy / ly < 0.002 && sy / ly > 0.0005,
+            "luminance σ {}",
+            sy / ly
+        );
+        assert!(sx < 0.001 && sy2 < 0.001 && sx > 0.0002);
+        // Systematic error within the accuracy spec and not zero.
+        assert!((ly / truth.y - 1.0).abs() < 0.02);
+        assert!((mx - t[0]).abs() < 0.004 + 3.0 * sx / 500f64.sqrt());
+        assert!((my - t[1]).abs() < 0.004 + 3.0 * sy2 / 500f64.sqrt());
+        assert!(r.windows(2).any(|p| p[0] != p[1]));
+    }
+    // Instruments differ (seeded systematic error), the same instrument repeats.
+    let a = w.meter(MeterModel::cs100a(1)).systematic_error();
+    let b = w.meter(MeterModel::cs100a(2)).systematic_error();
+    assert_ne!(a, b);
+    assert_eq!(a, w.meter(MeterModel::cs100a(1)).systematic_error());
+}
+
+#[test]
+fn same_seed_same_readings() {
+    let run = |wall_seed: &str| {
+        let text = std::fs::read_to_string(
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/walls/infitec-pair.toml"),
+        )
+        .unwrap()
+        .replace("seed = 5", wall_seed);
+        let w = VirtualWall::from_toml_str(&text).unwrap();
+        let (mut out, mut pos, mut m) = (
+            w.pattern_output(),
+            w.positioner(),
+            w.meter(MeterModel::cs100a(7)),
+        );
+        let mut r = Vec::new();
+        for id in [DisplayId(0), DisplayId(1)] {
+            pos.aim(id, C).unwrap();
+            for g in [0.1, 0.5, 1.0] {
+                out.show(id, [g, g * 0.5, 1.0 - g]).unwrap();
+                r.push(m.measure().unwrap());
+            }
+        }
+        r
+    };
+    assert_eq!(run("seed = 5"), run("seed = 5"));
+    assert_ne!(run("seed = 5"), run("seed = 6"));
+}
+
+#[test]
+fn low_light_is_noisier_and_the_floor_is_too_dark() {
+    // A dim wall: white 2 cd/m², black well below 0.01 cd/m².
+    let text = r#"
+name = "dim"
+seed = 3
+stereo = "mono"
+[tiles]
+cols = 1
+rows = 1
+[projector]
+[projector.lamp]
+kind = "uhp"
+white_cd_m2 = 2.5
+"#;
+    let w = VirtualWall::from_toml_str(text).unwrap();
+    let (mut out, mut pos) = (w.pattern_output(), w.positioner());
+    pos.aim(DisplayId(0), C).unwrap();
+    let mut m = w.meter(MeterModel::cs100a(11));
+    // ~0.2 cd/m²: still answers, with far larger noise than at 100 cd/m².
+    let d = (0..=255)
+        .map(|c| c as f64 / 255.0)
+        .find(|&d| w.emitted_xyz(DisplayId(0), [d; 3], C).unwrap().y > 0.2)
+        .unwrap();
+    out.show(DisplayId(0), [d; 3]).unwrap();
+    let r: Vec<Xyz> = (0..300).map(|_| m.measure().unwrap()).collect();
+    let (ly, sy) = mean_std(&r.iter().map(|x| x.y).collect::<Vec<_>>());
+    let (_, sx) = mean_std(&r.iter().map(|x| x.xy().unwrap()[0]).collect::<Vec<_>>());
+    let model = MeterModel::cs100a(11);
+    println!("Y {ly:.4} σ {:.2} %, x σ {sx:.4}", 100.0 * sy / ly);
+    assert!(
+        sy / ly > 5.0 * model.lum_noise_rel,
+        "low-light luminance σ {}",
+        sy / ly
+    );
+    assert!(sx > 5.0 * model.xy_noise, "low-light xy σ {sx}");
+    // Relative to the model's stated σ (loose: sample σ of 300 readings, plus rounding).
+    let want = model.lum_sigma_rel(ly);
+    assert!(
+        (sy / ly / want - 1.0).abs() < 0.25,
+        "σ {} vs model {want}",
+        sy / ly
+    );
+    // Black: below the 0.01 cd/m² floor.
+    out.show(DisplayId(0), [0.0; 3]).unwrap();
+    assert!(w.emitted_xyz(DisplayId(0), [0.0; 3], C).unwrap().y < 0.005);
+    match m.measure() {
+        Err(DeviceError::TooDark { limit_cd_m2, .. }) => assert_eq!(limit_cd_m2, 0.01),
+        other => panic!("expected TooDark, got {other:?}"),
+    }
+}
+
+#[test]
+fn over_range_is_a_typed_error() {
+    let w = wall("infitec-pair.toml");
+    let (mut out, mut pos) = (w.pattern_output(), w.positioner());
+    out.show(DisplayId(1), [1.0; 3]).unwrap();
+    pos.aim(DisplayId(1), C).unwrap();
+    let model = MeterModel {
+        max_cd_m2: 200.0,
+        ..MeterModel::cs100a(1)
+    };
+    let mut m = w.meter(model);
+    assert!(matches!(m.measure(), Err(DeviceError::OverRange { .. })));
+    out.show(DisplayId(1), [0.3; 3]).unwrap();
+    assert!(m.measure().is_ok());
+}
+
+#[test]
+fn meter_model_round_trips_through_toml() {
+    let m = MeterModel::cs100a(42);
+    let text = toml::to_string(&m).unwrap();
+    let back: MeterModel = toml::from_str(&text).unwrap();
+    assert_eq!(back, m);
+}
+
+#[test]
+fn meter_works_from_another_thread() {
+    let w = wall("heyewall-48.toml");
+    let mut boxed: Box<dyn Colorimeter + Send> = Box::new(w.meter(MeterModel::noiseless()));
+    let (mut out, mut pos) = (w.pattern_output(), w.positioner());
+    out.show(DisplayId(7), [0.0, 1.0, 0.0]).unwrap();
+    pos.aim(DisplayId(7), C).unwrap();
+    let truth = w.emitted_xyz(DisplayId(7), [0.0, 1.0, 0.0], C).unwrap();
+    let got = std::thread::spawn(move || boxed.measure())
+        .join()
+        .unwrap()
+        .unwrap();
+    assert_eq!(got, truth);
+}
+
+/// A commissioning needs ~3000 readings; each must cost microseconds.
+#[test]
+fn readings_are_fast() {
+    let w = wall("heyewall-48.toml");
+    let (mut out, mut pos, mut m) = (
+        w.pattern_output(),
+        w.positioner(),
+        w.meter(MeterModel::cs100a(1)),
+    );
+    let t = Instant::now();
+    let n = 3000;
+    for i in 0..n {
+        let id = DisplayId(i % 48);
+        out.show(id, [0.5, 0.6, 0.7]).unwrap();
+        pos.aim(id, C).unwrap();
+        m.measure().unwrap();
+    }
+    let per = t.elapsed().as_secs_f64() / n as f64;
+    println!("{:.2} µs per show+aim+reading", per * 1e6);
+    assert!(per < 200e-6, "{per} s per reading");
+}
