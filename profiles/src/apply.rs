@@ -45,6 +45,12 @@ pub const MAX_INPUT_CD_M2: f32 = 1.0e12;
 /// the primaries are (nearly) collinear: the profile is unusable.
 pub const MAX_MATRIX_ENTRY: f64 = 1.0e18;
 
+/// Tolerance (linear relative intensity, ≈ 1/100 of a 10-bit code) within which a channel
+/// slightly below 0 or above 1 is rounding noise, clamped without a flag: colours on the
+/// gamut boundary (e.g. the common gamut's edges, sRGB input with a zero channel) are not
+/// marked.
+pub const GAMUT_TOLERANCE: f32 = 1.0e-5;
+
 /// Drive shown for out-of-gamut pixels in false-colour mode: magenta.
 pub const MARKER_OUT_OF_GAMUT: [f32; 3] = [1.0, 0.0, 1.0];
 /// Drive shown for over-range (too bright) pixels in false-colour mode: cyan.
@@ -392,7 +398,8 @@ impl PreparedProfile {
             a[0] >= 0.0 && a[1] >= 0.0 && a[2] >= 0.0 && a[0] <= 1.0 && a[1] <= 1.0 && a[2] <= 1.0;
         if !fast {
             // Gamut: toward the target white at constant luminance.
-            if a[0] < 0.0 || a[1] < 0.0 || a[2] < 0.0 {
+            let tol = GAMUT_TOLERANCE;
+            if a[0] < -tol || a[1] < -tol || a[2] < -tol {
                 let lum = xyz[1];
                 if lum > 0.0 {
                     let mut mw = [
@@ -406,7 +413,7 @@ impl PreparedProfile {
                     let mut t = 0.0f32;
                     for c in 0..3 {
                         let aw = mw[c] + off[c];
-                        if a[c] < 0.0 {
+                        if a[c] < -tol {
                             if aw >= 0.0 {
                                 // a_c(t) = a_c + t (aw − a_c) = 0.
                                 t = t.max(-a[c] / (aw - a[c]));
@@ -437,7 +444,7 @@ impl PreparedProfile {
                 a = [m[0] + off[0], m[1] + off[1], m[2] + off[2]];
             }
             // Range: scale at constant chromaticity until every channel ≤ 1.
-            if a[0] > 1.0 || a[1] > 1.0 || a[2] > 1.0 {
+            if a[0] > 1.0 + tol || a[1] > 1.0 + tol || a[2] > 1.0 + tol {
                 flags |= PixelFlags::OVER_RANGE;
                 let mut s = 1.0f32;
                 for c in 0..3 {

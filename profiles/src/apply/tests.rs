@@ -345,3 +345,28 @@ fn unusable_profiles_are_typed_errors() {
         Err(ApplyError::Profile(_))
     ));
 }
+
+#[test]
+fn colours_on_the_gamut_boundary_are_not_marked() {
+    let d = display_no_black(2.2);
+    let prof = d
+        .profile(&spec(BlackMode::Ignore, OutOfGamut::FalseColour, None))
+        .unwrap();
+    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    // Edges and corners of the gamut: one or two channels exactly 0, or exactly 1.
+    for lin in [
+        [0.0, 0.4, 0.7],
+        [0.5, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [1.0; 3],
+    ] {
+        let xyz = mat3::mul_vec(&d.primaries_matrix(), &lin).map(|v| v as f32);
+        let out = pp.apply(xyz, [0.5, 0.5]);
+        assert!(out.flags.is_empty(), "{lin:?}: {:?}", out.flags);
+        assert_ne!(out.drive, MARKER_OUT_OF_GAMUT);
+    }
+    // Just beyond the tolerance it is marked.
+    let xyz = mat3::mul_vec(&d.primaries_matrix(), &[-1e-3, 0.4, 0.7]).map(|v| v as f32);
+    assert_eq!(pp.apply(xyz, [0.5, 0.5]).drive, MARKER_OUT_OF_GAMUT);
+}

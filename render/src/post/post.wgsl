@@ -36,6 +36,8 @@ const F_OOG: u32 = 1u;
 const F_OVER: u32 = 2u;
 const F_INVALID: u32 = 4u;
 const F_BELOW: u32 = 8u;
+// lumiwall_profiles::apply::GAMUT_TOLERANCE
+const TOL: f32 = 1.0e-5;
 
 fn non_finite(v: f32) -> bool {
     // Bit test: shader compilers may assume finite maths and fold `v != v`.
@@ -102,14 +104,14 @@ fn post(xyz_raw: vec3<f32>, g: vec3<f32>) -> Out {
     var a = m + off;
     let fast = all(a >= vec3<f32>(0.0)) && all(a <= vec3<f32>(1.0));
     if (!fast) {
-        if (any(a < vec3<f32>(0.0))) {
+        if (any(a < vec3<f32>(-TOL))) {
             let lum = xyz.y;
             if (lum > 0.0) {
                 let mw = div_gain(lum * p.white_dir.xyz, g);
                 var t = 0.0;
                 for (var c = 0u; c < 3u; c = c + 1u) {
                     let aw = mw[c] + off[c];
-                    if (a[c] < 0.0) {
+                    if (a[c] < -TOL) {
                         if (aw >= 0.0) {
                             t = max(t, -a[c] / (aw - a[c]));
                         } else {
@@ -133,7 +135,7 @@ fn post(xyz_raw: vec3<f32>, g: vec3<f32>) -> Out {
             }
             a = m + off;
         }
-        if (any(a > vec3<f32>(1.0))) {
+        if (any(a > vec3<f32>(1.0 + TOL))) {
             flags = flags | F_OVER;
             var s = 1.0;
             for (var c = 0u; c < 3u; c = c + 1u) {
