@@ -292,9 +292,18 @@ impl ProfileStore {
             )));
         }
         let mut seen = HashSet::new();
+        let mut documents = Vec::with_capacity(profiles.len());
         for p in profiles {
             p.validate()
                 .map_err(|e| StoreError::InvalidProfile(Box::new(e)))?;
+            // Read the document back as `latest`/`history` will: this catches values
+            // `validate` does not check and JSON cannot hold (a NaN is written as
+            // `null`), so the store never holds an unreadable row.
+            let json = p.to_json();
+            let origin = PathBuf::from(format!("{} (being recorded)", p.display.file_stem()));
+            DisplayProfile::from_json(&json, &origin)
+                .map_err(|e| StoreError::InvalidProfile(Box::new(e)))?;
+            documents.push(json);
             if p.display.wall != run.wall {
                 return Err(StoreError::InvalidRun(format!(
                     "profile of {} belongs to wall {:?}, the run is of wall {:?}",
@@ -351,7 +360,7 @@ impl ProfileStore {
                      VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
                 )
                 .map_err(|err| e("preparing the profile insert", err))?;
-            for p in profiles {
+            for (p, json) in profiles.iter().zip(&documents) {
                 stmt.execute(params![
                     id,
                     p.display.display,
@@ -360,7 +369,7 @@ impl ProfileStore {
                     p.display.tile_row,
                     p.format_version,
                     p.created_utc,
-                    p.to_json(),
+                    json,
                 ])
                 .map_err(|err| e("recording a profile", err))?;
             }
