@@ -95,6 +95,10 @@ fn identifies_itself_and_round_trips_readings() {
     let info = meter.info();
     assert_eq!(info.model, "Klein K-10-A");
     assert_eq!(info.serial, "EMU000001");
+    assert_eq!(
+        meter.device_name(),
+        format!("Klein K-10-A #EMU000001 on {}", port.path())
+    );
     for want in &values {
         let got = meter.measure().unwrap();
         assert_close(got, *want);

@@ -111,6 +111,7 @@ pub struct KleinK10a {
     port: Box<dyn SerialPort>,
     config: K10aConfig,
     device: String,
+    port_name: String,
     model: String,
     serial: String,
     needs_resync: bool,
@@ -201,6 +202,7 @@ impl KleinK10a {
             port,
             config,
             device: format!("Klein K-10 meter on {name}"),
+            port_name: name.to_string(),
             model: String::new(),
             serial: String::new(),
             needs_resync: true,
@@ -248,7 +250,10 @@ impl KleinK10a {
                 self.device, info.model, KNOWN_MODELS
             )));
         }
-        self.device = format!("Klein {} #{} ({})", info.model, info.serial, self.device);
+        self.device = format!(
+            "Klein {} #{} on {}",
+            info.model, info.serial, self.port_name
+        );
         self.model = info.model;
         self.serial = info.serial;
         Ok(())
