@@ -17,6 +17,10 @@
 //! nothing behind, and profiles are only written after all displays are measured and
 //! the solve succeeded.
 
+// Errors carry the display, the reading and the device error for the technician and
+// occur at most once per run, so their size does not matter.
+#![allow(clippy::result_large_err)]
+
 use std::path::{Path, PathBuf};
 
 use lumiwall_devices::{DisplayId, DisplayInfo};
@@ -297,18 +301,17 @@ pub fn measure_wall(
             });
         }
         let path = measurement_path(&run_dir, key);
-        if opts.resume {
-            if let Some(m) = load_measurement(&path)? {
-                if m.measurement.key == *key {
-                    progress(Progress::Resumed {
-                        display: info.id,
-                        readings: m.measurement.readings,
-                    });
-                    resumed.push(info.id);
-                    measured.push(m);
-                    continue;
-                }
-            }
+        if opts.resume
+            && let Some(m) = load_measurement(&path)?
+            && m.measurement.key == *key
+        {
+            progress(Progress::Resumed {
+                display: info.id,
+                readings: m.measurement.readings,
+            });
+            resumed.push(info.id);
+            measured.push(m);
+            continue;
         }
         let m = measure_display(rig, info, key, &mopts, progress).map_err(|source| {
             CommissionError::Interrupted {

@@ -22,6 +22,10 @@
 //! chromaticity is replaced by the channel's ([`luminance_only`]), because a meter's
 //! xy noise grows as 1/Y in the dark while a channel's chromaticity does not change.
 
+// Errors carry the display, the reading and the device error for the technician and
+// occur at most once per run, so their size does not matter.
+#![allow(clippy::result_large_err)]
+
 pub mod meter_offset;
 
 use lumiwall_devices::{

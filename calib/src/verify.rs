@@ -10,6 +10,10 @@
 //! In `Common` black mode the black (input 0) of every display is measured too and
 //! compared with the common black.
 
+// Errors carry the display, the reading and the device error for the technician and
+// occur at most once per run, so their size does not matter.
+#![allow(clippy::result_large_err)]
+
 use lumiwall_devices::{DisplayInfo, Xyz};
 use lumiwall_profiles::apply::{ApplyError, ApplyOptions, PreparedProfile};
 use lumiwall_profiles::{BlackMode, DisplayKey, DisplayProfile};

@@ -47,7 +47,7 @@ pub fn estimate_offset(
     primaries: &[Xyz; 3],
     white: Xyz,
 ) -> Option<([f64; 2], f64, f64)> {
-    if !(white.y > 0.0) || primaries.iter().any(|p| p.xy().is_none()) {
+    if white.y.is_nan() || white.y <= 0.0 || primaries.iter().any(|p| p.xy().is_none()) {
         return None;
     }
     let mut d = [0.0f64; 2];
@@ -58,7 +58,7 @@ pub fn estimate_offset(
         let ry = residual([0.0, d[1] + h], black, primaries, white);
         let j: Vec<f64> = (0..3).map(|i| (ry[i] - r[i]) / h).collect();
         let jj: f64 = j.iter().map(|v| v * v).sum();
-        if !(jj > 1e-300) {
+        if jj.is_nan() || jj <= 1e-300 {
             return None;
         }
         let step = -j.iter().zip(&r).map(|(a, b)| a * b).sum::<f64>() / jj;
