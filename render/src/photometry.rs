@@ -22,4 +22,4 @@ pub use distribution::{IntensityDistribution, PhotometricSource};
 pub use error::PhotometryError;
 pub use frame::LightFrame;
 pub use illuminance::{PointLight, direct_illuminance_lux};
-pub use sky::{Sky, SkyModel, Sun};
+pub use sky::{CLEAR_SKY_EXTINCTION, SOLAR_ILLUMINANCE_CONSTANT_LUX, Sky, SkyModel, SkyPatch, Sun};

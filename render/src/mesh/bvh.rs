@@ -50,7 +50,9 @@ struct Node {
 #[derive(Debug, Clone)]
 pub struct Bvh {
     nodes: Vec<Node>,
+    /// Original triangle index of each stored triangle.
     order: Vec<u32>,
+    /// Triangles in leaf order.
     tris: Vec<[[f64; 3]; 3]>,
 }
 
@@ -273,11 +275,9 @@ impl Bvh {
             let tree = build_tree(&prims, items);
             flatten(tree, &mut nodes, &mut order);
         }
-        Self {
-            nodes,
-            order,
-            tris: tris.to_vec(),
-        }
+        // store the triangles in leaf order so that a leaf reads contiguous memory
+        let tris = order.iter().map(|&i| tris[i as usize]).collect();
+        Self { nodes, order, tris }
     }
 
     /// Number of triangles.
@@ -322,8 +322,9 @@ impl Bvh {
     /// |dir|; `dir` need not be normalised). Back faces are reported too.
     pub fn intersect(&self, origin: [f64; 3], dir: [f64; 3], t_max: f64) -> Option<Hit> {
         let mut best: Option<Hit> = None;
-        self.traverse(origin, dir, 0.0, t_max, |tri_index, t_lim| {
-            let tri = &self.tris[tri_index as usize];
+        self.traverse(origin, dir, 0.0, t_max, |slot, t_lim| {
+            let tri = &self.tris[slot];
+            let tri_index = self.order[slot];
             match ray_triangle(origin, dir, tri, 0.0, t_lim) {
                 Some((t, u, v, det)) => {
                     best = Some(Hit {
@@ -359,8 +360,8 @@ impl Bvh {
             1e-6
         };
         let mut hit = false;
-        self.traverse(from, dir, m, 1.0 - m, |tri_index, t_lim| {
-            let tri = &self.tris[tri_index as usize];
+        self.traverse(from, dir, m, 1.0 - m, |slot, t_lim| {
+            let tri = &self.tris[slot];
             if ray_triangle(from, dir, tri, m, t_lim).is_some() {
                 hit = true;
                 Step::Stop
@@ -371,11 +372,11 @@ impl Bvh {
         hit
     }
 
-    /// Visits leaves front to back, calling `test` for every candidate triangle with
-    /// the current t limit.
+    /// Visits leaves front to back, calling `test` for every candidate triangle (its
+    /// storage slot) with the current t limit.
     fn traverse<F>(&self, origin: [f64; 3], dir: [f64; 3], t_min: f64, t_max: f64, mut test: F)
     where
-        F: FnMut(u32, f64) -> Step,
+        F: FnMut(usize, f64) -> Step,
     {
         if self.nodes.is_empty()
             || !origin.iter().chain(dir.iter()).all(|v| v.is_finite())
@@ -385,7 +386,7 @@ impl Bvh {
         }
         let inv = [1.0 / dir[0], 1.0 / dir[1], 1.0 / dir[2]];
         let mut t_lim = t_max;
-        let mut stack: Vec<usize> = Vec::with_capacity(64);
+        let mut stack = Stack::new();
         stack.push(0);
         while let Some(i) = stack.pop() {
             let n = &self.nodes[i];
@@ -395,7 +396,7 @@ impl Bvh {
             if n.count > 0 {
                 let first = n.index as usize;
                 for k in first..first + n.count as usize {
-                    match test(self.order[k], t_lim) {
+                    match test(k, t_lim) {
                         Step::Miss => {}
                         Step::Closer(t) => t_lim = t,
                         Step::Stop => return,
@@ -446,6 +447,41 @@ impl Bvh {
             }
         }
         best
+    }
+}
+
+/// Traversal stack: fixed array, spilling to the heap only for very deep trees.
+struct Stack {
+    fixed: [u32; 64],
+    len: usize,
+    spill: Vec<u32>,
+}
+
+impl Stack {
+    fn new() -> Self {
+        Self {
+            fixed: [0; 64],
+            len: 0,
+            spill: Vec::new(),
+        }
+    }
+    fn push(&mut self, v: usize) {
+        if self.len < self.fixed.len() {
+            self.fixed[self.len] = v as u32;
+            self.len += 1;
+        } else {
+            self.spill.push(v as u32);
+        }
+    }
+    fn pop(&mut self) -> Option<usize> {
+        if let Some(v) = self.spill.pop() {
+            return Some(v as usize);
+        }
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        Some(self.fixed[self.len] as usize)
     }
 }
 

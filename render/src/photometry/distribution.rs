@@ -389,13 +389,26 @@ impl IntensityDistribution {
         }
     }
 
-    /// Parses an IES LM-63 file (1986/1991/1995/2002 layouts); see
-    /// [`super::ies`](self) module docs for what is supported.
+    /// Parses an IES LM-63 file (1986, -1991, -1995 and -2002 layouts).
+    ///
+    /// Reads keyword lines (`[LUMINAIRE]` becomes [`Self::name`]), `TILT=NONE` and
+    /// `TILT=INCLUDE` (the factor at 0° tilt is applied: the luminaire is assumed
+    /// mounted as measured), photometric type C with every horizontal symmetry LM-63
+    /// defines (rotational, 0–90°, 0–180°, 90–270°, full) and vertical ranges 0–90°,
+    /// 90–180°, 0–180°. Candela values are multiplied by the candela multiplier, the
+    /// ballast factor and the ballast-lamp factor. Types A and B and `TILT=<file>`
+    /// give [`PhotometryError::Unsupported`]; truncated or garbled data give
+    /// [`PhotometryError::Truncated`] / [`PhotometryError::Parse`] with the line.
     pub fn from_ies_lm63(text: &str) -> Result<Self, PhotometryError> {
         super::ies::parse(text)
     }
 
-    /// Parses a EULUMDAT (.ldt) file, all symmetry indicators 0–4.
+    /// Parses a EULUMDAT (.ldt) file, all symmetry indicators 0–4 (0 none,
+    /// 1 rotational, 2 about C0–C180, 3 about C90–C270, 4 both). Intensities in
+    /// cd/1000 lm become cd with the first lamp set's flux (× the conversion factor
+    /// of line 24 when > 0); [`Self::declared_flux_lm`] is that flux × LORL. C angles
+    /// are taken counter-clockwise seen from above, like IES type C. Decimal commas
+    /// are accepted.
     pub fn from_eulumdat(text: &str) -> Result<Self, PhotometryError> {
         super::eulumdat::parse(text)
     }

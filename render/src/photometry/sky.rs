@@ -41,6 +41,19 @@ impl Sun {
     }
 }
 
+/// One cell of a sky subdivision (see [`Sky::patches`]): the sky seen through it acts
+/// like a distant source of intensity-per-area `luminance_cd_m2 × solid_angle_sr`
+/// (illuminance contribution L·ω·cos ε on an unobstructed plane).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SkyPatch {
+    /// Unit direction to the cell centre (+z up).
+    pub direction: [f64; 3],
+    /// Solid angle of the cell, sr.
+    pub solid_angle_sr: f64,
+    /// Mean sky luminance over the cell (2 × 2 sub-samples), cd/m².
+    pub luminance_cd_m2: f64,
+}
+
 /// A sky luminance distribution (cd/m²) over the upper hemisphere, with optional sun.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sky {
@@ -189,6 +202,39 @@ impl Sky {
             }
         }
         total
+    }
+
+    /// Splits the upper hemisphere into `bands` zenith-angle bands of equal width,
+    /// each split in azimuth into cells of about equal solid angle (at least 4 per
+    /// band), for solvers that treat the sky as a set of distant directional sources.
+    /// The solid angles sum to 2π exactly. `bands` is clamped to 1…1000.
+    pub fn patches(&self, bands: usize) -> Vec<SkyPatch> {
+        let bands = bands.clamp(1, 1000);
+        let dt = FRAC_PI_2 / bands as f64;
+        let mut out = Vec::new();
+        for b in 0..bands {
+            let (t0, t1) = (b as f64 * dt, (b as f64 + 1.0) * dt);
+            let tm = 0.5 * (t0 + t1);
+            let n_phi = ((TAU * tm.sin() / dt).round() as usize).max(4);
+            let dphi = TAU / n_phi as f64;
+            let band_omega = t0.cos() - t1.cos();
+            for k in 0..n_phi {
+                let pm = (k as f64 + 0.5) * dphi;
+                let mut l = 0.0;
+                for (ft, fp) in [(0.25, 0.25), (0.25, 0.75), (0.75, 0.25), (0.75, 0.75)] {
+                    let t = t0 + ft * dt;
+                    let p = k as f64 * dphi + fp * dphi;
+                    l += 0.25
+                        * self.luminance_cd_m2([t.sin() * p.cos(), t.sin() * p.sin(), t.cos()]);
+                }
+                out.push(SkyPatch {
+                    direction: [tm.sin() * pm.cos(), tm.sin() * pm.sin(), tm.cos()],
+                    solid_angle_sr: dphi * band_omega,
+                    luminance_cd_m2: l,
+                });
+            }
+        }
+        out
     }
 
     /// Sky plus sun illuminance on a horizontal plane, lux.
