@@ -75,7 +75,7 @@ fn eye_colour(eye: Eye) -> &'static str {
 
 /// The xy chromaticity diagram as an SVG element.
 pub fn gamut_svg(r: &ReportInputs<'_>) -> String {
-    let (w, h) = (560.0, 600.0);
+    let (w, h) = (580.0, 600.0);
     let (x0, y0, scale) = (50.0, 560.0, 640.0); // x: 0..0.8, y: 0..0.85
     let px = |p: [f64; 2]| (x0 + p[0] * scale, y0 - p[1] * scale);
     let mut s = String::new();

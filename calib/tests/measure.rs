@@ -1,0 +1,265 @@
+//! `calib::measure` against an analytic display and a scripted meter: reading budget,
+//! adaptive ramps, low-light policy, retries of transient errors and the typed error of
+//! a meter that stops answering.
+
+use lumiwall_calib::measure::{
+    LowLight, MeasureError, MeasureOptions, Rig, display_key, measure_display, relative_intensity,
+};
+use lumiwall_devices::{
+    Colorimeter, DeviceError, DisplayId, DisplayInfo, Eye, MeterInfo, MeterPositioner,
+    PatternOutput, Xyz,
+};
+
+/// Analytic display: black + Σ_c curve_c(drive_c) · P_c, curve_c = drive^γ_c.
+#[derive(Clone)]
+struct Display {
+    black: Xyz,
+    primaries: [Xyz; 3],
+    gamma: [f64; 3],
+}
+
+impl Display {
+    fn curve(&self, c: usize, d: f64) -> f64 {
+        d.clamp(0.0, 1.0).powf(self.gamma[c])
+    }
+    fn emit(&self, drive: [f64; 3]) -> Xyz {
+        (0..3).fold(self.black, |acc, c| {
+            acc + self.primaries[c] * self.curve(c, drive[c])
+        })
+    }
+}
+
+fn display() -> Display {
+    Display {
+        black: Xyz::new(0.25, 0.3, 0.4),
+        primaries: [
+            Xyz::new(41.0, 21.0, 1.9),
+            Xyz::new(36.0, 72.0, 12.0),
+            Xyz::new(18.0, 7.2, 95.0),
+        ],
+        gamma: [2.2, 2.4, 2.0],
+    }
+}
+
+/// Shows patterns and reads them; fails readings as scripted.
+struct Bench {
+    display: Display,
+    shown: [f64; 3],
+    reading: u32,
+    /// Readings (1-based attempt numbers) answered with a timeout.
+    timeouts: Vec<u32>,
+    /// From this attempt on, the meter never answers.
+    dead_after: Option<u32>,
+    min_reliable_cd_m2: f64,
+}
+
+impl Bench {
+    fn new() -> Self {
+        Self {
+            display: display(),
+            shown: [0.0; 3],
+            reading: 0,
+            timeouts: vec![],
+            dead_after: None,
+            min_reliable_cd_m2: 0.0,
+        }
+    }
+}
+
+struct Pattern<'a>(&'a std::cell::RefCell<Bench>);
+struct Meter<'a>(&'a std::cell::RefCell<Bench>);
+struct Aim;
+
+impl PatternOutput for Pattern<'_> {
+    fn displays(&self) -> Vec<DisplayInfo> {
+        vec![info()]
+    }
+    fn show(&mut self, _: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError> {
+        self.0.borrow_mut().shown = drive;
+        Ok(())
+    }
+}
+
+impl Colorimeter for Meter<'_> {
+    fn info(&self) -> MeterInfo {
+        MeterInfo {
+            model: "scripted".into(),
+            serial: "1".into(),
+            min_reliable_cd_m2: self.0.borrow().min_reliable_cd_m2,
+            max_cd_m2: 1e6,
+        }
+    }
+    fn measure(&mut self) -> Result<Xyz, DeviceError> {
+        let mut b = self.0.borrow_mut();
+        b.reading += 1;
+        let n = b.reading;
+        if b.timeouts.contains(&n) || b.dead_after.is_some_and(|k| n > k) {
+            return Err(DeviceError::Timeout {
+                device: "scripted meter".into(),
+                timeout_ms: 10,
+            });
+        }
+        Ok(b.display.emit(b.shown))
+    }
+}
+
+impl MeterPositioner for Aim {
+    fn aim(&mut self, _: DisplayId, _: [f64; 2]) -> Result<(), DeviceError> {
+        Ok(())
+    }
+}
+
+fn info() -> DisplayInfo {
+    DisplayInfo {
+        id: DisplayId(3),
+        name: "test display".into(),
+        tile_col: 1,
+        tile_row: 0,
+        eye: Eye::Left,
+        bit_depth: 10,
+    }
+}
+
+fn run(
+    bench: Bench,
+    opts: &MeasureOptions,
+) -> (
+    Result<lumiwall_calib::measure::MeasuredDisplay, MeasureError>,
+    Bench,
+) {
+    let cell = std::cell::RefCell::new(bench);
+    let result = {
+        let mut pattern = Pattern(&cell);
+        let mut meter = Meter(&cell);
+        let mut aim = Aim;
+        let mut rig = Rig {
+            pattern: &mut pattern,
+            meter: &mut meter,
+            positioner: &mut aim,
+        };
+        let key = display_key("bench", &info());
+        measure_display(&mut rig, &info(), &key, opts, &mut |_| {})
+    };
+    (result, cell.into_inner())
+}
+
+#[test]
+fn budget_is_kept_and_ramps_follow_the_display() {
+    for budget in [16, 24, 40, 80] {
+        let opts = MeasureOptions {
+            budget,
+            ..MeasureOptions::default()
+        };
+        let (m, bench) = run(Bench::new(), &opts);
+        let m = m.unwrap();
+        assert!(m.measurement.readings <= budget, "{budget}");
+        assert_eq!(m.measurement.readings, bench.reading);
+        let d = display();
+        for c in 0..3 {
+            let ramp = &m.measurement.ramps[c];
+            assert!(ramp.len() >= 2, "budget {budget}: {} samples", ramp.len());
+            for (drive, xyz) in ramp {
+                // Relative intensity of every ramp sample is the analytic curve.
+                let r = relative_intensity(*xyz, m.measurement.black, m.measurement.primaries[c]);
+                assert!((r - d.curve(c, *drive)).abs() < 1e-9, "{c} {drive} {r}");
+            }
+        }
+    }
+}
+
+#[test]
+fn ramp_samples_are_adaptive_not_a_fixed_grid() {
+    let (m, _) = run(Bench::new(), &MeasureOptions::default());
+    let m = m.unwrap();
+    let drives: Vec<Vec<f64>> = m
+        .measurement
+        .ramps
+        .iter()
+        .map(|r| r.iter().map(|s| s.0).collect())
+        .collect();
+    // More samples in the dark half than the bright half (perceptual placement).
+    for d in &drives {
+        let low = d.iter().filter(|x| **x < 0.5).count();
+        let high = d.iter().filter(|x| **x > 0.5).count();
+        assert!(low >= high, "{d:?}");
+        assert!(d.len() >= 6, "{d:?}");
+    }
+}
+
+#[test]
+fn transient_timeouts_are_retried() {
+    let mut bench = Bench::new();
+    bench.timeouts = vec![3, 10];
+    let (m, _) = run(bench, &MeasureOptions::default());
+    let m = m.unwrap();
+    assert_eq!(m.log.retries, 2);
+    assert!(m.measurement.readings <= 40);
+}
+
+#[test]
+fn a_dead_meter_is_a_typed_error_naming_display_and_reading() {
+    let mut bench = Bench::new();
+    bench.dead_after = Some(20);
+    let opts = MeasureOptions {
+        max_retries: 2,
+        ..MeasureOptions::default()
+    };
+    let (m, bench) = run(bench, &opts);
+    let err = m.unwrap_err();
+    match &err {
+        MeasureError::Reading {
+            display,
+            reading,
+            attempts,
+            source: DeviceError::Timeout { .. },
+            ..
+        } => {
+            assert!(display.contains("bench display 3"), "{display}");
+            assert_eq!(*reading, 21);
+            assert_eq!(*attempts, 3);
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(bench.reading, 23, "bounded: 20 good + 3 attempts");
+    let msg = err.to_string();
+    assert!(msg.contains("cable") && msg.contains("--resume"), "{msg}");
+}
+
+#[test]
+fn low_light_readings_are_averaged_or_skipped() {
+    let mut bench = Bench::new();
+    bench.min_reliable_cd_m2 = 1.0;
+    let (m, _) = run(bench, &MeasureOptions::default());
+    let m = m.unwrap();
+    // Black (0.3 cd/m²) is averaged over 4 readings.
+    assert_eq!(m.log.samples[0].repeats, 4);
+    assert!(m.log.averaged() >= 1);
+    assert!(m.measurement.readings <= 40);
+
+    let mut bench = Bench::new();
+    bench.min_reliable_cd_m2 = 1.0;
+    let opts = MeasureOptions {
+        low_light: LowLight::Skip,
+        ..MeasureOptions::default()
+    };
+    let (m, _) = run(bench, &opts);
+    let m = m.unwrap();
+    assert!(m.log.skipped() >= 1);
+    for ramp in &m.measurement.ramps {
+        assert!(ramp.iter().all(|(_, xyz)| xyz.y >= 1.0), "{ramp:?}");
+    }
+}
+
+#[test]
+fn too_small_budget_is_refused() {
+    let opts = MeasureOptions {
+        budget: 8,
+        ..MeasureOptions::default()
+    };
+    let (m, bench) = run(Bench::new(), &opts);
+    assert!(matches!(
+        m,
+        Err(MeasureError::BudgetTooSmall { budget: 8, .. })
+    ));
+    assert_eq!(bench.reading, 0);
+}
