@@ -294,6 +294,16 @@ pub fn solve_options(
     })
 }
 
+/// Prints a line above the progress bar, or plainly when the bar is hidden (output
+/// not a terminal).
+fn say(pb: &ProgressBar, line: String) {
+    if pb.is_hidden() {
+        println!("{line}");
+    } else {
+        pb.println(line);
+    }
+}
+
 fn progress_bar(len: u64) -> ProgressBar {
     let pb = ProgressBar::new(len);
     pb.set_style(
@@ -347,15 +357,21 @@ pub fn run(args: CommissionArgs) -> Result<(), CliError> {
         Progress::DisplayDone { display, readings } => {
             done_readings += budget;
             pb.set_position(done_readings);
-            pb.println(format!("{:<28} {readings:>3} readings", name_of(display.0)));
+            say(
+                &pb,
+                format!("{:<28} {readings:>3} readings", name_of(display.0)),
+            );
         }
         Progress::Resumed { display, readings } => {
             done_readings += budget;
             pb.set_position(done_readings);
-            pb.println(format!(
-                "{:<28} {readings:>3} readings (saved by the interrupted run)",
-                name_of(display.0)
-            ));
+            say(
+                &pb,
+                format!(
+                    "{:<28} {readings:>3} readings (saved by the interrupted run)",
+                    name_of(display.0)
+                ),
+            );
         }
     };
     let mut rig = station.rig();
