@@ -20,6 +20,7 @@
 //! # Ok(()) }
 //! ```
 
+pub mod document;
 pub mod drift;
 pub mod error;
 pub mod schema;
@@ -158,10 +159,10 @@ struct Row {
     utc: String,
     display: u32,
     eye: String,
-    json: String,
+    document: Vec<u8>,
 }
 
-const ROW_COLUMNS: &str = "p.run_id, r.started_utc, p.display, p.eye, p.json";
+const ROW_COLUMNS: &str = "p.run_id, r.started_utc, p.display, p.eye, p.document";
 
 fn read_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<Row> {
     Ok(Row {
@@ -169,7 +170,7 @@ fn read_row(r: &rusqlite::Row<'_>) -> rusqlite::Result<Row> {
         utc: r.get(1)?,
         display: r.get(2)?,
         eye: r.get(3)?,
-        json: r.get(4)?,
+        document: r.get(4)?,
     })
 }
 
@@ -299,11 +300,19 @@ impl ProfileStore {
             // Read the document back as `latest`/`history` will: this catches values
             // `validate` does not check and JSON cannot hold (a NaN is written as
             // `null`), so the store never holds an unreadable row.
-            let json = p.to_json();
             let origin = PathBuf::from(format!("{} (being recorded)", p.display.file_stem()));
+            let json = document::compact_json(p).map_err(|e| {
+                StoreError::InvalidProfile(Box::new(ProfileError::Parse {
+                    path: origin.clone(),
+                    message: e.to_string(),
+                }))
+            })?;
             DisplayProfile::from_json(&json, &origin)
                 .map_err(|e| StoreError::InvalidProfile(Box::new(e)))?;
-            documents.push(json);
+            let blob = document::compress(&json).map_err(|e| {
+                StoreError::InvalidRun(format!("cannot compress the profile of {}: {e}", p.display))
+            })?;
+            documents.push(blob);
             if p.display.wall != run.wall {
                 return Err(StoreError::InvalidRun(format!(
                     "profile of {} belongs to wall {:?}, the run is of wall {:?}",
@@ -356,11 +365,11 @@ impl ProfileStore {
             let mut stmt = tx
                 .prepare(
                     "INSERT INTO profiles
-                     (run_id, display, eye, tile_col, tile_row, format_version, created_utc, json)
+                     (run_id, display, eye, tile_col, tile_row, format_version, created_utc, document)
                      VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
                 )
                 .map_err(|err| e("preparing the profile insert", err))?;
-            for (p, json) in profiles.iter().zip(&documents) {
+            for (p, blob) in profiles.iter().zip(&documents) {
                 stmt.execute(params![
                     id,
                     p.display.display,
@@ -369,7 +378,7 @@ impl ProfileStore {
                     p.display.tile_row,
                     p.format_version,
                     p.created_utc,
-                    json,
+                    blob,
                 ])
                 .map_err(|err| e("recording a profile", err))?;
             }
@@ -400,7 +409,13 @@ impl ProfileStore {
             eye: row.eye.clone(),
             source: Box::new(source),
         };
-        let p = DisplayProfile::from_json(&row.json, &origin).map_err(stored)?;
+        let json = document::decompress(&row.document).map_err(|e| {
+            self.bad(format!(
+                "run {} profile of display {} ({}) of wall {wall} does not decompress: {e}",
+                row.run, row.display, row.eye
+            ))
+        })?;
+        let p = DisplayProfile::from_json(&json, &origin).map_err(stored)?;
         if p.display.wall != wall
             || p.display.display != row.display
             || eye_text(p.display.eye) != row.eye
@@ -432,7 +447,7 @@ impl ProfileStore {
     /// display missing from the latest run keeps its newest earlier profile.
     pub fn latest(&self, wall: &str) -> Result<Vec<DisplayProfile>, StoreError> {
         let sql = format!(
-            "SELECT run_id, started_utc, display, eye, json FROM (
+            "SELECT run_id, started_utc, display, eye, document FROM (
                  SELECT {ROW_COLUMNS}, ROW_NUMBER() OVER (
                      PARTITION BY p.display, p.eye
                      ORDER BY r.started_unix_ms DESC, r.id DESC) AS rn

@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use common::{PRIMARIES, profile_with};
 use lumiwall_profiles::store::{
-    CommissionRun, ProfileStore, StoreError, Timestamp, parse_time, schema,
+    CommissionRun, ProfileStore, StoreError, Timestamp, document, parse_time, schema,
 };
 use lumiwall_profiles::{DisplayProfile, Eye, ProfileError};
 
@@ -520,11 +520,25 @@ fn hand_edited_profile_row_is_reported_with_its_run() {
             .unwrap();
         s
     };
+    // Edit display 1 right's stored document: claim format version 9.
     let raw = rusqlite::Connection::open(&path).unwrap();
+    let blob: Vec<u8> = raw
+        .query_row(
+            "SELECT document FROM profiles WHERE display = 1 AND eye = 'right'",
+            [],
+            |r| r.get(0),
+        )
+        .unwrap();
+    let text = document::decompress(&blob).unwrap();
+    assert!(
+        text.starts_with("{\"format_version\":1,"),
+        "{}",
+        &text[..40]
+    );
+    let edited = text.replacen("\"format_version\":1", "\"format_version\":9", 1);
     raw.execute(
-        "UPDATE profiles SET json = replace(json, '\"format_version\": 1', '\"format_version\": 9')
-         WHERE display = 1 AND eye = 'right'",
-        [],
+        "UPDATE profiles SET document = ?1 WHERE display = 1 AND eye = 'right'",
+        [document::compress(&edited).unwrap()],
     )
     .unwrap();
     let err = store.latest(WALL).unwrap_err();
@@ -543,6 +557,16 @@ fn hand_edited_profile_row_is_reported_with_its_run() {
     }
     // The other display still reads.
     assert_eq!(store.history(WALL, 0).unwrap().len(), 2);
+
+    // A document that is not zlib data at all.
+    raw.execute(
+        "UPDATE profiles SET document = x'00112233' WHERE display = 0 AND eye = 'left'",
+        [],
+    )
+    .unwrap();
+    let err = store.history(WALL, 0).unwrap_err();
+    assert!(matches!(err, StoreError::BadRow { .. }), "{err:?}");
+    assert!(err.to_string().contains("does not decompress"), "{err}");
 }
 
 #[test]
@@ -605,4 +629,70 @@ fn the_same_run_recorded_twice_is_refused() {
     run.wall = "hall-b".into();
     store.record(&run, &other).unwrap();
     assert_eq!(store.walls().unwrap().len(), 2);
+}
+
+#[test]
+fn two_processes_creating_the_same_store_at_once_migrate_it_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("wall.lumistore");
+    let handles: Vec<_> = (0..4)
+        .map(|_| {
+            let path = path.clone();
+            std::thread::spawn(move || ProfileStore::open(&path).map(|s| s.schema_version()))
+        })
+        .collect();
+    for h in handles {
+        assert_eq!(h.join().unwrap().unwrap().unwrap(), schema::SCHEMA_VERSION);
+    }
+    let raw = rusqlite::Connection::open(&path).unwrap();
+    let rows: i64 = raw
+        .query_row("SELECT COUNT(*) FROM lumiwall_schema", [], |r| r.get(0))
+        .unwrap();
+    assert_eq!(rows, i64::from(schema::SCHEMA_VERSION));
+}
+
+#[test]
+fn full_size_wall_48_projectors_two_eyes_with_flat_fields() {
+    // HEyeWall size: 48 projectors × 2 eyes, 64 × 32 flat-field textures (Kresse).
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("heyewall.lumistore");
+    let mut store = ProfileStore::open(&path).unwrap();
+    let start = Instant::now();
+    for (night, n) in NIGHTS.iter().enumerate() {
+        let mut profiles = Vec::new();
+        for d in 0..48 {
+            for eye in [Eye::Left, Eye::Right] {
+                let s = 1.0 - 0.01 * night as f64 * f64::from(d % 3);
+                let mut p = profile_with(WALL, d, eye, scaled([s; 3]), n.black, n.usage);
+                p.flat_field = Some(lumiwall_profiles::FlatField {
+                    width: 64,
+                    height: 32,
+                    gain: (0..64 * 32)
+                        .map(|i| {
+                            let g = 0.6 + 0.4 * ((i % 64) as f32 / 63.0);
+                            [g, g * 0.99, g * 0.98]
+                        })
+                        .collect(),
+                });
+                profiles.push(p);
+            }
+        }
+        store.record(&nightly_run(n), &profiles).unwrap();
+    }
+    let latest = store.latest(WALL).unwrap();
+    assert_eq!(latest.len(), 96);
+    let drift = store.drift_wall(WALL, None).unwrap();
+    assert_eq!(drift.len(), 96);
+    // Display 2 (d % 3 = 2) lost 4 % over the three nights, display 0 nothing.
+    let d2 = drift.iter().find(|d| d.display.display == 2).unwrap();
+    assert!(close(d2.white_luminance_change_pct.unwrap(), -4.0, 1e-9));
+    let d0 = drift.iter().find(|d| d.display.display == 0).unwrap();
+    assert_eq!(d0.white_luminance_change_pct, Some(0.0));
+    let elapsed = start.elapsed();
+    eprintln!("3 runs × 96 profiles recorded, latest and drift read: {elapsed:?}");
+    let size = std::fs::metadata(&path).unwrap().len()
+        + std::fs::metadata(dir.path().join("heyewall.lumistore-wal"))
+            .map(|m| m.len())
+            .unwrap_or(0);
+    eprintln!("store size {:.1} MB", size as f64 / 1e6);
 }

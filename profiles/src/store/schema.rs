@@ -47,7 +47,7 @@ pub const MIGRATIONS: &[&str] = &[
          tile_row       INTEGER NOT NULL,
          format_version INTEGER NOT NULL,
          created_utc    TEXT NOT NULL,
-         json           TEXT NOT NULL,
+         document       BLOB NOT NULL,
          PRIMARY KEY (run_id, display, eye)
      );
      CREATE INDEX profiles_by_display ON profiles (display, eye);",
