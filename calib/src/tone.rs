@@ -26,8 +26,11 @@ use crate::CalibError;
 const ANCHOR_WEIGHT: f64 = 1e9;
 /// Drives closer than this are treated as the same drive.
 const SAME_DRIVE: f64 = 1e-9;
-/// Number of forward samples stored in a [`ToneCurve`].
+/// Number of evenly spaced forward samples stored in a [`ToneCurve`] (the fit's knots
+/// are added to them).
 pub const FORWARD_SAMPLES: usize = 513;
+/// Largest intensity rise between two stored forward samples before refinement.
+const FORWARD_MAX_RISE: f64 = 1.0 / 4096.0;
 /// Range allowed for the perceptual-domain exponent γ̂.
 const GAMMA_RANGE: (f64, f64) = (0.25, 6.0);
 
@@ -96,7 +99,7 @@ impl MonotoneCurve {
     }
 
     /// Builds the profile's [`ToneCurve`]: [`FORWARD_SAMPLES`] forward samples evenly
-    /// spaced in drive and an inverse LUT of `lut_entries` (≥ [`MIN_LUT_ENTRIES`]).
+    /// spaced in drive plus the knots, and an inverse LUT of `lut_entries` (≥ [`MIN_LUT_ENTRIES`]).
     pub fn to_tone_curve(&self, lut_entries: usize) -> Result<ToneCurve, CalibError> {
         if lut_entries < MIN_LUT_ENTRIES {
             return Err(CalibError::InvalidOption {
@@ -104,12 +107,27 @@ impl MonotoneCurve {
                 reason: format!("{lut_entries} is below the minimum of {MIN_LUT_ENTRIES}"),
             });
         }
-        let forward = (0..FORWARD_SAMPLES)
-            .map(|i| {
-                let d = i as f64 / (FORWARD_SAMPLES - 1) as f64;
-                [d, self.eval(d)]
-            })
+        // Uniform grid plus the knots, so steep short segments are kept exactly.
+        let mut drives: Vec<f64> = (0..FORWARD_SAMPLES)
+            .map(|i| i as f64 / (FORWARD_SAMPLES - 1) as f64)
+            .chain(self.drives.iter().copied())
             .collect();
+        drives.sort_by(f64::total_cmp);
+        drives.dedup_by(|a, b| (*a - *b).abs() <= SAME_DRIVE);
+        // Refine where a segment rises by more than FORWARD_MAX_RISE, so that linear
+        // interpolation of the forward samples follows steep stretches too.
+        let mut forward: Vec<[f64; 2]> = Vec::with_capacity(drives.len());
+        for w in drives.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            let (ia, ib) = (self.eval(a), self.eval(b));
+            let parts = (((ib - ia) / FORWARD_MAX_RISE).ceil() as usize).clamp(1, 256);
+            forward.push([a, ia]);
+            for k in 1..parts {
+                let d = a + (b - a) * k as f64 / parts as f64;
+                forward.push([d, self.eval(d)]);
+            }
+        }
+        forward.push([1.0, self.eval(1.0)]);
         let mut inverse_lut = Vec::with_capacity(lut_entries);
         let mut prev = 0.0_f32;
         for i in 0..lut_entries {
