@@ -150,6 +150,17 @@ impl Station {
         noise: Noise,
         time_scale: f64,
     ) -> Result<Self, CliError> {
+        Self::open_with_faults(wall_path, meter, noise, time_scale, FaultPlan::default())
+    }
+
+    /// Like [`Station::open`], with faults injected into the emulated meter.
+    pub fn open_with_faults(
+        wall_path: &Path,
+        meter: &MeterChoice,
+        noise: Noise,
+        time_scale: f64,
+        faults: FaultPlan,
+    ) -> Result<Self, CliError> {
         let wall = VirtualWall::from_toml_file(wall_path).map_err(|e| {
             CliError::input(format!("cannot load wall {}: {e}", wall_path.display()))
         })?;
@@ -158,12 +169,11 @@ impl Station {
             MeterChoice::Direct => (Box::new(wall.meter(model)), None),
             MeterChoice::Emulated => {
                 let sim = Box::new(wall.meter(model));
-                let (emu, port) = Emulator::spawn_with(
-                    sim,
-                    FaultPlan::default(),
-                    EmulatorOptions::with_time_scale(time_scale),
-                )
-                .map_err(|e| CliError::failure(format!("cannot start the meter emulator: {e}")))?;
+                let (emu, port) =
+                    Emulator::spawn_with(sim, faults, EmulatorOptions::with_time_scale(time_scale))
+                        .map_err(|e| {
+                            CliError::failure(format!("cannot start the meter emulator: {e}"))
+                        })?;
                 let driver = port.open(driver_config()).map_err(|e| {
                     CliError::failure(format!("cannot open the emulated meter: {e}"))
                 })?;
@@ -252,6 +262,10 @@ pub struct CommissionArgs {
     /// Continue an interrupted run from the measurements saved in OUT/run.
     #[arg(long)]
     pub resume: bool,
+    /// Fault injection for demonstrations and tests: the emulated meter stops answering
+    /// after this many readings (`--meter emulated` only).
+    #[arg(long, hide = true)]
+    pub fault_stop_after: Option<u32>,
     /// Do not estimate and correct the meter's systematic xy offset from the displays'
     /// additivity (use for walls of non-additive displays such as DLP).
     #[arg(long)]
@@ -316,7 +330,12 @@ fn progress_bar(len: u64) -> ProgressBar {
 /// Runs `lumiwall commission`.
 pub fn run(args: CommissionArgs) -> Result<(), CliError> {
     let solve = solve_options(args.white, args.black, args.headroom)?;
-    let mut station = Station::open(&args.wall, &args.meter, args.noise, args.time_scale)?;
+    let faults = FaultPlan {
+        stop_after_readings: args.fault_stop_after,
+        ..FaultPlan::default()
+    };
+    let mut station =
+        Station::open_with_faults(&args.wall, &args.meter, args.noise, args.time_scale, faults)?;
     let displays = station.displays();
     let wall = station.wall.name();
     let opts = CommissionOptions {
