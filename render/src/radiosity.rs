@@ -16,12 +16,11 @@ pub mod solution;
 pub mod visibility;
 
 pub use curve::{CurvePoint, ErrorCurve, StopReason, StopRule};
-pub use hierarchical::{solve_hierarchical, HierarchicalOptions};
-pub use progressive::{solve_progressive, ProgressiveOptions};
+pub use hierarchical::{HierarchicalOptions, solve_hierarchical};
+pub use progressive::{ProgressiveOptions, solve_progressive};
 pub use reference::solve_dense_reference;
 
-
-pub use solution::{Patch, SolveStats, Solution};
+pub use solution::{Patch, Solution, SolveStats};
 pub use visibility::{NoOccluders, SceneOccluders, Visibility};
 
 use crate::scene::Scene;

@@ -11,10 +11,8 @@ mod geom;
 mod load;
 mod types;
 
-pub use check::{check_polygons, CheckReport};
+pub use check::{CheckReport, check_polygons};
 pub use error::SceneError;
-pub use geom::{polygon_area_m2, polygon_normal, V3};
-pub use load::{load_scene, parse_scene_toml, SceneFile};
-pub use types::{
-    Camera, IntensityFn, Light, LightKind, Material, Polygon, Scene, SkyHook,
-};
+pub use geom::{V3, polygon_area_m2, polygon_normal};
+pub use load::{SceneFile, load_scene, parse_scene_toml};
+pub use types::{Camera, IntensityFn, Light, LightKind, Material, Polygon, Scene, SkyHook};

@@ -21,8 +21,8 @@ fn random_soup(n: usize, seed: u64) -> Vec<[[f64; 3]; 3]> {
             ];
             let mut t = [[0.0; 3]; 3];
             for p in &mut t {
-                for k in 0..3 {
-                    p[k] = c[k] + rng.random_range(-1.0..1.0);
+                for (pk, ck) in p.iter_mut().zip(c) {
+                    *pk = ck + rng.random_range(-1.0..1.0);
                 }
             }
             t

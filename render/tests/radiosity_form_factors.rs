@@ -12,7 +12,8 @@ fn howell_parallel(a: f64, b: f64, c: f64) -> f64 {
     let x1 = (1.0 + x * x).sqrt();
     let y1 = (1.0 + y * y).sqrt();
     2.0 / (PI * x * y)
-        * ((x1 * x1 * y1 * y1 / (1.0 + x * x + y * y)).sqrt().ln() + x * y1 * (x / y1).atan()
+        * ((x1 * x1 * y1 * y1 / (1.0 + x * x + y * y)).sqrt().ln()
+            + x * y1 * (x / y1).atan()
             + y * x1 * (y / x1).atan()
             - x * x.atan()
             - y * y.atan())
@@ -56,27 +57,65 @@ fn catalogue_sanity_values() {
 
 #[test]
 fn parallel_rectangles_match_howell() {
-    for &(a, b, c) in &[(1.0, 1.0, 1.0), (2.0, 1.0, 0.5), (0.3, 3.0, 1.7), (1.0, 1.0, 0.1)] {
+    for &(a, b, c) in &[
+        (1.0, 1.0, 1.0),
+        (2.0, 1.0, 0.5),
+        (0.3, 3.0, 1.7),
+        (1.0, 1.0, 0.1),
+    ] {
         // receiver at z = 0 facing up, source at z = c facing down (both a × b)
-        let recv = [V3::new(0., 0., 0.), V3::new(a, 0., 0.), V3::new(a, b, 0.), V3::new(0., b, 0.)];
-        let src = [V3::new(0., 0., c), V3::new(0., b, c), V3::new(a, b, c), V3::new(a, 0., c)];
+        let recv = [
+            V3::new(0., 0., 0.),
+            V3::new(a, 0., 0.),
+            V3::new(a, b, 0.),
+            V3::new(0., b, 0.),
+        ];
+        let src = [
+            V3::new(0., 0., c),
+            V3::new(0., b, c),
+            V3::new(a, b, c),
+            V3::new(a, 0., c),
+        ];
         let f = polygon_to_polygon(&recv, &src, 1e-5);
         let exact = howell_parallel(a, b, c);
-        assert!((f.value - exact).abs() < 1e-3, "a={a} b={b} c={c}: {} vs {exact}", f.value);
+        assert!(
+            (f.value - exact).abs() < 1e-3,
+            "a={a} b={b} c={c}: {} vs {exact}",
+            f.value
+        );
         assert!(f.error < 1e-3);
     }
 }
 
 #[test]
 fn perpendicular_rectangles_match_howell() {
-    for &(l, w, h) in &[(1.0, 1.0, 1.0), (1.0, 2.0, 0.5), (2.0, 0.5, 3.0), (0.2, 1.0, 1.0)] {
+    for &(l, w, h) in &[
+        (1.0, 1.0, 1.0),
+        (1.0, 2.0, 0.5),
+        (2.0, 0.5, 3.0),
+        (0.2, 1.0, 1.0),
+    ] {
         // common edge along x from 0 to l; receiver in z = 0 (y from 0 to w, facing +z),
         // source in y = 0 (z from 0 to h, facing +y)
-        let recv = [V3::new(0., 0., 0.), V3::new(l, 0., 0.), V3::new(l, w, 0.), V3::new(0., w, 0.)];
-        let src = [V3::new(0., 0., 0.), V3::new(0., 0., h), V3::new(l, 0., h), V3::new(l, 0., 0.)];
+        let recv = [
+            V3::new(0., 0., 0.),
+            V3::new(l, 0., 0.),
+            V3::new(l, w, 0.),
+            V3::new(0., w, 0.),
+        ];
+        let src = [
+            V3::new(0., 0., 0.),
+            V3::new(0., 0., h),
+            V3::new(l, 0., h),
+            V3::new(l, 0., 0.),
+        ];
         let f = polygon_to_polygon(&recv, &src, 1e-5);
         let exact = howell_perpendicular(l, w, h);
-        assert!((f.value - exact).abs() < 1e-3, "l={l} w={w} h={h}: {} vs {exact}", f.value);
+        assert!(
+            (f.value - exact).abs() < 1e-3,
+            "l={l} w={w} h={h}: {} vs {exact}",
+            f.value
+        );
     }
 }
 
@@ -88,7 +127,10 @@ fn differential_area_to_parallel_disk_matches_howell() {
         let n_src = V3::new(0., 0., -1.);
         let f = point_to_polygon(&V3::zeros(), &V3::z(), &d, &n_src);
         let exact = r * r / (h * h + r * r);
-        assert!((f - exact).abs() < 1e-3 * exact.max(1e-3), "R={r} H={h}: {f} vs {exact}");
+        assert!(
+            (f - exact).abs() < 1e-3 * exact.max(1e-3),
+            "R={r} H={h}: {f} vs {exact}"
+        );
     }
 }
 
@@ -109,14 +151,25 @@ fn coaxial_disks_match_howell() {
 #[test]
 fn source_behind_receiver_or_backfacing_gives_zero() {
     let sq = |z: f64, up: bool| {
-        let mut v = vec![V3::new(0., 0., z), V3::new(1., 0., z), V3::new(1., 1., z), V3::new(0., 1., z)];
+        let mut v = vec![
+            V3::new(0., 0., z),
+            V3::new(1., 0., z),
+            V3::new(1., 1., z),
+            V3::new(0., 1., z),
+        ];
         if !up {
             v.reverse();
         }
         v
     };
     // source below the receiver's plane
-    assert_eq!(polygon_to_polygon(&sq(0.0, true), &sq(-1.0, true), 1e-5).value, 0.0);
+    assert_eq!(
+        polygon_to_polygon(&sq(0.0, true), &sq(-1.0, true), 1e-5).value,
+        0.0
+    );
     // source above but facing away
-    assert_eq!(polygon_to_polygon(&sq(0.0, true), &sq(1.0, true), 1e-5).value, 0.0);
+    assert_eq!(
+        polygon_to_polygon(&sq(0.0, true), &sq(1.0, true), 1e-5).value,
+        0.0
+    );
 }

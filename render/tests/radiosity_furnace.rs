@@ -4,7 +4,7 @@
 use std::time::{Duration, Instant};
 
 use lumiwall_render::radiosity::{
-    solve_hierarchical, HierarchicalOptions, NoOccluders, SceneOccluders, StopRule,
+    HierarchicalOptions, NoOccluders, SceneOccluders, StopRule, solve_hierarchical,
 };
 use lumiwall_render::scene::{Material, Polygon, Scene, V3};
 
@@ -13,12 +13,42 @@ pub fn box_quads(size: [f64; 3]) -> Vec<Vec<V3>> {
     let [x, y, z] = size;
     let c = V3::new(x / 2.0, y / 2.0, z / 2.0);
     let faces = [
-        [V3::new(0., 0., 0.), V3::new(x, 0., 0.), V3::new(x, y, 0.), V3::new(0., y, 0.)],
-        [V3::new(0., 0., z), V3::new(x, 0., z), V3::new(x, y, z), V3::new(0., y, z)],
-        [V3::new(0., 0., 0.), V3::new(0., y, 0.), V3::new(0., y, z), V3::new(0., 0., z)],
-        [V3::new(x, 0., 0.), V3::new(x, y, 0.), V3::new(x, y, z), V3::new(x, 0., z)],
-        [V3::new(0., 0., 0.), V3::new(x, 0., 0.), V3::new(x, 0., z), V3::new(0., 0., z)],
-        [V3::new(0., y, 0.), V3::new(x, y, 0.), V3::new(x, y, z), V3::new(0., y, z)],
+        [
+            V3::new(0., 0., 0.),
+            V3::new(x, 0., 0.),
+            V3::new(x, y, 0.),
+            V3::new(0., y, 0.),
+        ],
+        [
+            V3::new(0., 0., z),
+            V3::new(x, 0., z),
+            V3::new(x, y, z),
+            V3::new(0., y, z),
+        ],
+        [
+            V3::new(0., 0., 0.),
+            V3::new(0., y, 0.),
+            V3::new(0., y, z),
+            V3::new(0., 0., z),
+        ],
+        [
+            V3::new(x, 0., 0.),
+            V3::new(x, y, 0.),
+            V3::new(x, y, z),
+            V3::new(x, 0., z),
+        ],
+        [
+            V3::new(0., 0., 0.),
+            V3::new(x, 0., 0.),
+            V3::new(x, 0., z),
+            V3::new(0., 0., z),
+        ],
+        [
+            V3::new(0., y, 0.),
+            V3::new(x, y, 0.),
+            V3::new(x, y, z),
+            V3::new(0., y, z),
+        ],
     ];
     faces
         .iter()
@@ -85,7 +115,11 @@ fn furnace_converges_to_geometric_series_for_stiff_reflectances() {
             sol.stop,
             sol.curve.last().unwrap().estimated_error
         );
-        assert!(sol.patches.iter().all(|p| p.exitance_xyz.iter().all(|v| v.is_finite())));
+        assert!(
+            sol.patches
+                .iter()
+                .all(|p| p.exitance_xyz.iter().all(|v| v.is_finite()))
+        );
         assert!(worst < 0.005, "rho {rho}: worst relative error {worst}");
         // a closed box without occluders needs no visibility work at all
         assert_eq!(sol.stats.shadow_rays, 0);
@@ -116,4 +150,3 @@ fn furnace_without_acceleration_is_slower_but_agrees() {
     }
     assert!(fast.stats.iterations < slow.stats.iterations);
 }
-

@@ -10,10 +10,10 @@ use lumiwall_render::radiosity::output::{
     plot_curves_png, render_image, write_curve_csv, write_exr, write_ply, write_preview_png,
 };
 use lumiwall_render::radiosity::{
-    solve_dense_reference, solve_hierarchical, solve_progressive, HierarchicalOptions,
-    NoOccluders, ProgressiveOptions, SceneOccluders, Solution, StopRule, Visibility,
+    HierarchicalOptions, NoOccluders, ProgressiveOptions, SceneOccluders, Solution, StopRule,
+    Visibility, solve_dense_reference, solve_hierarchical, solve_progressive,
 };
-use lumiwall_render::scene::{load_scene, Scene};
+use lumiwall_render::scene::{Scene, load_scene};
 
 use crate::CliError;
 
@@ -115,7 +115,9 @@ fn solve(
                 ..HierarchicalOptions::default()
             },
         ),
-        Method::Progressive => solve_progressive(scene, vis, &ProgressiveOptions { stop, max_edge_m }),
+        Method::Progressive => {
+            solve_progressive(scene, vis, &ProgressiveOptions { stop, max_edge_m })
+        }
     };
     r.map_err(|e| CliError::failure(e.to_string()))
 }
@@ -134,8 +136,18 @@ pub fn run(args: RenderArgs) -> Result<(), CliError> {
         time_limit: args.time,
         max_iterations: usize::MAX,
     };
-    let sol = solve(&scene, &occ, args.method, stop, args.max_edge_m, args.min_area_m2)?;
-    println!("{:>9} {:>7} {:>11} {:>11} {:>11} {:>8} {:>10}", "time_s", "iter", "est_error", "solve", "discret.", "patches", "links");
+    let sol = solve(
+        &scene,
+        &occ,
+        args.method,
+        stop,
+        args.max_edge_m,
+        args.min_area_m2,
+    )?;
+    println!(
+        "{:>9} {:>7} {:>11} {:>11} {:>11} {:>8} {:>10}",
+        "time_s", "iter", "est_error", "solve", "discret.", "patches", "links"
+    );
     let n = sol.curve.points.len();
     let step = (n / 40).max(1);
     for (i, p) in sol.curve.points.iter().enumerate() {
@@ -240,8 +252,18 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
     let limit = Some(Duration::from_secs_f64(args.time_limit_s));
     let mut curves = Vec::new();
     for (method, name, targets, edge) in [
-        (Method::Radiosity, "hierarchical", &[0.2, 0.1, 0.05, 0.02, 0.01][..], 0.0),
-        (Method::Progressive, "progressive", &[0.2, 0.1, 0.05, 0.02, 0.01][..], 0.07),
+        (
+            Method::Radiosity,
+            "hierarchical",
+            &[0.2, 0.1, 0.05, 0.02, 0.01][..],
+            0.0,
+        ),
+        (
+            Method::Progressive,
+            "progressive",
+            &[0.2, 0.1, 0.05, 0.02, 0.01][..],
+            0.07,
+        ),
     ] {
         for &target in targets {
             let stop = StopRule {
@@ -250,7 +272,11 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
                 max_iterations: usize::MAX,
             };
             let sol = solve(&scene, &occ, method, stop, edge, 0.0)?;
-            let est = sol.curve.last().map(|p| p.estimated_error).unwrap_or(f64::NAN);
+            let est = sol
+                .curve
+                .last()
+                .map(|p| p.estimated_error)
+                .unwrap_or(f64::NAN);
             let err = sol.relative_error_against(&reference);
             println!(
                 "{:<12} {:>6.1}% {:>9.3} {:>9.2}% {:>9.2}% {:>8} {:>9} {:>10} {:>9.1}",
@@ -276,7 +302,10 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             .map(|(c, col)| (c, col))
             .collect();
         plot_curves_png(&pairs, Some(0.01), p).map_err(|e| CliError::failure(e.to_string()))?;
-        println!("wrote {} (red: hierarchical, blue: progressive)", p.display());
+        println!(
+            "wrote {} (red: hierarchical, blue: progressive)",
+            p.display()
+        );
     }
     // visibility saving in a room without occluders
     let empty = load(&args.empty_scene)?;
@@ -285,11 +314,21 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         time_limit: limit,
         max_iterations: usize::MAX,
     };
-    let with_culling = solve(&empty, &SceneOccluders::new(&empty), Method::Radiosity, stop, 0.0, 0.0)?;
+    let with_culling = solve(
+        &empty,
+        &SceneOccluders::new(&empty),
+        Method::Radiosity,
+        stop,
+        0.0,
+        0.0,
+    )?;
     let always = AlwaysTest(SceneOccluders::new(&empty));
     let without = solve(&empty, &always, Method::Radiosity, stop, 0.0, 0.0)?;
     println!("no occluders (cornell_empty, hierarchical, 2 %):");
-    for (name, s) in [("classification skips rays", &with_culling), ("rays for every link", &without)] {
+    for (name, s) in [
+        ("classification skips rays", &with_culling),
+        ("rays for every link", &without),
+    ] {
         println!(
             "  {:<27} {:>8.3} s, {:>10} shadow rays, {} links skipped visibility",
             name, s.stats.time_s, s.stats.shadow_rays, s.stats.visibility_skipped
@@ -304,10 +343,21 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
 struct AlwaysTest(SceneOccluders);
 
 impl Visibility for AlwaysTest {
-    fn may_occlude(&self, _: &[lumiwall_render::scene::V3], _: usize, _: &[lumiwall_render::scene::V3], _: usize) -> bool {
+    fn may_occlude(
+        &self,
+        _: &[lumiwall_render::scene::V3],
+        _: usize,
+        _: &[lumiwall_render::scene::V3],
+        _: usize,
+    ) -> bool {
         true
     }
-    fn occluded(&self, a: &lumiwall_render::scene::V3, b: &lumiwall_render::scene::V3, skip: [usize; 2]) -> bool {
+    fn occluded(
+        &self,
+        a: &lumiwall_render::scene::V3,
+        b: &lumiwall_render::scene::V3,
+        skip: [usize; 2],
+    ) -> bool {
         self.0.occluded(a, b, skip)
     }
 }

@@ -77,13 +77,21 @@ fn unit_normal(v: &[V3]) -> V3 {
     crate::scene::polygon_normal(v).unwrap_or_else(V3::z)
 }
 
-fn average(recv: &[V3], rn: &V3, src: &[V3], sn: &V3, order: usize, buf: &mut Vec<(V3, f64)>) -> f64 {
+fn average(
+    recv: &[V3],
+    rn: &V3,
+    src: &[V3],
+    sn: &V3,
+    order: usize,
+    buf: &mut Vec<(V3, f64)>,
+) -> f64 {
     quadrature::points(recv, order, buf);
     buf.iter()
         .map(|(p, w)| w * point_to_polygon(p, rn, src, sn))
         .sum()
 }
 
+#[allow(clippy::too_many_arguments)]
 fn adaptive(
     recv: &[V3],
     rn: &V3,
@@ -95,7 +103,10 @@ fn adaptive(
     buf: &mut Vec<(V3, f64)>,
 ) -> (f64, f64) {
     let kids = quadrature::split4(recv);
-    let areas: Vec<f64> = kids.iter().map(|k| crate::scene::polygon_area_m2(k)).collect();
+    let areas: Vec<f64> = kids
+        .iter()
+        .map(|k| crate::scene::polygon_area_m2(k))
+        .collect();
     let total: f64 = areas.iter().sum();
     let vals: Vec<f64> = kids
         .iter()

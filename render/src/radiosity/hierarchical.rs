@@ -17,16 +17,18 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::scene::{polygon_area_m2, polygon_normal, Scene, V3};
+use crate::scene::{Scene, V3, polygon_area_m2, polygon_normal};
 
+use super::RadiosityError;
 use super::curve::{CurvePoint, ErrorCurve, StopReason, StopRule};
 use super::form_factor::point_to_polygon;
 use super::quadrature;
-use super::solution::{Patch, SolveStats, Solution};
+use super::solution::{Patch, Solution, SolveStats};
 use super::visibility::Visibility;
-use super::RadiosityError;
 
 const NONE: u32 = u32::MAX;
+/// New links of one element after a refinement round.
+type Relinked = (u32, Vec<Link>, Vec<LightLink>);
 /// Gauss–Legendre order (per direction) of the receiver average of every link.
 const FF_ORDER: usize = 3;
 
@@ -120,8 +122,12 @@ fn make_elem(verts: Vec<V3>, polygon: u32, level: u8) -> Elem {
 
 fn faces(a: &Elem, b: &Elem) -> bool {
     let scale = (a.area + b.area).sqrt() * 1e-9;
-    b.verts.iter().any(|v| a.normal.dot(&(v - a.verts[0])) > scale)
-        && a.verts.iter().any(|v| b.normal.dot(&(v - b.verts[0])) > scale)
+    b.verts
+        .iter()
+        .any(|v| a.normal.dot(&(v - a.verts[0])) > scale)
+        && a.verts
+            .iter()
+            .any(|v| b.normal.dot(&(v - b.verts[0])) > scale)
 }
 
 fn eval_points(verts: &[V3], order: usize) -> Vec<(V3, f64)> {
@@ -133,15 +139,22 @@ fn eval_points(verts: &[V3], order: usize) -> Vec<(V3, f64)> {
 fn eval_link(ctx: &Ctx, elems: &[Elem], r: u32, s: u32) -> Link {
     let re = &elems[r as usize];
     let se = &elems[s as usize];
-    let candidate = ctx
-        .vis
-        .may_occlude(&re.verts, re.polygon as usize, &se.verts, se.polygon as usize);
+    let candidate = ctx.vis.may_occlude(
+        &re.verts,
+        re.polygon as usize,
+        &se.verts,
+        se.polygon as usize,
+    );
     if candidate {
         ctx.tested.fetch_add(1, Ordering::Relaxed);
     } else {
         ctx.skipped.fetch_add(1, Ordering::Relaxed);
     }
-    let src_pts = if candidate { eval_points(&se.verts, 2) } else { Vec::new() };
+    let src_pts = if candidate {
+        eval_points(&se.verts, 2)
+    } else {
+        Vec::new()
+    };
     let skip = [re.polygon as usize, se.polygon as usize];
     let point_ff = |x: &V3| -> f64 {
         let f = point_to_polygon(x, &re.normal, &se.verts, &se.normal);
@@ -194,7 +207,10 @@ fn eval_light(ctx: &Ctx, elems: &[Elem], r: u32, light: u32) -> LightLink {
         }
         if candidate {
             ctx.rays.fetch_add(1, Ordering::Relaxed);
-            if ctx.vis.occluded(&l.position, x, [usize::MAX, re.polygon as usize]) {
+            if ctx
+                .vis
+                .occluded(&l.position, x, [usize::MAX, re.polygon as usize])
+            {
                 return 0.0;
             }
         }
@@ -258,8 +274,8 @@ impl Tree {
             for c in 0..3 {
                 h[c] += l.ff * bs[c];
             }
-            for k in 0..4 {
-                hk[k] += l.fk[k] as f64 * bs[1];
+            for (acc, f) in hk.iter_mut().zip(&l.fk) {
+                *acc += f64::from(*f) * bs[1];
             }
             src_err += 0.5 * l.ff * (self.bmax[s] - self.bmin[s]);
         }
@@ -268,24 +284,26 @@ impl Tree {
             for c in 0..3 {
                 h[c] += l.irr * col[c];
             }
-            for k in 0..4 {
-                hk[k] += l.hk[k] as f64 * col[1];
+            for (acc, v) in hk.iter_mut().zip(&l.hk) {
+                *acc += f64::from(*v) * col[1];
             }
         }
         (hk, h, src_err)
     }
 
-    /// Estimated mean absolute deviation (lm/m²) of the leaf's true radiosity function
-    /// from its constant value: the spread of the summed point irradiances at the 2×2
-    /// Gauss points (for a linear variation this matches the L1 error of the constant
-    /// basis) plus a quarter of the transfer bound of non-uniform sources (the mean
-    /// absolute deviation of a value spread uniformly between the extrema).
+    /// Estimated mean absolute deviation (lux) of the leaf's true illuminance from its
+    /// constant value: the spread of the summed point irradiances at the 2×2 Gauss
+    /// points (for a linear variation this matches the L1 error of the constant basis)
+    /// plus a quarter of the transfer bound of non-uniform sources (the mean absolute
+    /// deviation of a value spread uniformly between the extrema). Illuminance rather
+    /// than radiosity, so that dark receivers (ρ → 0) are still resolved for lighting
+    /// work; the radiosity error is at most ρ times this.
     fn leaf_error(&self, ctx: &Ctx, r: usize) -> f64 {
         let (hk, _, src_err) = self.leaf_estimate(ctx, r);
-        let rho = ctx.rho[self.elems[r].polygon as usize][1];
         let mean = hk.iter().sum::<f64>() / 4.0;
         let mad = hk.iter().map(|v| (v - mean).abs()).sum::<f64>() / 4.0;
-        rho * (mad + 0.25 * src_err)
+        let _ = ctx;
+        mad + 0.25 * src_err
     }
 
     fn pull(&mut self) {
@@ -320,19 +338,28 @@ impl Tree {
     fn memory_bytes(&self) -> usize {
         let links: usize = self.links.iter().map(|l| l.capacity()).sum();
         let llinks: usize = self.llinks.iter().map(|l| l.capacity()).sum();
-        self.elems.len() * (std::mem::size_of::<Elem>() + 4 * std::mem::size_of::<V3>() + 2 * 24 + 16 + 2 * 24)
+        self.elems.len()
+            * (std::mem::size_of::<Elem>() + 4 * std::mem::size_of::<V3>() + 2 * 24 + 16 + 2 * 24)
             + links * std::mem::size_of::<Link>()
             + llinks * std::mem::size_of::<LightLink>()
     }
 
     fn link_count(&self) -> usize {
-        self.links.iter().map(Vec::len).sum::<usize>() + self.llinks.iter().map(Vec::len).sum::<usize>()
+        self.links.iter().map(Vec::len).sum::<usize>()
+            + self.llinks.iter().map(Vec::len).sum::<usize>()
     }
 }
 
 /// One refinement round set: splits what the bounds ask for at the absolute radiosity
 /// tolerance `eps` (lm/m²). Returns the number of elements split.
-fn refine(tree: &mut Tree, ctx: &Ctx, eps: f64, min_area: f64, max_level: u8, deadline: Option<Instant>) -> usize {
+fn refine(
+    tree: &mut Tree,
+    ctx: &Ctx,
+    eps: f64,
+    min_area: f64,
+    max_level: u8,
+    deadline: Option<Instant>,
+) -> usize {
     let mut total = 0;
     for _round in 0..64 {
         if deadline.is_some_and(|d| Instant::now() > d) {
@@ -351,18 +378,18 @@ fn refine(tree: &mut Tree, ctx: &Ctx, eps: f64, min_area: f64, max_level: u8, de
                 if err <= eps {
                     return None;
                 }
-                let rho = ctx.rho[tree.elems[ri].polygon as usize][1];
                 let can_r = splittable(ri);
                 let mut split_r = false;
                 let mut srcs = Vec::new();
                 let mut worst = (0.0f64, usize::MAX);
                 for (i, l) in tree.links[ri].iter().enumerate() {
                     let s = l.src as usize;
-                    let (lo, hi) = l
-                        .fk
-                        .iter()
-                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v as f64), b.max(v as f64)));
-                    let e = rho * (tree.b[s][1] * (hi - lo) + l.ff * (tree.bmax[s] - tree.bmin[s]));
+                    let (lo, hi) =
+                        l.fk.iter()
+                            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                                (a.min(v as f64), b.max(v as f64))
+                            });
+                    let e = tree.b[s][1] * (hi - lo) + l.ff * (tree.bmax[s] - tree.bmin[s]);
                     if e > worst.0 {
                         worst = (e, i);
                     }
@@ -421,7 +448,7 @@ fn refine(tree: &mut Tree, ctx: &Ctx, eps: f64, min_area: f64, max_level: u8, de
             .filter(|r| split_set.contains(r) || expand[*r].is_some())
             .collect();
         let t = &*tree;
-        let results: Vec<(usize, Vec<(u32, Vec<Link>, Vec<LightLink>)>)> = jobs
+        let results: Vec<(usize, Vec<Relinked>)> = jobs
             .par_iter()
             .map(|&r| {
                 let srcs_split: &[usize] = expand[r].as_deref().unwrap_or(&[]);
@@ -504,11 +531,19 @@ pub fn solve_hierarchical(
     let ctx = Ctx {
         scene,
         vis,
-        rho: scene.polygons.iter().map(|p| scene.materials[p.material].reflectance_xyz).collect(),
+        rho: scene
+            .polygons
+            .iter()
+            .map(|p| scene.materials[p.material].reflectance_xyz)
+            .collect(),
         emit: scene
             .polygons
             .iter()
-            .map(|p| scene.materials[p.material].emission_cd_m2.map(|l| std::f64::consts::PI * l))
+            .map(|p| {
+                scene.materials[p.material]
+                    .emission_cd_m2
+                    .map(|l| std::f64::consts::PI * l)
+            })
             .collect(),
         rays: AtomicU64::new(0),
         skipped: AtomicU64::new(0),
@@ -562,7 +597,9 @@ pub fn solve_hierarchical(
     // reference exitance for the absolute tolerance: emitted flux spread over the area,
     // amplified by the mean reflectance
     let phi = scene.emitted_flux_xyz_lm()[1];
-    let rho_mean = weighted(&tree, &tree.leaves(), |e| ctx.rho[tree.elems[e].polygon as usize][1]) / total_area;
+    let rho_mean = weighted(&tree, &tree.leaves(), |e| {
+        ctx.rho[tree.elems[e].polygon as usize][1]
+    }) / total_area;
     let b_ref0 = phi / total_area / (1.0 - rho_mean).max(1e-6);
     let target = opts.stop.target_error;
     let mut eps = target * b_ref0;
@@ -593,7 +630,14 @@ pub fn solve_hierarchical(
                 let (_, h, _) = t.leaf_estimate(&ctx, r);
                 let p = t.elems[r].polygon as usize;
                 let (rho, e) = (ctx.rho[p], ctx.emit[p]);
-                ([e[0] + rho[0] * h[0], e[1] + rho[1] * h[1], e[2] + rho[2] * h[2]], h)
+                (
+                    [
+                        e[0] + rho[0] * h[0],
+                        e[1] + rho[1] * h[1],
+                        e[2] + rho[2] * h[2],
+                    ],
+                    h,
+                )
             })
             .collect();
         let mut num = 0.0;
@@ -602,7 +646,11 @@ pub fn solve_hierarchical(
         for (&r, (b, h)) in leaves.iter().zip(&new) {
             let r = r as usize;
             let a = tree.elems[r].area;
-            let d = [b[0] - tree.b[r][0], b[1] - tree.b[r][1], b[2] - tree.b[r][2]];
+            let d = [
+                b[0] - tree.b[r][0],
+                b[1] - tree.b[r][1],
+                b[2] - tree.b[r][2],
+            ];
             num += a * d[1].abs();
             den += a * b[1].abs();
             delta.push(d);
@@ -617,10 +665,18 @@ pub fn solve_hierarchical(
             )));
         }
         // contraction ratio of the absolute update (Jacobi: → spectral radius)
-        let q = if res_prev.is_finite() && res_prev > 0.0 { num / res_prev } else { f64::NAN };
+        let q = if res_prev.is_finite() && res_prev > 0.0 {
+            num / res_prev
+        } else {
+            f64::NAN
+        };
         res_prev = num;
         let rho_max = ctx.rho.iter().map(|r| r[1]).fold(0.0, f64::max);
-        let q_est = if q.is_finite() && q < 1.0 { q.max(0.0) } else { rho_max };
+        let q_est = if q.is_finite() && q < 1.0 {
+            q.max(0.0)
+        } else {
+            rho_max
+        };
         // remaining error of the geometric tail: |Δ| q / (1 − q)
         let solve_err = res * q_est / (1.0 - q_est).max(1e-12);
         if q.is_finite() {
@@ -635,8 +691,8 @@ pub fn solve_hierarchical(
                 for (&r, d) in leaves.iter().zip(&delta) {
                     let r = r as usize;
                     let p = tree.elems[r].polygon as usize;
-                    for c in 0..3 {
-                        tree.b[r][c] = (tree.b[r][c] + g * d[c]).max(ctx.emit[p][c]);
+                    for ((b, dc), e) in tree.b[r].iter_mut().zip(d).zip(&ctx.emit[p]) {
+                        *b = (*b + g * dc).max(*e);
                     }
                 }
                 extrapolations += 1;
@@ -645,8 +701,9 @@ pub fn solve_hierarchical(
             }
         }
         tree.pull();
-        let bsum = weighted(&tree, &leaves, |e| tree.b[e][1]).max(1e-300);
-        let disc = weighted(&tree, &leaves, |e| tree.leaf_error(&ctx, e)) / bsum;
+
+        let hsum = weighted(&tree, &leaves, |e| tree.h[e][1]).max(1e-300);
+        let disc = weighted(&tree, &leaves, |e| tree.leaf_error(&ctx, e)) / hsum;
         curve.points.push(CurvePoint {
             time_s: start.elapsed().as_secs_f64(),
             iteration: iterations,
@@ -656,7 +713,13 @@ pub fn solve_hierarchical(
             patches: leaves.len(),
             links: tree.link_count(),
         });
-        tracing::debug!(iterations, solve_err, disc, patches = leaves.len(), "hierarchical sweep");
+        tracing::debug!(
+            iterations,
+            solve_err,
+            disc,
+            patches = leaves.len(),
+            "hierarchical sweep"
+        );
         if solve_err + disc <= target {
             stop = StopReason::Converged;
             break;
@@ -675,8 +738,8 @@ pub fn solve_hierarchical(
                 stop = StopReason::RefinementExhausted;
                 break;
             }
-            let b_avg = bsum / total_area;
-            eps = (0.5 * eps).min(target * b_avg);
+            let h_avg = hsum / total_area;
+            eps = (0.5 * eps).min(target * h_avg);
             needs_refine = true;
         }
     }

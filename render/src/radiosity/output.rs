@@ -9,9 +9,9 @@ use std::path::Path;
 
 use crate::scene::{Camera, V3};
 
+use super::RadiosityError;
 use super::curve::ErrorCurve;
 use super::solution::Solution;
-use super::RadiosityError;
 
 fn out_err(path: &Path, e: impl std::fmt::Display) -> RadiosityError {
     RadiosityError::Output {
@@ -32,7 +32,8 @@ pub fn vertex_luminance(sol: &Solution) -> Vec<Vec<[f64; 3]>> {
         let q = |c: f64| (c * 1e6).round() as i64;
         (poly, q(v.x), q(v.y), q(v.z))
     };
-    let mut acc: HashMap<(usize, i64, i64, i64), ([f64; 3], f64)> = HashMap::new();
+    type Key = (usize, i64, i64, i64);
+    let mut acc: HashMap<Key, ([f64; 3], f64)> = HashMap::new();
     for p in &sol.patches {
         for v in &p.vertices {
             let e = acc.entry(key(p.polygon, v)).or_insert(([0.0; 3], 0.0));
@@ -66,7 +67,10 @@ pub fn write_ply(sol: &Solution, path: &Path) -> Result<(), RadiosityError> {
     );
     for (p, l) in sol.patches.iter().zip(&lum) {
         for (v, c) in p.vertices.iter().zip(l) {
-            s.push_str(&format!("{} {} {} {} {} {}\n", v.x, v.y, v.z, c[0], c[1], c[2]));
+            s.push_str(&format!(
+                "{} {} {} {} {} {}\n",
+                v.x, v.y, v.z, c[0], c[1], c[2]
+            ));
         }
     }
     let mut k = 0;
@@ -96,7 +100,11 @@ pub fn render_image(sol: &Solution, camera: &Camera) -> Vec<[f32; 3]> {
         if z < near {
             return None;
         }
-        Some((0.5 * w as f64 + f * d.dot(&right) / z, 0.5 * h as f64 - f * d.dot(&up) / z, z))
+        Some((
+            0.5 * w as f64 + f * d.dot(&right) / z,
+            0.5 * h as f64 - f * d.dot(&up) / z,
+            z,
+        ))
     };
     let lum = vertex_luminance(sol);
     let mut img = vec![[0f32; 3]; w * h];
@@ -111,18 +119,41 @@ pub fn render_image(sol: &Solution, camera: &Camera) -> Vec<[f32; 3]> {
         for t in 1..proj.len() - 1 {
             let tri = [proj[0], proj[t], proj[t + 1]];
             let val = [l[0], l[t], l[t + 1]];
-            let minx = tri.iter().map(|v| v.0).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
-            let maxx = tri.iter().map(|v| v.0).fold(f64::NEG_INFINITY, f64::max).ceil().min(w as f64) as usize;
-            let miny = tri.iter().map(|v| v.1).fold(f64::INFINITY, f64::min).floor().max(0.0) as usize;
-            let maxy = tri.iter().map(|v| v.1).fold(f64::NEG_INFINITY, f64::max).ceil().min(h as f64) as usize;
-            let area = (tri[1].0 - tri[0].0) * (tri[2].1 - tri[0].1) - (tri[2].0 - tri[0].0) * (tri[1].1 - tri[0].1);
+            let minx = tri
+                .iter()
+                .map(|v| v.0)
+                .fold(f64::INFINITY, f64::min)
+                .floor()
+                .max(0.0) as usize;
+            let maxx = tri
+                .iter()
+                .map(|v| v.0)
+                .fold(f64::NEG_INFINITY, f64::max)
+                .ceil()
+                .min(w as f64) as usize;
+            let miny = tri
+                .iter()
+                .map(|v| v.1)
+                .fold(f64::INFINITY, f64::min)
+                .floor()
+                .max(0.0) as usize;
+            let maxy = tri
+                .iter()
+                .map(|v| v.1)
+                .fold(f64::NEG_INFINITY, f64::max)
+                .ceil()
+                .min(h as f64) as usize;
+            let area = (tri[1].0 - tri[0].0) * (tri[2].1 - tri[0].1)
+                - (tri[2].0 - tri[0].0) * (tri[1].1 - tri[0].1);
             if area.abs() < 1e-12 {
                 continue;
             }
             for y in miny..maxy {
                 for x in minx..maxx {
                     let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
-                    let e = |a: (f64, f64, f64), b: (f64, f64, f64)| (b.0 - a.0) * (py - a.1) - (px - a.0) * (b.1 - a.1);
+                    let e = |a: (f64, f64, f64), b: (f64, f64, f64)| {
+                        (b.0 - a.0) * (py - a.1) - (px - a.0) * (b.1 - a.1)
+                    };
                     let b0 = e(tri[1], tri[2]) / area;
                     let b1 = e(tri[2], tri[0]) / area;
                     let b2 = e(tri[0], tri[1]) / area;
@@ -138,7 +169,9 @@ pub fn render_image(sol: &Solution, camera: &Camera) -> Vec<[f32; 3]> {
                     }
                     zbuf[i] = z;
                     let c: [f32; 3] = std::array::from_fn(|k| {
-                        (z * (b0 * val[0][k] / tri[0].2 + b1 * val[1][k] / tri[1].2 + b2 * val[2][k] / tri[2].2)) as f32
+                        (z * (b0 * val[0][k] / tri[0].2
+                            + b1 * val[1][k] / tri[1].2
+                            + b2 * val[2][k] / tri[2].2)) as f32
                     });
                     img[i] = c;
                 }
@@ -149,7 +182,12 @@ pub fn render_image(sol: &Solution, camera: &Camera) -> Vec<[f32; 3]> {
 }
 
 /// Writes an XYZ float OpenEXR (channels X, Y, Z; cd/m²).
-pub fn write_exr(img: &[[f32; 3]], width: usize, height: usize, path: &Path) -> Result<(), RadiosityError> {
+pub fn write_exr(
+    img: &[[f32; 3]],
+    width: usize,
+    height: usize,
+    path: &Path,
+) -> Result<(), RadiosityError> {
     use exr::prelude::*;
     let channels = SpecificChannels::build()
         .with_channel("X")
@@ -197,7 +235,11 @@ fn text(img: &mut image::RgbImage, x: i64, y: i64, s: &str, scale: i64, col: [u8
                         for dx in 0..scale {
                             let px = x + (k as i64 * 4 + bit) * scale + dx;
                             let py = y + row as i64 * scale + dy;
-                            if px >= 0 && py >= 0 && (px as u32) < img.width() && (py as u32) < img.height() {
+                            if px >= 0
+                                && py >= 0
+                                && (px as u32) < img.width()
+                                && (py as u32) < img.height()
+                            {
                                 img.put_pixel(px as u32, py as u32, image::Rgb(col));
                             }
                         }
@@ -224,7 +266,11 @@ fn line(img: &mut image::RgbImage, a: (f64, f64), b: (f64, f64), col: [u8; 3]) {
 
 /// Plots estimated relative error (log scale, labelled in %) against wall time in s
 /// for one or more curves (each with its colour) and writes a PNG.
-pub fn plot_curves_png(curves: &[(&ErrorCurve, [u8; 3])], target: Option<f64>, path: &Path) -> Result<(), RadiosityError> {
+pub fn plot_curves_png(
+    curves: &[(&ErrorCurve, [u8; 3])],
+    target: Option<f64>,
+    path: &Path,
+) -> Result<(), RadiosityError> {
     let (w, h) = (800u32, 500u32);
     let (l, r, t, b) = (90.0, 20.0, 20.0, 50.0);
     let mut img = image::RgbImage::from_pixel(w, h, image::Rgb([255, 255, 255]));
@@ -234,7 +280,11 @@ pub fn plot_curves_png(curves: &[(&ErrorCurve, [u8; 3])], target: Option<f64>, p
         .filter(|(_, e)| *e > 0.0 && e.is_finite())
         .collect();
     let tmax = pts.iter().map(|p| p.0).fold(1e-3, f64::max);
-    let emin = pts.iter().map(|p| p.1).fold(target.unwrap_or(1.0), f64::min).max(1e-8);
+    let emin = pts
+        .iter()
+        .map(|p| p.1)
+        .fold(target.unwrap_or(1.0), f64::min)
+        .max(1e-8);
     let emax = pts.iter().map(|p| p.1).fold(emin * 10.0, f64::max);
     let (d0, d1) = (emin.log10().floor(), emax.log10().ceil());
     let sx = |tt: f64| l + (w as f64 - l - r) * tt / tmax;
@@ -246,7 +296,11 @@ pub fn plot_curves_png(curves: &[(&ErrorCurve, [u8; 3])], target: Option<f64>, p
         let y = sy(10f64.powf(d));
         line(&mut img, (l, y), (w as f64 - r, y), grey);
         let pct = 100.0 * 10f64.powf(d);
-        let label = if pct >= 1.0 { format!("{pct:.0}%") } else { format!("{pct:.0e}%") };
+        let label = if pct >= 1.0 {
+            format!("{pct:.0}%")
+        } else {
+            format!("{pct:.0e}%")
+        };
         text(&mut img, 5, y as i64 - 5, &label, 2, black);
         d += 1.0;
     }
@@ -254,10 +308,22 @@ pub fn plot_curves_png(curves: &[(&ErrorCurve, [u8; 3])], target: Option<f64>, p
         let tt = tmax * k as f64 / 4.0;
         let x = sx(tt);
         line(&mut img, (x, t), (x, h as f64 - b), grey);
-        text(&mut img, x as i64 - 10, h as i64 - b as i64 + 10, &format!("{tt:.2}s"), 2, black);
+        text(
+            &mut img,
+            x as i64 - 10,
+            h as i64 - b as i64 + 10,
+            &format!("{tt:.2}s"),
+            2,
+            black,
+        );
     }
     line(&mut img, (l, t), (l, h as f64 - b), black);
-    line(&mut img, (l, h as f64 - b), (w as f64 - r, h as f64 - b), black);
+    line(
+        &mut img,
+        (l, h as f64 - b),
+        (w as f64 - r, h as f64 - b),
+        black,
+    );
     if let Some(tg) = target {
         let y = sy(tg);
         let mut x = l;
@@ -284,22 +350,43 @@ pub fn plot_curves_png(curves: &[(&ErrorCurve, [u8; 3])], target: Option<f64>, p
 
 /// Writes a tone-mapped sRGB preview PNG of an XYZ luminance image (exposure set so
 /// that the 99th-percentile luminance maps to white). For looking, not measuring.
-pub fn write_preview_png(img: &[[f32; 3]], width: usize, height: usize, path: &Path) -> Result<(), RadiosityError> {
+pub fn write_preview_png(
+    img: &[[f32; 3]],
+    width: usize,
+    height: usize,
+    path: &Path,
+) -> Result<(), RadiosityError> {
     let mut ys: Vec<f32> = img.iter().map(|p| p[1]).filter(|y| *y > 0.0).collect();
     ys.sort_by(f32::total_cmp);
-    let white = ys.get(ys.len() * 99 / 100).copied().unwrap_or(1.0).max(1e-12) as f64;
+    let white = ys
+        .get(ys.len() * 99 / 100)
+        .copied()
+        .unwrap_or(1.0)
+        .max(1e-12) as f64;
     let enc = |v: f64| {
         let v = v.clamp(0.0, 1.0);
-        let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+        let s = if v <= 0.003_130_8 {
+            12.92 * v
+        } else {
+            1.055 * v.powf(1.0 / 2.4) - 0.055
+        };
         (s * 255.0).round() as u8
     };
     let mut out = image::RgbImage::new(width as u32, height as u32);
     for (i, p) in img.iter().enumerate() {
-        let (x, y, z) = (p[0] as f64 / white, p[1] as f64 / white, p[2] as f64 / white);
+        let (x, y, z) = (
+            p[0] as f64 / white,
+            p[1] as f64 / white,
+            p[2] as f64 / white,
+        );
         let r = 3.2406 * x - 1.5372 * y - 0.4986 * z;
         let g = -0.9689 * x + 1.8758 * y + 0.0415 * z;
         let b = 0.0557 * x - 0.2040 * y + 1.0570 * z;
-        out.put_pixel((i % width) as u32, (i / width) as u32, image::Rgb([enc(r), enc(g), enc(b)]));
+        out.put_pixel(
+            (i % width) as u32,
+            (i / width) as u32,
+            image::Rgb([enc(r), enc(g), enc(b)]),
+        );
     }
     out.save(path).map_err(|e| out_err(path, e))
 }

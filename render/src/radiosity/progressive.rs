@@ -10,14 +10,14 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::scene::{polygon_area_m2, polygon_normal, Scene, V3};
+use crate::scene::{Scene, V3, polygon_area_m2, polygon_normal};
 
+use super::RadiosityError;
 use super::curve::{CurvePoint, ErrorCurve, StopReason, StopRule};
 use super::form_factor::point_to_polygon;
 use super::quadrature;
-use super::solution::{Patch, SolveStats, Solution};
+use super::solution::{Patch, Solution, SolveStats};
 use super::visibility::Visibility;
-use super::RadiosityError;
 
 /// Options of the progressive solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,7 +87,12 @@ pub(crate) fn facing(a: &MeshElem, b: &MeshElem) -> bool {
 
 /// Direct illuminance (XYZ lux) of every element from the scene's point lights, with
 /// shadow rays where needed.
-pub(crate) fn direct_light(scene: &Scene, vis: &dyn Visibility, mesh: &[MeshElem], rays: &AtomicU64) -> Vec<[f64; 3]> {
+pub(crate) fn direct_light(
+    scene: &Scene,
+    vis: &dyn Visibility,
+    mesh: &[MeshElem],
+    rays: &AtomicU64,
+) -> Vec<[f64; 3]> {
     mesh.par_iter()
         .map(|e| {
             let mut h = [0.0; 3];
@@ -122,7 +127,14 @@ pub(crate) fn direct_light(scene: &Scene, vis: &dyn Visibility, mesh: &[MeshElem
 /// Form factor from receiver `r` to source `s` (area average over r's Gauss points,
 /// shadow rays from each point to s's centre and Gauss points when classified
 /// possibly occluded).
-pub(crate) fn mesh_ff(vis: &dyn Visibility, r: &MeshElem, s: &MeshElem, rays: &AtomicU64, tested: &AtomicU64, skipped: &AtomicU64) -> f64 {
+pub(crate) fn mesh_ff(
+    vis: &dyn Visibility,
+    r: &MeshElem,
+    s: &MeshElem,
+    rays: &AtomicU64,
+    tested: &AtomicU64,
+    skipped: &AtomicU64,
+) -> f64 {
     if !facing(r, s) {
         return 0.0;
     }
@@ -192,7 +204,12 @@ pub fn solve_progressive(
         .collect();
     let emit: Vec<[f64; 3]> = mesh
         .iter()
-        .map(|e| scene.material_of(e.polygon).emission_cd_m2.map(|l| std::f64::consts::PI * l))
+        .map(|e| {
+            scene
+                .material_of(e.polygon)
+                .emission_cd_m2
+                .map(|l| std::f64::consts::PI * l)
+        })
         .collect();
     let (rays, tested, skipped) = (AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0));
     let mut h = direct_light(scene, vis, &mesh, &rays);
@@ -201,7 +218,12 @@ pub fn solve_progressive(
         .collect();
     let mut unshot = b.clone();
     let total_area: f64 = mesh.iter().map(|e| e.area).sum();
-    let rho_mean = mesh.iter().zip(&rho).map(|(e, r)| e.area * r[1]).sum::<f64>() / total_area;
+    let rho_mean = mesh
+        .iter()
+        .zip(&rho)
+        .map(|(e, r)| e.area * r[1])
+        .sum::<f64>()
+        / total_area;
     let mut curve = ErrorCurve::default();
     let mut shots = 0usize;
     let mut ff_evals = 0usize;
@@ -238,7 +260,9 @@ pub fn solve_progressive(
             });
         }
         if !err.is_finite() {
-            return Err(RadiosityError::Diverged(format!("unshot flux became {flux_unshot}")));
+            return Err(RadiosityError::Diverged(format!(
+                "unshot flux became {flux_unshot}"
+            )));
         }
         if done || flux_unshot_max <= 0.0 {
             stop = StopReason::Converged;
@@ -284,7 +308,8 @@ pub fn solve_progressive(
         shadow_rays: rays.load(Ordering::Relaxed),
         visibility_skipped: skipped.load(Ordering::Relaxed),
         visibility_tested: tested.load(Ordering::Relaxed),
-        memory_bytes: n * (std::mem::size_of::<MeshElem>() + 8 * std::mem::size_of::<V3>() + 5 * 24),
+        memory_bytes: n
+            * (std::mem::size_of::<MeshElem>() + 8 * std::mem::size_of::<V3>() + 5 * 24),
         time_s: start.elapsed().as_secs_f64(),
         extrapolations: 0,
     };

@@ -54,7 +54,10 @@ pub fn gauss_legendre_01(n: usize) -> &'static [(f64, f64)] {
 /// the Duffy collapse (s, t) → v0 + s(v1 − v0) + s·t(v2 − v1) for triangles.
 pub fn map_unit_square(v: &[V3], s: f64, t: f64) -> V3 {
     if v.len() == 4 {
-        v[0] * ((1.0 - s) * (1.0 - t)) + v[1] * (s * (1.0 - t)) + v[2] * (s * t) + v[3] * ((1.0 - s) * t)
+        v[0] * ((1.0 - s) * (1.0 - t))
+            + v[1] * (s * (1.0 - t))
+            + v[2] * (s * t)
+            + v[3] * ((1.0 - s) * t)
     } else {
         v[0] + (v[1] - v[0]) * s + (v[2] - v[1]) * (s * t)
     }

@@ -8,11 +8,11 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use super::RadiosityError;
 use super::curve::{CurvePoint, ErrorCurve, StopReason};
 use super::progressive::{direct_light, mesh_ff, patches_from_mesh, uniform_mesh};
-use super::solution::{SolveStats, Solution};
+use super::solution::{Solution, SolveStats};
 use super::visibility::Visibility;
-use super::RadiosityError;
 use crate::scene::Scene;
 
 /// Solves `scene` densely on a uniform mesh with edges ≤ `max_edge_m`. Refuses meshes
@@ -46,10 +46,18 @@ pub fn solve_dense_reference(
                 .collect()
         })
         .collect();
-    let rho: Vec<[f64; 3]> = mesh.iter().map(|e| scene.material_of(e.polygon).reflectance_xyz).collect();
+    let rho: Vec<[f64; 3]> = mesh
+        .iter()
+        .map(|e| scene.material_of(e.polygon).reflectance_xyz)
+        .collect();
     let emit: Vec<[f64; 3]> = mesh
         .iter()
-        .map(|e| scene.material_of(e.polygon).emission_cd_m2.map(|l| std::f64::consts::PI * l))
+        .map(|e| {
+            scene
+                .material_of(e.polygon)
+                .emission_cd_m2
+                .map(|l| std::f64::consts::PI * l)
+        })
         .collect();
     let mut b: Vec<[f64; 3]> = (0..n)
         .map(|i| std::array::from_fn(|c| emit[i][c] + rho[i][c] * h_direct[i][c]))

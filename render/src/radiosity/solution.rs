@@ -114,10 +114,6 @@ impl Solution {
             num += r.area_m2 * (b - r.exitance_xyz[1]).abs();
             den += r.area_m2 * r.exitance_xyz[1];
         }
-        if den > 0.0 {
-            num / den
-        } else {
-            0.0
-        }
+        if den > 0.0 { num / den } else { 0.0 }
     }
 }

@@ -103,7 +103,13 @@ impl Visibility for SceneOccluders {
             if i == a_poly || i == b_poly {
                 continue;
             }
-            if o.hi.x < lo.x || o.lo.x > hi.x || o.hi.y < lo.y || o.lo.y > hi.y || o.hi.z < lo.z || o.lo.z > hi.z {
+            if o.hi.x < lo.x
+                || o.lo.x > hi.x
+                || o.hi.y < lo.y
+                || o.lo.y > hi.y
+                || o.hi.z < lo.z
+                || o.lo.z > hi.z
+            {
                 continue;
             }
             // occluder entirely behind (or on) the plane of a or of b
@@ -131,7 +137,13 @@ impl Visibility for SceneOccluders {
             if i == skip[0] || i == skip[1] {
                 continue;
             }
-            if o.hi.x < lo.x || o.lo.x > hi.x || o.hi.y < lo.y || o.lo.y > hi.y || o.hi.z < lo.z || o.lo.z > hi.z {
+            if o.hi.x < lo.x
+                || o.lo.x > hi.x
+                || o.hi.y < lo.y
+                || o.lo.y > hi.y
+                || o.hi.z < lo.z
+                || o.lo.z > hi.z
+            {
                 continue;
             }
             let denom = o.normal.dot(&d);

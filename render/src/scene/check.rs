@@ -3,7 +3,7 @@
 //! counted, never fatal. Topology checks (T-vertices, non-manifold edges, normal
 //! consistency) belong to `mesh::check_and_repair`.
 
-use super::geom::{newell, polygon_area_m2, V3};
+use super::geom::{V3, newell, polygon_area_m2};
 use super::types::Polygon;
 
 /// What the checks found and did.

@@ -38,7 +38,9 @@ pub enum SceneError {
         message: String,
     },
     /// An object refers to a material that the scene file does not define.
-    #[error("object `{object}` uses material `{material}`, which is not defined in [materials]; add it or map the object in [objects]")]
+    #[error(
+        "object `{object}` uses material `{material}`, which is not defined in [materials]; add it or map the object in [objects]"
+    )]
     UnknownMaterial {
         /// OBJ object/group name.
         object: String,

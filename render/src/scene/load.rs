@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-use super::check::{check_polygons, CheckReport};
+use super::check::{CheckReport, check_polygons};
 use super::error::SceneError;
 use super::geom::V3;
 use super::types::{Camera, Light, LightKind, Material, Polygon, Scene};
@@ -150,7 +150,7 @@ fn material(name: &str, m: &MaterialFile) -> Result<Material, SceneError> {
             return Err(invalid(
                 what,
                 "give either reflectance_xyz or reflectance_y, not both",
-            ))
+            ));
         }
     };
     if !reflectance_xyz
@@ -159,7 +159,9 @@ fn material(name: &str, m: &MaterialFile) -> Result<Material, SceneError> {
     {
         return Err(invalid(
             what,
-            format!("reflectance {reflectance_xyz:?} must lie in [0, 1) per channel (ρ = 1 never converges)"),
+            format!(
+                "reflectance {reflectance_xyz:?} must lie in [0, 1) per channel (ρ = 1 never converges)"
+            ),
         ));
     }
     let l = m.emission_cd_m2.unwrap_or(0.0);
@@ -196,17 +198,19 @@ fn light(i: usize, l: &LightFile, unit_m: f64) -> Result<Light, SceneError> {
             LightKind::Isotropic { intensity_cd: i_cd }
         }
         "spot" => {
-            let axis = v3(l.axis.ok_or_else(|| invalid(&what, "a spot needs `axis`"))?);
+            let axis = v3(l
+                .axis
+                .ok_or_else(|| invalid(&what, "a spot needs `axis`"))?);
             let axis = axis
                 .try_normalize(1e-12)
                 .ok_or_else(|| invalid(&what, "spot axis has zero length"))?;
             let inner = l.inner_deg.unwrap_or(30.0).to_radians();
-            let outer = l.outer_deg.unwrap_or(l.inner_deg.unwrap_or(30.0)).to_radians();
+            let outer = l
+                .outer_deg
+                .unwrap_or(l.inner_deg.unwrap_or(30.0))
+                .to_radians();
             if !(inner > 0.0 && outer >= inner && outer <= std::f64::consts::PI) {
-                return Err(invalid(
-                    what,
-                    "need 0 < inner_deg ≤ outer_deg ≤ 180",
-                ));
+                return Err(invalid(what, "need 0 < inner_deg ≤ outer_deg ≤ 180"));
             }
             let i_cd = match (l.intensity_cd, l.flux_lm) {
                 (Some(i), None) => i,
@@ -223,8 +227,10 @@ fn light(i: usize, l: &LightFile, unit_m: f64) -> Result<Light, SceneError> {
         other => {
             return Err(invalid(
                 what,
-                format!("type `{other}` is not known; use `point` or `spot` (goniometric lights are added through the API)"),
-            ))
+                format!(
+                    "type `{other}` is not known; use `point` or `spot` (goniometric lights are added through the API)"
+                ),
+            ));
         }
     };
     let cd = match &kind {
@@ -255,7 +261,10 @@ pub fn parse_scene_toml(
         message: e.to_string(),
     })?;
     if !(file.unit_m.is_finite() && file.unit_m > 0.0) {
-        return Err(invalid("unit_m", "must be a positive number of metres per unit"));
+        return Err(invalid(
+            "unit_m",
+            "must be a positive number of metres per unit",
+        ));
     }
     let mut materials = Vec::new();
     let mut index = BTreeMap::new();
@@ -313,15 +322,24 @@ pub fn parse_scene_toml(
             };
             let mut at = 0usize;
             for a in arities {
-                let idx = mesh.indices.get(at..at + a as usize).ok_or_else(|| SceneError::Obj {
-                    path: path.clone(),
-                    message: format!("object `{}` has a face past the end of its index list", model.name),
-                })?;
+                let idx = mesh
+                    .indices
+                    .get(at..at + a as usize)
+                    .ok_or_else(|| SceneError::Obj {
+                        path: path.clone(),
+                        message: format!(
+                            "object `{}` has a face past the end of its index list",
+                            model.name
+                        ),
+                    })?;
                 at += a as usize;
                 let vertices: Option<Vec<V3>> = idx.iter().map(|&k| vertex(k)).collect();
                 let vertices = vertices.ok_or_else(|| SceneError::Obj {
                     path: path.clone(),
-                    message: format!("object `{}` refers to a vertex that does not exist", model.name),
+                    message: format!(
+                        "object `{}` refers to a vertex that does not exist",
+                        model.name
+                    ),
                 })?;
                 raw.push(Polygon {
                     vertices,
@@ -357,7 +375,10 @@ pub fn parse_scene_toml(
         None => None,
         Some(c) => {
             if !(c.vfov_deg > 0.0 && c.vfov_deg < 179.0 && c.width > 0 && c.height > 0) {
-                return Err(invalid("camera", "need 0 < vfov_deg < 179 and width, height > 0"));
+                return Err(invalid(
+                    "camera",
+                    "need 0 < vfov_deg < 179 and width, height > 0",
+                ));
             }
             Some(Camera {
                 position: v3(c.position) * file.unit_m,

@@ -137,11 +137,7 @@ impl Light {
             } => {
                 let local = [frame[0].dot(dir), frame[1].dot(dir), frame[2].dot(dir)];
                 let i = distribution(local);
-                if i.is_finite() && i > 0.0 {
-                    i
-                } else {
-                    0.0
-                }
+                if i.is_finite() && i > 0.0 { i } else { 0.0 }
             }
         }
     }

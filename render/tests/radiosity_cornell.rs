@@ -1,0 +1,86 @@
+//! Cornell box (published geometry and reflectances, fixtures/scenes/cornell) solved by
+//! both solvers and compared with a dense brute-force reference on a uniform mesh. The
+//! full error-vs-time table is `lumiwall bench radiosity`; this is the fast CI version.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use lumiwall_render::radiosity::{
+    HierarchicalOptions, ProgressiveOptions, SceneOccluders, StopRule, solve_dense_reference,
+    solve_hierarchical, solve_progressive,
+};
+use lumiwall_render::scene::load_scene;
+
+fn cornell() -> lumiwall_render::scene::Scene {
+    let p =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/scenes/cornell/cornell.toml");
+    load_scene(&p).unwrap().0
+}
+
+#[test]
+fn both_solvers_agree_with_the_dense_reference() {
+    let scene = cornell();
+    let occ = SceneOccluders::new(&scene);
+    let reference = solve_dense_reference(&scene, &occ, 0.07, 5000).unwrap();
+    let stop = |target| StopRule {
+        target_error: target,
+        time_limit: Some(Duration::from_secs(60)),
+        max_iterations: usize::MAX,
+    };
+    let hr = solve_hierarchical(
+        &scene,
+        &occ,
+        &HierarchicalOptions {
+            stop: stop(0.1),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let pr = solve_progressive(
+        &scene,
+        &occ,
+        &ProgressiveOptions {
+            stop: stop(0.02),
+            max_edge_m: 0.14,
+        },
+    )
+    .unwrap();
+    let e_hr = hr.relative_error_against(&reference);
+    let e_pr = pr.relative_error_against(&reference);
+    let est_hr = hr.curve.last().unwrap().estimated_error;
+    println!(
+        "reference {} elements; hierarchical: true {e_hr:.4}, estimated {est_hr:.4}, {} patches, {:.2} s; progressive: true {e_pr:.4}, {} shots, {:.2} s",
+        reference.stats.patches,
+        hr.stats.patches,
+        hr.stats.time_s,
+        pr.stats.iterations,
+        pr.stats.time_s
+    );
+    assert!(e_hr < 0.1, "hierarchical error {e_hr}");
+    assert!(e_pr < 0.1, "progressive error {e_pr}");
+    // the reported estimate is of the right size (not a bound off by orders of magnitude)
+    assert!(
+        est_hr > 0.3 * e_hr && est_hr < 3.0 * e_hr,
+        "estimate {est_hr} vs true {e_hr}"
+    );
+    // occluders exist: some links needed rays, many were classified fully visible
+    assert!(hr.stats.shadow_rays > 0 && hr.stats.visibility_skipped > 0);
+    // radiosity is physical: non-negative, finite, and the light is the brightest
+    for p in hr.patches.iter().chain(&reference.patches) {
+        assert!(p.exitance_xyz.iter().all(|v| v.is_finite() && *v >= 0.0));
+    }
+    // the red wall reflects more X than Z, the green wall more Y than X
+    let wall_mean = |name: &str, c: usize| {
+        let polys: Vec<usize> = (0..scene.polygons.len())
+            .filter(|&i| scene.polygons[i].object == name)
+            .collect();
+        let (mut s, mut a) = (0.0, 0.0);
+        for p in hr.patches.iter().filter(|p| polys.contains(&p.polygon)) {
+            s += p.exitance_xyz[c] * p.area_m2;
+            a += p.area_m2;
+        }
+        s / a
+    };
+    assert!(wall_mean("red_wall", 0) > 2.0 * wall_mean("red_wall", 2));
+    assert!(wall_mean("green_wall", 1) > wall_mean("green_wall", 0));
+}
