@@ -4,7 +4,8 @@
 //!
 //! A run is recorded in one transaction: either the run and all its profiles are
 //! stored, or nothing is. Profiles are stored as their JSON document (the file format
-//! of `FORMAT.md`) and validated again when read back. The schema is versioned
+//! of `FORMAT.md`, compact and zlib-compressed, see [`document`]) and validated again
+//! when read back. The schema is versioned
 //! (table `lumiwall_schema`, see [`schema`]); a store written by a newer lumiwall, a
 //! foreign SQLite file or a damaged file is refused with a [`StoreError`] that says
 //! what to do, and never changed.
