@@ -1,0 +1,545 @@
+//! The wall solve against a synthetic analytic display model written here, independent
+//! of the code under test: known primaries, per-channel power or S curves, black.
+//! The profiles must invert the model (ΔE2000 < 0.05 noiseless), keep channel usage in
+//! [0, headroom] with the maximum exactly at headroom, and handle the stiff cases.
+//!
+//! `cargo test -p lumiwall-calib --test solve -- --nocapture` prints the numbers.
+
+use lumiwall_calib::CalibError;
+use lumiwall_calib::colorimetry::{cct_to_xy, delta_e2000_xyz};
+use lumiwall_calib::solve::{
+    DisplayMeasurement, SolveOptions, WallSolution, WhiteTarget, solve_wall,
+};
+use lumiwall_calib::tone::suggest_next_drive;
+use lumiwall_devices::Xyz;
+use lumiwall_profiles::{BlackMode, DisplayKey, DisplayProfile, Eye, OutOfGamut};
+use nalgebra::{Matrix3, Vector3};
+
+#[derive(Clone, Copy)]
+enum Curve {
+    Power(f64),
+    /// Normalised logistic of drive^1.3 with steepness k.
+    S(f64),
+}
+
+impl Curve {
+    fn eval(self, d: f64) -> f64 {
+        match self {
+            Curve::Power(g) => d.powf(g),
+            Curve::S(k) => {
+                let sig = |x: f64| 1.0 / (1.0 + (-k * (x - 0.55)).exp());
+                (sig(d.powf(1.3)) - sig(0.0)) / (sig(1.0) - sig(0.0))
+            }
+        }
+    }
+}
+
+/// An additive display: reading(drive) = black + Σ_c P_c · curve_c(drive_c).
+#[derive(Clone)]
+struct Model {
+    /// Black-subtracted full-drive XYZ of R, G, B (cd/m²).
+    p: [Xyz; 3],
+    black: Xyz,
+    curves: [Curve; 3],
+}
+
+impl Model {
+    fn from_xy(prim: [(f64, f64, f64); 3], black: (f64, f64, f64), curves: [Curve; 3]) -> Self {
+        let x = |(x, y, l): (f64, f64, f64)| Xyz::from_xy_luminance(x, y, l);
+        Model {
+            p: prim.map(x),
+            black: x(black),
+            curves,
+        }
+    }
+
+    fn show(&self, drive: [f64; 3]) -> Xyz {
+        let mut out = self.black;
+        for c in 0..3 {
+            out = out + self.p[c] * self.curves[c].eval(drive[c].clamp(0.0, 1.0));
+        }
+        out
+    }
+
+    fn measure(&self, index: u32, ramp_samples: usize) -> DisplayMeasurement {
+        let mut ramps: [Vec<(f64, Xyz)>; 3] = [vec![], vec![], vec![]];
+        for c in 0..3 {
+            let mut rel: Vec<(f64, f64)> = Vec::new();
+            while rel.len() < ramp_samples {
+                let d = suggest_next_drive(&rel).unwrap();
+                rel.push((d, self.curves[c].eval(d)));
+                let mut drive = [0.0; 3];
+                drive[c] = d;
+                ramps[c].push((d, self.show(drive)));
+            }
+        }
+        let mut primaries = [Xyz::default(); 3];
+        for c in 0..3 {
+            let mut drive = [0.0; 3];
+            drive[c] = 1.0;
+            primaries[c] = self.show(drive);
+        }
+        DisplayMeasurement {
+            key: key(index),
+            bit_depth: 10,
+            black: self.black,
+            primaries,
+            white: Some(self.show([1.0; 3])),
+            ramps,
+            readings: (2 + 3 + 3 * ramp_samples) as u32,
+            instrument: "analytic model".into(),
+        }
+    }
+}
+
+fn key(i: u32) -> DisplayKey {
+    DisplayKey {
+        wall: "model".into(),
+        display: i,
+        tile_col: i,
+        tile_row: 0,
+        eye: Eye::Mono,
+    }
+}
+
+fn options(mode: BlackMode, headroom: f64) -> SolveOptions {
+    SolveOptions {
+        white: WhiteTarget::Cct(6500.0),
+        headroom,
+        black_mode: mode,
+        out_of_gamut: OutOfGamut::Clip,
+        lut_entries: 4096,
+        max_additivity_error: 0.02,
+    }
+}
+
+/// Three different projectors: gamuts, luminances, gammas and blacks all differ.
+fn wall(curves: [[Curve; 3]; 3]) -> Vec<Model> {
+    vec![
+        Model::from_xy(
+            [
+                (0.640, 0.330, 60.0),
+                (0.300, 0.600, 190.0),
+                (0.150, 0.060, 20.0),
+            ],
+            (0.30, 0.31, 0.40),
+            curves[0],
+        ),
+        Model::from_xy(
+            [
+                (0.660, 0.320, 45.0),
+                (0.280, 0.640, 260.0),
+                (0.145, 0.052, 14.0),
+            ],
+            (0.27, 0.25, 0.55),
+            curves[1],
+        ),
+        Model::from_xy(
+            [
+                (0.620, 0.345, 80.0),
+                (0.310, 0.590, 150.0),
+                (0.155, 0.070, 25.0),
+            ],
+            (0.33, 0.36, 0.25),
+            curves[2],
+        ),
+    ]
+}
+
+/// The post pass of profiles/src/profile.rs, written out here: lin = M·xyz + offset,
+/// clamp, then the inverse LUT.
+fn post_pass(p: &DisplayProfile, xyz: Xyz) -> ([f64; 3], [f64; 3]) {
+    let v = [xyz.x, xyz.y, xyz.z];
+    let mut lin = [0.0; 3];
+    let mut drive = [0.0; 3];
+    for c in 0..3 {
+        lin[c] = (0..3).map(|k| p.xyz_to_drive[c][k] * v[k]).sum::<f64>() + p.drive_offset[c];
+        drive[c] = f64::from(p.curves[c].drive_for(lin[c].clamp(0.0, 1.0) as f32));
+    }
+    (lin, drive)
+}
+
+/// XYZ inputs spread over the common gamut: common RGB in {0.1, 0.4, 0.7, 1.0}³.
+fn targets(sol: &WallSolution) -> Vec<Xyz> {
+    let unit = |xy: [f64; 2]| {
+        let v = Xyz::from_xy_luminance(xy[0], xy[1], 1.0);
+        Vector3::new(v.x, v.y, v.z)
+    };
+    let c = Matrix3::from_columns(&sol.common_primaries_xy.map(unit));
+    let w = sol.white_xyz_cd_m2;
+    let s = c.try_inverse().unwrap() * Vector3::new(w.x, w.y, w.z);
+    let levels = [0.1, 0.4, 0.7, 1.0];
+    let mut out = Vec::new();
+    for r in levels {
+        for g in levels {
+            for b in levels {
+                let v = c * Vector3::new(r * s[0], g * s[1], b * s[2]);
+                out.push(Xyz::new(v[0], v[1], v[2]));
+            }
+        }
+    }
+    out
+}
+
+fn check_usage(sol: &WallSolution, headroom: f64) {
+    let mut max = 0.0_f64;
+    for p in &sol.profiles {
+        for u in p.channel_usage {
+            assert!((-1e-12..=headroom + 1e-12).contains(&u), "usage {u}");
+            max = max.max(u);
+        }
+    }
+    assert!(
+        (max - headroom).abs() < 1e-12,
+        "max usage {max} vs headroom {headroom}"
+    );
+    let (d, c) = sol.limiting;
+    assert!((sol.profiles[d].channel_usage[c] - headroom).abs() < 1e-12);
+}
+
+fn max_delta_e(models: &[Model], sol: &WallSolution, mode: BlackMode) -> f64 {
+    let mut worst = 0.0_f64;
+    let white = sol.white_xyz_cd_m2;
+    for (m, p) in models.iter().zip(&sol.profiles) {
+        for t in targets(sol) {
+            let (lin, drive) = post_pass(p, t);
+            assert!(
+                lin.iter().all(|l| (-1e-9..=1.0 + 1e-9).contains(l)),
+                "{lin:?}"
+            );
+            let shown = m.show(drive);
+            let expected = match mode {
+                BlackMode::Individual => t,
+                BlackMode::Common => t + sol.common_black_xyz_cd_m2,
+                BlackMode::Ignore => t + m.black,
+            };
+            worst = worst.max(delta_e2000_xyz(expected, shown, white));
+        }
+    }
+    worst
+}
+
+#[test]
+fn profiles_invert_the_model_in_every_black_mode() {
+    let curves = [
+        [Curve::Power(2.2), Curve::Power(2.4), Curve::Power(2.0)],
+        [Curve::Power(2.6), Curve::Power(2.1), Curve::Power(2.3)],
+        [Curve::Power(1.8), Curve::Power(2.5), Curve::Power(2.2)],
+    ];
+    let models = wall(curves);
+    let meas: Vec<DisplayMeasurement> = models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| m.measure(i as u32, 5))
+        .collect();
+    for (mode, headroom) in [
+        (BlackMode::Individual, 1.0),
+        (BlackMode::Common, 1.0),
+        (BlackMode::Ignore, 1.0),
+        (BlackMode::Individual, 0.9),
+    ] {
+        let sol = solve_wall(&meas, &options(mode, headroom)).unwrap();
+        check_usage(&sol, headroom);
+        let de = max_delta_e(&models, &sol, mode);
+        let w = sol.white_xyz_cd_m2;
+        println!(
+            "{mode:?} headroom {headroom}: white {:.2} cd/m², limited by display {} channel {}, max ΔE2000 over 64 colours × 3 displays = {de:.4}",
+            w.y, sol.limiting.0, sol.limiting.1
+        );
+        assert!(de < 0.05, "{mode:?}: ΔE2000 {de}");
+        let xy = w.xy().unwrap();
+        let target = cct_to_xy(6500.0).unwrap();
+        assert!((xy[0] - target[0]).abs() < 1e-12 && (xy[1] - target[1]).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn s_curves_from_ten_adaptive_samples() {
+    let s = [Curve::S(7.0), Curve::S(6.0), Curve::S(8.0)];
+    let models = wall([
+        s,
+        [Curve::S(5.5); 3],
+        [Curve::S(7.5), Curve::Power(2.2), Curve::S(6.5)],
+    ]);
+    for n in [6, 8, 10, 14] {
+        let meas: Vec<DisplayMeasurement> = models
+            .iter()
+            .enumerate()
+            .map(|(i, m)| m.measure(i as u32, n))
+            .collect();
+        let sol = solve_wall(&meas, &options(BlackMode::Individual, 1.0)).unwrap();
+        let de = max_delta_e(&models, &sol, BlackMode::Individual);
+        println!(
+            "S-curves, {n} ramp samples per channel ({} readings per display): max ΔE2000 {de:.3}",
+            meas[0].readings
+        );
+        if n >= 10 {
+            assert!(de < 0.5, "{n} samples: {de}");
+        }
+    }
+}
+
+#[test]
+fn common_black_is_equal_on_all_displays_and_minimal() {
+    let models = wall([[Curve::Power(2.2); 3]; 3]);
+    let meas: Vec<DisplayMeasurement> = models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| m.measure(i as u32, 4))
+        .collect();
+    let sol = solve_wall(&meas, &options(BlackMode::Common, 1.0)).unwrap();
+    let cb = sol.common_black_xyz_cd_m2;
+    let mut worst_lut = 0.0_f64;
+    for (m, p) in models.iter().zip(&sol.profiles) {
+        let (lin, drive) = post_pass(p, Xyz::default());
+        assert!(lin.iter().all(|l| *l >= -1e-12));
+        // Linear light: black_i + P_i·lin is the common black exactly.
+        let linear = m.black + m.p[0] * lin[0] + m.p[1] * lin[1] + m.p[2] * lin[2];
+        assert!(
+            (linear - cb).to_array().iter().all(|d| d.abs() < 1e-9),
+            "{linear:?} vs {cb:?}"
+        );
+        assert_eq!(p.shown_black_xyz_cd_m2, cb.to_array());
+        // Through the inverse LUT (linear interpolation, uniform in intensity) the
+        // error is bounded by one LUT step of each channel's full output.
+        let shown = m.show(drive);
+        let step: f64 =
+            (0..3).map(|c| m.p[c].y).sum::<f64>() / (p.curves[0].inverse_lut.len() - 1) as f64;
+        assert!((shown.y - cb.y).abs() <= step, "{shown:?} vs {cb:?}");
+        worst_lut = worst_lut.max((shown.y - cb.y).abs());
+    }
+    println!("common black through the 4096-entry LUTs: max |ΔY| {worst_lut:.4} cd/m²");
+    // Minimal: no feasible black with lower luminance among 20000 random candidates
+    // around it (feasible = every display shows it with non-negative channels).
+    let feasible = |c: Vector3<f64>| {
+        models.iter().all(|m| {
+            let p = Matrix3::from_columns(&m.p.map(|v| Vector3::new(v.x, v.y, v.z)));
+            let r = p.try_inverse().unwrap() * (c - Vector3::new(m.black.x, m.black.y, m.black.z));
+            r.iter().all(|v| *v >= 0.0)
+        })
+    };
+    let c0 = Vector3::new(cb.x, cb.y, cb.z);
+    assert!(feasible(c0 + Vector3::from_element(1e-9)));
+    let mut state: u64 = 7;
+    let mut rnd = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    };
+    let mut found_lower = 0;
+    for _ in 0..20000 {
+        let c = c0 + Vector3::new(rnd(), rnd(), rnd()) * 0.3;
+        if feasible(c) && c[1] < c0[1] - 1e-9 {
+            found_lower += 1;
+        }
+    }
+    let blacks: Vec<f64> = models.iter().map(|m| m.black.y).collect();
+    println!(
+        "common black Y {:.4} cd/m² (display blacks {blacks:?})",
+        cb.y
+    );
+    assert_eq!(found_lower, 0);
+    assert!(cb.y >= blacks.iter().cloned().fold(0.0, f64::max) - 1e-12);
+}
+
+#[test]
+fn green_only_ten_percent_usable_works_and_is_reported() {
+    let mut models = wall([[Curve::Power(2.2); 3]; 3]);
+    // Right-eye Infitec projector: green far too strong relative to the others.
+    models[1].p[1] = models[1].p[1] * 6.0;
+    let meas: Vec<DisplayMeasurement> = models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| m.measure(i as u32, 4))
+        .collect();
+    let sol = solve_wall(&meas, &options(BlackMode::Individual, 1.0)).unwrap();
+    let g = sol.profiles[1].channel_usage[1];
+    println!(
+        "display 1 green usage {:.1} %; warnings: {:?}",
+        100.0 * g,
+        sol.warnings
+    );
+    assert!(g > 0.05 && g < 0.12, "{g}");
+    assert!(
+        sol.warnings
+            .iter()
+            .any(|w| w.contains("display 1") && w.contains("green"))
+    );
+    check_usage(&sol, 1.0);
+    assert!(max_delta_e(&models, &sol, BlackMode::Individual) < 0.05);
+}
+
+#[test]
+fn black_above_the_white_is_a_typed_error_naming_the_display() {
+    let mut models = wall([[Curve::Power(2.2); 3]; 3]);
+    // Display 0 is very dim (white ≈ 7 cd/m²), display 2 has a 12 cd/m² black.
+    for c in 0..3 {
+        models[0].p[c] = models[0].p[c] * 0.025;
+    }
+    models[2].black = Xyz::from_xy_luminance(0.31, 0.33, 12.0);
+    let meas: Vec<DisplayMeasurement> = models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| m.measure(i as u32, 4))
+        .collect();
+    let err = solve_wall(&meas, &options(BlackMode::Individual, 1.0)).unwrap_err();
+    let msg = err.to_string();
+    println!("individual: {msg}");
+    assert!(matches!(err, CalibError::UnreachableWhite { .. }));
+    assert!(msg.contains("display 2") && msg.contains("12.000"), "{msg}");
+    let err = solve_wall(&meas, &options(BlackMode::Common, 1.0)).unwrap_err();
+    println!("common: {err}");
+    assert!(matches!(err, CalibError::UnreachableWhite { .. }));
+    assert!(err.to_string().contains("display 0"));
+    // Ignoring black still works.
+    assert!(solve_wall(&meas, &options(BlackMode::Ignore, 1.0)).is_ok());
+}
+
+#[test]
+fn nearly_identical_displays_work() {
+    let models = wall([[Curve::Power(2.2); 3]; 3]);
+    let mut twin = models[0].clone();
+    twin.p[0] = twin.p[0] * (1.0 + 1e-9);
+    twin.p[2].x += 1e-9;
+    let pair = vec![models[0].clone(), twin, models[0].clone()];
+    let meas: Vec<DisplayMeasurement> = pair
+        .iter()
+        .enumerate()
+        .map(|(i, m)| m.measure(i as u32, 4))
+        .collect();
+    let sol = solve_wall(&meas, &options(BlackMode::Common, 1.0)).unwrap();
+    check_usage(&sol, 1.0);
+    for c in 0..3 {
+        let own = models[0].p[c].xy().unwrap();
+        let g = sol.common_primaries_xy[c];
+        assert!((own[0] - g[0]).abs() < 1e-6 && (own[1] - g[1]).abs() < 1e-6);
+    }
+    assert!(max_delta_e(&pair, &sol, BlackMode::Common) < 0.05);
+}
+
+#[test]
+fn collinear_primaries_are_an_error_naming_the_display() {
+    let mut models = wall([[Curve::Power(2.2); 3]; 3]);
+    // Display 2's blue sits on the line between its red and green.
+    models[2].p[2] = (models[2].p[0] + models[2].p[1]) * 0.1;
+    let meas: Vec<DisplayMeasurement> = models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| m.measure(i as u32, 4))
+        .collect();
+    let err = solve_wall(&meas, &options(BlackMode::Individual, 1.0)).unwrap_err();
+    println!("{err}");
+    assert!(matches!(err, CalibError::DegeneratePrimaries { .. }));
+    assert!(err.to_string().contains("display 2"));
+}
+
+#[test]
+fn noisy_non_monotone_ramp_gives_a_valid_profile() {
+    let models = wall([[Curve::Power(2.2); 3]; 3]);
+    let mut meas: Vec<DisplayMeasurement> = models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| m.measure(i as u32, 8))
+        .collect();
+    // Swap two neighbouring readings of display 1's red ramp and add 3 % noise.
+    let ramp = &mut meas[1].ramps[0];
+    ramp.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (a, b) = (ramp[3].1, ramp[4].1);
+    ramp[3].1 = b * 1.03;
+    ramp[4].1 = a * 0.97;
+    let sol = solve_wall(&meas, &options(BlackMode::Individual, 1.0)).unwrap();
+    let lut = &sol.profiles[1].curves[0].inverse_lut;
+    assert!(lut.windows(2).all(|w| w[1] >= w[0]));
+    sol.profiles[1].validate().unwrap();
+}
+
+#[test]
+fn nan_and_negative_readings_are_errors() {
+    let models = wall([[Curve::Power(2.2); 3]; 3]);
+    let base: Vec<DisplayMeasurement> = models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| m.measure(i as u32, 4))
+        .collect();
+    let mut m = base.clone();
+    m[1].ramps[2][1].1.y = f64::NAN;
+    let err = solve_wall(&m, &options(BlackMode::Individual, 1.0)).unwrap_err();
+    assert!(
+        matches!(err, CalibError::NonFinite { .. }) && err.to_string().contains("display 1"),
+        "{err}"
+    );
+    let mut m = base.clone();
+    m[0].black.z = -0.01;
+    let err = solve_wall(&m, &options(BlackMode::Individual, 1.0)).unwrap_err();
+    assert!(
+        matches!(err, CalibError::Negative { .. }) && err.to_string().contains("display 0"),
+        "{err}"
+    );
+    let mut m = base.clone();
+    m[2].primaries[1].x = f64::INFINITY;
+    assert!(matches!(
+        solve_wall(&m, &options(BlackMode::Individual, 1.0)),
+        Err(CalibError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        solve_wall(&[], &options(BlackMode::Individual, 1.0)),
+        Err(CalibError::InvalidOption { .. })
+    ));
+    assert!(matches!(
+        solve_wall(&base, &options(BlackMode::Individual, 1.2)),
+        Err(CalibError::InvalidOption { .. })
+    ));
+}
+
+#[test]
+fn white_targets_and_additivity() {
+    let models = wall([[Curve::Power(2.2); 3]; 3]);
+    let mut meas: Vec<DisplayMeasurement> = models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| m.measure(i as u32, 4))
+        .collect();
+    let mut o = options(BlackMode::Individual, 1.0);
+    o.white = WhiteTarget::NativeOf(2);
+    let sol = solve_wall(&meas, &o).unwrap();
+    let native = (models[2].p[0] + models[2].p[1] + models[2].p[2])
+        .xy()
+        .unwrap();
+    let got = sol.white_xyz_cd_m2.xy().unwrap();
+    assert!((native[0] - got[0]).abs() < 1e-12 && (native[1] - got[1]).abs() < 1e-12);
+    o.white = WhiteTarget::NativeOf(7);
+    assert!(matches!(
+        solve_wall(&meas, &o),
+        Err(CalibError::InvalidOption { .. })
+    ));
+    o.white = WhiteTarget::Xy([0.291, 0.300]);
+    let sol = solve_wall(&meas, &o).unwrap();
+    let got = sol.white_xyz_cd_m2.xy().unwrap();
+    assert!((got[0] - 0.291).abs() < 1e-12 && (got[1] - 0.300).abs() < 1e-12);
+    assert_eq!(
+        sol.profiles[0]
+            .measurement
+            .additivity_error
+            .map(|e| e < 1e-12),
+        Some(true)
+    );
+    // A DLP-like white segment: W 10 % brighter than R+G+B.
+    let w = meas[0].white.unwrap();
+    meas[0].white = Some(w + (w - meas[0].black) * 0.1);
+    let sol = solve_wall(&meas, &o).unwrap();
+    let e = sol.profiles[0].measurement.additivity_error.unwrap();
+    let expected = ((w - meas[0].black) * 0.1)
+        .to_array()
+        .iter()
+        .map(|v| v * v)
+        .sum::<f64>()
+        .sqrt()
+        / meas[0].white.unwrap().y;
+    assert!((e - expected).abs() < 1e-12, "{e} vs {expected}");
+    assert!(
+        sol.warnings
+            .iter()
+            .any(|w| w.contains("additivity") && w.contains("display 0"))
+    );
+}
