@@ -21,7 +21,7 @@ pub use progressive::{ProgressiveOptions, solve_progressive};
 pub use reference::solve_dense_reference;
 
 pub use solution::{Patch, Solution, SolveStats};
-pub use visibility::{NoOccluders, SceneOccluders, Visibility};
+pub use visibility::{BvhOccluders, NoOccluders, SceneOccluders, Visibility};
 
 use crate::scene::Scene;
 

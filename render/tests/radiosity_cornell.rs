@@ -84,3 +84,30 @@ fn both_solvers_agree_with_the_dense_reference() {
     assert!(wall_mean("red_wall", 0) > 2.0 * wall_mean("red_wall", 2));
     assert!(wall_mean("green_wall", 1) > wall_mean("green_wall", 0));
 }
+
+#[test]
+fn bvh_and_brute_force_visibility_agree() {
+    use lumiwall_render::radiosity::{BvhOccluders, Visibility};
+    use lumiwall_render::scene::V3;
+    let scene = cornell();
+    let brute = SceneOccluders::new(&scene);
+    let bvh = BvhOccluders::new(&scene);
+    // segments from floor points to ceiling points, some passing through the blocks
+    let mut differ = 0;
+    let mut blocked = 0;
+    for i in 0..20 {
+        for j in 0..20 {
+            let a = V3::new(0.02 + 0.026 * i as f64, 1e-4, 0.03 + 0.025 * j as f64);
+            let b = V3::new(0.5 - 0.024 * j as f64, 0.5487, 0.05 + 0.024 * i as f64);
+            let x = brute.occluded(&a, &b, [usize::MAX; 2]);
+            let y = bvh.occluded(&a, &b, [usize::MAX; 2]);
+            differ += usize::from(x != y);
+            blocked += usize::from(x);
+        }
+    }
+    assert!(
+        blocked > 20,
+        "the blocks must shadow some segments ({blocked})"
+    );
+    assert_eq!(differ, 0);
+}

@@ -171,3 +171,41 @@ pub fn point_in_convex(verts: &[V3], normal: &V3, p: &V3) -> bool {
         e.cross(&(p - verts[i])).dot(normal) >= 0.0
     })
 }
+
+/// Shadow rays through the `mesh::Bvh` of the scene's triangles (quads split), with the
+/// same conservative classification as [`SceneOccluders`] (which is linear in the
+/// number of polygons per query; a BVH shaft query would remove that).
+#[derive(Debug)]
+pub struct BvhOccluders {
+    bvh: crate::mesh::Bvh,
+    cull: SceneOccluders,
+}
+
+impl BvhOccluders {
+    /// Builds the BVH over every polygon of the scene.
+    pub fn new(scene: &Scene) -> Self {
+        let mut tris = Vec::new();
+        for p in &scene.polygons {
+            for k in 1..p.vertices.len().saturating_sub(1) {
+                let t = [p.vertices[0], p.vertices[k], p.vertices[k + 1]];
+                tris.push(t.map(|v| [v.x, v.y, v.z]));
+            }
+        }
+        Self {
+            bvh: crate::mesh::Bvh::build(&tris),
+            cull: SceneOccluders::new(scene),
+        }
+    }
+}
+
+impl Visibility for BvhOccluders {
+    fn may_occlude(&self, a: &[V3], a_poly: usize, b: &[V3], b_poly: usize) -> bool {
+        self.cull.may_occlude(a, a_poly, b, b_poly)
+    }
+
+    /// The end polygons are excluded by the BVH's relative end margin (1e-6 of the
+    /// segment), not by index.
+    fn occluded(&self, a: &V3, b: &V3, _skip: [usize; 2]) -> bool {
+        self.bvh.occluded([a.x, a.y, a.z], [b.x, b.y, b.z])
+    }
+}
