@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
 use crate::colorimetry::cct_to_xy;
-use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall};
+use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall, fuse_with_white};
 use crate::measure::{
     MeasureError, MeasureOptions, MeasuredDisplay, Progress, RampFocus, Rig, display_key,
     luminance_only, measure_display, white_capacity,
@@ -355,7 +355,11 @@ pub fn finish(
     let inputs: Vec<_> = measured
         .iter()
         .map(|m| match &correction {
-            Some(c) => corrected_measurement(&m.measurement, c.xy_offset),
+            Some(c) => corrected_measurement(
+                &m.measurement,
+                c.xy_offset,
+                f64::from(opts.measure.primary_repeats()),
+            ),
             None => m.measurement.clone(),
         })
         .collect();
@@ -404,11 +408,27 @@ pub fn finish(
     })
 }
 
-/// A measurement with every reading corrected by the meter's xy offset (ramps keep
-/// their luminance and take the corrected channel colour).
-pub fn corrected_measurement(m: &DisplayMeasurement, offset: [f64; 2]) -> DisplayMeasurement {
+/// Largest additivity residual (χ², 3 degrees of freedom, ≈ 5σ) that
+/// [`fuse_with_white`] attributes to meter noise; above it the display is treated as
+/// non-additive and left to the solve's additivity warning.
+pub const MAX_FUSION_CHI2: f64 = 25.0;
+
+/// A measurement with every reading corrected by the meter's xy offset, the primaries
+/// fused with the white reading ([`fuse_with_white`]), and the ramps keeping their
+/// luminance with the corrected channel colour.
+pub fn corrected_measurement(
+    m: &DisplayMeasurement,
+    offset: [f64; 2],
+    primary_repeats: f64,
+) -> DisplayMeasurement {
     let black = correct(m.black, offset);
-    let primaries = m.primaries.map(|p| correct(p, offset));
+    let mut primaries = m.primaries.map(|p| correct(p, offset));
+    let white = m.white.map(|w| correct(w, offset));
+    if let Some(fused) =
+        white.and_then(|w| fuse_with_white(black, &primaries, w, primary_repeats, MAX_FUSION_CHI2))
+    {
+        primaries = fused;
+    }
     let mut ramps = m.ramps.clone();
     for (c, ramp) in ramps.iter_mut().enumerate() {
         for s in ramp.iter_mut() {
@@ -418,7 +438,7 @@ pub fn corrected_measurement(m: &DisplayMeasurement, offset: [f64; 2]) -> Displa
     DisplayMeasurement {
         black,
         primaries,
-        white: m.white.map(|w| correct(w, offset)),
+        white,
         ramps,
         ..m.clone()
     }

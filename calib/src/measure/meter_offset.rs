@@ -74,6 +74,73 @@ pub fn estimate_offset(
     Some((d, before, after))
 }
 
+/// Variance of the X, Y, Z of a reading from a chromaticity noise `sigma_xy` (each of
+/// x, y) and a relative luminance noise `sigma_y_rel`, averaged over `n` readings.
+fn reading_variance(r: Xyz, n: f64, sigma_xy: f64, sigma_y_rel: f64) -> [f64; 3] {
+    let s = r.x + r.y + r.z;
+    let Some([x, y]) = r.xy() else {
+        return [0.0; 3];
+    };
+    // X = xS, Z = (1 − x − y)S with S = Y/y: ∂X/∂x = S, ∂X/∂y = −X/y,
+    // ∂Z/∂x = −S, ∂Z/∂y = −(1 − x)·S/y.
+    let sx2 = sigma_xy * sigma_xy;
+    let ly = (sigma_y_rel * r.y).powi(2);
+    [
+        (sx2 * (s * s + (r.x / y).powi(2)) + ly * (x / y).powi(2)) / n,
+        ly / n,
+        (sx2 * (s * s + ((1.0 - x) * s / y).powi(2)) + ly * ((1.0 - x - y) / y).powi(2)) / n,
+    ]
+}
+
+/// Fuses the primaries with the white reading under additivity
+/// (`W = R + G + B − 2·K`): per XYZ component, the additivity residual is shared among
+/// the four readings in proportion to their variances (weighted least squares with the
+/// constraint). A very saturated primary (Infitec blue) has a large variance in Z and
+/// takes most of it, so its Z comes from the bright, unsaturated white instead of its
+/// own noisy chromaticity. `repeats` is the number of readings averaged per primary.
+/// Returns `None` (no change) when the residual is not explained by meter noise
+/// (χ² above `max_chi2`): then the display is not additive and the solve should warn.
+pub fn fuse_with_white(
+    black: Xyz,
+    primaries: &[Xyz; 3],
+    white: Xyz,
+    repeats: f64,
+    max_chi2: f64,
+) -> Option<[Xyz; 3]> {
+    // CS-100A class repeatability; only the ratios between readings matter for the
+    // fusion, the absolute level only for the consistency test.
+    let (sxy, sy) = (0.001, 0.002);
+    let sum = primaries[0] + primaries[1] + primaries[2] - black * 2.0;
+    let res = (white - sum).to_array();
+    let vp: Vec<[f64; 3]> = primaries
+        .iter()
+        .map(|p| reading_variance(*p, repeats.max(1.0), sxy, sy))
+        .collect();
+    let vw = reading_variance(white, 1.0, sxy, sy);
+    let total: [f64; 3] = std::array::from_fn(|j| vp[0][j] + vp[1][j] + vp[2][j] + vw[j]);
+    // Consistency: is the residual explained by meter noise? (χ² with 3 degrees of
+    // freedom; a DLP white segment adds far more.)
+    let chi2: f64 = (0..3)
+        .filter(|j| total[*j] > 0.0)
+        .map(|j| res[j] * res[j] / total[j])
+        .sum();
+    if !chi2.is_finite() || chi2 > max_chi2 {
+        return None;
+    }
+    let mut out = *primaries;
+    for j in 0..3 {
+        if total[j] <= 0.0 {
+            continue;
+        }
+        for c in 0..3 {
+            let mut a = out[c].to_array();
+            a[j] += res[j] * vp[c][j] / total[j];
+            out[c] = Xyz::from_array(a);
+        }
+    }
+    Some(out)
+}
+
 /// The chromaticity correction of one instrument, as saved beside the profiles.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MeterCorrection {
@@ -161,6 +228,25 @@ impl Colorimeter for CorrectedMeter<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A noisy saturated blue (Z 5 % high) is pulled back by an exact white.
+    #[test]
+    fn fusion_fixes_a_noisy_saturated_primary() {
+        let k = Xyz::new(0.3, 0.3, 0.5);
+        let p = [
+            Xyz::new(110.0, 55.0, 0.8),
+            Xyz::new(8.0, 47.0, 4.5),
+            Xyz::new(46.0, 6.0, 246.0),
+        ];
+        let w = p[0] + p[1] + p[2] - k * 2.0;
+        let mut noisy = p;
+        noisy[2] = Xyz::new(46.0 * 1.05, 6.0, 246.0 * 1.05);
+        let fused = fuse_with_white(k, &noisy, w, 3.0, 1e4).expect("fused");
+        assert!((fused[2].z - 246.0).abs() < 0.5, "{:?}", fused[2]);
+        assert!((fused[0].z - 0.8).abs() < 0.05 && (fused[1].x - 8.0).abs() < 0.5);
+        // A white far off (non-additive display) is left alone.
+        assert!(fuse_with_white(k, &p, w * 1.3, 3.0, 25.0).is_none());
+    }
 
     /// Readings of an additive display through a meter with a known xy offset: the
     /// estimate recovers the offset.
