@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use lumiwall_devices::sim::VirtualWall;
-use lumiwall_devices::{DisplayId, Xyz};
+use lumiwall_devices::{DeviceError, DisplayId, Xyz};
 
 fn fixture(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -342,4 +342,16 @@ fn bad_inputs_are_typed_errors() {
     let text = std::fs::read_to_string(fixture("mono-2x1.toml")).unwrap();
     assert!(VirtualWall::from_toml_str(&text.replace("bit_depth = 8", "bit_depth = 40")).is_err());
     assert!(VirtualWall::from_toml_str(&format!("{text}\n[[override]]\ndisplay = 7\n")).is_err());
+    let pair = std::fs::read_to_string(fixture("infitec-pair.toml")).unwrap();
+    let bad = pair.replace(
+        "lo_nm = 538.0, hi_nm = 566.0",
+        "lo_nm = 566.0, hi_nm = 538.0",
+    );
+    assert!(
+        matches!(VirtualWall::from_toml_str(&bad), Err(DeviceError::Config(m)) if m.contains("infitec.right"))
+    );
+    let bad = pair.replace("specular_width_deg = 12.0", "specular_width_deg = -1.0");
+    assert!(VirtualWall::from_toml_str(&bad).is_err());
+    let missing = VirtualWall::from_toml_file(&fixture("no-such-wall.toml")).unwrap_err();
+    assert!(matches!(missing, DeviceError::Io { .. }), "{missing}");
 }

@@ -100,6 +100,37 @@ pub fn validate_spec(p: &ProjectorSpec) -> Result<(), DeviceError> {
     for v in p.black.leak.iter().chain([&p.black.stray]) {
         check_finite_nonneg("projector.black leak/stray", *v)?;
     }
+    for v in p.falloff.vignetting {
+        check_finite_nonneg("projector.falloff.vignetting", v)?;
+    }
+    check_finite_nonneg("projector.falloff.hotspot_gain", p.falloff.hotspot_gain)?;
+    check_finite_nonneg("projector.ageing.fast_loss", p.ageing.fast_loss)?;
+    check_finite_nonneg(
+        "projector.ageing.slow_loss_per_1000h",
+        p.ageing.slow_loss_per_1000h,
+    )?;
+    if !(p.ageing.fast_hours.is_finite() && p.ageing.fast_hours > 0.0) {
+        return Err(DeviceError::Config(
+            "projector.ageing.fast_hours must be > 0".into(),
+        ));
+    }
+    if !(p.warmup.minutes.is_finite() && p.warmup.minutes > 0.0) {
+        return Err(DeviceError::Config(
+            "projector.warmup.minutes must be > 0".into(),
+        ));
+    }
+    for v in p.warmup.deficit.iter().chain(&p.ageing.channel_weight) {
+        check_finite_nonneg("projector.warmup.deficit / ageing.channel_weight", *v)?;
+    }
+    for v in p
+        .channel_gain
+        .mono
+        .iter()
+        .chain(&p.channel_gain.left)
+        .chain(&p.channel_gain.right)
+    {
+        check_finite_nonneg("projector.channel_gain", *v)?;
+    }
     Ok(())
 }
 

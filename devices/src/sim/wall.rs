@@ -10,6 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use super::meter::{MeterModel, SimMeter};
 use super::projector::{Conditions, SimDisplay, validate_spec};
 use super::screen;
+use super::spectra::Band;
 use super::wall_file::{Stereo, WallFile};
 use crate::{DeviceError, DisplayId, DisplayInfo, Eye, MeterPositioner, PatternOutput, Xyz};
 
@@ -53,6 +54,100 @@ impl WallState {
     }
 }
 
+fn finite_at_least(what: &str, v: f64, min: f64) -> Result<(), DeviceError> {
+    if v.is_finite() && v >= min {
+        Ok(())
+    } else {
+        Err(DeviceError::Config(format!(
+            "{what} must be a finite number >= {min}, got {v}"
+        )))
+    }
+}
+
+/// Checks the parts of a wall file outside the projector model.
+fn validate_optics(file: &WallFile) -> Result<(), DeviceError> {
+    finite_at_least(
+        "clock.minutes_since_switch_on",
+        file.clock.minutes_since_switch_on,
+        0.0,
+    )?;
+    finite_at_least("screen.diffuse_gain", file.screen.diffuse_gain, 0.0)?;
+    finite_at_least("screen.specular_gain", file.screen.specular_gain, 0.0)?;
+    finite_at_least(
+        "screen.specular_width_deg",
+        file.screen.specular_width_deg,
+        1e-3,
+    )?;
+    finite_at_least("meter.distance_m", file.meter.distance_m, 1e-3)?;
+    if let Some(p) = file.meter.position_m
+        && (p.iter().any(|v| !v.is_finite()) || p[2] <= 0.0)
+    {
+        return Err(DeviceError::Config(format!(
+            "meter.position_m {p:?} must be finite and in front of the screen (z > 0)"
+        )));
+    }
+    if file.stereo == Stereo::Infitec {
+        for (eye, comb) in [("left", &file.infitec.left), ("right", &file.infitec.right)] {
+            if comb.bands.is_empty() {
+                return Err(DeviceError::Config(format!(
+                    "infitec.{eye} has no pass bands"
+                )));
+            }
+            finite_at_least(&format!("infitec.{eye}.leak"), comb.leak, 0.0)?;
+            for b in &comb.bands {
+                check_band(&format!("infitec.{eye} band"), b)?;
+            }
+        }
+    }
+    let panel = file.projector.panel;
+    for (name, b) in ["red", "green", "blue"].iter().zip(panel.bands()) {
+        check_band(&format!("projector.panel.{name}"), &b)?;
+    }
+    let s = &file.scatter;
+    for (what, v) in [
+        ("scatter.lamp_power_rel", s.lamp_power_rel),
+        ("scatter.panel_shift_nm", s.panel_shift_nm),
+        ("scatter.comb_shift_nm", s.comb_shift_nm),
+        ("scatter.channel_gain_rel", s.channel_gain_rel),
+        ("scatter.gamma", s.gamma),
+        ("scatter.curve_shape", s.curve_shape),
+        ("scatter.vignetting_rel", s.vignetting_rel),
+        ("scatter.hotspot_offset", s.hotspot_offset),
+    ] {
+        finite_at_least(what, v, 0.0)?;
+    }
+    if s.lamp_power_rel >= 1.0 || s.channel_gain_rel >= 1.0 {
+        return Err(DeviceError::Config(
+            "scatter.lamp_power_rel and scatter.channel_gain_rel must be < 1".into(),
+        ));
+    }
+    if let Some([lo, hi]) = s.lamp_hours
+        && !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi >= lo)
+    {
+        return Err(DeviceError::Config(format!(
+            "scatter.lamp_hours [{lo}, {hi}] must satisfy 0 <= min <= max"
+        )));
+    }
+    Ok(())
+}
+
+fn check_band(what: &str, b: &Band) -> Result<(), DeviceError> {
+    let ok = b.lo_nm.is_finite()
+        && b.hi_nm.is_finite()
+        && b.lo_nm < b.hi_nm
+        && b.edge_nm.is_finite()
+        && b.edge_nm > 0.0
+        && (0.0..=1.0).contains(&b.peak)
+        && (0.0..=b.peak).contains(&b.floor);
+    if ok {
+        Ok(())
+    } else {
+        Err(DeviceError::Config(format!(
+            "{what} {b:?} needs lo_nm < hi_nm, edge_nm > 0 and 0 <= floor <= peak <= 1"
+        )))
+    }
+}
+
 fn check_drive(drive: [f64; 3]) -> Result<(), DeviceError> {
     if drive
         .iter()
@@ -91,8 +186,12 @@ impl VirtualWall {
             device: format!("wall file {}", path.display()),
             source,
         })?;
-        Self::from_toml_str(&text)
-            .map_err(|e| DeviceError::Config(format!("wall file {}: {e}", path.display())))
+        Self::from_toml_str(&text).map_err(|e| match e {
+            DeviceError::Config(msg) => {
+                DeviceError::Config(format!("wall file {}: {msg}", path.display()))
+            }
+            other => other,
+        })
     }
 
     /// Builds a wall from TOML text.
@@ -105,6 +204,7 @@ impl VirtualWall {
     /// Builds a wall from a parsed wall file.
     pub fn from_wall_file(file: WallFile) -> Result<Self, DeviceError> {
         validate_spec(&file.projector)?;
+        validate_optics(&file)?;
         let t = &file.tiles;
         if t.cols == 0 || t.rows == 0 || t.cols * t.rows > 4096 {
             return Err(DeviceError::Config(format!(
