@@ -82,3 +82,61 @@ fn narrow_band_sits_on_the_spectral_locus() {
         "{locus:?}"
     );
 }
+
+/// The whole spectral chain (UHP lamp, panel band-passes, Infitec combs, black leak,
+/// observer integration) against an independent numpy + colour-science
+/// implementation of the formulas in `fixtures/spectra/README.md`:
+/// `python3 fixtures/spectra/crosscheck.py` (colour-science 0.4.7) printed these.
+#[test]
+fn projector_primaries_match_colour_science() {
+    use lumiwall_devices::DisplayId;
+    use lumiwall_devices::sim::VirtualWall;
+    let w = VirtualWall::from_toml_str(
+        r#"
+name = "crosscheck"
+seed = 1
+stereo = "infitec"
+[tiles]
+cols = 1
+rows = 1
+[clock]
+minutes_since_switch_on = 100000.0
+[projector]
+[projector.lamp]
+kind = "uhp"
+white_cd_m2 = 1000.0
+"#,
+    )
+    .unwrap();
+    let expected: [[[f64; 3]; 4]; 2] = [
+        [
+            [0.179764, 0.08667, 0.499949],
+            [90.81969, 45.38710, 0.03510946],
+            [5.360408, 37.746647, 3.287115],
+            [34.879618, 5.186077, 189.604302],
+        ],
+        [
+            [0.188799, 0.275895, 0.411572],
+            [23.00059, 9.478575, 0.002092415],
+            [126.158598, 291.165637, 3.38849],
+            [24.346027, 10.538726, 155.853449],
+        ],
+    ];
+    for (eye, exp) in expected.iter().enumerate() {
+        let p = w.true_primaries(DisplayId(eye as u32)).unwrap();
+        let got = [
+            p.black,
+            p.red - p.black,
+            p.green - p.black,
+            p.blue - p.black,
+        ];
+        for (g, e) in got.iter().zip(exp) {
+            for (a, b) in g.to_array().iter().zip(e) {
+                assert!(
+                    (a - b).abs() <= 2e-5 * b.abs() + 1e-8,
+                    "eye {eye}: {a} vs {b}"
+                );
+            }
+        }
+    }
+}
