@@ -17,6 +17,9 @@ fn fixture(name: &str) -> String {
     std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"))
 }
 
+/// An intensity law I(C°, γ°) used to write test files.
+type Law = Box<dyn Fn(f64, f64) -> f64>;
+
 fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs().max(1e-300)
 }
@@ -284,7 +287,7 @@ fn random_dirs(n: usize, seed: u64) -> Vec<[f64; 3]> {
 fn ies_symmetries_agree_with_full_table() {
     let v: Vec<f64> = (0..=36).map(|k| k as f64 * 5.0).collect();
     let full_h: Vec<f64> = (0..=24).map(|k| k as f64 * 15.0).collect();
-    let cases: [(&str, Vec<f64>, Box<dyn Fn(f64, f64) -> f64>); 4] = [
+    let cases: [(&str, Vec<f64>, Law); 4] = [
         (
             "quadrant",
             (0..=6).map(|k| k as f64 * 15.0).collect(),
@@ -383,7 +386,7 @@ fn ldt_text(isym: u32, f: &dyn Fn(f64, f64) -> f64) -> String {
 
 #[test]
 fn eulumdat_symmetries_agree_with_full_table() {
-    let cases: [(u32, Box<dyn Fn(f64, f64) -> f64>); 4] = [
+    let cases: [(u32, Law); 4] = [
         (1, Box::new(|_c: f64, g: f64| 200.0 + g)),
         (
             2,
