@@ -207,7 +207,7 @@ fn prepare(m: &DisplayMeasurement, lut_entries: Option<usize>) -> Result<Prepare
     let black = vec3(m.black);
     let cols: Vec<Vector3<f64>> = m.primaries.iter().map(|p| vec3(*p) - black).collect();
     for (c, col) in cols.iter().enumerate() {
-        if !(col[1] > 0.0) || col.iter().sum::<f64>() <= 0.0 {
+        if col[1].is_nan() || col[1] <= 0.0 || col.iter().sum::<f64>() <= 0.0 {
             return Err(CalibError::NoSignal {
                 what: format!("{name}: {} channel", CHANNELS[c]),
                 full_drive: col[1],
@@ -540,7 +540,7 @@ fn white_from_prepared(
         let a = p.p_inv * w_unit;
         let name = measurements[i].key.to_string();
         for c in 0..3 {
-            if !(a[c] > 0.0) {
+            if a[c].is_nan() || a[c] <= 0.0 {
                 return Err(CalibError::UnreachableWhite {
                     display: name,
                     reason: format!(

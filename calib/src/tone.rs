@@ -253,7 +253,7 @@ pub fn fit_monotone_named(samples: &[(f64, f64)], what: &str) -> Result<Monotone
         });
     }
     let brightest = interior.iter().map(|m| m.1).fold(full, f64::max);
-    if !(full > 0.0) || !(brightest > 0.0) {
+    if full <= 0.0 || brightest <= 0.0 {
         return Err(CalibError::NoSignal {
             what: what.to_string(),
             full_drive: full,

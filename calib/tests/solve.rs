@@ -55,8 +55,8 @@ impl Model {
 
     fn show(&self, drive: [f64; 3]) -> Xyz {
         let mut out = self.black;
-        for c in 0..3 {
-            out = out + self.p[c] * self.curves[c].eval(drive[c].clamp(0.0, 1.0));
+        for ((p, curve), d) in self.p.iter().zip(&self.curves).zip(drive) {
+            out = out + *p * curve.eval(d.clamp(0.0, 1.0));
         }
         out
     }
