@@ -4,6 +4,10 @@
 //! Run: `cargo bench -p lumiwall-render --bench bvh`. Criterion prints the time per
 //! batch of rays for both; the speed-up is the ratio of the per-ray times (the brute
 //! force batch is 20× smaller, see the group names).
+//!
+//! Measured 2026-11-22 on the shared 2-core build machine (other builds running):
+//! 101 184 triangles, build 132 ms; closest hit 2.6 µs/ray with the BVH vs
+//! 2.09 ms/ray brute force (≈ 800×); shadow ray 2.1 µs/segment.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lumiwall_render::mesh::{Bvh, generate_scale_scene};

@@ -597,3 +597,25 @@ fn sky_patches_cover_the_hemisphere_and_reproduce_illuminance() {
         .sum();
     assert!(rel(e, 7.0 / 9.0 * PI) < 0.005, "{e}");
 }
+
+#[test]
+fn frame_from_axis_keeps_c0_and_is_right_handed() {
+    // a wall washer aimed horizontally along +y with C0 along world +z
+    let f = LightFrame::from_axis([0.0, 0.3, 1.0], [0.0, 2.0, 0.0]);
+    let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|k| (a[k] - b[k]).abs() < 1e-12);
+    assert!(
+        close(f.to_local([0.0, 1.0, 0.0]), [0.0, 0.0, -1.0]),
+        "axis is local −z"
+    );
+    assert!(close(f.x, [0.0, 0.0, 1.0]));
+    // right-handed: x × y = z
+    let c = [
+        f.x[1] * f.y[2] - f.x[2] * f.y[1],
+        f.x[2] * f.y[0] - f.x[0] * f.y[2],
+        f.x[0] * f.y[1] - f.x[1] * f.y[0],
+    ];
+    assert!(close(c, f.z));
+    // round trip
+    let d = [0.3, -0.4, 0.5];
+    assert!(close(f.to_world(f.to_local(d)), d));
+}

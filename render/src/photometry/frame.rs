@@ -76,6 +76,31 @@ impl LightFrame {
         Self { x, y, z }
     }
 
+    /// A frame whose photometric axis (local −z, γ = 0°) points along `axis_world`
+    /// and whose C0° direction (local +x) is `c0_world` made orthogonal to the axis.
+    /// Use this to convert a frame given as "x, y, z = optical axis" (as in
+    /// `scene::LightKind::Goniometric`): `LightFrame::from_axis(x, z)`. Falls back
+    /// to [`LightFrame::aimed`] when `c0_world` is parallel to the axis or zero.
+    pub fn from_axis(c0_world: [f64; 3], axis_world: [f64; 3]) -> Self {
+        let Some(down) = normalize(axis_world) else {
+            return Self::identity();
+        };
+        let z = [-down[0], -down[1], -down[2]];
+        let d = dot(c0_world, z);
+        match normalize([
+            c0_world[0] - d * z[0],
+            c0_world[1] - d * z[1],
+            c0_world[2] - d * z[2],
+        ]) {
+            Some(x) => Self {
+                x,
+                y: cross(z, x),
+                z,
+            },
+            None => Self::aimed(axis_world),
+        }
+    }
+
     /// Expresses a world direction in the local frame.
     pub fn to_local(&self, dir_world: [f64; 3]) -> [f64; 3] {
         [
