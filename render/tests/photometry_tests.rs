@@ -619,3 +619,23 @@ fn frame_from_axis_keeps_c0_and_is_right_handed() {
     let d = [0.3, -0.4, 0.5];
     assert!(close(f.to_world(f.to_local(d)), d));
 }
+
+#[test]
+fn relative_photometry_scales_with_the_lamp_flux() {
+    let d = IntensityDistribution::from_ies_lm63(&fixture("downlight_bilateral.ies")).unwrap();
+    assert_eq!(d.rated_lamp_flux_lm(), Some(2262.7));
+    let dir0 = dir(30.0, 20.0);
+    let i0 = d.intensity_cd(dir0);
+    let f0 = d.total_flux_lm();
+    let d2 = d.with_lamp_flux_lm(2.0 * 2262.7).unwrap();
+    assert!(rel(d2.intensity_cd(dir0), 2.0 * i0) < 1e-12);
+    assert!(rel(d2.total_flux_lm(), 2.0 * f0) < 1e-12);
+    let l = IntensityDistribution::from_eulumdat(&fixture("wallwasher_sym2.ldt")).unwrap();
+    assert_eq!(l.rated_lamp_flux_lm(), Some(2000.0));
+    assert!(
+        IntensityDistribution::isotropic(1.0)
+            .with_lamp_flux_lm(100.0)
+            .is_err()
+    );
+    assert!(l.with_lamp_flux_lm(-1.0).is_err());
+}

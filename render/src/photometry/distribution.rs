@@ -302,6 +302,7 @@ pub struct IntensityDistribution {
     shape: Shape,
     scale: f64,
     declared_flux_lm: Option<f64>,
+    rated_lamp_flux_lm: Option<f64>,
     name: String,
 }
 
@@ -371,11 +372,13 @@ impl IntensityDistribution {
         table: GonioTable,
         name: String,
         declared_flux_lm: Option<f64>,
+        rated_lamp_flux_lm: Option<f64>,
     ) -> Self {
         Self {
             shape: Shape::Table(table),
             scale: 1.0,
             declared_flux_lm,
+            rated_lamp_flux_lm,
             name,
         }
     }
@@ -385,6 +388,7 @@ impl IntensityDistribution {
             shape,
             scale: 1.0,
             declared_flux_lm: None,
+            rated_lamp_flux_lm: None,
             name: name.into(),
         }
     }
@@ -505,6 +509,31 @@ impl IntensityDistribution {
     /// the first lamp set × light output ratio. Scaling does not change it.
     pub fn declared_flux_lm(&self) -> Option<f64> {
         self.declared_flux_lm
+    }
+
+    /// Rated lamp flux the file's intensities refer to (relative photometry), lm:
+    /// IES lamps × lumens per lamp, EULUMDAT first lamp set. `None` for absolute
+    /// photometry and analytic shapes.
+    pub fn rated_lamp_flux_lm(&self) -> Option<f64> {
+        self.rated_lamp_flux_lm
+    }
+
+    /// The same luminaire fitted with lamps of total flux `lamp_flux_lm` instead of
+    /// the rated one: intensities scale by `lamp_flux_lm / rated`. Errors for
+    /// distributions without a rated lamp flux and for a non-positive target.
+    pub fn with_lamp_flux_lm(self, lamp_flux_lm: f64) -> Result<Self, PhotometryError> {
+        let Some(rated) = self.rated_lamp_flux_lm.filter(|r| *r > 0.0) else {
+            return Err(PhotometryError::InvalidParameter(format!(
+                "'{}' has no rated lamp flux (absolute photometry or analytic); use scaled_to_flux instead",
+                self.name
+            )));
+        };
+        if !(lamp_flux_lm.is_finite() && lamp_flux_lm > 0.0) {
+            return Err(PhotometryError::InvalidParameter(format!(
+                "lamp flux must be a positive number of lm, got {lamp_flux_lm}"
+            )));
+        }
+        Ok(self.scaled_by(lamp_flux_lm / rated))
     }
 
     /// What kind of distribution this is.

@@ -232,5 +232,6 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
         table,
         name.to_string(),
         declared,
+        Some(lamp_flux),
     ))
 }

@@ -248,7 +248,9 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
             message: e.to_string(),
         })?;
     let declared = (lumens_per_lamp > 0.0 && n_lamps > 0.0).then_some(lumens_per_lamp * n_lamps);
-    Ok(IntensityDistribution::from_table(table, name, declared))
+    Ok(IntensityDistribution::from_table(
+        table, name, declared, declared,
+    ))
 }
 
 fn positive_or_one(v: f64) -> f64 {
