@@ -291,19 +291,38 @@ impl Tree {
         (hk, h, src_err)
     }
 
-    /// Estimated mean absolute deviation (lux) of the leaf's true illuminance from its
-    /// constant value: the spread of the summed point irradiances at the 2×2 Gauss
-    /// points (for a linear variation this matches the L1 error of the constant basis)
-    /// plus a quarter of the transfer bound of non-uniform sources (the mean absolute
-    /// deviation of a value spread uniformly between the extrema). Illuminance rather
-    /// than radiosity, so that dark receivers (ρ → 0) are still resolved for lighting
-    /// work; the radiosity error is at most ρ times this.
+    /// Reflectance below which a receiver's error is measured as illuminance (lux)
+    /// instead of radiosity: black measuring planes must still be resolved.
+    const DARK: f64 = 0.05;
+
+    /// Weight of the illuminance deviation in a leaf's error: ρ (radiosity error) for
+    /// visible surfaces, 1 (illuminance error) for dark ones.
+    fn error_weight(ctx: &Ctx, polygon: u32) -> f64 {
+        let rho = ctx.rho[polygon as usize][1];
+        if rho > Self::DARK { rho } else { 1.0 }
+    }
+
+    /// The quantity a leaf's error is relative to: its radiosity Y (lm/m²), or its
+    /// illuminance (lux) on dark surfaces.
+    fn error_norm(&self, ctx: &Ctx, r: usize) -> f64 {
+        if ctx.rho[self.elems[r].polygon as usize][1] > Self::DARK {
+            self.b[r][1]
+        } else {
+            self.h[r][1]
+        }
+    }
+
+    /// Estimated mean absolute deviation of the leaf's true radiosity (or, on dark
+    /// surfaces, illuminance) from its constant value: ρ times the spread of the summed
+    /// point irradiances at the 2×2 Gauss points (for a linear variation this matches
+    /// the L1 error of the constant basis) plus a quarter of the transfer bound of
+    /// non-uniform sources (the mean absolute deviation of a value spread uniformly
+    /// between the extrema).
     fn leaf_error(&self, ctx: &Ctx, r: usize) -> f64 {
         let (hk, _, src_err) = self.leaf_estimate(ctx, r);
         let mean = hk.iter().sum::<f64>() / 4.0;
         let mad = hk.iter().map(|v| (v - mean).abs()).sum::<f64>() / 4.0;
-        let _ = ctx;
-        mad + 0.25 * src_err
+        Self::error_weight(ctx, self.elems[r].polygon) * (mad + 0.25 * src_err)
     }
 
     fn pull(&mut self) {
@@ -389,13 +408,17 @@ fn refine(
                             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
                                 (a.min(v as f64), b.max(v as f64))
                             });
-                    let e = tree.b[s][1] * (hi - lo) + l.ff * (tree.bmax[s] - tree.bmin[s]);
+                    let e = Tree::error_weight(ctx, tree.elems[ri].polygon)
+                        * (tree.b[s][1] * (hi - lo) + l.ff * (tree.bmax[s] - tree.bmin[s]));
                     if e > worst.0 {
                         worst = (e, i);
                     }
                     if e > 0.25 * eps {
                         let can_s = splittable(s);
-                        if can_s && (tree.elems[s].area > tree.elems[ri].area || !can_r) {
+                        // sources are split only while larger than the receiver, which
+                        // keeps the links per leaf bounded once receivers reach the
+                        // minimum size
+                        if can_s && tree.elems[s].area > tree.elems[ri].area {
                             srcs.push(i);
                         } else if can_r {
                             split_r = true;
@@ -702,8 +725,8 @@ pub fn solve_hierarchical(
         }
         tree.pull();
 
-        let hsum = weighted(&tree, &leaves, |e| tree.h[e][1]).max(1e-300);
-        let disc = weighted(&tree, &leaves, |e| tree.leaf_error(&ctx, e)) / hsum;
+        let nsum = weighted(&tree, &leaves, |e| tree.error_norm(&ctx, e)).max(1e-300);
+        let disc = weighted(&tree, &leaves, |e| tree.leaf_error(&ctx, e)) / nsum;
         curve.points.push(CurvePoint {
             time_s: start.elapsed().as_secs_f64(),
             iteration: iterations,
@@ -738,8 +761,8 @@ pub fn solve_hierarchical(
                 stop = StopReason::RefinementExhausted;
                 break;
             }
-            let h_avg = hsum / total_area;
-            eps = (0.5 * eps).min(target * h_avg);
+            let n_avg = nsum / total_area;
+            eps = (0.5 * eps).min(target * n_avg);
             needs_refine = true;
         }
     }
