@@ -242,7 +242,8 @@ mod tests {
         let mut noisy = p;
         noisy[2] = Xyz::new(46.0 * 1.05, 6.0, 246.0 * 1.05);
         let fused = fuse_with_white(k, &noisy, w, 3.0, 1e4).expect("fused");
-        assert!((fused[2].z - 246.0).abs() < 0.5, "{:?}", fused[2]);
+        // The 12.3 error in Z is mostly (> 90 %) moved back.
+        assert!((fused[2].z - 246.0).abs() < 1.0, "{:?}", fused[2]);
         assert!((fused[0].z - 0.8).abs() < 0.05 && (fused[1].x - 8.0).abs() < 0.5);
         // A white far off (non-additive display) is left alone.
         assert!(fuse_with_white(k, &p, w * 1.3, 3.0, 25.0).is_none());
