@@ -12,6 +12,10 @@
 //! <out>/meter-correction.json            the meter's estimated xy offset (if used)
 //! ```
 //!
+//! Before the solve, the meter's systematic y offset is estimated from the displays'
+//! additivity and removed, and each display's primaries are fused with its white
+//! reading ([`crate::measure::meter_offset`]); the saved run keeps the raw readings.
+//!
 //! Every file is written atomically (temporary file + rename,
 //! [`lumiwall_profiles::write_atomic`]); a display that fails mid-measurement leaves
 //! nothing behind, and profiles are only written after all displays are measured and

@@ -9,9 +9,14 @@
 //!
 //! Reading budget: a full calibration of one display costs at most
 //! [`MeasureOptions::budget`] meter readings (default 40). Black, the three primaries
-//! and white take five (more if black is below the meter's reliable limit and is
-//! averaged); the rest is spent on ramp samples, placed one at a time per channel where
-//! the current tone-curve estimate is least certain ([`crate::tone::suggest_next_drive`]).
+//! and white take five or more (black is averaged when below the meter's reliable
+//! limit, the primaries are averaged up to 4× for larger budgets); the rest is spent on
+//! ramp samples, placed one at a time per channel where the current tone-curve
+//! estimate is least certain ([`crate::tone::suggest_next_drive`]), with the intensity
+//! axis rescaled to the part of the channel the wall white is expected to use
+//! ([`RampFocus`]; e.g. only ~15 % of an unadjusted Infitec right-eye green). In
+//! `Common` black mode one extra sample per channel lands in the toe near the black
+//! level.
 //!
 //! Low light: below the meter's reliable limit (about 1 cd/m² for a CS-100A class
 //! meter) a single reading is noisy. [`LowLight::Average`] repeats such readings and
