@@ -23,9 +23,11 @@
 //! averages them in xyY (each repeat counts against the budget); [`LowLight::Skip`]
 //! drops ramp samples below the limit (black and the primaries are always averaged,
 //! never skipped). A reading the meter refuses as too dark costs a reading and is left
-//! out of the average. Of a ramp sample below the limit only the luminance is used: its
-//! chromaticity is replaced by the channel's ([`luminance_only`]), because a meter's
-//! xy noise grows as 1/Y in the dark while a channel's chromaticity does not change.
+//! out of the average. Of every ramp sample only the luminance is used: its
+//! chromaticity is replaced by the channel's full-drive one ([`luminance_only`]),
+//! because a channel's chromaticity above black does not change with drive while a
+//! meter's xy noise grows as 1/Y in the dark and turns into large relative errors in X
+//! and Z for saturated colours. The raw readings stay in the [`MeasureLog`].
 
 // Errors carry the display, the reading and the device error for the technician and
 // occur at most once per run, so their size does not matter.
