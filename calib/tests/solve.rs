@@ -543,3 +543,48 @@ fn white_targets_and_additivity() {
             .any(|w| w.contains("additivity") && w.contains("display 0"))
     );
 }
+
+#[test]
+fn heyewall_sized_wall_of_96_displays() {
+    // 48 projectors × 2 eyes: per-display variations of primaries, blacks and gammas.
+    let base = wall([[Curve::Power(2.2); 3]; 3]);
+    let mut state: u64 = 99;
+    let mut rnd = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    };
+    let mut models = Vec::new();
+    for i in 0..96 {
+        let mut m = base[i % 3].clone();
+        for c in 0..3 {
+            let xy = m.p[c].xy().unwrap();
+            let l = m.p[c].y * (1.0 + 0.3 * rnd());
+            m.p[c] = Xyz::from_xy_luminance(xy[0] + 0.01 * rnd(), xy[1] + 0.01 * rnd(), l);
+            m.curves[c] = Curve::Power(2.2 + 0.3 * rnd());
+        }
+        m.black = m.black * (1.0 + 0.5 * rnd());
+        models.push(m);
+    }
+    let meas: Vec<DisplayMeasurement> = models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| m.measure(i as u32, 5))
+        .collect();
+    let mut o = options(BlackMode::Common, 0.9);
+    o.lut_entries = 1024;
+    o.white = WhiteTarget::Xy([0.291, 0.300]);
+    let t0 = std::time::Instant::now();
+    let sol = solve_wall(&meas, &o).unwrap();
+    println!(
+        "96 displays solved in {:.2} s: white {:.1} cd/m², common black {:.3} cd/m², limited by display {} channel {}",
+        t0.elapsed().as_secs_f64(),
+        sol.white_xyz_cd_m2.y,
+        sol.common_black_xyz_cd_m2.y,
+        sol.limiting.0,
+        sol.limiting.1
+    );
+    assert_eq!(sol.profiles.len(), 96);
+    check_usage(&sol, 0.9);
+}
