@@ -16,10 +16,12 @@ mod eulumdat;
 mod frame;
 mod ies;
 mod illuminance;
+mod scene_light;
 mod sky;
 
 pub use distribution::{IntensityDistribution, PhotometricSource};
 pub use error::PhotometryError;
 pub use frame::LightFrame;
 pub use illuminance::{PointLight, direct_illuminance_lux};
+pub use scene_light::to_scene_light;
 pub use sky::{CLEAR_SKY_EXTINCTION, SOLAR_ILLUMINANCE_CONSTANT_LUX, Sky, SkyModel, SkyPatch, Sun};

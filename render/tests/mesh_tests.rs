@@ -484,3 +484,38 @@ fn scale_scene_is_clean_input_for_the_solver() {
         assert!(hit.front_face, "floors face up into the rooms");
     }
 }
+
+#[test]
+fn scale_scene_converts_to_the_solver_scene_with_the_same_lights() {
+    use lumiwall_render::photometry::PointLight;
+    use lumiwall_render::scene::V3;
+    let g = generate_scale_scene(5_000, 9, 3);
+    let s = g.to_scene();
+    assert_eq!(s.polygons.len(), g.mesh.triangles.len());
+    assert_eq!(s.lights.len(), 9);
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    for (gl, sl) in g.lights.iter().zip(&s.lights) {
+        let p = PointLight {
+            distribution: gl.distribution.clone(),
+            position: gl.position,
+            frame: gl.frame,
+        };
+        assert!((sl.total_flux_lm() - gl.distribution.total_flux_lm()).abs() < 1e-9);
+        for _ in 0..200 {
+            let d: [f64; 3] = [
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            ];
+            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let d = [d[0] / n, d[1] / n, d[2] / n];
+            let want = p.intensity_towards_cd(d);
+            let got = sl.intensity_cd(&V3::new(d[0], d[1], d[2]));
+            assert!(
+                (got - want).abs() <= 1e-9 * want.max(1.0),
+                "{:?}: {got} vs {want}",
+                gl.kind
+            );
+        }
+    }
+}

@@ -54,6 +54,68 @@ pub struct GeneratedScene {
     pub lights: Vec<GeneratedLight>,
 }
 
+impl GeneratedScene {
+    /// The scene as the solver's [`crate::scene::Scene`]: one triangle polygon per
+    /// triangle (object name = material name), grey materials with the generated Y
+    /// reflectance, every light as a goniometric `scene::Light` (see
+    /// [`crate::photometry::to_scene_light`]), no camera, no sky.
+    pub fn to_scene(&self) -> crate::scene::Scene {
+        use crate::scene::{Material, Polygon, Scene, V3};
+        let materials = self
+            .materials
+            .iter()
+            .map(|m| Material {
+                name: m.name.clone(),
+                reflectance_xyz: [m.reflectance; 3],
+                emission_cd_m2: [0.0; 3],
+            })
+            .collect();
+        let polygons = self
+            .mesh
+            .triangles
+            .iter()
+            .zip(&self.triangle_material)
+            .filter_map(|(t, &m)| {
+                let p = |i: u32| {
+                    self.mesh
+                        .positions
+                        .get(i as usize)
+                        .map(|q| V3::new(q[0], q[1], q[2]))
+                };
+                Some(Polygon {
+                    vertices: vec![p(t[0])?, p(t[1])?, p(t[2])?],
+                    material: m as usize,
+                    object: self
+                        .materials
+                        .get(m as usize)
+                        .map(|x| x.name.clone())
+                        .unwrap_or_default(),
+                })
+            })
+            .collect();
+        let lights = self
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(i, l)| {
+                crate::photometry::to_scene_light(
+                    &format!("{:?} {i}", l.kind),
+                    &l.distribution,
+                    l.position,
+                    &l.frame,
+                )
+            })
+            .collect();
+        Scene {
+            polygons,
+            materials,
+            lights,
+            camera: None,
+            sky: None,
+        }
+    }
+}
+
 /// Generates a scene with at least `triangles` triangles and exactly `lights`
 /// lights (cycling point, spot, goniometric), deterministic for a given `seed`.
 ///
