@@ -138,7 +138,7 @@ pub struct Station {
     /// The meter as the calibration sees it.
     pub meter: Box<dyn Colorimeter + Send>,
     /// The emulator serving the pty, if any (stopped on drop of the station).
-    pub _emulator: Option<Emulator>,
+    _emulator: Option<Emulator>,
 }
 
 impl Station {
@@ -476,6 +476,9 @@ pub struct BenchArgs {
     /// Black handling.
     #[arg(long, value_enum, default_value = "individual")]
     pub black: BlackArg,
+    /// Largest channel usage for the common white.
+    #[arg(long, default_value_t = 1.0)]
+    pub headroom: f64,
     /// Verify patches per display.
     #[arg(long, default_value_t = 20)]
     pub patches: usize,
@@ -487,7 +490,7 @@ pub struct BenchArgs {
 /// Runs `lumiwall bench readings`: for each budget and each meter error model,
 /// commissions the wall and verifies it with the same meter model.
 pub fn bench(args: BenchArgs) -> Result<(), CliError> {
-    let solve = solve_options(args.white, args.black, args.headroom())?;
+    let solve = solve_options(args.white, args.black, args.headroom)?;
     println!(
         "verify accuracy against meter readings per display ({}; {} patches per display)",
         args.wall.display(),
@@ -544,10 +547,4 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         }
     }
     Ok(())
-}
-
-impl BenchArgs {
-    fn headroom(&self) -> f64 {
-        1.0
-    }
 }
