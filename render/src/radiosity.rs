@@ -4,6 +4,10 @@
 //!
 //! Quantities: radiosity B is luminous exitance in lm/m² carried as XYZ (Y photometric);
 //! for Lambertian surfaces the luminance is B/π in cd/m². Area emitters emit π·L.
+//!
+//! Not built yet: clustering (initial linking is quadratic in input polygons, so the
+//! ≥100k-triangle scale scene is out of reach), the linear basis, sky/sun emitters
+//! (the scene hook exists), Hahn's simultaneous progressive refinement.
 
 pub mod curve;
 pub mod form_factor;

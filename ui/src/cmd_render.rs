@@ -296,11 +296,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         }
     }
     if let Some(p) = &args.plot {
-        let pairs: Vec<_> = curves
-            .iter()
-            .zip([[200, 30, 30], [30, 30, 200]])
-            .map(|(c, col)| (c, col))
-            .collect();
+        let pairs: Vec<_> = curves.iter().zip([[200, 30, 30], [30, 30, 200]]).collect();
         plot_curves_png(&pairs, Some(0.01), p).map_err(|e| CliError::failure(e.to_string()))?;
         println!(
             "wrote {} (red: hierarchical, blue: progressive)",

@@ -400,7 +400,6 @@ fn refine(
                 let can_r = splittable(ri);
                 let mut split_r = false;
                 let mut srcs = Vec::new();
-                let mut worst = (0.0f64, usize::MAX);
                 for (i, l) in tree.links[ri].iter().enumerate() {
                     let s = l.src as usize;
                     let (lo, hi) =
@@ -410,9 +409,6 @@ fn refine(
                             });
                     let e = Tree::error_weight(ctx, tree.elems[ri].polygon)
                         * (tree.b[s][1] * (hi - lo) + l.ff * (tree.bmax[s] - tree.bmin[s]));
-                    if e > worst.0 {
-                        worst = (e, i);
-                    }
                     if e > 0.25 * eps {
                         let can_s = splittable(s);
                         // sources are split only while larger than the receiver, which
@@ -429,7 +425,6 @@ fn refine(
                     // the error comes from many small contributions or from lights
                     split_r = true;
                 }
-                let _ = worst;
                 if split_r || !srcs.is_empty() {
                     Some((r, split_r, srcs))
                 } else {
