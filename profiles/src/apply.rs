@@ -166,6 +166,9 @@ pub struct PreparedLut {
     pub slope: Vec<f32>,
     /// `len − 1` as f32: relative intensity → LUT position.
     pub scale: f32,
+    /// `[base, slope]` pairs (one cache line fetch per lookup on the CPU); `len − 1`
+    /// entries, the last pair covering the final segment.
+    pairs: Vec<[f32; 2]>,
 }
 
 impl PreparedLut {
@@ -176,25 +179,35 @@ impl PreparedLut {
             let next = if i + 1 < n { lut[i + 1] } else { lut[i] };
             slope.push(next - lut[i]);
         }
+        let pairs = (0..n.saturating_sub(1))
+            .map(|i| [lut[i], slope[i]])
+            .collect();
         PreparedLut {
             base: lut.to_vec(),
             slope,
             scale: n.saturating_sub(1) as f32,
+            pairs,
         }
+    }
+
+    /// The `[base, slope]` pairs of the `len − 1` segments.
+    pub fn pairs(&self) -> &[[f32; 2]] {
+        &self.pairs
     }
 
     /// Drive for a relative intensity in 0..=1; same arithmetic as
     /// [`ToneCurve::drive_for`](crate::ToneCurve::drive_for).
     #[inline(always)]
     pub fn drive_for(&self, a: f32) -> f32 {
-        let n = self.base.len();
-        if n < 2 {
+        let segments = self.pairs.len();
+        if segments == 0 {
             return self.base.first().copied().unwrap_or(0.0);
         }
         let t = a.clamp(0.0, 1.0) * self.scale;
-        let i = (t as usize).min(n - 2);
+        let i = (t as usize).min(segments - 1);
         let f = t - i as f32;
-        self.base[i] + self.slope[i] * f
+        let [base, slope] = self.pairs[i];
+        base + slope * f
     }
 }
 
@@ -525,14 +538,33 @@ pub fn quantise(drive: f32, max_code: u32, threshold: f32) -> u16 {
 /// same thresholds.
 #[inline(always)]
 pub fn dither_threshold(x: u32, y: u32) -> f32 {
+    BAYER16[((y & 15) * 16 + (x & 15)) as usize]
+}
+
+/// Bayer index (0..256) of `(x, y)` in the 16×16 matrix: bit pairs of `(x ^ y, y)`,
+/// least significant pair first into the most significant position.
+const fn bayer_index(x: u32, y: u32) -> u32 {
     let z = x ^ y;
     let mut v = 0u32;
-    for i in 0..4 {
+    let mut i = 0;
+    while i < 4 {
         let bit = ((z >> i) & 1) * 2 + ((y >> i) & 1);
         v |= bit << (2 * (3 - i));
+        i += 1;
     }
-    (v as f32 + 0.5) / 256.0
+    v
 }
+
+/// The 16×16 thresholds, row-major (`BAYER16[y * 16 + x]`).
+const BAYER16: [f32; 256] = {
+    let mut t = [0f32; 256];
+    let mut k = 0;
+    while k < 256 {
+        t[k] = (bayer_index(k as u32 % 16, k as u32 / 16) as f32 + 0.5) / 256.0;
+        k += 1;
+    }
+    t
+};
 
 #[cfg(test)]
 mod tests;

@@ -14,7 +14,7 @@ pub mod frame;
 pub mod gpu;
 pub mod io;
 
-pub use cpu::apply_cpu;
+pub use cpu::{apply_cpu, apply_cpu_into};
 pub use error::PostError;
 pub use frame::{CodeImage, FlagCounts, XyzFrame};
 #[cfg(feature = "gpu")]

@@ -1,5 +1,6 @@
 //! Image I/O of the post pass: EXR conventions and refusals, PNG code packing, sRGB
 //! input, tiles.
+#![allow(clippy::needless_range_loop)]
 
 use lumiwall_profiles::apply::decode_srgb;
 use lumiwall_profiles::apply::srgb::SRGB_PRIMARIES_XY;

@@ -6,6 +6,7 @@
 //! pass: matrix, black subtraction, LUT inversion and quantisation to the display's own
 //! bit depth. ΔE2000 is `lumiwall_calib::colorimetry`, checked here on Sharma et al.'s
 //! published pairs first.
+#![allow(clippy::needless_range_loop)]
 
 use std::collections::HashMap;
 use std::path::PathBuf;

@@ -11,7 +11,7 @@ use lumiwall_profiles::{
     BlackMode, DisplayKey, DisplayProfile, Eye, FlatField, OutOfGamut, ProfileError, ProfileSet,
 };
 use lumiwall_render::post::io::{ReadOptions, read_exr, read_png_srgb, write_png};
-use lumiwall_render::post::{CodeImage, PostError, XyzFrame, apply_cpu};
+use lumiwall_render::post::{CodeImage, PostError, XyzFrame, apply_cpu, apply_cpu_into};
 
 use crate::CliError;
 
@@ -117,7 +117,7 @@ fn parse_size(s: &str) -> Result<(u32, u32), CliError> {
 enum Engine {
     Cpu,
     #[cfg(feature = "gpu")]
-    Gpu(lumiwall_render::post::GpuPost),
+    Gpu(Box<lumiwall_render::post::GpuPost>),
 }
 
 impl Engine {
@@ -130,7 +130,7 @@ impl Engine {
             match lumiwall_render::post::GpuPost::new() {
                 Ok(g) => {
                     tracing::info!("post pass on GPU adapter {}", g.adapter_name());
-                    return Engine::Gpu(g);
+                    return Engine::Gpu(Box::new(g));
                 }
                 Err(e) => eprintln!("lumiwall: no GPU adapter, using the CPU path ({e})"),
             }
@@ -505,6 +505,14 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         })
         .collect();
     let frame = XyzFrame::new(w, h, pixels).map_err(post_err)?;
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!(
+        "machine load average (1/5/15 min): {}",
+        load.split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
     println!(
         "post pass on a {w}×{h} frame ({mp:.2} Mpx, XYZ f32 = {:.0} MB), best of {}, {} CPU threads",
         n as f64 * 12.0 / 1e6,
@@ -531,7 +539,32 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         );
     };
     row("memcpy of the XYZ frame (12 B/px, 1 thread)", t_copy);
-    for (flat, dither) in [(false, false), (true, false), (true, true)] {
+    // A smooth frame (gradients, as rendered images mostly are) next to the random one.
+    let smooth: Vec<[f32; 3]> = (0..n)
+        .map(|i| {
+            let (x, y) = (
+                (i % w as usize) as f32 / w as f32,
+                (i / w as usize) as f32 / h as f32,
+            );
+            let l = [x, y, 0.5 * (x + y)];
+            [0, 1, 2].map(|c| {
+                (p[0][c] as f32) * l[0] + (p[1][c] as f32) * l[1] + (p[2][c] as f32) * l[2]
+            })
+        })
+        .collect();
+    let smooth = XyzFrame::new(w, h, smooth).map_err(post_err)?;
+    let mut out = apply_cpu(
+        &PreparedProfile::new(&bench_profile(&d, false, 10)?, &ApplyOptions::default())
+            .map_err(|e| CliError::failure(e.to_string()))?,
+        &frame,
+    );
+    for (flat, dither, smooth_frame) in [
+        (false, false, false),
+        (true, false, false),
+        (true, true, false),
+        (false, false, true),
+        (true, true, true),
+    ] {
         let prof = bench_profile(&d, flat, 10)?;
         let pp = PreparedProfile::new(
             &prof,
@@ -541,12 +574,19 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             },
         )
         .map_err(|e| CliError::failure(e.to_string()))?;
+        let input = if smooth_frame { &smooth } else { &frame };
         let t = best_of(args.repeats, || {
-            std::hint::black_box(apply_cpu(&pp, &frame));
+            apply_cpu_into(&pp, input, &mut out);
+            std::hint::black_box(&out);
         });
         row(
             &format!(
-                "CPU reference, 10 bit{}{}",
+                "CPU, 10 bit, {}{}{}",
+                if smooth_frame {
+                    "smooth frame"
+                } else {
+                    "random frame"
+                },
                 if flat { ", flat field" } else { ", no texture" },
                 if dither { ", dither" } else { "" }
             ),

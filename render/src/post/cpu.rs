@@ -6,7 +6,9 @@
 //! bit-identical), the per-column texel indices and weights are computed once per frame,
 //! the LUT slopes are precomputed, and nothing is allocated per pixel.
 
-use lumiwall_profiles::apply::{PreparedProfile, lerp3, texel_axis};
+use lumiwall_profiles::apply::{
+    MAX_INPUT_CD_M2, PreparedProfile, dither_threshold, lerp3, texel_axis,
+};
 use rayon::prelude::*;
 
 use super::{CodeImage, FlagCounts, XyzFrame};
@@ -20,22 +22,204 @@ pub fn pixel_centre(i: u32, n: u32) -> f32 {
     (i as f32 + 0.5) / n as f32
 }
 
+/// Pixels per SIMD block.
+const BLOCK: usize = 16;
+
+/// One block of up to [`BLOCK`] pixels of row `y` starting at column `x0`, structure of
+/// arrays so that the matrix, range tests, LUT positions and quantisation vectorise.
+/// Pixels that are not plainly in range (NaN/Inf, huge, out of gamut or over range)
+/// take the scalar reference path. Every operation is the scalar reference's, in the
+/// same order, so the results are bit-identical (tested).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn block(
+    pp: &PreparedProfile,
+    xyz: &[[f32; 3]],
+    gain: Option<&[[f32; 3]; BLOCK]>,
+    x0: u32,
+    y: u32,
+    out: &mut [[u16; 3]],
+    flags: &mut [u8],
+    hist: &mut [u64; 16],
+) {
+    let n = xyz.len();
+    let mut a = [[0f32; BLOCK]; 3];
+    let mut slow = [false; BLOCK];
+    let m = pp.matrix;
+    let off = pp.offset;
+    for j in 0..BLOCK {
+        let p = if j < n { xyz[j] } else { [0.0; 3] };
+        let finite = (p[0].to_bits() & 0x7f80_0000 != 0x7f80_0000)
+            & (p[1].to_bits() & 0x7f80_0000 != 0x7f80_0000)
+            & (p[2].to_bits() & 0x7f80_0000 != 0x7f80_0000);
+        let big = p[0].abs().max(p[1].abs()).max(p[2].abs());
+        let mut v = [
+            m[0][0] * p[0] + m[0][1] * p[1] + m[0][2] * p[2],
+            m[1][0] * p[0] + m[1][1] * p[1] + m[1][2] * p[2],
+            m[2][0] * p[0] + m[2][1] * p[1] + m[2][2] * p[2],
+        ];
+        if let Some(g) = gain {
+            v = [v[0] / g[j][0], v[1] / g[j][1], v[2] / g[j][2]];
+        }
+        let mut inside = finite & (big <= MAX_INPUT_CD_M2);
+        for c in 0..3 {
+            let ac = v[c] + off[c];
+            a[c][j] = ac;
+            inside &= (0.0..=1.0).contains(&ac);
+        }
+        slow[j] = !inside;
+    }
+    let max = pp.max_code();
+    let maxf = max as f32;
+    let mut thr = [0.5f32; BLOCK];
+    if pp.dither {
+        for (j, t) in thr.iter_mut().enumerate() {
+            *t = dither_threshold(x0 + j as u32, y);
+        }
+    }
+    let mut codes = [[0u16; BLOCK]; 3];
+    for c in 0..3 {
+        let lut = &pp.luts[c];
+        let pairs = lut.pairs();
+        let last = pairs.len().saturating_sub(1) as i32;
+        let mut idx = [0i32; BLOCK];
+        let mut frac = [0f32; BLOCK];
+        for j in 0..BLOCK {
+            // t is in 0..=len−1 here, so the i32 conversion (vectorisable) equals the
+            // reference's usize one.
+            let t = a[c][j].clamp(0.0, 1.0) * lut.scale;
+            let i = (t as i32).min(last);
+            idx[j] = i;
+            frac[j] = t - i as f32;
+        }
+        let mut base = [0f32; BLOCK];
+        let mut slope = [0f32; BLOCK];
+        for j in 0..BLOCK {
+            if let Some(pr) = pairs.get(idx[j] as usize) {
+                base[j] = pr[0];
+                slope[j] = pr[1];
+            }
+        }
+        for j in 0..BLOCK {
+            let d = base[j] + slope[j] * frac[j];
+            // v ≥ 0 and < 2^17: i32 conversion equals the reference's u32 one.
+            let v = d * maxf + thr[j];
+            codes[c][j] = ((v as i32).max(0) as u32).min(max) as u16;
+        }
+    }
+    for j in 0..n {
+        if slow[j] || pp.luts[0].pairs().is_empty() {
+            let px = pp.apply_gain(xyz[j], gain.map(|g| g[j]));
+            out[j] = pp.quantise_pixel(px.drive, x0 + j as u32, y);
+            flags[j] = px.flags.0 as u8;
+            hist[(px.flags.0 & 15) as usize] += 1;
+        } else {
+            out[j] = [codes[0][j], codes[1][j], codes[2][j]];
+            flags[j] = 0;
+            hist[0] += 1;
+        }
+    }
+}
+
+/// One row through [`block`]; `gains` gives each pixel's flat-field gain, if any.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn row_kernel(
+    pp: &PreparedProfile,
+    irow: &[[f32; 3]],
+    orow: &mut [[u16; 3]],
+    frow: &mut [u8],
+    y: u32,
+    row_gain: &[[f32; 3]],
+    cols: &[(usize, usize, f32)],
+    hist: &mut [u64; 16],
+) {
+    let flat = pp.flat.is_some();
+    let mut g = [[1f32; 3]; BLOCK];
+    for (b, ((ib, ob), fb)) in irow
+        .chunks(BLOCK)
+        .zip(orow.chunks_mut(BLOCK))
+        .zip(frow.chunks_mut(BLOCK))
+        .enumerate()
+    {
+        let x0 = b * BLOCK;
+        if flat {
+            for (j, gj) in g.iter_mut().enumerate().take(ib.len()) {
+                let col = cols[x0 + j];
+                *gj = lerp3(row_gain[col.0], row_gain[col.1], col.2);
+            }
+            block(pp, ib, Some(&g), x0 as u32, y, ob, fb, hist);
+        } else {
+            block(pp, ib, None, x0 as u32, y, ob, fb, hist);
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+fn row_kernel_avx2(
+    pp: &PreparedProfile,
+    irow: &[[f32; 3]],
+    orow: &mut [[u16; 3]],
+    frow: &mut [u8],
+    y: u32,
+    row_gain: &[[f32; 3]],
+    cols: &[(usize, usize, f32)],
+    hist: &mut [u64; 16],
+) {
+    // Same code, compiled for 8-wide vectors (no FMA: results stay bit-identical).
+    row_kernel(pp, irow, orow, frow, y, row_gain, cols, hist)
+}
+
+/// Runs one row with the widest vector unit available.
+#[allow(clippy::too_many_arguments)]
+fn run_row(
+    pp: &PreparedProfile,
+    irow: &[[f32; 3]],
+    orow: &mut [[u16; 3]],
+    frow: &mut [u8],
+    y: u32,
+    row_gain: &[[f32; 3]],
+    cols: &[(usize, usize, f32)],
+    hist: &mut [u64; 16],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2 (checked at run time just above).
+        unsafe { row_kernel_avx2(pp, irow, orow, frow, y, row_gain, cols, hist) };
+        return;
+    }
+    row_kernel(pp, irow, orow, frow, y, row_gain, cols, hist)
+}
+
 /// Runs the post pass over a whole frame for one display.
 pub fn apply_cpu(pp: &PreparedProfile, frame: &XyzFrame) -> CodeImage {
+    let mut out = CodeImage {
+        width: 0,
+        height: 0,
+        bit_depth: pp.bit_depth,
+        codes: Vec::new(),
+        flags: Vec::new(),
+        counts: FlagCounts::default(),
+    };
+    apply_cpu_into(pp, frame, &mut out);
+    out
+}
+
+/// As [`apply_cpu`], writing into `out` and reusing its buffers (a renderer calls this
+/// once per frame without allocating).
+pub fn apply_cpu_into(pp: &PreparedProfile, frame: &XyzFrame, out: &mut CodeImage) {
     let w = frame.width as usize;
-    let h = frame.height as usize;
-    let n = w * h;
-    let mut codes = vec![[0u16; 3]; n];
-    let mut flags = vec![0u8; n];
-    if n == 0 {
-        return CodeImage {
-            width: frame.width,
-            height: frame.height,
-            bit_depth: pp.bit_depth,
-            codes,
-            flags,
-            counts: FlagCounts::default(),
-        };
+    let n = frame.pixels.len();
+    out.width = frame.width;
+    out.height = frame.height;
+    out.bit_depth = pp.bit_depth;
+    out.codes.resize(n, [0; 3]);
+    out.flags.resize(n, 0);
+    out.counts = FlagCounts::default();
+    if n == 0 || w == 0 {
+        return;
     }
     let rows_per_task = (PIXELS_PER_TASK / w).max(1);
     let chunk = rows_per_task * w;
@@ -46,13 +230,14 @@ pub fn apply_cpu(pp: &PreparedProfile, frame: &XyzFrame) -> CodeImage {
             .collect(),
         None => Vec::new(),
     };
-    let counts = codes
+    let hist = out
+        .codes
         .par_chunks_mut(chunk)
-        .zip(flags.par_chunks_mut(chunk))
+        .zip(out.flags.par_chunks_mut(chunk))
         .zip(frame.pixels.par_chunks(chunk))
         .enumerate()
         .map(|(task, ((out, fl), inp))| {
-            let mut counts = FlagCounts::default();
+            let mut hist = [0u64; 16];
             let mut row_gain: Vec<[f32; 3]> = Vec::new();
             let y_first = task * rows_per_task;
             for (r, ((orow, frow), irow)) in out
@@ -62,50 +247,26 @@ pub fn apply_cpu(pp: &PreparedProfile, frame: &XyzFrame) -> CodeImage {
                 .enumerate()
             {
                 let y = (y_first + r) as u32;
-                match &pp.flat {
-                    None => {
-                        for (x, ((o, f), xyz)) in
-                            orow.iter_mut().zip(frow.iter_mut()).zip(irow).enumerate()
-                        {
-                            let px = pp.apply_gain(*xyz, None);
-                            *o = pp.quantise_pixel(px.drive, x as u32, y);
-                            *f = px.flags.0 as u8;
-                            counts.add(px.flags);
-                        }
-                    }
-                    Some(ff) => {
-                        let (y0, y1, fy) = texel_axis(pixel_centre(y, frame.height), ff.height);
-                        let tw = ff.width as usize;
-                        row_gain.clear();
-                        row_gain.extend(
-                            (0..tw)
-                                .map(|tx| lerp3(ff.gain[y0 * tw + tx], ff.gain[y1 * tw + tx], fy)),
-                        );
-                        for (x, (((o, f), xyz), col)) in orow
-                            .iter_mut()
-                            .zip(frow.iter_mut())
-                            .zip(irow)
-                            .zip(&cols)
-                            .enumerate()
-                        {
-                            let g = lerp3(row_gain[col.0], row_gain[col.1], col.2);
-                            let px = pp.apply_gain(*xyz, Some(g));
-                            *o = pp.quantise_pixel(px.drive, x as u32, y);
-                            *f = px.flags.0 as u8;
-                            counts.add(px.flags);
-                        }
-                    }
+                if let Some(ff) = &pp.flat {
+                    let (y0, y1, fy) = texel_axis(pixel_centre(y, frame.height), ff.height);
+                    let tw = ff.width as usize;
+                    row_gain.clear();
+                    row_gain.extend(
+                        (0..tw).map(|tx| lerp3(ff.gain[y0 * tw + tx], ff.gain[y1 * tw + tx], fy)),
+                    );
                 }
+                run_row(pp, irow, orow, frow, y, &row_gain, &cols, &mut hist);
             }
-            counts
+            hist
         })
-        .reduce(FlagCounts::default, FlagCounts::merged);
-    CodeImage {
-        width: frame.width,
-        height: frame.height,
-        bit_depth: pp.bit_depth,
-        codes,
-        flags,
-        counts,
-    }
+        .reduce(
+            || [0u64; 16],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x += y;
+                }
+                a
+            },
+        );
+    out.counts.add_histogram(&hist);
 }

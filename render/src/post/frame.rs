@@ -81,6 +81,17 @@ impl FlagCounts {
         self.below_black += (b >> 3) & 1;
     }
 
+    /// Adds a histogram of flag bytes (`hist[f]` = pixels with flags `f`).
+    pub fn add_histogram(&mut self, hist: &[u64; 16]) {
+        for (f, n) in hist.iter().enumerate() {
+            let f = f as u64;
+            self.out_of_gamut += n * (f & 1);
+            self.over_range += n * ((f >> 1) & 1);
+            self.invalid += n * ((f >> 2) & 1);
+            self.below_black += n * ((f >> 3) & 1);
+        }
+    }
+
     /// Sum of two counts.
     pub fn merged(self, o: FlagCounts) -> FlagCounts {
         FlagCounts {
