@@ -16,7 +16,8 @@
 //!    drive whose intensity reaches `i/(n−1)` (flat regions map to their lowest drive).
 //!
 //! [`suggest_next_drive`] places ramp samples adaptively: it splits the ramp segment
-//! that is longest in the (drive, cube-root intensity) plane.
+//! that is longest in the (drive, cube-root intensity) plane, weighted up where the
+//! curve bends.
 
 use lumiwall_profiles::{MIN_LUT_ENTRIES, ToneCurve};
 
@@ -321,8 +322,9 @@ pub const MIN_DRIVE_STEP: f64 = 1.0 / 255.0;
 
 /// Next drive to measure on a ramp, given the samples so far `(drive, relative
 /// intensity)`: full drive first if it is missing, then the midpoint (in drive) of the
-/// segment that is longest in the plane of drive and cube-root intensity, i.e. where
-/// the ramp is least resolved perceptually. Drive 0 (black) is implicit. Returns
+/// segment with the largest score: its length in the plane of drive and cube-root
+/// intensity (where the ramp is least resolved perceptually) plus half its drive width
+/// times the largest slope change to a neighbouring segment (where the curve bends). Drive 0 (black) is implicit. Returns
 /// `None` once every segment is shorter than [`MIN_DRIVE_STEP`] in drive, or when a
 /// sample is not finite.
 pub fn suggest_next_drive(samples: &[(f64, f64)]) -> Option<f64> {
@@ -347,15 +349,29 @@ pub fn suggest_next_drive(samples: &[(f64, f64)]) -> Option<f64> {
             .map(|s| (s.0, (s.1 / scale).clamp(0.0, 1.0).cbrt())),
     );
     pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut best: Option<(f64, f64)> = None; // (length, midpoint)
-    for w in pts.windows(2) {
+    // Segment score: its length in the (drive, cube-root intensity) plane plus a
+    // curvature term (drive width × largest slope change to a neighbour), so that
+    // shoulders and toes where the curve bends get samples too.
+    let slopes: Vec<f64> = pts
+        .windows(2)
+        .map(|w| (w[1].1 - w[0].1) / (w[1].0 - w[0].0).max(SAME_DRIVE))
+        .collect();
+    let mut best: Option<(f64, f64)> = None; // (score, midpoint)
+    for (j, w) in pts.windows(2).enumerate() {
         let dd = w[1].0 - w[0].0;
         if dd < MIN_DRIVE_STEP {
             continue;
         }
         let len = dd.hypot(w[1].1 - w[0].1);
-        if best.is_none_or(|b| len > b.0) {
-            best = Some((len, 0.5 * (w[0].0 + w[1].0)));
+        let bend = [j.checked_sub(1), Some(j + 1)]
+            .into_iter()
+            .flatten()
+            .filter_map(|k| slopes.get(k))
+            .map(|m| (m - slopes[j]).abs())
+            .fold(0.0, f64::max);
+        let score = len + 0.5 * dd * bend;
+        if best.is_none_or(|b| score > b.0) {
+            best = Some((score, 0.5 * (w[0].0 + w[1].0)));
         }
     }
     best.map(|b| b.1)
