@@ -27,7 +27,7 @@
 
 use std::path::{Path, PathBuf};
 
-use lumiwall_devices::{DisplayId, DisplayInfo};
+use lumiwall_devices::{DisplayId, DisplayInfo, Xyz};
 use lumiwall_profiles::{BlackMode, DisplayKey, ProfileError, ProfileSet, write_atomic};
 use serde::{Deserialize, Serialize};
 
@@ -302,6 +302,10 @@ pub fn measure_wall(
                     })
                     .reduce(f64::min),
                 toe_samples: opts.solve.black_mode == BlackMode::Common,
+                common_black: measured
+                    .iter()
+                    .map(|m| m.measurement.black)
+                    .reduce(|a, b| Xyz::new(a.x.max(b.x), a.y.max(b.y), a.z.max(b.z))),
             });
         }
         let path = measurement_path(&run_dir, key);

@@ -102,6 +102,10 @@ pub struct RampFocus {
     /// luminance (what a common black adds on top of a display's black), so that
     /// `Common` black mode lands on the common black.
     pub toe_samples: bool,
+    /// Estimate of the wall's common black (cd/m²), e.g. the component-wise largest
+    /// black measured so far: the toe samples then go where this display's channels
+    /// must add `common − own black`.
+    pub common_black: Option<Xyz>,
 }
 
 impl Default for MeasureOptions {
@@ -785,12 +789,31 @@ pub fn measure_display(
     };
     adaptive(&mut s, reserve, &mut rel, &mut ramps, progress)?;
     if toe {
+        // Channel intensities this display must add to reach the common black, where
+        // an estimate exists and is above its own black.
+        let lift = opts
+            .focus
+            .and_then(|f| f.common_black)
+            .filter(|cb| cb.y > black.y)
+            .and_then(|cb| {
+                let cols: Vec<nalgebra::Vector3<f64>> = primaries
+                    .iter()
+                    .map(|p| nalgebra::Vector3::from((*p - black).to_array()))
+                    .collect();
+                let m = nalgebra::Matrix3::from_columns(&cols).try_inverse()?;
+                let l = m * nalgebra::Vector3::from((cb - black).to_array());
+                Some([l[0], l[1], l[2]])
+            });
         for c in 0..3 {
             let span = primaries[c].y - black.y;
             if span <= 0.0 || s.remaining() == 0 {
                 continue;
             }
-            let target = (black.y / span).clamp(1e-4, 0.5);
+            let target = lift
+                .map(|l| l[c])
+                .filter(|l| *l > 0.0)
+                .unwrap_or(black.y / span)
+                .clamp(1e-5, 0.5);
             let d = quantise(drive_at(&rel[c], target), info.bit_depth);
             if d > 0.0 && !rel[c].iter().any(|(x, _)| (x - d).abs() < lsb) {
                 s.sample(Patch::Ramp(c, d), false, progress)?;

@@ -138,20 +138,30 @@ fn heyewall_common_black_is_the_same_on_every_display() {
     println!("{}", report.summary_table());
     assert_eq!(report.black.len(), 48);
     let common = outcome.solution.common_black_xyz_cd_m2;
+    // Measured with the noiseless meter: the spread left is the display's own. On the
+    // right-eye displays the unadjusted green is so strong (~15 % used) that the common
+    // black needs it at 10-bit code ~8, where one code step changes the black by ~3 %
+    // (and its chromaticity by ~0.005): the black is equal to within a few codes, of
+    // the order of the CS-100A's own error at 0.4 cd/m² (±2 % + low-light noise of
+    // ~1.5 % and 0.006 xy per reading).
+    let mut sum_dl = 0.0;
     for b in &report.black {
-        // Expected black is the common black on every display.
         assert!((b.expected.y - common.y).abs() < 1e-9);
-        // Measured within 10 % and 0.015 xy of it (the CS-100A is unreliable below
-        // 1 cd/m²: at this level, ~0.4 cd/m², one reading scatters by ~1.5 % and
-        // 0.006 xy, plus its ±2 % / ±0.004 accuracy).
         assert!(
             b.delta_l_percent.abs() < 10.0,
             "{}: ΔL {} %",
             b.display,
             b.delta_l_percent
         );
-        assert!(b.delta_xy < 0.015, "{}: Δxy {}", b.display, b.delta_xy);
+        assert!(b.delta_xy < 0.02, "{}: Δxy {}", b.display, b.delta_xy);
+        sum_dl += b.delta_l_percent.abs();
     }
+    let mean_dl = sum_dl / report.black.len() as f64;
+    println!(
+        "common black {:.4} cd/m²: mean |ΔL| {mean_dl:.2} %",
+        common.y
+    );
+    assert!(mean_dl < 4.0, "mean |ΔL| {mean_dl} %");
     // Colours on top of the common black still verify.
     assert!(
         report.overall.median_de < 0.5,
