@@ -429,14 +429,27 @@ fn bench_profile(
     .map_err(|e| CliError::failure(e.to_string()))
 }
 
-fn best_of(repeats: u32, mut f: impl FnMut()) -> f64 {
+/// CPU seconds (user + system) this process has used so far, from `/proc/self/stat`
+/// (Linux; 0 elsewhere). Clock ticks are taken as 100 per second (the Linux default).
+fn process_cpu_s() -> f64 {
+    let text = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields after the parenthesised command name; utime and stime are fields 14, 15.
+    let rest = text.rsplit_once(')').map(|(_, r)| r).unwrap_or("");
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let tick = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    (tick(11) + tick(12)) / 100.0
+}
+
+/// Best wall-clock seconds of `repeats` runs, and mean CPU seconds per run.
+fn best_of(repeats: u32, mut f: impl FnMut()) -> (f64, f64) {
     let mut best = f64::INFINITY;
+    let cpu0 = process_cpu_s();
     for _ in 0..repeats.max(1) {
         let t = Instant::now();
         f();
         best = best.min(t.elapsed().as_secs_f64());
     }
-    best
+    (best, (process_cpu_s() - cpu0) / f64::from(repeats.max(1)))
 }
 
 /// Largest luminance step (cd/m²) between neighbouring output levels of a 0–1 cd/m²
@@ -520,25 +533,34 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         rayon::current_num_threads()
     );
     println!(
-        "{:<48} {:>10} {:>10} {:>9}",
-        "path", "ms", "Mpx/s", "% memcpy"
+        "{:<48} {:>8} {:>8} {:>8} {:>9} {:>9} {:>8}",
+        "path", "ms", "Mpx/s", "%memcpy", "Mpx/CPU-s", "idle est.", "%memcpy"
     );
     let mut dst = vec![[0f32; 3]; n];
     let t_copy = best_of(args.repeats, || {
         dst.copy_from_slice(&frame.pixels);
         std::hint::black_box(&dst);
     });
-    let memcpy = mp / t_copy;
-    let row = |name: &str, t: f64| {
+    let memcpy = mp / t_copy.0;
+    // Under load the wall clock depends on the other jobs; Mpx per CPU-second does not
+    // (much). "idle est." = Mpx/CPU-s × threads the path can use on this machine.
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
+    let memcpy_cpu = mp / t_copy.1.max(1e-9);
+    let row = |name: &str, (t, cpu): (f64, f64), threads: f64| {
+        let per_cpu = mp / cpu.max(1e-9);
+        let idle = per_cpu * threads.min(cores);
         println!(
-            "{:<48} {:>10.1} {:>10.1} {:>8.1}%",
+            "{:<48} {:>8.1} {:>8.1} {:>7.1}% {:>9.1} {:>9.1} {:>7.1}%",
             name,
             t * 1e3,
             mp / t,
-            100.0 * (mp / t) / memcpy
+            100.0 * (mp / t) / memcpy,
+            per_cpu,
+            idle,
+            100.0 * idle / memcpy_cpu
         );
     };
-    row("memcpy of the XYZ frame (12 B/px, 1 thread)", t_copy);
+    row("memcpy of the XYZ frame (12 B/px, 1 thread)", t_copy, 1.0);
     // A smooth frame (gradients, as rendered images mostly are) next to the random one.
     let smooth: Vec<[f32; 3]> = (0..n)
         .map(|i| {
@@ -591,6 +613,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
                 if dither { ", dither" } else { "" }
             ),
             t,
+            rayon::current_num_threads() as f64,
         );
     }
     #[cfg(feature = "gpu")]
@@ -612,6 +635,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
                             if flat { ", flat" } else { "" }
                         ),
                         t,
+                        cores,
                     );
                 }
             }
