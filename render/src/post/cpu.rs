@@ -35,38 +35,59 @@ const BLOCK: usize = 16;
 fn block(
     pp: &PreparedProfile,
     xyz: &[[f32; 3]],
-    gain: Option<&[[f32; 3]; BLOCK]>,
+    gain: Option<&[[f32; BLOCK]; 3]>,
     x0: u32,
     y: u32,
     out: &mut [[u16; 3]],
     flags: &mut [u8],
     hist: &mut [u64; 16],
 ) {
-    let n = xyz.len();
-    let mut a = [[0f32; BLOCK]; 3];
-    let mut slow = [false; BLOCK];
+    let n = xyz.len().min(BLOCK);
+    // Structure of arrays (padding lanes are 0 and never written back).
+    let mut p = [[0f32; BLOCK]; 3];
+    for j in 0..n {
+        p[0][j] = xyz[j][0];
+        p[1][j] = xyz[j][1];
+        p[2][j] = xyz[j][2];
+    }
     let m = pp.matrix;
     let off = pp.offset;
+    let mut a = [[0f32; BLOCK]; 3];
+    let mut ok = [true; BLOCK];
     for j in 0..BLOCK {
-        let p = if j < n { xyz[j] } else { [0.0; 3] };
-        let finite = (p[0].to_bits() & 0x7f80_0000 != 0x7f80_0000)
-            & (p[1].to_bits() & 0x7f80_0000 != 0x7f80_0000)
-            & (p[2].to_bits() & 0x7f80_0000 != 0x7f80_0000);
-        let big = p[0].abs().max(p[1].abs()).max(p[2].abs());
-        let mut v = [
-            m[0][0] * p[0] + m[0][1] * p[1] + m[0][2] * p[2],
-            m[1][0] * p[0] + m[1][1] * p[1] + m[1][2] * p[2],
-            m[2][0] * p[0] + m[2][1] * p[1] + m[2][2] * p[2],
-        ];
-        if let Some(g) = gain {
-            v = [v[0] / g[j][0], v[1] / g[j][1], v[2] / g[j][2]];
-        }
-        let mut inside = finite & (big <= MAX_INPUT_CD_M2);
+        let (x, yv, z) = (p[0][j], p[1][j], p[2][j]);
+        // Finite and not huge; NaN fails the comparisons too.
+        ok[j] = (x.to_bits() & 0x7f80_0000 != 0x7f80_0000)
+            & (yv.to_bits() & 0x7f80_0000 != 0x7f80_0000)
+            & (z.to_bits() & 0x7f80_0000 != 0x7f80_0000)
+            & (x.abs() <= MAX_INPUT_CD_M2)
+            & (yv.abs() <= MAX_INPUT_CD_M2)
+            & (z.abs() <= MAX_INPUT_CD_M2);
+        a[0][j] = m[0][0] * x + m[0][1] * yv + m[0][2] * z;
+        a[1][j] = m[1][0] * x + m[1][1] * yv + m[1][2] * z;
+        a[2][j] = m[2][0] * x + m[2][1] * yv + m[2][2] * z;
+    }
+    if let Some(g) = gain {
         for c in 0..3 {
-            let ac = v[c] + off[c];
-            a[c][j] = ac;
-            inside &= (0.0..=1.0).contains(&ac);
+            for j in 0..BLOCK {
+                a[c][j] /= g[c][j];
+            }
         }
+    }
+    let mut slow = [false; BLOCK];
+    for c in 0..3 {
+        for j in 0..BLOCK {
+            a[c][j] += off[c];
+        }
+    }
+    for j in 0..BLOCK {
+        let inside = ok[j]
+            & (a[0][j] >= 0.0)
+            & (a[0][j] <= 1.0)
+            & (a[1][j] >= 0.0)
+            & (a[1][j] <= 1.0)
+            & (a[2][j] >= 0.0)
+            & (a[2][j] <= 1.0);
         slow[j] = !inside;
     }
     let max = pp.max_code();
@@ -109,7 +130,7 @@ fn block(
     }
     for j in 0..n {
         if slow[j] || pp.luts[0].pairs().is_empty() {
-            let px = pp.apply_gain(xyz[j], gain.map(|g| g[j]));
+            let px = pp.apply_gain(xyz[j], gain.map(|g| [g[0][j], g[1][j], g[2][j]]));
             out[j] = pp.quantise_pixel(px.drive, x0 + j as u32, y);
             flags[j] = px.flags.0 as u8;
             hist[(px.flags.0 & 15) as usize] += 1;
@@ -135,7 +156,7 @@ fn row_kernel(
     hist: &mut [u64; 16],
 ) {
     let flat = pp.flat.is_some();
-    let mut g = [[1f32; 3]; BLOCK];
+    let mut g = [[1f32; BLOCK]; 3];
     for (b, ((ib, ob), fb)) in irow
         .chunks(BLOCK)
         .zip(orow.chunks_mut(BLOCK))
@@ -144,9 +165,12 @@ fn row_kernel(
     {
         let x0 = b * BLOCK;
         if flat {
-            for (j, gj) in g.iter_mut().enumerate().take(ib.len()) {
+            for j in 0..ib.len() {
                 let col = cols[x0 + j];
-                *gj = lerp3(row_gain[col.0], row_gain[col.1], col.2);
+                let gj = lerp3(row_gain[col.0], row_gain[col.1], col.2);
+                g[0][j] = gj[0];
+                g[1][j] = gj[1];
+                g[2][j] = gj[2];
             }
             block(pp, ib, Some(&g), x0 as u32, y, ob, fb, hist);
         } else {
