@@ -562,7 +562,11 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             100.0 * idle / memcpy_cpu
         );
     };
-    row("memcpy of the XYZ frame (12 B/px, 1 thread)", t_copy, 1.0);
+    row(
+        "memcpy of the XYZ frame (12 B/px, 1 thread)",
+        (t_copy.0, t_copy.0),
+        1.0,
+    );
     // A smooth frame (gradients, as rendered images mostly are) next to the random one.
     let smooth: Vec<[f32; 3]> = (0..n)
         .map(|i| {

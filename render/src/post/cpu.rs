@@ -31,7 +31,7 @@ const BLOCK: usize = 16;
 /// take the scalar reference path. Every operation is the scalar reference's, in the
 /// same order, so the results are bit-identical (tested).
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
 fn block(
     pp: &PreparedProfile,
     xyz: &[[f32; 3]],
@@ -115,8 +115,10 @@ fn block(
         }
         let mut base = [0f32; BLOCK];
         let mut slope = [0f32; BLOCK];
-        for j in 0..BLOCK {
-            if let Some(pr) = pairs.get(idx[j] as usize) {
+        if let Some(top) = pairs.len().checked_sub(1) {
+            for j in 0..BLOCK {
+                // `min(top)` lets the compiler drop the bounds check (idx ≤ top anyway).
+                let pr = pairs[(idx[j] as usize).min(top)];
                 base[j] = pr[0];
                 slope[j] = pr[1];
             }
@@ -128,8 +130,9 @@ fn block(
             codes[c][j] = ((v as i32).max(0) as u32).min(max) as u16;
         }
     }
+    let degenerate = pp.luts.iter().any(|l| l.pairs().is_empty());
     for j in 0..n {
-        if slow[j] || pp.luts[0].pairs().is_empty() {
+        if slow[j] || degenerate {
             let px = pp.apply_gain(xyz[j], gain.map(|g| [g[0][j], g[1][j], g[2][j]]));
             out[j] = pp.quantise_pixel(px.drive, x0 + j as u32, y);
             flags[j] = px.flags.0 as u8;
