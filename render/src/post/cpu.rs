@@ -168,12 +168,25 @@ fn row_kernel(
     {
         let x0 = b * BLOCK;
         if flat {
-            for j in 0..ib.len() {
-                let col = cols[x0 + j];
-                let gj = lerp3(row_gain[col.0], row_gain[col.1], col.2);
-                g[0][j] = gj[0];
-                g[1][j] = gj[1];
-                g[2][j] = gj[2];
+            let n = ib.len();
+            let (first, last) = (cols[x0], cols[x0 + n - 1]);
+            if first.0 == last.0 {
+                // The whole block lies between the same two texel columns (the usual
+                // case: a texel spans tens of pixels): same lerp, vectorised.
+                let (c0, c1) = (row_gain[first.0], row_gain[first.1]);
+                for c in 0..3 {
+                    for (j, col) in cols[x0..x0 + n].iter().enumerate() {
+                        g[c][j] = c0[c] + (c1[c] - c0[c]) * col.2;
+                    }
+                }
+            } else {
+                for j in 0..n {
+                    let col = cols[x0 + j];
+                    let gj = lerp3(row_gain[col.0], row_gain[col.1], col.2);
+                    g[0][j] = gj[0];
+                    g[1][j] = gj[1];
+                    g[2][j] = gj[2];
+                }
             }
             block(pp, ib, Some(&g), x0 as u32, y, ob, fb, hist);
         } else {
