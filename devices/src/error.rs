@@ -68,6 +68,9 @@ impl DeviceError {
     /// True for errors after which retrying the same reading can succeed
     /// (timeouts and garbled answers); false for errors a retry will not fix.
     pub fn is_transient(&self) -> bool {
-        matches!(self, DeviceError::Timeout { .. } | DeviceError::Garbled { .. })
+        matches!(
+            self,
+            DeviceError::Timeout { .. } | DeviceError::Garbled { .. }
+        )
     }
 }

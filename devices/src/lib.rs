@@ -17,5 +17,7 @@ pub mod serial;
 pub mod sim;
 
 pub use error::DeviceError;
-pub use traits::{Colorimeter, DisplayId, Eye, DisplayInfo, MeterInfo, MeterPositioner, PatternOutput};
+pub use traits::{
+    Colorimeter, DisplayId, DisplayInfo, Eye, MeterInfo, MeterPositioner, PatternOutput,
+};
 pub use xyz::Xyz;

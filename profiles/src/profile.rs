@@ -140,7 +140,11 @@ impl ToneCurve {
             return s[s.len() - 1][1];
         }
         let (a, b) = (s[k - 1], s[k]);
-        let w = if b[0] > a[0] { (d - a[0]) / (b[0] - a[0]) } else { 0.0 };
+        let w = if b[0] > a[0] {
+            (d - a[0]) / (b[0] - a[0])
+        } else {
+            0.0
+        };
         a[1] + (b[1] - a[1]) * w
     }
 }
@@ -245,8 +249,7 @@ impl DisplayProfile {
                 return Err(bad(format!("{name} has a non-finite value")));
             }
         }
-        if !self.xyz_to_drive.iter().all(finite3) || !self.primaries_xyz_cd_m2.iter().all(finite3)
-        {
+        if !self.xyz_to_drive.iter().all(finite3) || !self.primaries_xyz_cd_m2.iter().all(finite3) {
             return Err(bad("matrix has a non-finite value".into()));
         }
         if !(self.headroom > 0.0 && self.headroom <= 1.0) {
@@ -384,7 +387,11 @@ impl ProfileSet {
     pub const MANIFEST: &'static str = "wall.json";
 
     /// Writes every profile and then the manifest into `dir`.
-    pub fn save_dir(dir: &Path, wall: &str, profiles: &[DisplayProfile]) -> Result<(), ProfileError> {
+    pub fn save_dir(
+        dir: &Path,
+        wall: &str,
+        profiles: &[DisplayProfile],
+    ) -> Result<(), ProfileError> {
         let mut files = Vec::with_capacity(profiles.len());
         for p in profiles {
             let name = format!("{}.json", p.display.file_stem());

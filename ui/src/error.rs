@@ -13,17 +13,26 @@ pub struct CliError {
 impl CliError {
     /// A failure (exit code 1).
     pub fn failure(message: impl Into<String>) -> Self {
-        Self { message: message.into(), code: 1 }
+        Self {
+            message: message.into(),
+            code: 1,
+        }
     }
 
     /// Bad input or usage (exit code 2).
     pub fn input(message: impl Into<String>) -> Self {
-        Self { message: message.into(), code: 2 }
+        Self {
+            message: message.into(),
+            code: 2,
+        }
     }
 
     /// A check ran but its results are outside the user's tolerances (exit code 3).
     pub fn tolerance(message: impl Into<String>) -> Self {
-        Self { message: message.into(), code: 3 }
+        Self {
+            message: message.into(),
+            code: 3,
+        }
     }
 
     /// The process exit code.
