@@ -16,6 +16,7 @@ pub mod output;
 pub mod progressive;
 pub mod quadrature;
 pub mod reference;
+pub mod shaft;
 pub mod solution;
 pub mod visibility;
 
@@ -74,9 +75,9 @@ pub(crate) fn validate(scene: &Scene, target: f64) -> Result<(), RadiosityError>
             )));
         }
     }
-    if scene.emitted_flux_xyz_lm()[1] <= 0.0 {
+    if !scene.has_emission() {
         return Err(RadiosityError::BadScene(
-            "nothing emits light (no emissive material, no light with flux)".into(),
+            "nothing emits light (no emissive material, no light with flux, no daylight)".into(),
         ));
     }
     Ok(())

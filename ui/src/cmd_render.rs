@@ -221,9 +221,22 @@ pub struct BenchArgs {
     /// Write the error/time curves of both solvers as a PNG here.
     #[arg(long)]
     pub plot: Option<PathBuf>,
-    /// The scale benchmark (generated scene from render::mesh).
+    /// The scale benchmark (generated cathedral from render::mesh) instead of the
+    /// Cornell comparison.
     #[arg(long)]
     pub scale: bool,
+    /// Scale benchmark: triangle counts (comma-separated).
+    #[arg(long, value_delimiter = ',', default_value = "100000")]
+    pub sizes: Vec<usize>,
+    /// Scale benchmark: number of lights.
+    #[arg(long, default_value_t = 100)]
+    pub lights: usize,
+    /// Scale benchmark: requested error.
+    #[arg(long, default_value = "5%", value_parser = parse_fraction)]
+    pub scale_error: f64,
+    /// Scale benchmark: print the error/time curve of each solve.
+    #[arg(long)]
+    pub curve: bool,
 }
 
 /// Runs `lumiwall bench radiosity`.
@@ -355,44 +368,47 @@ impl Visibility for AlwaysTest {
     }
 }
 
-/// The scale study: the generated cathedral (render::mesh) at growing triangle counts
-/// with 100 lights, solved by the hierarchical solver to 5 %. Without clustering the
-/// initial linking is quadratic, so the study stops where the projected time exceeds
-/// the budget and says so instead of pretending to reach 100 000 triangles.
+/// The scale study: the generated cathedral (render::mesh) at the given triangle
+/// counts with `--lights` lights, solved by the hierarchical solver with clustering to
+/// `--scale-error` within the time limit; one row per size.
 fn scale_study(args: &BenchArgs) -> Result<(), CliError> {
     use lumiwall_render::mesh::generate_scale_scene;
     use lumiwall_render::radiosity::BvhOccluders;
     println!(
-        "{:>9} {:>7} {:>9} {:>10} {:>9} {:>10} {:>9} {:>9}",
-        "triangles", "lights", "patches", "links", "MiB", "rays", "est_err", "time_s"
+        "{:>9} {:>6} {:>8} {:>9} {:>10} {:>9} {:>8} {:>11} {:>8} {:>8} {:>9} {:>8}",
+        "triangles",
+        "lights",
+        "clusters",
+        "patches",
+        "links",
+        "clus.lnk",
+        "MiB",
+        "rays",
+        "est_err",
+        "setup_s",
+        "solve_s",
+        "stop"
     );
-    let budget = args.time_limit_s;
-    let mut last: Option<(usize, f64)> = None;
-    for n in [500usize, 1_000, 2_000, 4_000, 8_000, 16_000, 100_000] {
-        if let Some((m, t)) = last {
-            let projected = t * (n as f64 / m as f64).powi(2);
-            if projected > budget {
-                println!(
-                    "{n:>9} stopped: projected {projected:.0} s > {budget:.0} s (quadratic initial linking; clustering is not built)"
-                );
-                break;
-            }
-        }
-        let scene = generate_scale_scene(n, 100, 7).to_scene();
+    for &n in &args.sizes {
+        let t0 = Instant::now();
+        let scene = generate_scale_scene(n, args.lights, 7).to_scene();
         let vis = BvhOccluders::new(&scene);
+        let setup = t0.elapsed().as_secs_f64();
         let stop = StopRule {
-            target_error: 0.05,
-            time_limit: Some(Duration::from_secs_f64(budget)),
+            target_error: args.scale_error,
+            time_limit: Some(Duration::from_secs_f64(args.time_limit_s)),
             max_iterations: usize::MAX,
         };
         let sol = solve(&scene, &vis, Method::Radiosity, stop, 0.0, 0.0)?;
         let s = &sol.stats;
         println!(
-            "{:>9} {:>7} {:>9} {:>10} {:>9.1} {:>10} {:>8.2}% {:>9.2}",
+            "{:>9} {:>6} {:>8} {:>9} {:>10} {:>9} {:>8.1} {:>11} {:>7.2}% {:>8.2} {:>9.2} {:>8}",
             scene.polygons.len(),
             scene.lights.len(),
+            s.clusters,
             s.patches,
             s.links,
+            s.cluster_links,
             s.memory_bytes as f64 / 1048576.0,
             s.shadow_rays,
             100.0
@@ -401,9 +417,24 @@ fn scale_study(args: &BenchArgs) -> Result<(), CliError> {
                     .last()
                     .map(|p| p.estimated_error)
                     .unwrap_or(f64::NAN),
-            s.time_s
+            setup,
+            s.time_s,
+            format!("{:?}", sol.stop)
         );
-        last = Some((scene.polygons.len(), s.time_s));
+        if args.curve {
+            for p in &sol.curve.points {
+                println!(
+                    "    t {:>8.2} s  sweep {:>4}  est {:>7.3}%  solve {:>7.3}%  disc {:>7.3}%  patches {:>8}  links {:>9}",
+                    p.time_s,
+                    p.iteration,
+                    100.0 * p.estimated_error,
+                    100.0 * p.solve_error,
+                    100.0 * p.discretization_error,
+                    p.patches,
+                    p.links
+                );
+            }
+        }
     }
     Ok(())
 }

@@ -372,6 +372,40 @@ impl Bvh {
         hit
     }
 
+    /// Region query: true as soon as `accept_triangle` accepts a triangle (given its
+    /// index in the slice of [`Bvh::build`] and its corners) inside a node whose
+    /// bounds `enter_box(min, max)` lets through. `enter_box` must be conservative
+    /// (false only when no point of the box can matter), as in shaft culling.
+    pub fn any_triangle<B, T>(&self, mut enter_box: B, mut accept_triangle: T) -> bool
+    where
+        B: FnMut(&[f64; 3], &[f64; 3]) -> bool,
+        T: FnMut(u32, &[[f64; 3]; 3]) -> bool,
+    {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let mut stack = Stack::new();
+        stack.push(0);
+        while let Some(i) = stack.pop() {
+            let n = &self.nodes[i];
+            if !enter_box(&n.bmin, &n.bmax) {
+                continue;
+            }
+            if n.count > 0 {
+                let first = n.index as usize;
+                for k in first..first + n.count as usize {
+                    if accept_triangle(self.order[k], &self.tris[k]) {
+                        return true;
+                    }
+                }
+            } else {
+                stack.push(n.index as usize);
+                stack.push(i + 1);
+            }
+        }
+        false
+    }
+
     /// Visits leaves front to back, calling `test` for every candidate triangle (its
     /// storage slot) with the current t limit.
     fn traverse<F>(&self, origin: [f64; 3], dir: [f64; 3], t_min: f64, t_max: f64, mut test: F)

@@ -1,48 +1,59 @@
-//! Hierarchical radiosity (Hanrahan et al.; Kresse 2003, 2.5–2.6): a quadtree over each
-//! input polygon, links between elements at the level the error bound asks for, Jacobi
-//! gathering (rayon) with pull of area averages and radiosity extrema, and refinement
-//! driven by the receiver's radiosity-function bound (the "form" error of 2.5.2,
-//! cancellation-aware: summed over links before taking the spread) and the transfer
-//! error of each link (source radiosity extrema × form factor bounds, partial
-//! visibility). Shadow rays are cast only for links the visibility classification
-//! cannot declare fully visible (2.7).
+//! Hierarchical radiosity with clustering (Hanrahan et al. 1991, Smits et al. 1994;
+//! Kresse 2003, 2.5–2.7): a cluster tree over the input polygons above a quadtree per
+//! polygon, links at whatever level the error bound allows, between clusters, patches,
+//! lights (point, spot, goniometric) and daylight (sun, sky cells).
 //!
-//! Links are kept on receiver leaves: splitting an element moves its links to its
-//! children, so push is the identity and, in a closed scene, the form factors of every
-//! leaf sum to one to rounding (a furnace stays exact). Clustering is not implemented:
-//! initial linking is quadratic in the number of input polygons.
+//! The solve alternates refinement at a tolerance ε ([`refine`], Kresse's criterion)
+//! with Jacobi sweeps of gather/push–pull ([`sweep`]) until the linear solve is ahead
+//! of the mesh, then halves ε, until the estimated error (solve residual plus the
+//! discretisation error of every leaf: the shape of its irradiance under the chosen
+//! basis and the error bounds of its links) reaches the target. Each sweep reports a
+//! point of the error/time curve.
+//!
+//! Leaves out what a scene does not need: no shadow rays for links classified fully
+//! visible (nor for their sub-links), no daylight links without a sky, no linear
+//! representation where a constant one meets the bound ([`Basis::Auto`]).
 
-use std::sync::atomic::{AtomicU64, Ordering};
+// per-channel XYZ arithmetic reads clearest with channel indices
+#![allow(clippy::needless_range_loop)]
+
+mod emitters;
+mod nodes;
+mod refine;
+mod sampling;
+mod sweep;
+mod transfer;
+
 use std::time::Instant;
 
-use rayon::prelude::*;
+use crate::scene::{Scene, V3};
 
-use crate::scene::{Scene, V3, polygon_area_m2, polygon_normal};
+pub use sweep::Basis;
 
 use super::RadiosityError;
 use super::curve::{CurvePoint, ErrorCurve, StopReason, StopRule};
-use super::form_factor::point_to_polygon;
-use super::quadrature;
 use super::solution::{Patch, Solution, SolveStats};
 use super::visibility::Visibility;
-
-const NONE: u32 = u32::MAX;
-/// New links of one element after a refinement round.
-type Relinked = (u32, Vec<Link>, Vec<LightLink>);
-/// Gauss–Legendre order (per direction) of the receiver average of every link.
-const FF_ORDER: usize = 3;
+use emitters::Emitter;
+use nodes::{Hierarchy, Node};
+use sampling::NS;
+use sweep::State;
+use transfer::{CLink, Counters, Ctx, Overlap, PLink, eval_clink};
 
 /// Options of the hierarchical solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HierarchicalOptions {
     /// Stop rule (target relative error, time, iterations).
     pub stop: StopRule,
-    /// Smallest element area in m²; 0 = 1e-4 of the scene's total area.
+    /// Smallest element area in m²; 0 = 1e-4 of the scene's total area, or the
+    /// median polygon's area / 16 (two quadtree levels) when that is smaller.
     pub min_area_m2: f64,
     /// Deepest quadtree level.
     pub max_level: u8,
     /// Geometric-series (Lyusternik) extrapolation of the Jacobi iteration.
     pub accelerate: bool,
+    /// Receiver representation.
+    pub basis: Basis,
 }
 
 impl Default for HierarchicalOptions {
@@ -52,492 +63,14 @@ impl Default for HierarchicalOptions {
             min_area_m2: 0.0,
             max_level: 12,
             accelerate: true,
+            basis: Basis::Auto,
         }
     }
 }
 
-#[derive(Debug, Clone)]
-struct Elem {
-    verts: Vec<V3>,
-    normal: V3,
-
-    area: f64,
-    polygon: u32,
-    first_child: u32,
-    level: u8,
-}
-
-/// A link: the receiver (the leaf holding it) gathers from `src`.
-#[derive(Debug, Clone, Copy)]
-struct Link {
-    src: u32,
-    /// Area-averaged form factor with visibility.
-    ff: f64,
-    /// Point form factors with visibility at the receiver's 2×2 Gauss points.
-    fk: [f32; 4],
-}
-
-#[derive(Debug, Clone, Copy)]
-struct LightLink {
-    light: u32,
-    /// Area-averaged illuminance in lux (per unit light colour Y).
-    irr: f64,
-    /// Illuminance at the 2×2 Gauss points.
-    hk: [f32; 4],
-}
-
-struct Ctx<'a> {
-    scene: &'a Scene,
-    vis: &'a dyn Visibility,
-    rho: Vec<[f64; 3]>,
-    emit: Vec<[f64; 3]>,
-    rays: AtomicU64,
-    skipped: AtomicU64,
-    tested: AtomicU64,
-}
-
-struct Tree {
-    elems: Vec<Elem>,
-    b: Vec<[f64; 3]>,
-    h: Vec<[f64; 3]>,
-    bmin: Vec<f64>,
-    bmax: Vec<f64>,
-    links: Vec<Vec<Link>>,
-    llinks: Vec<Vec<LightLink>>,
-}
-
-fn make_elem(verts: Vec<V3>, polygon: u32, level: u8) -> Elem {
-    let normal = polygon_normal(&verts).unwrap_or_else(V3::z);
-    let area = polygon_area_m2(&verts);
-    Elem {
-        verts,
-        normal,
-
-        area,
-        polygon,
-        first_child: NONE,
-        level,
-    }
-}
-
-fn faces(a: &Elem, b: &Elem) -> bool {
-    let scale = (a.area + b.area).sqrt() * 1e-9;
-    b.verts
-        .iter()
-        .any(|v| a.normal.dot(&(v - a.verts[0])) > scale)
-        && a.verts
-            .iter()
-            .any(|v| b.normal.dot(&(v - b.verts[0])) > scale)
-}
-
-fn eval_points(verts: &[V3], order: usize) -> Vec<(V3, f64)> {
-    let mut pts = Vec::new();
-    quadrature::points(verts, order, &mut pts);
-    pts
-}
-
-fn eval_link(ctx: &Ctx, elems: &[Elem], r: u32, s: u32) -> Link {
-    let re = &elems[r as usize];
-    let se = &elems[s as usize];
-    let candidate = ctx.vis.may_occlude(
-        &re.verts,
-        re.polygon as usize,
-        &se.verts,
-        se.polygon as usize,
-    );
-    if candidate {
-        ctx.tested.fetch_add(1, Ordering::Relaxed);
-    } else {
-        ctx.skipped.fetch_add(1, Ordering::Relaxed);
-    }
-    let src_pts = if candidate {
-        eval_points(&se.verts, 2)
-    } else {
-        Vec::new()
-    };
-    let skip = [re.polygon as usize, se.polygon as usize];
-    let point_ff = |x: &V3| -> f64 {
-        let f = point_to_polygon(x, &re.normal, &se.verts, &se.normal);
-        if f <= 0.0 || !candidate {
-            return f;
-        }
-        let mut visible = 0usize;
-        for (y, _) in &src_pts {
-            if !ctx.vis.occluded(x, y, skip) {
-                visible += 1;
-            }
-        }
-        ctx.rays.fetch_add(src_pts.len() as u64, Ordering::Relaxed);
-        f * visible as f64 / src_pts.len() as f64
-    };
-    let p2 = eval_points(&re.verts, 2);
-    let mut fk = [0f32; 4];
-    let mut ff = 0.0;
-    for (k, (x, w)) in p2.iter().enumerate().take(4) {
-        let f = point_ff(x);
-        fk[k] = f as f32;
-        ff += w * f;
-    }
-    // the same order for every link of a receiver keeps Σ F = 1 exact in closed scenes
-    if FF_ORDER != 2 {
-        ff = eval_points(&re.verts, FF_ORDER)
-            .iter()
-            .map(|(x, w)| w * point_ff(x))
-            .sum();
-    }
-    Link { src: s, ff, fk }
-}
-
-fn eval_light(ctx: &Ctx, elems: &[Elem], r: u32, light: u32) -> LightLink {
-    let re = &elems[r as usize];
-    let l = &ctx.scene.lights[light as usize];
-    let candidate = ctx
-        .vis
-        .may_occlude(&[l.position], usize::MAX, &re.verts, re.polygon as usize);
-    let irr_at = |x: &V3| -> f64 {
-        let d = l.position - x;
-        let d2 = d.norm_squared();
-        if d2 <= 0.0 {
-            return 0.0;
-        }
-        let dn = d / d2.sqrt();
-        let cos_r = re.normal.dot(&dn);
-        if cos_r <= 0.0 {
-            return 0.0;
-        }
-        if candidate {
-            ctx.rays.fetch_add(1, Ordering::Relaxed);
-            if ctx
-                .vis
-                .occluded(&l.position, x, [usize::MAX, re.polygon as usize])
-            {
-                return 0.0;
-            }
-        }
-        l.intensity_cd(&(-dn)) * cos_r / d2
-    };
-    let mut hk = [0f32; 4];
-    for (k, (x, _)) in eval_points(&re.verts, 2).iter().enumerate().take(4) {
-        hk[k] = irr_at(x) as f32;
-    }
-    let irr = eval_points(&re.verts, 3)
-        .iter()
-        .map(|(x, w)| w * irr_at(x))
-        .sum();
-    LightLink { light, irr, hk }
-}
-
-impl Tree {
-    fn is_leaf(&self, e: usize) -> bool {
-        self.elems[e].first_child == NONE
-    }
-
-    fn leaves(&self) -> Vec<u32> {
-        (0..self.elems.len() as u32)
-            .filter(|&e| self.is_leaf(e as usize))
-            .collect()
-    }
-
-    fn split(&mut self, e: usize) {
-        if !self.is_leaf(e) {
-            return;
-        }
-        let first = self.elems.len() as u32;
-        let kids = quadrature::split4(&self.elems[e].verts);
-        let (poly, level) = (self.elems[e].polygon, self.elems[e].level + 1);
-        for k in kids {
-            self.elems.push(make_elem(k, poly, level));
-            self.b.push(self.b[e]);
-            self.h.push(self.h[e]);
-            self.bmin.push(self.bmin[e]);
-            self.bmax.push(self.bmax[e]);
-            self.links.push(Vec::new());
-            self.llinks.push(Vec::new());
-        }
-        self.elems[e].first_child = first;
-    }
-
-    fn children(&self, e: usize) -> std::ops::Range<u32> {
-        let f = self.elems[e].first_child;
-        f..f + 4
-    }
-
-    /// Point irradiance (Y) at the 2×2 points, the averaged irradiance (XYZ) and the
-    /// transfer error from non-uniform sources.
-    fn leaf_estimate(&self, ctx: &Ctx, r: usize) -> ([f64; 4], [f64; 3], f64) {
-        let mut hk = [0.0f64; 4];
-        let mut h = [0.0f64; 3];
-        let mut src_err = 0.0;
-        for l in &self.links[r] {
-            let s = l.src as usize;
-            let bs = self.b[s];
-            for c in 0..3 {
-                h[c] += l.ff * bs[c];
-            }
-            for (acc, f) in hk.iter_mut().zip(&l.fk) {
-                *acc += f64::from(*f) * bs[1];
-            }
-            src_err += 0.5 * l.ff * (self.bmax[s] - self.bmin[s]);
-        }
-        for l in &self.llinks[r] {
-            let col = ctx.scene.lights[l.light as usize].color_xyz;
-            for c in 0..3 {
-                h[c] += l.irr * col[c];
-            }
-            for (acc, v) in hk.iter_mut().zip(&l.hk) {
-                *acc += f64::from(*v) * col[1];
-            }
-        }
-        (hk, h, src_err)
-    }
-
-    /// Reflectance below which a receiver's error is measured as illuminance (lux)
-    /// instead of radiosity: black measuring planes must still be resolved.
-    const DARK: f64 = 0.05;
-
-    /// Weight of the illuminance deviation in a leaf's error: ρ (radiosity error) for
-    /// visible surfaces, 1 (illuminance error) for dark ones.
-    fn error_weight(ctx: &Ctx, polygon: u32) -> f64 {
-        let rho = ctx.rho[polygon as usize][1];
-        if rho > Self::DARK { rho } else { 1.0 }
-    }
-
-    /// The quantity a leaf's error is relative to: its radiosity Y (lm/m²), or its
-    /// illuminance (lux) on dark surfaces.
-    fn error_norm(&self, ctx: &Ctx, r: usize) -> f64 {
-        if ctx.rho[self.elems[r].polygon as usize][1] > Self::DARK {
-            self.b[r][1]
-        } else {
-            self.h[r][1]
-        }
-    }
-
-    /// Estimated mean absolute deviation of the leaf's true radiosity (or, on dark
-    /// surfaces, illuminance) from its constant value: ρ times the spread of the summed
-    /// point irradiances at the 2×2 Gauss points (for a linear variation this matches
-    /// the L1 error of the constant basis) plus a quarter of the transfer bound of
-    /// non-uniform sources (the mean absolute deviation of a value spread uniformly
-    /// between the extrema).
-    fn leaf_error(&self, ctx: &Ctx, r: usize) -> f64 {
-        let (hk, _, src_err) = self.leaf_estimate(ctx, r);
-        let mean = hk.iter().sum::<f64>() / 4.0;
-        let mad = hk.iter().map(|v| (v - mean).abs()).sum::<f64>() / 4.0;
-        Self::error_weight(ctx, self.elems[r].polygon) * (mad + 0.25 * src_err)
-    }
-
-    fn pull(&mut self) {
-        for e in (0..self.elems.len()).rev() {
-            if self.is_leaf(e) {
-                self.bmin[e] = self.b[e][1];
-                self.bmax[e] = self.b[e][1];
-                continue;
-            }
-            let mut b = [0.0; 3];
-            let mut h = [0.0; 3];
-            let mut lo = f64::INFINITY;
-            let mut hi = f64::NEG_INFINITY;
-            for c in self.children(e) {
-                let c = c as usize;
-                let a = self.elems[c].area;
-                for k in 0..3 {
-                    b[k] += a * self.b[c][k];
-                    h[k] += a * self.h[c][k];
-                }
-                lo = lo.min(self.bmin[c]);
-                hi = hi.max(self.bmax[c]);
-            }
-            let a = self.elems[e].area.max(1e-300);
-            self.b[e] = b.map(|v| v / a);
-            self.h[e] = h.map(|v| v / a);
-            self.bmin[e] = lo;
-            self.bmax[e] = hi;
-        }
-    }
-
-    fn memory_bytes(&self) -> usize {
-        let links: usize = self.links.iter().map(|l| l.capacity()).sum();
-        let llinks: usize = self.llinks.iter().map(|l| l.capacity()).sum();
-        self.elems.len()
-            * (std::mem::size_of::<Elem>() + 4 * std::mem::size_of::<V3>() + 2 * 24 + 16 + 2 * 24)
-            + links * std::mem::size_of::<Link>()
-            + llinks * std::mem::size_of::<LightLink>()
-    }
-
-    fn link_count(&self) -> usize {
-        self.links.iter().map(Vec::len).sum::<usize>()
-            + self.llinks.iter().map(Vec::len).sum::<usize>()
-    }
-}
-
-/// One refinement round set: splits what the bounds ask for at the absolute radiosity
-/// tolerance `eps` (lm/m²). Returns the number of elements split.
-fn refine(
-    tree: &mut Tree,
-    ctx: &Ctx,
-    eps: f64,
-    min_area: f64,
-    max_level: u8,
-    deadline: Option<Instant>,
-) -> usize {
-    let mut total = 0;
-    for _round in 0..64 {
-        if deadline.is_some_and(|d| Instant::now() > d) {
-            break;
-        }
-        let leaves = tree.leaves();
-        let splittable = |e: usize| {
-            let el = &tree.elems[e];
-            el.first_child != NONE || (el.area * 0.25 >= min_area && el.level < max_level)
-        };
-        let decisions: Vec<(u32, bool, Vec<usize>)> = leaves
-            .par_iter()
-            .filter_map(|&r| {
-                let ri = r as usize;
-                let err = tree.leaf_error(ctx, ri);
-                if err <= eps {
-                    return None;
-                }
-                let can_r = splittable(ri);
-                let mut split_r = false;
-                let mut srcs = Vec::new();
-                for (i, l) in tree.links[ri].iter().enumerate() {
-                    let s = l.src as usize;
-                    let (lo, hi) =
-                        l.fk.iter()
-                            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-                                (a.min(v as f64), b.max(v as f64))
-                            });
-                    let e = Tree::error_weight(ctx, tree.elems[ri].polygon)
-                        * (tree.b[s][1] * (hi - lo) + l.ff * (tree.bmax[s] - tree.bmin[s]));
-                    if e > 0.25 * eps {
-                        let can_s = splittable(s);
-                        // sources are split only while larger than the receiver, which
-                        // keeps the links per leaf bounded once receivers reach the
-                        // minimum size
-                        if can_s && tree.elems[s].area > tree.elems[ri].area {
-                            srcs.push(i);
-                        } else if can_r {
-                            split_r = true;
-                        }
-                    }
-                }
-                if !split_r && srcs.is_empty() && can_r {
-                    // the error comes from many small contributions or from lights
-                    split_r = true;
-                }
-                if split_r || !srcs.is_empty() {
-                    Some((r, split_r, srcs))
-                } else {
-                    None
-                }
-            })
-            .collect();
-        if decisions.is_empty() {
-            break;
-        }
-        // elements to split: receivers, and leaf sources
-        let mut to_split: Vec<usize> = Vec::new();
-        for (r, split_r, srcs) in &decisions {
-            if *split_r {
-                to_split.push(*r as usize);
-            }
-            for &i in srcs {
-                let s = tree.links[*r as usize][i].src as usize;
-                if tree.is_leaf(s) {
-                    to_split.push(s);
-                }
-            }
-        }
-        to_split.sort_unstable();
-        to_split.dedup();
-        let mut expand: Vec<Option<Vec<usize>>> = vec![None; tree.elems.len()];
-        for (r, _, srcs) in decisions {
-            expand[r as usize] = Some(srcs);
-        }
-        let split_set: std::collections::HashSet<usize> = to_split.iter().copied().collect();
-        for &e in &to_split {
-            tree.split(e);
-        }
-        total += to_split.len();
-        // relink: every old leaf that was split or had sources expanded
-        let jobs: Vec<usize> = leaves
-            .iter()
-            .map(|&r| r as usize)
-            .filter(|r| split_set.contains(r) || expand[*r].is_some())
-            .collect();
-        let t = &*tree;
-        let results: Vec<(usize, Vec<Relinked>)> = jobs
-            .par_iter()
-            .map(|&r| {
-                let srcs_split: &[usize] = expand[r].as_deref().unwrap_or(&[]);
-                // sources after expansion, with the links kept as they are
-                let mut keep: Vec<Link> = Vec::new();
-                let mut new_src: Vec<u32> = Vec::new();
-                for (i, l) in t.links[r].iter().enumerate() {
-                    if srcs_split.contains(&i) {
-                        new_src.extend(t.children(l.src as usize));
-                    } else {
-                        keep.push(*l);
-                    }
-                }
-                if split_set.contains(&r) {
-                    let out = t
-                        .children(r)
-                        .map(|c| {
-                            let ce = &t.elems[c as usize];
-                            let links = keep
-                                .iter()
-                                .map(|l| l.src)
-                                .chain(new_src.iter().copied())
-                                .filter(|&s| faces(ce, &t.elems[s as usize]))
-                                .map(|s| eval_link(ctx, &t.elems, c, s))
-                                .filter(|l| l.ff > 0.0 || l.fk.iter().any(|&v| v > 0.0))
-                                .collect();
-                            let llinks = t.llinks[r]
-                                .iter()
-                                .map(|l| eval_light(ctx, &t.elems, c, l.light))
-                                .collect();
-                            (c, links, llinks)
-                        })
-                        .collect();
-                    (r, out)
-                } else {
-                    let mut links = keep;
-                    let re = &t.elems[r];
-                    links.extend(
-                        new_src
-                            .iter()
-                            .filter(|&&s| faces(re, &t.elems[s as usize]))
-                            .map(|&s| eval_link(ctx, &t.elems, r as u32, s))
-                            .filter(|l| l.ff > 0.0 || l.fk.iter().any(|&v| v > 0.0)),
-                    );
-                    (r, vec![(r as u32, links, t.llinks[r].clone())])
-                }
-            })
-            .collect();
-        for (r, outs) in results {
-            if split_set.contains(&r) {
-                tree.links[r] = Vec::new();
-                tree.llinks[r] = Vec::new();
-            }
-            for (e, l, ll) in outs {
-                tree.links[e as usize] = l;
-                tree.llinks[e as usize] = ll;
-            }
-        }
-    }
-    total
-}
-
-fn weighted(tree: &Tree, leaves: &[u32], f: impl Fn(usize) -> f64) -> f64 {
-    leaves
-        .iter()
-        .map(|&e| tree.elems[e as usize].area * f(e as usize))
-        .sum()
-}
-
-/// Solves a scene by hierarchical radiosity. `vis` answers visibility (use
-/// [`super::visibility::SceneOccluders`] or a BVH).
+/// Solves a scene by hierarchical radiosity with clustering. `vis` answers visibility
+/// ([`super::BvhOccluders`] for large scenes, [`super::NoOccluders`] when the caller
+/// knows nothing can block).
 pub fn solve_hierarchical(
     scene: &Scene,
     vis: &dyn Visibility,
@@ -546,134 +79,114 @@ pub fn solve_hierarchical(
     let start = Instant::now();
     let deadline = opts.stop.time_limit.map(|t| start + t);
     super::validate(scene, opts.stop.target_error)?;
+    if !(opts.min_area_m2 >= 0.0 && opts.min_area_m2.is_finite()) {
+        return Err(RadiosityError::BadOption(format!(
+            "smallest element area {} m² must be ≥ 0",
+            opts.min_area_m2
+        )));
+    }
+    let mut h = Hierarchy::build(scene);
+    let emitters = Emitter::all(scene);
+    let (lo, hi) = h
+        .clusters
+        .first()
+        .map_or((V3::zeros(), V3::zeros()), |c| (c.lo, c.hi));
     let ctx = Ctx {
         scene,
+        emitters: &emitters,
         vis,
-        rho: scene
-            .polygons
-            .iter()
-            .map(|p| scene.materials[p.material].reflectance_xyz)
-            .collect(),
-        emit: scene
-            .polygons
-            .iter()
-            .map(|p| {
-                scene.materials[p.material]
-                    .emission_cd_m2
-                    .map(|l| std::f64::consts::PI * l)
-            })
-            .collect(),
-        rays: AtomicU64::new(0),
-        skipped: AtomicU64::new(0),
-        tested: AtomicU64::new(0),
+        far: 4.0 * (hi - lo).norm() + 1.0,
+        counters: Counters::default(),
     };
-    let n = scene.polygons.len();
-    let mut tree = Tree {
-        elems: scene
-            .polygons
-            .iter()
-            .enumerate()
-            .map(|(i, p)| make_elem(p.vertices.clone(), i as u32, 0))
-            .collect(),
-        b: ctx.emit.clone(),
-        h: vec![[0.0; 3]; n],
-        bmin: ctx.emit.iter().map(|e| e[1]).collect(),
-        bmax: ctx.emit.iter().map(|e| e[1]).collect(),
-        links: vec![Vec::new(); n],
-        llinks: vec![Vec::new(); n],
-    };
-    let total_area: f64 = tree.elems.iter().map(|e| e.area).sum();
+    let total_area: f64 = h.patches.iter().map(|p| p.area).sum();
     let min_area = if opts.min_area_m2 > 0.0 {
         opts.min_area_m2
     } else {
-        1e-4 * total_area
+        // two quadtree levels below the median polygon in finely meshed scenes
+        let mut areas: Vec<f64> = h.patches.iter().map(|p| p.area).collect();
+        let mid = areas.len() / 2;
+        let median = *areas.select_nth_unstable_by(mid, f64::total_cmp).1;
+        (1e-4 * total_area).min(median / 16.0)
     };
-    // initial links between all facing root pairs (no clustering)
-    {
-        let t = &tree;
-        let init: Vec<(Vec<Link>, Vec<LightLink>)> = (0..n as u32)
-            .into_par_iter()
-            .map(|r| {
-                let re = &t.elems[r as usize];
-                let links = (0..n as u32)
-                    .filter(|&s| s != r && faces(re, &t.elems[s as usize]))
-                    .map(|s| eval_link(&ctx, &t.elems, r, s))
-                    .filter(|l| l.ff > 0.0 || l.fk.iter().any(|&v| v > 0.0))
-                    .collect();
-                let llinks = (0..scene.lights.len() as u32)
-                    .map(|l| eval_light(&ctx, &t.elems, r, l))
-                    .filter(|l| l.irr > 0.0 || l.hk.iter().any(|&v| v > 0.0))
-                    .collect();
-                (links, llinks)
-            })
-            .collect();
-        for (i, (l, ll)) in init.into_iter().enumerate() {
-            tree.links[i] = l;
-            tree.llinks[i] = ll;
+    let lim = refine::Limits {
+        min_area,
+        max_level: opts.max_level,
+        basis: opts.basis,
+    };
+    let mut st = State::new(scene, &h);
+    let mut plinks: Vec<Vec<PLink>> = vec![Vec::new(); h.patches.len()];
+    let mut clinks: Vec<Vec<CLink>> = vec![Vec::new(); h.clusters.len()];
+    if !h.clusters.is_empty() {
+        // the root's self-link (Sillion 1995) and every emitter to the root
+        clinks[0].push(CLink {
+            src: Node::cluster(0),
+            d: 0.0,
+            k: 0.0,
+            v: 0.0,
+            rel_src: 0.0,
+            rel_vis: 0.0,
+            overlap: Overlap::Near,
+        });
+        for e in 0..emitters.len() {
+            if let Some(l) = eval_clink(&ctx, &h, 0, Node::emitter(e)) {
+                clinks[0].push(l);
+            }
         }
     }
-    // reference exitance for the absolute tolerance: emitted flux spread over the area,
-    // amplified by the mean reflectance
-    let phi = scene.emitted_flux_xyz_lm()[1];
-    let rho_mean = weighted(&tree, &tree.leaves(), |e| {
-        ctx.rho[tree.elems[e].polygon as usize][1]
-    }) / total_area;
-    let b_ref0 = phi / total_area / (1.0 - rho_mean).max(1e-6);
+    // tolerance scale (lm): the flux the surfaces can reflect
+    let rho_mean = h
+        .patches
+        .iter()
+        .map(|p| p.area * st.rho[p.polygon as usize][1].max(nodes::DARK))
+        .sum::<f64>()
+        / total_area.max(1e-300);
+    let daylight: f64 = scene.sky.as_ref().map_or(0.0, |d| {
+        d.sources().map(|s| s.normal_illuminance_lux).sum::<f64>() * 0.25 * total_area
+    });
+    let flux = scene.emitted_flux_xyz_lm()[1] + daylight;
     let target = opts.stop.target_error;
-    let mut eps = target * b_ref0;
+    let mut eps = target * rho_mean * flux * 0.05;
+
     let mut curve = ErrorCurve::default();
     let mut iterations = 0usize;
     let mut extrapolations = 0usize;
-    let stop;
-    let mut leaves = tree.leaves();
     let mut q_hist: Vec<f64> = Vec::new();
     let mut res_prev = f64::NAN;
     let mut idle_refines = 0usize;
     let mut needs_refine = true;
+    let mut linear_leaves;
+    let stop;
     loop {
         if needs_refine {
-            let splits = refine(&mut tree, &ctx, eps, min_area, opts.max_level, deadline);
-            leaves = tree.leaves();
-            idle_refines = if splits == 0 { idle_refines + 1 } else { 0 };
+            let changed = refine::refine(
+                &ctx,
+                &mut h,
+                &mut st,
+                &mut plinks,
+                &mut clinks,
+                eps,
+                &lim,
+                deadline,
+            );
+            st.bake_cluster_direct(scene, &h, &emitters, &clinks);
+            idle_refines = if changed == 0 { idle_refines + 1 } else { 0 };
             q_hist.clear();
             res_prev = f64::NAN;
             needs_refine = false;
         }
-        // one Jacobi gather sweep over the leaves
-        let t = &tree;
-        let new: Vec<([f64; 3], [f64; 3])> = leaves
-            .par_iter()
-            .map(|&r| {
-                let r = r as usize;
-                let (_, h, _) = t.leaf_estimate(&ctx, r);
-                let p = t.elems[r].polygon as usize;
-                let (rho, e) = (ctx.rho[p], ctx.emit[p]);
-                (
-                    [
-                        e[0] + rho[0] * h[0],
-                        e[1] + rho[1] * h[1],
-                        e[2] + rho[2] * h[2],
-                    ],
-                    h,
-                )
-            })
-            .collect();
+        st.gather(&h, &emitters, &plinks, &clinks);
+        let new = st.push(&h);
         let mut num = 0.0;
         let mut den = 0.0;
-        let mut delta: Vec<[f64; 3]> = Vec::with_capacity(leaves.len());
-        for (&r, (b, h)) in leaves.iter().zip(&new) {
-            let r = r as usize;
-            let a = tree.elems[r].area;
-            let d = [
-                b[0] - tree.b[r][0],
-                b[1] - tree.b[r][1],
-                b[2] - tree.b[r][2],
-            ];
+        let mut delta: Vec<[f64; 3]> = Vec::with_capacity(new.len());
+        for (p, b) in &new {
+            let p = *p as usize;
+            let a = h.patches[p].area;
+            let d: [f64; 3] = std::array::from_fn(|c| b[c] - st.b[p][c]);
             num += a * d[1].abs();
             den += a * b[1].abs();
             delta.push(d);
-            tree.b[r] = *b;
-            tree.h[r] = *h;
+            st.b[p] = *b;
         }
         iterations += 1;
         let res = if den > 0.0 { num / den } else { 0.0 };
@@ -682,35 +195,31 @@ pub fn solve_hierarchical(
                 "residual became {res} after {iterations} sweeps"
             )));
         }
-        // contraction ratio of the absolute update (Jacobi: → spectral radius)
         let q = if res_prev.is_finite() && res_prev > 0.0 {
             num / res_prev
         } else {
             f64::NAN
         };
         res_prev = num;
-        let rho_max = ctx.rho.iter().map(|r| r[1]).fold(0.0, f64::max);
+        let rho_max = st.rho.iter().map(|r| r[1]).fold(0.0, f64::max);
         let q_est = if q.is_finite() && q < 1.0 {
             q.max(0.0)
         } else {
             rho_max
         };
-        // remaining error of the geometric tail: |Δ| q / (1 − q)
         let solve_err = res * q_est / (1.0 - q_est).max(1e-12);
         if q.is_finite() {
             q_hist.push(q);
         }
-        // geometric-series (Lyusternik) extrapolation once the ratio is stable; the
-        // next sweep measures how well it worked
         if opts.accelerate && q_hist.len() >= 2 {
             let (q1, q2) = (q_hist[q_hist.len() - 2], q_hist[q_hist.len() - 1]);
             if q2 < 1.0 && q2 > 0.0 && (q2 - q1).abs() <= 0.01 * (1.0 - q2) {
                 let g = q2 / (1.0 - q2);
-                for (&r, d) in leaves.iter().zip(&delta) {
-                    let r = r as usize;
-                    let p = tree.elems[r].polygon as usize;
-                    for ((b, dc), e) in tree.b[r].iter_mut().zip(d).zip(&ctx.emit[p]) {
-                        *b = (*b + g * dc).max(*e);
+                for ((p, _), d) in new.iter().zip(&delta) {
+                    let p = *p as usize;
+                    let e = st.emit[h.patches[p].polygon as usize];
+                    for c in 0..3 {
+                        st.b[p][c] = (st.b[p][c] + g * d[c]).max(e[c]);
                     }
                 }
                 extrapolations += 1;
@@ -718,25 +227,51 @@ pub fn solve_hierarchical(
                 res_prev = f64::NAN;
             }
         }
-        tree.pull();
+        st.pull(&h);
 
-        let nsum = weighted(&tree, &leaves, |e| tree.error_norm(&ctx, e)).max(1e-300);
-        let disc = weighted(&tree, &leaves, |e| tree.leaf_error(&ctx, e)) / nsum;
+        // discretisation error over the leaves
+        let (mut esum, mut nsum, mut ssum) = (0.0, 0.0, 0.0);
+        linear_leaves = 0;
+        for (p, _) in &new {
+            let p = *p as usize;
+            let le = st.leaf_error(&h, p, opts.basis, eps);
+            let a = h.patches[p].area;
+            esum += a * le.error;
+            ssum += a * le.shape;
+            nsum += a * le.norm;
+            linear_leaves += usize::from(le.linear);
+        }
+        let disc = if nsum > 0.0 { esum / nsum } else { 0.0 };
+        if tracing::enabled!(tracing::Level::TRACE) {
+            let b = st.error_breakdown(&h, &emitters, &plinks, &clinks);
+            let n = nsum.max(1e-300);
+            tracing::trace!(
+                shape = ssum / n,
+                patch_spread = b[0] / n,
+                cluster_bounds = b[1] / n,
+                cluster_extent = b[2] / n,
+                visibility = b[3] / n,
+                cluster_receivers = b[4] / n,
+                "error breakdown (relative)"
+            );
+        }
         curve.points.push(CurvePoint {
             time_s: start.elapsed().as_secs_f64(),
             iteration: iterations,
             estimated_error: solve_err + disc,
             solve_error: solve_err,
             discretization_error: disc,
-            patches: leaves.len(),
-            links: tree.link_count(),
+            patches: new.len(),
+            links: link_count(&plinks, &clinks),
         });
         tracing::debug!(
             iterations,
             solve_err,
             disc,
-            patches = leaves.len(),
-            "hierarchical sweep"
+            shape = ssum / nsum.max(1e-300),
+            eps,
+            patches = new.len(),
+            "sweep"
         );
         if solve_err + disc <= target {
             stop = StopReason::Converged;
@@ -750,44 +285,44 @@ pub fn solve_hierarchical(
             stop = StopReason::IterationLimit;
             break;
         }
-        if solve_err <= 0.25 * target.min(disc.max(target * 0.1)) {
-            // the linear solve is ahead of the mesh: refine
+        if solve_err <= 0.25 * target.min(disc.max(0.1 * target)) {
             if idle_refines >= 4 {
                 stop = StopReason::RefinementExhausted;
                 break;
             }
-            let n_avg = nsum / total_area;
-            eps = (0.5 * eps).min(target * n_avg);
+            eps *= (target / disc.max(1e-300)).clamp(0.25, 0.5);
             needs_refine = true;
         }
     }
-    let stats = SolveStats {
-        patches: leaves.len(),
-        elements: tree.elems.len(),
-        links: tree.link_count(),
-        iterations,
-        shadow_rays: ctx.rays.load(Ordering::Relaxed),
-        visibility_skipped: ctx.skipped.load(Ordering::Relaxed),
-        visibility_tested: ctx.tested.load(Ordering::Relaxed),
-        memory_bytes: tree.memory_bytes(),
-        time_s: start.elapsed().as_secs_f64(),
-        extrapolations,
-    };
+    let leaves: Vec<usize> = (0..h.patches.len())
+        .filter(|&p| h.patches[p].is_leaf())
+        .collect();
     let patches: Vec<Patch> = leaves
         .iter()
-        .map(|&e| {
-            let el = &tree.elems[e as usize];
-            Patch {
-                polygon: el.polygon as usize,
-                vertices: el.verts.clone(),
-                normal: el.normal,
-                area_m2: el.area,
-                exitance_xyz: tree.b[e as usize],
-                irradiance_xyz: tree.h[e as usize],
-            }
-        })
+        .map(|&p| output_patch(&h, &st, p, opts.basis, eps))
         .collect();
-    let by_polygon = Solution::index(&patches, n);
+    let by_polygon = Solution::index(&patches, scene.polygons.len());
+    let n_links = link_count(&plinks, &clinks);
+    let memory = h.patches.len()
+        * (std::mem::size_of::<nodes::Patch>() + 2 * std::mem::size_of::<sweep::Irr>() + 40)
+        + h.clusters.len() * (std::mem::size_of::<nodes::Cluster>() + 300)
+        + plinks.iter().map(|l| l.capacity()).sum::<usize>() * std::mem::size_of::<PLink>()
+        + clinks.iter().map(|l| l.capacity()).sum::<usize>() * std::mem::size_of::<CLink>();
+    let stats = SolveStats {
+        patches: patches.len(),
+        elements: h.patches.len() + h.clusters.len(),
+        links: n_links,
+        iterations,
+        shadow_rays: ctx.counters.rays.into_inner(),
+        visibility_skipped: ctx.counters.skipped.into_inner(),
+        visibility_tested: ctx.counters.tested.into_inner(),
+        memory_bytes: memory,
+        time_s: start.elapsed().as_secs_f64(),
+        extrapolations,
+        clusters: h.clusters.len(),
+        cluster_links: clinks.iter().map(Vec::len).sum(),
+        linear_patches: linear_leaves,
+    };
     Ok(Solution {
         patches,
         by_polygon,
@@ -795,4 +330,36 @@ pub fn solve_hierarchical(
         stop,
         stats,
     })
+}
+
+fn link_count(p: &[Vec<PLink>], c: &[Vec<CLink>]) -> usize {
+    p.iter().map(Vec::len).sum::<usize>() + c.iter().map(Vec::len).sum::<usize>()
+}
+
+/// A solved leaf, with vertex radiosities where the linear basis is used.
+fn output_patch(h: &Hierarchy, st: &State, p: usize, basis: Basis, eps: f64) -> Patch {
+    let pa = &h.patches[p];
+    let poly = pa.polygon as usize;
+    let (rho, e) = (st.rho[poly], st.emit[poly]);
+    let t = &st.tot[p];
+    let linear = st.leaf_error(h, p, basis, eps).linear;
+    let vertex_exitance_xyz = if linear {
+        let bs: [[f64; 3]; NS] =
+            std::array::from_fn(|j| std::array::from_fn(|c| e[c] + rho[c] * t.s[j][c]));
+        sampling::at_vertices(pa.nv.min(4), &bs)
+            .into_iter()
+            .map(|v| v.map(|x| x.max(0.0)))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    Patch {
+        polygon: poly,
+        vertices: pa.verts().to_vec(),
+        normal: pa.normal,
+        area_m2: pa.area,
+        exitance_xyz: st.b[p],
+        irradiance_xyz: t.avg,
+        vertex_exitance_xyz,
+    }
 }

@@ -35,10 +35,12 @@ pub fn vertex_luminance(sol: &Solution) -> Vec<Vec<[f64; 3]>> {
     type Key = (usize, i64, i64, i64);
     let mut acc: HashMap<Key, ([f64; 3], f64)> = HashMap::new();
     for p in &sol.patches {
-        for v in &p.vertices {
+        for (k, v) in p.vertices.iter().enumerate() {
+            // linear patches bring their own vertex value, constant ones their mean
+            let b = p.vertex_exitance_xyz.get(k).unwrap_or(&p.exitance_xyz);
             let e = acc.entry(key(p.polygon, v)).or_insert(([0.0; 3], 0.0));
-            for c in 0..3 {
-                e.0[c] += p.area_m2 * p.exitance_xyz[c] / PI;
+            for (acc, v) in e.0.iter_mut().zip(b) {
+                *acc += p.area_m2 * v / PI;
             }
             e.1 += p.area_m2;
         }

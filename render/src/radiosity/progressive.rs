@@ -177,6 +177,7 @@ pub(crate) fn patches_from_mesh(mesh: &[MeshElem], b: &[[f64; 3]], h: &[[f64; 3]
             area_m2: e.area,
             exitance_xyz: *b,
             irradiance_xyz: *h,
+            vertex_exitance_xyz: Vec::new(),
         })
         .collect()
 }
@@ -312,6 +313,7 @@ pub fn solve_progressive(
             * (std::mem::size_of::<MeshElem>() + 8 * std::mem::size_of::<V3>() + 5 * 24),
         time_s: start.elapsed().as_secs_f64(),
         extrapolations: 0,
+        ..SolveStats::default()
     };
     Ok(Solution {
         patches,

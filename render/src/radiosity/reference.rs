@@ -118,6 +118,7 @@ pub fn solve_dense_reference(
             memory_bytes: links * 12 + n * 200,
             time_s: start.elapsed().as_secs_f64(),
             extrapolations: 0,
+            ..SolveStats::default()
         },
     })
 }

@@ -21,6 +21,9 @@ pub struct Patch {
     pub exitance_xyz: [f64; 3],
     /// Irradiance as XYZ (Y in lux) received by the patch.
     pub irradiance_xyz: [f64; 3],
+    /// Exitance at each vertex (XYZ, lm/m²) where the patch uses the linear basis;
+    /// empty for constant patches.
+    pub vertex_exitance_xyz: Vec<[f64; 3]>,
 }
 
 /// Counters of a solve.
@@ -46,6 +49,12 @@ pub struct SolveStats {
     pub time_s: f64,
     /// Extrapolation steps applied (geometric-series acceleration).
     pub extrapolations: usize,
+    /// Clusters of the hierarchy (0 for solvers without clustering).
+    pub clusters: usize,
+    /// Links whose receiver is a cluster.
+    pub cluster_links: usize,
+    /// Leaves represented with the linear basis.
+    pub linear_patches: usize,
 }
 
 /// The result of a solve.

@@ -9,8 +9,9 @@ use crate::scene::{Scene, V3};
 /// Visibility queries used by the solvers. Polygon indices refer to the scene.
 pub trait Visibility: Sync {
     /// Conservative: `false` guarantees that nothing blocks any segment between the
-    /// convex patches `a` (on polygon `a_poly`) and `b` (on polygon `b_poly`). A patch
-    /// may be a single point (a point light; pass `usize::MAX` as its polygon).
+    /// convex patches `a` (on polygon `a_poly`) and `b` (on polygon `b_poly`). With
+    /// `usize::MAX` as its polygon an end is a point set whose convex hull is meant (a
+    /// point light, a cluster's bounding-box corners): no plane tests for that end.
     fn may_occlude(&self, a: &[V3], a_poly: usize, b: &[V3], b_poly: usize) -> bool;
     /// Whether the open segment from `a` to `b` is blocked by any polygon other than
     /// those listed in `skip`.
@@ -97,8 +98,8 @@ impl Visibility for SceneOccluders {
         let (blo, bhi) = bbox(b);
         let lo = alo.inf(&blo) - V3::repeat(self.eps);
         let hi = ahi.sup(&bhi) + V3::repeat(self.eps);
-        let na = crate::scene::polygon_normal(a);
-        let nb = crate::scene::polygon_normal(b);
+        let na = plane_of(a, a_poly);
+        let nb = plane_of(b, b_poly);
         for (i, o) in self.polys.iter().enumerate() {
             if i == a_poly || i == b_poly {
                 continue;
@@ -163,6 +164,15 @@ impl Visibility for SceneOccluders {
     }
 }
 
+/// Unit normal of an end that is a patch (not a point set, see [`Visibility`]).
+fn plane_of(points: &[V3], polygon: usize) -> Option<V3> {
+    if polygon == usize::MAX || points.len() < 3 {
+        None
+    } else {
+        crate::scene::polygon_normal(points)
+    }
+}
+
 /// Whether `p` (in the polygon's plane) lies inside the convex polygon.
 pub fn point_in_convex(verts: &[V3], normal: &V3, p: &V3) -> bool {
     let m = verts.len();
@@ -172,35 +182,93 @@ pub fn point_in_convex(verts: &[V3], normal: &V3, p: &V3) -> bool {
     })
 }
 
-/// Shadow rays through the `mesh::Bvh` of the scene's triangles (quads split), with the
-/// same conservative classification as [`SceneOccluders`] (which is linear in the
-/// number of polygons per query; a BVH shaft query would remove that).
+/// Shadow rays and shaft culling through the `mesh::Bvh` of the scene's triangles
+/// (quads split): the classification traverses only the BVH nodes that meet the
+/// Haines–Wallace shaft between the two ends, so it costs about log n per query
+/// instead of the brute force's n.
 #[derive(Debug)]
 pub struct BvhOccluders {
     bvh: crate::mesh::Bvh,
-    cull: SceneOccluders,
+    /// Input polygon of each BVH triangle.
+    tri_polygon: Vec<u32>,
+    /// Unit normal of each BVH triangle.
+    tri_normal: Vec<V3>,
+    eps: f64,
 }
 
 impl BvhOccluders {
     /// Builds the BVH over every polygon of the scene.
     pub fn new(scene: &Scene) -> Self {
         let mut tris = Vec::new();
-        for p in &scene.polygons {
+        let mut tri_polygon = Vec::new();
+        let mut tri_normal = Vec::new();
+        let mut scale: f64 = 0.0;
+        for (pi, p) in scene.polygons.iter().enumerate() {
+            let n = crate::scene::polygon_normal(&p.vertices).unwrap_or_else(V3::z);
+            let (lo, hi) = bbox(&p.vertices);
+            scale = scale.max((hi - lo).norm());
             for k in 1..p.vertices.len().saturating_sub(1) {
                 let t = [p.vertices[0], p.vertices[k], p.vertices[k + 1]];
                 tris.push(t.map(|v| [v.x, v.y, v.z]));
+                tri_polygon.push(pi as u32);
+                tri_normal.push(n);
             }
         }
         Self {
             bvh: crate::mesh::Bvh::build(&tris),
-            cull: SceneOccluders::new(scene),
+            tri_polygon,
+            tri_normal,
+            eps: 1e-9 * scale.max(1e-3),
         }
     }
 }
 
 impl Visibility for BvhOccluders {
     fn may_occlude(&self, a: &[V3], a_poly: usize, b: &[V3], b_poly: usize) -> bool {
-        self.cull.may_occlude(a, a_poly, b, b_poly)
+        let eps = self.eps;
+        let shaft = super::shaft::Shaft::new(bbox(a), bbox(b), eps);
+        let pa = plane_of(a, a_poly).map(|n| (n, n.dot(&a[0])));
+        let pb = plane_of(b, b_poly).map(|n| (n, n.dot(&b[0])));
+        // largest n·x over a box
+        let box_max = |n: &V3, lo: &[f64; 3], hi: &[f64; 3]| -> f64 {
+            (0..3)
+                .map(|k| {
+                    if n[k] > 0.0 {
+                        n[k] * hi[k]
+                    } else {
+                        n[k] * lo[k]
+                    }
+                })
+                .sum()
+        };
+        let in_front = |plane: &Option<(V3, f64)>, t: &[[f64; 3]; 3]| {
+            plane.is_none_or(|(n, d)| {
+                t.iter()
+                    .any(|v| n.x * v[0] + n.y * v[1] + n.z * v[2] > d + eps)
+            })
+        };
+        self.bvh.any_triangle(
+            |lo, hi| {
+                !shaft.box_outside(lo, hi)
+                    && pa.is_none_or(|(n, d)| box_max(&n, lo, hi) > d + eps)
+                    && pb.is_none_or(|(n, d)| box_max(&n, lo, hi) > d + eps)
+            },
+            |ti, t| {
+                let poly = self.tri_polygon[ti as usize] as usize;
+                if poly == a_poly || poly == b_poly {
+                    return false;
+                }
+                if shaft.points_outside(t) || !in_front(&pa, t) || !in_front(&pb, t) {
+                    return false;
+                }
+                // a and b on the same side of the occluder's plane
+                let n = self.tri_normal[ti as usize];
+                let o = V3::new(t[0][0], t[0][1], t[0][2]);
+                let (fa, ba) = SceneOccluders::side(a, &o, &n, eps);
+                let (fb, bb) = SceneOccluders::side(b, &o, &n, eps);
+                (ba || bb) && (fa || fb)
+            },
+        )
     }
 
     /// The end polygons are excluded by the BVH's relative end margin (1e-6 of the

@@ -9,9 +9,46 @@ use super::geom::V3;
 /// through which `photometry::IntensityDistribution` (IES LM-63, EULUMDAT) plugs in.
 pub type IntensityFn = Arc<dyn Fn([f64; 3]) -> f64 + Send + Sync>;
 
-/// Sky luminance hook: cd/m² seen looking along a unit world direction (z up).
-/// Reserved for `photometry::Sky`; the radiosity solvers do not use it yet.
-pub type SkyHook = Arc<dyn Fn([f64; 3]) -> f64 + Send + Sync>;
+/// A distant directional source: the sun, or one cell of a discretised sky (a cell of
+/// luminance L and solid angle ω gives L·ω lux on a plane facing it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DirectionalSource {
+    /// Unit vector from the scene towards the source (world frame).
+    pub direction: V3,
+    /// Illuminance on an unobstructed plane facing the source, lux (Y).
+    pub normal_illuminance_lux: f64,
+    /// Colour as XYZ relative to Y = 1.
+    pub color_xyz: [f64; 3],
+}
+
+/// Daylight: a CIE sky as a set of distant cells (`photometry::Sky::patches`) and,
+/// optionally, the sun. The ground below the horizon is black.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Daylight {
+    /// Sky cells (without the sun).
+    pub sky_cells: Vec<DirectionalSource>,
+    /// The sun, if above the horizon.
+    pub sun: Option<DirectionalSource>,
+}
+
+impl Daylight {
+    /// Every directional source: the sky cells, then the sun.
+    pub fn sources(&self) -> impl Iterator<Item = &DirectionalSource> {
+        self.sky_cells.iter().chain(self.sun.iter())
+    }
+
+    /// Illuminance (XYZ, Y in lux) on an unobstructed plane with unit normal `n`.
+    pub fn illuminance_on_plane_xyz(&self, n: &V3) -> [f64; 3] {
+        let mut e = [0.0; 3];
+        for s in self.sources() {
+            let c = s.normal_illuminance_lux * n.dot(&s.direction).max(0.0);
+            for (k, v) in e.iter_mut().enumerate() {
+                *v += c * s.color_xyz[k];
+            }
+        }
+        e
+    }
+}
 
 /// A diffuse (Lambertian) material.
 #[derive(Debug, Clone, PartialEq)]
@@ -205,8 +242,8 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Camera for images, if the scene file defines one.
     pub camera: Option<Camera>,
-    /// Sky hook (reserved, see [`SkyHook`]).
-    pub sky: Option<SkyHook>,
+    /// Daylight (sky and sun), if the scene is lit by one.
+    pub sky: Option<Daylight>,
 }
 
 impl std::fmt::Debug for Scene {
@@ -216,7 +253,7 @@ impl std::fmt::Debug for Scene {
             .field("materials", &self.materials)
             .field("lights", &self.lights)
             .field("camera", &self.camera)
-            .field("sky", &self.sky.is_some())
+            .field("sky", &self.sky.as_ref().map(|d| d.sky_cells.len()))
             .finish()
     }
 }
@@ -227,7 +264,18 @@ impl Scene {
         &self.materials[self.polygons[polygon].material]
     }
 
-    /// Total flux emitted by area emitters and lights, per XYZ channel (Y in lm).
+    /// True when anything lights the scene: an area emitter, a light with flux, or
+    /// daylight.
+    pub fn has_emission(&self) -> bool {
+        self.emitted_flux_xyz_lm()[1] > 0.0
+            || self
+                .sky
+                .as_ref()
+                .is_some_and(|d| d.sources().any(|s| s.normal_illuminance_lux > 0.0))
+    }
+
+    /// Total flux emitted by area emitters and lights, per XYZ channel (Y in lm);
+    /// daylight, which has no finite flux, is not included.
     pub fn emitted_flux_xyz_lm(&self) -> [f64; 3] {
         let mut phi = [0.0; 3];
         for p in &self.polygons {

@@ -1,0 +1,498 @@
+//! Link refinement (Kresse 2.6.4). A link is kept when the energy exchange it
+//! describes may be taken as constant, ΔE = ρ_E·A_E·(F_max·B_max − F_min·B_min) ≤ ε;
+//! otherwise the sender is split when its radiosity varies more than the form factor
+//! (F_max·B_min < F_min·B_max), else the receiver. For a cluster receiver F_min = 0,
+//! which reduces the test to the transferred energy, and the larger of the two ends
+//! is split. On a patch receiver, the variations of its links may cancel (a furnace,
+//! a room lit evenly from several sides): when the sum of all its links is flat
+//! within ε, the receiver is not split for their sake (the "global" refinement Kresse
+//! cites from [SSS00b]).
+//!
+//! Refinement runs in rounds: decide every link in parallel, split the chosen
+//! elements, evaluate the new links in parallel, until nothing changes.
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::nodes::{Hierarchy, Kind, Node, error_weight};
+use super::sampling::{CENTRE, NS, linear_centre};
+use super::sweep::{Basis, State};
+use super::transfer::{CLink, Ctx, Overlap, PLink, eval_clink, eval_plink};
+
+/// Limits of the patch quadtrees.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Limits {
+    pub min_area: f64,
+    pub max_level: u8,
+    pub basis: Basis,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Split {
+    Receiver,
+    Sender,
+}
+
+fn splittable(h: &Hierarchy, n: Node, lim: &Limits) -> bool {
+    match n.kind() {
+        Kind::Patch(p) => {
+            let pa = &h.patches[p];
+            !pa.is_leaf() || (0.25 * pa.area >= lim.min_area && pa.level < lim.max_level)
+        }
+        Kind::Cluster(_) => true,
+        Kind::Emitter(_) => false,
+    }
+}
+
+fn area(h: &Hierarchy, n: Node) -> f64 {
+    h.sphere(n).2
+}
+
+/// The part of a link's variation over the receiver that the basis must absorb:
+/// the range for constant receivers, the bend (centre against the corners' linear
+/// representation) for linear ones.
+fn receiver_variation(corners: usize, ks: &[f64; NS], basis: Basis) -> f64 {
+    let (lo, hi) = ks[..corners]
+        .iter()
+        .chain(std::iter::once(&ks[CENTRE]))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let range = hi - lo;
+    if basis == Basis::Constant {
+        return range;
+    }
+    let bend = 2.0 * (ks[CENTRE] - linear_centre(corners, ks)).abs();
+    if basis == Basis::Linear {
+        bend
+    } else {
+        bend.min(range)
+    }
+}
+
+/// A link's contribution to the receiver's error (lux, Y) on the receiver side:
+/// what the basis cannot follow of the coefficient across the receiver (visibility
+/// included: Kresse's F_min weighted by the visible part), a peak between the samples
+/// (the analytic maximum), and the visibility sampling. The same mean (L1) deviations
+/// the estimate reports.
+fn receiver_error(l: &PLink, corners: usize, scale: f64, sig_hi: f64, basis: Basis) -> f64 {
+    let ks: [f64; NS] = l.ks.map(|v| scale * f64::from(v));
+    let k = scale * f64::from(l.k);
+    let dev = ks[..corners].iter().map(|v| (v - k).abs()).sum::<f64>() / corners as f64;
+    let constant = 0.65 * dev;
+    let bend = 0.5 * (ks[CENTRE] - linear_centre(corners, &ks)).abs();
+    let shape = match basis {
+        Basis::Constant => constant,
+        Basis::Linear => bend,
+        Basis::Auto => constant.min(bend),
+    };
+    let peak = (scale * f64::from(l.kmax) - ks.iter().fold(0.0, |a: f64, &b| a.max(b))).max(0.0);
+    (shape + 0.25 * peak + k * f64::from(l.rel_vis)) * sig_hi
+}
+
+#[allow(clippy::too_many_arguments)]
+fn decide_plink(
+    h: &Hierarchy,
+    st: &State,
+    ctx: &Ctx,
+    r: usize,
+    l: &PLink,
+    eps: f64,
+    lim: &Limits,
+    flat: bool,
+) -> Option<Split> {
+    if l.overlap {
+        return Some(Split::Sender);
+    }
+    let pa = &h.patches[r];
+    let wa = error_weight(st.rho[pa.polygon as usize][1]) * pa.area;
+    // Kresse's ΔE = ρA(F_max·B_max − F_min·B_min), taken apart into its receiver
+    // part (the form factor's variation) and its sender part (the radiosity's)
+    let t = st.sender(h, ctx.emitters, l.src, &pa.centre);
+    let (k, scale) = l.corrected(&t.shift);
+    let de_recv = wa * receiver_error(l, pa.nv.min(4), scale, t.hi, lim.basis);
+    let de_send = wa * k * (t.spread + t.sig[1] * t.rel);
+    if de_recv + de_send <= eps {
+        return None;
+    }
+    let can_s = splittable(h, l.src, lim);
+    if can_s && de_send >= de_recv {
+        return Some(Split::Sender);
+    }
+    if flat && de_send <= 0.5 * eps {
+        // the variations of the receiver's links cancel
+        return None;
+    }
+    if splittable(h, Node::patch(r), lim) {
+        Some(Split::Receiver)
+    } else if can_s {
+        Some(Split::Sender)
+    } else {
+        None
+    }
+}
+
+fn decide_clink(
+    h: &Hierarchy,
+    st: &State,
+    ctx: &Ctx,
+    r: usize,
+    l: &CLink,
+    eps: f64,
+    lim: &Limits,
+) -> Option<Split> {
+    let can_s = splittable(h, l.src, lim);
+    match l.overlap {
+        Overlap::Near => {
+            return Some(if can_s && area(h, l.src) > h.clusters[r].area {
+                Split::Sender
+            } else {
+                Split::Receiver
+            });
+        }
+        Overlap::Plane => return Some(Split::Receiver),
+        Overlap::None => {}
+    }
+    let cl = &h.clusters[r];
+    let t = st.sender(h, ctx.emitters, l.src, &cl.centre);
+    let hi = t.hi;
+    // sender side: its extent and the spread of its radiosity (intensity bounds)
+    let rel_send = f64::from(l.rel_src) + t.rel + if hi > 0.0 { t.spread / hi } else { 0.0 };
+    // receiver side: one visible fraction for every polygon inside, and constant
+    // light across each polygon
+    let rel_recv = f64::from(l.rel_vis) + 0.5 * cl.poly_radius_max / f64::from(l.d).max(1e-300);
+    // light reaching the cluster (half its area faces a given direction, on average)
+    let energy = cl.w_max * 0.5 * cl.area * f64::from(l.k) * f64::from(l.v).max(0.05) * hi;
+    if energy * (rel_send + rel_recv) <= eps {
+        return None;
+    }
+    Some(if can_s && rel_send > rel_recv {
+        Split::Sender
+    } else {
+        Split::Receiver
+    })
+}
+
+/// Whether the sum of a patch's own links is flat within ε at the current
+/// strengths (their variations cancel). While one of its links still waits for its
+/// sender to be split, the sum is incomplete: receiver splits wait (`true`).
+fn links_flat(
+    h: &Hierarchy,
+    st: &State,
+    ctx: &Ctx,
+    r: usize,
+    links: &[PLink],
+    eps: f64,
+    basis: Basis,
+) -> bool {
+    if links.iter().any(|l| l.overlap) {
+        return true;
+    }
+    if links.len() < 2 {
+        return false;
+    }
+    let pa = &h.patches[r];
+    let w = error_weight(st.rho[pa.polygon as usize][1]);
+    let mut t = [0.0; NS];
+    for l in links {
+        let (sig, _, _) = st.strength(h, ctx.emitters, l.src, &pa.centre);
+        for (j, v) in t.iter_mut().enumerate() {
+            *v += f64::from(l.ks[j]) * sig[1];
+        }
+    }
+    w * pa.area * receiver_variation(pa.nv.min(4), &t, basis) <= eps
+}
+
+/// New link from `recv` to `src` (either may be a cluster or a patch).
+fn make_link(ctx: &Ctx, h: &Hierarchy, recv: Node, src: Node, visible: bool) -> Option<NewLink> {
+    match recv.kind() {
+        Kind::Patch(r) => eval_plink(ctx, h, r, src, visible).map(|l| NewLink::P(r, l)),
+        Kind::Cluster(r) => eval_clink(ctx, h, r, src).map(|l| NewLink::C(r, l)),
+        Kind::Emitter(_) => None,
+    }
+}
+
+enum NewLink {
+    P(usize, PLink),
+    C(usize, CLink),
+}
+
+/// Refines at tolerance `eps` (lm) until no link asks for a split or the deadline
+/// passes. Returns the number of links replaced.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn refine(
+    ctx: &Ctx,
+    h: &mut Hierarchy,
+    st: &mut State,
+    plinks: &mut Vec<Vec<PLink>>,
+    clinks: &mut [Vec<CLink>],
+    eps: f64,
+    lim: &Limits,
+    deadline: Option<Instant>,
+) -> usize {
+    let mut changed = 0usize;
+    for _round in 0..200 {
+        if deadline.is_some_and(|d| Instant::now() > d) {
+            break;
+        }
+        // 1. decide
+        let hh = &*h;
+        let sst = &*st;
+        let pdec: Vec<(usize, Vec<(usize, Split)>)> = plinks
+            .par_iter()
+            .enumerate()
+            .filter(|(_, ls)| !ls.is_empty())
+            .filter_map(|(r, ls)| {
+                let flat = links_flat(hh, sst, ctx, r, ls, eps, lim.basis);
+                let d: Vec<(usize, Split)> = ls
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, l)| {
+                        decide_plink(hh, sst, ctx, r, l, eps, lim, flat).map(|s| (i, s))
+                    })
+                    .collect();
+                (!d.is_empty()).then_some((r, d))
+            })
+            .collect();
+        let cdec: Vec<(usize, Vec<(usize, Split)>)> = clinks
+            .par_iter()
+            .enumerate()
+            .filter(|(_, ls)| !ls.is_empty())
+            .filter_map(|(r, ls)| {
+                let d: Vec<(usize, Split)> = ls
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, l)| decide_clink(hh, sst, ctx, r, l, eps, lim).map(|s| (i, s)))
+                    .collect();
+                (!d.is_empty()).then_some((r, d))
+            })
+            .collect();
+        if pdec.is_empty() && cdec.is_empty() {
+            break;
+        }
+        // top-down: while clusters still hand links down (cluster receivers, cluster
+        // senders of patches), the patches' own link sets are incomplete and their
+        // receiver tests would judge partial sums; those wait for later rounds
+        let from_cluster = |r: usize, i: usize, s: Split| {
+            s == Split::Sender && matches!(plinks[r][i].src.kind(), Kind::Cluster(_))
+        };
+        let top_down = !cdec.is_empty()
+            || pdec
+                .iter()
+                .any(|(r, d)| d.iter().any(|&(i, s)| from_cluster(*r, i, s)));
+        let pdec: Vec<(usize, Vec<(usize, Split)>)> = if top_down {
+            pdec.into_iter()
+                .filter_map(|(r, d)| {
+                    let d: Vec<(usize, Split)> = d
+                        .into_iter()
+                        .filter(|&(i, s)| from_cluster(r, i, s))
+                        .collect();
+                    (!d.is_empty()).then_some((r, d))
+                })
+                .collect()
+        } else {
+            pdec
+        };
+        // top-down: while clusters still hand links down (cluster receivers, cluster
+        // senders of patches), the patches' own link sets are incomplete and their
+        // receiver tests would judge partial sums; those wait for later rounds
+        let from_cluster = |r: usize, i: usize, s: Split| {
+            s == Split::Sender && matches!(plinks[r][i].src.kind(), Kind::Cluster(_))
+        };
+        let top_down = !cdec.is_empty()
+            || pdec
+                .iter()
+                .any(|(r, d)| d.iter().any(|&(i, s)| from_cluster(*r, i, s)));
+        let pdec: Vec<(usize, Vec<(usize, Split)>)> = if top_down {
+            pdec.into_iter()
+                .filter_map(|(r, d)| {
+                    let d: Vec<(usize, Split)> = d
+                        .into_iter()
+                        .filter(|&(i, s)| from_cluster(r, i, s))
+                        .collect();
+                    (!d.is_empty()).then_some((r, d))
+                })
+                .collect()
+        } else {
+            pdec
+        };
+        // top-down: while clusters still hand links down (cluster receivers, cluster
+        // senders of patches), the patches' own link sets are incomplete and their
+        // receiver tests would judge partial sums; those wait for later rounds
+        let from_cluster = |r: usize, i: usize, s: Split| {
+            s == Split::Sender && matches!(plinks[r][i].src.kind(), Kind::Cluster(_))
+        };
+        let top_down = !cdec.is_empty()
+            || pdec
+                .iter()
+                .any(|(r, d)| d.iter().any(|&(i, s)| from_cluster(*r, i, s)));
+        let pdec: Vec<(usize, Vec<(usize, Split)>)> = if top_down {
+            pdec.into_iter()
+                .filter_map(|(r, d)| {
+                    let d: Vec<(usize, Split)> = d
+                        .into_iter()
+                        .filter(|&(i, s)| from_cluster(r, i, s))
+                        .collect();
+                    (!d.is_empty()).then_some((r, d))
+                })
+                .collect()
+        } else {
+            pdec
+        };
+        // top-down: while clusters still hand links down (cluster receivers, cluster
+        // senders of patches), the patches' own link sets are incomplete and their
+        // receiver tests would judge partial sums; those wait for later rounds
+        let from_cluster = |r: usize, i: usize, s: Split| {
+            s == Split::Sender && matches!(plinks[r][i].src.kind(), Kind::Cluster(_))
+        };
+        let top_down = !cdec.is_empty()
+            || pdec
+                .iter()
+                .any(|(r, d)| d.iter().any(|&(i, s)| from_cluster(*r, i, s)));
+        let pdec: Vec<(usize, Vec<(usize, Split)>)> = if top_down {
+            pdec.into_iter()
+                .filter_map(|(r, d)| {
+                    let d: Vec<(usize, Split)> = d
+                        .into_iter()
+                        .filter(|&(i, s)| from_cluster(r, i, s))
+                        .collect();
+                    (!d.is_empty()).then_some((r, d))
+                })
+                .collect()
+        } else {
+            pdec
+        };
+        if std::env::var("HR_DEBUG").is_ok() {
+            let nr = pdec
+                .iter()
+                .flat_map(|(_, d)| d)
+                .filter(|(_, s)| *s == Split::Receiver)
+                .count();
+            let ns = pdec
+                .iter()
+                .flat_map(|(_, d)| d)
+                .filter(|(_, s)| *s == Split::Sender)
+                .count();
+            eprintln!(
+                "round {_round}: eps {eps:.3e} patch-links recv {nr} send {ns}; cluster decisions {}",
+                cdec.len()
+            );
+            for (r, d) in pdec.iter().take(3) {
+                for (i, sp) in d.iter().take(3) {
+                    let l = &plinks[*r][*i];
+                    eprintln!(
+                        "  r {r} src {:?} {:?} k {} ks {:?} kmax {} kmin {} overlap {} nlinks {}",
+                        l.src.kind(),
+                        sp,
+                        l.k,
+                        l.ks,
+                        l.kmax,
+                        l.kmin,
+                        l.overlap,
+                        plinks[*r].len()
+                    );
+                }
+            }
+        }
+        // 2. split the patches that must be (clusters have their children already)
+        let mut to_split: Vec<usize> = Vec::new();
+        for (r, d) in &pdec {
+            for (i, s) in d {
+                match s {
+                    Split::Receiver => to_split.push(*r),
+                    Split::Sender => {
+                        if let Kind::Patch(p) = plinks[*r][*i].src.kind() {
+                            to_split.push(p);
+                        }
+                    }
+                }
+            }
+        }
+        for (r, d) in &cdec {
+            for (i, s) in d {
+                if *s == Split::Sender
+                    && let Kind::Patch(p) = clinks[*r][*i].src.kind()
+                {
+                    to_split.push(p);
+                }
+            }
+        }
+        to_split.sort_unstable();
+        to_split.dedup();
+        for &p in &to_split {
+            if h.patches[p].is_leaf() {
+                h.split_patch(p);
+            }
+        }
+        changed += pdec.iter().map(|(_, d)| d.len()).sum::<usize>()
+            + cdec.iter().map(|(_, d)| d.len()).sum::<usize>();
+        st.grow(h);
+        plinks.resize(h.patches.len(), Vec::new());
+        // 3. the replacement links
+        let mut jobs: Vec<(Node, Node, bool)> = Vec::new();
+        let mut push_jobs =
+            |recv: Node, src: Node, visible: bool, split: Split, h: &Hierarchy| match split {
+                Split::Receiver => {
+                    let (kids, n) = h.children(recv);
+                    for &c in &kids[..n] {
+                        jobs.push((c, src, visible));
+                    }
+                }
+                Split::Sender => {
+                    let (kids, n) = h.children(src);
+                    let keep = visible && matches!(src.kind(), Kind::Patch(_));
+                    for &c in &kids[..n] {
+                        jobs.push((recv, c, keep));
+                    }
+                }
+            };
+        for (r, d) in &pdec {
+            for (i, s) in d {
+                let l = &plinks[*r][*i];
+                push_jobs(Node::patch(*r), l.src, l.visible, *s, h);
+            }
+        }
+        for (r, d) in &cdec {
+            for (i, s) in d {
+                let l = &clinks[*r][*i];
+                push_jobs(Node::cluster(*r), l.src, false, *s, h);
+            }
+        }
+        // the old links go
+        for (r, d) in &pdec {
+            let mut drop = vec![false; plinks[*r].len()];
+            for (i, _) in d {
+                drop[*i] = true;
+            }
+            let mut k = 0;
+            plinks[*r].retain(|_| {
+                k += 1;
+                !drop[k - 1]
+            });
+        }
+        for (r, d) in &cdec {
+            let mut drop = vec![false; clinks[*r].len()];
+            for (i, _) in d {
+                drop[*i] = true;
+            }
+            let mut k = 0;
+            clinks[*r].retain(|_| {
+                k += 1;
+                !drop[k - 1]
+            });
+        }
+        let hh = &*h;
+        let made: Vec<NewLink> = jobs
+            .par_iter()
+            .filter_map(|&(recv, src, vis)| make_link(ctx, hh, recv, src, vis))
+            .collect();
+        for m in made {
+            match m {
+                NewLink::P(r, l) => plinks[r].push(l),
+                NewLink::C(r, l) => clinks[r].push(l),
+            }
+        }
+    }
+    changed
+}

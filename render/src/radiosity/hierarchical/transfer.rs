@@ -1,0 +1,552 @@
+//! Links and their transfer coefficients (Kresse 2.6.1) for every pair of sender and
+//! receiver kinds: the coefficient averaged over the receiver and at its shape
+//! samples, its extrema over the receiver (the analytic form-factor maximum of 2.6.1
+//! where one exists), and the visible fraction: the classification first, shadow rays
+//! only for pairs it cannot declare fully visible (2.7), and "fully visible" inherited
+//! by every sub-link without a new test.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crate::scene::{Scene, V3};
+
+use super::super::form_factor::{point_to_polygon, polygon_to_polygon};
+use super::super::quadrature;
+use super::super::visibility::{Visibility, point_in_convex};
+use super::emitters::Emitter;
+use super::nodes::{Hierarchy, Kind, Node, Patch};
+use super::sampling::{NS, Samples};
+
+/// Work counters of a solve.
+#[derive(Debug, Default)]
+pub(super) struct Counters {
+    pub rays: AtomicU64,
+    pub tested: AtomicU64,
+    pub skipped: AtomicU64,
+}
+
+/// What link evaluation needs besides the hierarchy.
+pub(super) struct Ctx<'a> {
+    pub scene: &'a Scene,
+    pub emitters: &'a [Emitter],
+    pub vis: &'a dyn Visibility,
+    /// A length beyond the scene, for rays towards distant sources.
+    pub far: f64,
+    pub counters: Counters,
+}
+
+/// A link whose receiver is a patch element. The irradiance it brings is `k·σ` with σ
+/// the sender's strength: radiosity B (lm/m²) of a patch, intensity I (cd) towards
+/// the receiver of a cluster, the colour of an emitter (k then in lux).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct PLink {
+    pub src: Node,
+    /// Receiver average, with visibility.
+    pub k: f32,
+    /// At the shape samples (corners, centre), with visibility.
+    pub ks: [f32; NS],
+    /// Largest value over the receiver, unoccluded (criterion).
+    pub kmax: f32,
+    /// Smallest value over the receiver, visibility-weighted (criterion).
+    pub kmin: f32,
+    /// For a cluster sender, ∂k/∂(sender position): its light leaves from the flux
+    /// centroid of its contents, which moves as the solution does; k was evaluated
+    /// at the area centroid and is corrected to first order.
+    pub grad: [f32; 3],
+    /// Relative uncertainty of k·σ from sampling a partial visibility.
+    pub rel_vis: f32,
+    /// Classified fully visible (children inherit it).
+    pub visible: bool,
+    /// The coefficient is not valid at this level (the receiver lies inside a sender
+    /// cluster's bounds): the sender must be split.
+    pub overlap: bool,
+}
+
+/// A link whose receiver is a cluster. Its light reaches each contained polygon by
+/// the polygon's own distance and orientation (see `sweep`): `k·v·σ` is the normal
+/// irradiance at the cluster's centre, facing the sender.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct CLink {
+    pub src: Node,
+    /// Distance from the receiver's centre to the sender (infinite for a distant
+    /// source).
+    pub d: f32,
+    /// Normal-irradiance coefficient at the centre, unoccluded.
+    pub k: f32,
+    /// Visible fraction (shadow rays between contents and sender).
+    pub v: f32,
+    /// Relative uncertainty from the sender's extent.
+    pub rel_src: f32,
+    /// Relative uncertainty of the visible fraction taken for every polygon inside.
+    pub rel_vis: f32,
+    /// Whether the pair is too close for a cluster link.
+    pub overlap: Overlap,
+}
+
+/// Why a cluster link cannot carry light at its level.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Overlap {
+    /// It can.
+    None,
+    /// The bounding spheres meet: split the larger end.
+    Near,
+    /// The sender patch's plane cuts the receiver's box (a support-plane split, Kresse
+    /// 2.6.2): only splitting the receiver resolves it.
+    Plane,
+}
+
+impl PLink {
+    /// The coefficient for a sender whose light now leaves `shift` away from where
+    /// the link was evaluated (first order, clamped at zero), and the factor that
+    /// scales the shape samples alike.
+    pub fn corrected(&self, shift: &V3) -> (f64, f64) {
+        let k = f64::from(self.k);
+        if *shift == V3::zeros() || k <= 0.0 {
+            return (k, 1.0);
+        }
+        let g = V3::new(
+            f64::from(self.grad[0]),
+            f64::from(self.grad[1]),
+            f64::from(self.grad[2]),
+        );
+        let kc = (k + g.dot(shift)).clamp(0.0, 2.0 * k);
+        (kc, kc / k)
+    }
+}
+
+fn faces(a: &Patch, b: &Patch) -> bool {
+    let scale = (a.area + b.area).sqrt() * 1e-9;
+    b.verts()
+        .iter()
+        .any(|v| a.normal.dot(&(v - a.verts[0])) > scale)
+        && a.verts()
+            .iter()
+            .any(|v| b.normal.dot(&(v - b.verts[0])) > scale)
+}
+
+impl Ctx<'_> {
+    fn classify(&self, a: &[V3], a_poly: usize, b: &[V3], b_poly: usize) -> bool {
+        let partial = self.vis.may_occlude(a, a_poly, b, b_poly);
+        let c = if partial {
+            &self.counters.tested
+        } else {
+            &self.counters.skipped
+        };
+        c.fetch_add(1, Ordering::Relaxed);
+        !partial
+    }
+
+    /// Fraction of the segments from `x` to `targets` that are unblocked.
+    fn fraction(&self, x: &V3, targets: &[V3], skip: [usize; 2]) -> f64 {
+        if targets.is_empty() {
+            return 1.0;
+        }
+        self.counters
+            .rays
+            .fetch_add(targets.len() as u64, Ordering::Relaxed);
+        let seen = targets
+            .iter()
+            .filter(|t| !self.vis.occluded(x, t, skip))
+            .count();
+        seen as f64 / targets.len() as f64
+    }
+}
+
+/// Relative visibility uncertainty of a receiver from its per-point fractions: half the
+/// mean deviation, zero where every point agrees.
+fn vis_uncertainty(v: &[f64]) -> f64 {
+    let (lo, hi) = v
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        });
+    if hi <= lo { 0.0 } else { 0.25 * (hi - lo) }
+}
+
+/// The point of the receiver's plane where the form factor from an infinitesimal
+/// sender at `ms` (unit normal `ns`) peaks (Kresse 2.6.1, derived for the plane spanned
+/// by both normals), moved to the closest point of the receiver polygon.
+fn ff_max_point(recv: &Patch, ms: &V3, ns: &V3) -> Option<V3> {
+    let ne = recv.normal;
+    let h = ne.dot(&(ms - recv.verts[0]));
+    if h <= 0.0 {
+        return None;
+    }
+    let cos = ns.dot(&ne).clamp(-1.0, 1.0);
+    let t = ns - ne * cos;
+    let s = t.norm();
+    let foot = ms - ne * h;
+    let p = if s > 1e-9 {
+        foot + (t / s) * (h * (2.0 * cos + (cos * cos + 3.0).sqrt()) / (3.0 * s))
+    } else {
+        foot
+    };
+    Some(closest_on_polygon(recv, &p))
+}
+
+/// Closest point of the (convex) patch to `p`, with `p` in its plane.
+fn closest_on_polygon(recv: &Patch, p: &V3) -> V3 {
+    let v = recv.verts();
+    if point_in_convex(v, &recv.normal, p) {
+        return *p;
+    }
+    let mut best = v[0];
+    let mut bd = f64::INFINITY;
+    for i in 0..v.len() {
+        let (a, b) = (v[i], v[(i + 1) % v.len()]);
+        let e = b - a;
+        let t = ((p - a).dot(&e) / e.norm_squared().max(1e-300)).clamp(0.0, 1.0);
+        let q = a + e * t;
+        let d = (q - p).norm_squared();
+        if d < bd {
+            bd = d;
+            best = q;
+        }
+    }
+    best
+}
+
+/// Samples for rays on a patch sender: its 2×2 Gauss points.
+fn patch_targets(p: &Patch) -> Vec<V3> {
+    let mut buf = Vec::with_capacity(4);
+    quadrature::points(p.verts(), 2, &mut buf);
+    buf.into_iter().map(|(x, _)| x).collect()
+}
+
+/// Visibility of an area sender from the receiver's points, stratified: each shape
+/// sample sees every sender point, the other points one each in turn (the average
+/// still uses every sender point): 24 rays instead of 36 on a quad.
+fn stratified_visibility(
+    ctx: &Ctx,
+    smp: &Samples,
+    pv: &mut PointValues,
+    targets: &[V3],
+    skip: [usize; 2],
+) {
+    let mut is_shape = [false; 9];
+    for &i in &smp.shape {
+        is_shape[i] = true;
+    }
+    for i in 0..smp.n {
+        if pv.f[i] <= 0.0 {
+            continue;
+        }
+        let x = smp.pts[i];
+        pv.v[i] = if is_shape[i] {
+            ctx.fraction(&x, targets, skip)
+        } else {
+            ctx.fraction(&x, &targets[i % targets.len()..=i % targets.len()], skip)
+        };
+    }
+}
+
+/// Evaluates the values of a patch-receiver link from per-point coefficients.
+struct PointValues {
+    f: [f64; 9],
+    v: [f64; 9],
+}
+
+fn finish_plink(
+    src: Node,
+    smp: &Samples,
+    pv: &PointValues,
+    extra_max: f64,
+    visible: bool,
+    grad: V3,
+) -> Option<PLink> {
+    let mut k = 0.0;
+    for i in 0..smp.n {
+        k += smp.w[i] * pv.f[i] * pv.v[i];
+    }
+    let mut ks = [0f32; NS];
+    let mut kmax = extra_max;
+    let mut kmin = f64::INFINITY;
+    for (j, out) in ks.iter_mut().enumerate() {
+        let i = smp.shape[j];
+        *out = (pv.f[i] * pv.v[i]) as f32;
+        kmax = kmax.max(pv.f[i]);
+        kmin = kmin.min(pv.f[i] * pv.v[i]);
+    }
+    if kmax <= 0.0 || !kmax.is_finite() {
+        return None;
+    }
+    let rel_vis = if visible {
+        0.0
+    } else {
+        vis_uncertainty(&pv.v[..smp.n])
+    };
+    Some(PLink {
+        src,
+        k: k as f32,
+        ks,
+        kmax: kmax as f32,
+        kmin: kmin.max(0.0) as f32,
+        grad: [grad.x as f32, grad.y as f32, grad.z as f32],
+        rel_vis: rel_vis as f32,
+        visible,
+        overlap: false,
+    })
+}
+
+/// A link to the patch `r` from `src`; `visible` when the parent link was classified
+/// fully visible. `None` when nothing can be transferred.
+pub(super) fn eval_plink(
+    ctx: &Ctx,
+    h: &Hierarchy,
+    r: usize,
+    src: Node,
+    visible: bool,
+) -> Option<PLink> {
+    let rp = &h.patches[r];
+    let smp = Samples::of(rp.verts());
+    let mut pv = PointValues {
+        f: [0.0; 9],
+        v: [1.0; 9],
+    };
+    match src.kind() {
+        Kind::Patch(s) => {
+            let sp = &h.patches[s];
+            if sp.polygon == rp.polygon || !faces(rp, sp) {
+                return None;
+            }
+            let visible = visible
+                || ctx.classify(
+                    rp.verts(),
+                    rp.polygon as usize,
+                    sp.verts(),
+                    sp.polygon as usize,
+                );
+            let targets = if visible {
+                Vec::new()
+            } else {
+                patch_targets(sp)
+            };
+            let skip = [rp.polygon as usize, sp.polygon as usize];
+            for i in 0..smp.n {
+                let x = smp.pts[i];
+                pv.f[i] = point_to_polygon(&x, &rp.normal, sp.verts(), &sp.normal);
+            }
+            if !visible {
+                stratified_visibility(ctx, &smp, &mut pv, &targets, skip);
+            }
+            let extra = ff_max_point(rp, &sp.centre, &sp.normal).map_or(0.0, |x| {
+                point_to_polygon(&x, &rp.normal, sp.verts(), &sp.normal)
+            });
+            let mut l = finish_plink(src, &smp, &pv, extra, visible, V3::zeros())?;
+            // touching or close elements: the point form factor has an edge
+            // singularity the fixed rule misses; the mean carries the energy, so it is
+            // integrated adaptively (exact inner contour integral)
+            let d = (rp.centre - sp.centre).norm();
+            if visible && d < 1.5 * (rp.radius + sp.radius) {
+                let f = polygon_to_polygon(rp.verts(), sp.verts(), 1e-6 * f64::from(l.kmax));
+                l.k = f.value as f32;
+            }
+            Some(l)
+        }
+        Kind::Cluster(c) => {
+            let cl = &h.clusters[c];
+            let dmin = (0..smp.n)
+                .map(|i| (cl.centre - smp.pts[i]).norm())
+                .fold(f64::INFINITY, f64::min);
+            if dmin <= cl.radius * 1.05 {
+                return Some(PLink {
+                    src,
+                    k: 0.0,
+                    ks: [0.0; NS],
+                    kmax: f32::INFINITY,
+                    kmin: 0.0,
+                    grad: [0.0; 3],
+                    rel_vis: 0.0,
+                    visible: false,
+                    overlap: true,
+                });
+            }
+            // the contents are inside the shaft: rays to the cluster's samples
+            let targets = &cl.samples[..cl.n_samples];
+            let targets: Vec<V3> = targets.iter().map(|s| s.0).collect();
+            let mut grad = V3::zeros();
+            for i in 0..smp.n {
+                let x = smp.pts[i];
+                let d = cl.centre - x;
+                let d2 = d.norm_squared();
+                let dl = d2.sqrt();
+                let nd = rp.normal.dot(&d);
+                if nd > 0.0 {
+                    // cos θ / d² = n·d / |d|³, and its gradient in the sender position
+                    pv.f[i] = nd / (d2 * dl);
+                    pv.v[i] = ctx.fraction(&x, &targets, [rp.polygon as usize, usize::MAX]);
+                    let g = rp.normal / (d2 * dl) - d * (3.0 * nd / (d2 * d2 * dl));
+                    grad += g * (smp.w[i] * pv.v[i]);
+                }
+            }
+            finish_plink(src, &smp, &pv, 0.0, false, grad)
+        }
+        Kind::Emitter(e) => {
+            let em = &ctx.emitters[e];
+            let visible = visible
+                || ctx.classify(
+                    rp.verts(),
+                    rp.polygon as usize,
+                    &em.shaft_end(rp.verts(), ctx.far),
+                    usize::MAX,
+                );
+            let skip = [rp.polygon as usize, usize::MAX];
+            for i in 0..smp.n {
+                let x = smp.pts[i];
+                pv.f[i] = em.irradiance(ctx.scene, &x, &rp.normal);
+                if pv.f[i] > 0.0 && !visible {
+                    pv.v[i] = ctx.fraction(&x, &[em.ray_end(&x, ctx.far)], skip);
+                }
+            }
+            // the foot of the perpendicular: the peak of cos θ / d² for a point light
+            let extra = em.position().map_or(0.0, |lp| {
+                let hgt = rp.normal.dot(&(lp - rp.verts[0]));
+                if hgt <= 0.0 {
+                    return 0.0;
+                }
+                let foot = closest_on_polygon(rp, &(lp - rp.normal * hgt));
+                em.irradiance(ctx.scene, &foot, &rp.normal)
+            });
+            let mut l = finish_plink(src, &smp, &pv, extra, visible, V3::zeros())?;
+            if visible {
+                // the mean carries the energy: the flux into the patch's solid angle
+                l.k = em.mean_irradiance(ctx.scene, rp.verts(), &rp.normal, rp.area) as f32;
+            }
+            Some(l)
+        }
+    }
+}
+
+/// A link to the cluster `r` from `src`. `None` when nothing can be transferred.
+pub(super) fn eval_clink(ctx: &Ctx, h: &Hierarchy, r: usize, src: Node) -> Option<CLink> {
+    let rc = &h.clusters[r];
+    let (cr, rr) = (rc.centre, rc.radius);
+    let overlap = |src, why| CLink {
+        src,
+        d: 0.0,
+        k: 0.0,
+        v: 0.0,
+        rel_src: 0.0,
+        rel_vis: 0.0,
+        overlap: why,
+    };
+    // samples of the receiver facing direction u, for rays
+    let facing = |u: &V3| -> Vec<V3> {
+        rc.samples[..rc.n_samples]
+            .iter()
+            .filter(|(_, n)| n.dot(u) > 0.0)
+            .map(|(p, _)| *p)
+            .collect()
+    };
+    let (_u, d, k0, rel_src, v) = match src.kind() {
+        Kind::Patch(s) => {
+            let sp = &h.patches[s];
+            // the sender's plane through the receiver's box: only part of it is lit
+            let corners = box_corners(&rc.lo, &rc.hi);
+            let front = corners
+                .iter()
+                .filter(|c| sp.normal.dot(&(*c - sp.verts[0])) > 0.0)
+                .count();
+            if front == 0 {
+                return None;
+            }
+            if front < 8 {
+                return Some(overlap(src, Overlap::Plane));
+            }
+            let dv = sp.centre - cr;
+            let d = dv.norm();
+            if d <= rr + sp.radius {
+                return Some(overlap(src, Overlap::Near));
+            }
+            let u = dv / d;
+            let k0 = point_to_polygon(&cr, &u, sp.verts(), &sp.normal);
+            if k0 <= 0.0 {
+                return None;
+            }
+            let v = sample_visibility(ctx, &facing(&u), &patch_targets(sp), sp.polygon as usize);
+            // far field from the centre: the first-order terms of a uniform patch cancel
+            (u, d, k0, 2.0 * (sp.radius / d).powi(2), v)
+        }
+        Kind::Cluster(s) => {
+            let sc = &h.clusters[s];
+            let dv = sc.centre - cr;
+            let d = dv.norm();
+            if d <= rr + sc.radius {
+                return Some(overlap(src, Overlap::Near));
+            }
+            let u = dv / d;
+            let targets: Vec<V3> = sc.samples[..sc.n_samples].iter().map(|s| s.0).collect();
+            let v = sample_visibility(ctx, &facing(&u), &targets, usize::MAX);
+            // light leaves from the flux centroid (used in the sweep): second order
+            (u, d, 1.0 / (d * d), 2.0 * (sc.radius / d).powi(2), v)
+        }
+        Kind::Emitter(e) => {
+            let em = &ctx.emitters[e];
+            let kmax = em.max_normal_irradiance(ctx.scene, &cr, rr);
+            if !kmax.is_finite() {
+                return Some(overlap(src, Overlap::Near));
+            }
+            if kmax <= 0.0 {
+                return None;
+            }
+            let (en, u) = em.normal_irradiance(ctx.scene, &cr);
+            let pts = facing(&u);
+            let v = if pts.is_empty() {
+                1.0
+            } else {
+                ctx.counters
+                    .rays
+                    .fetch_add(pts.len() as u64, Ordering::Relaxed);
+                ctx.counters.tested.fetch_add(1, Ordering::Relaxed);
+                let seen = pts
+                    .iter()
+                    .filter(|p| {
+                        !ctx.vis
+                            .occluded(p, &em.ray_end(p, ctx.far), [usize::MAX; 2])
+                    })
+                    .count();
+                seen as f64 / pts.len() as f64
+            };
+            let d = em.position().map_or(f64::INFINITY, |p| (p - cr).norm());
+            // each polygon gets the light's own intensity towards it: exact geometry
+            (u, d, en.max(0.5 * kmax), 0.0, v)
+        }
+    };
+    let rel_vis = if v > 0.0 && v < 1.0 {
+        2.0 * v * (1.0 - v)
+    } else {
+        0.0
+    };
+    Some(CLink {
+        src,
+        d: d as f32,
+        k: k0 as f32,
+        v: v as f32,
+        rel_src: rel_src as f32,
+        rel_vis: rel_vis as f32,
+        overlap: Overlap::None,
+    })
+}
+
+/// Fraction of unblocked segments between the receiver points and the targets
+/// (all pairs); 1 without receiver points (no surface inside faces the sender).
+fn sample_visibility(ctx: &Ctx, pts: &[V3], targets: &[V3], sender_poly: usize) -> f64 {
+    if pts.is_empty() || targets.is_empty() {
+        return 1.0;
+    }
+    ctx.counters.tested.fetch_add(1, Ordering::Relaxed);
+    let mut seen = 0.0;
+    for p in pts {
+        seen += ctx.fraction(p, targets, [usize::MAX, sender_poly]);
+    }
+    seen / pts.len() as f64
+}
+
+fn box_corners(lo: &V3, hi: &V3) -> [V3; 8] {
+    std::array::from_fn(|i| {
+        V3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        )
+    })
+}
