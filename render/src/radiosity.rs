@@ -12,6 +12,7 @@
 pub mod curve;
 pub mod form_factor;
 pub mod hierarchical;
+pub mod montecarlo;
 pub mod output;
 pub mod progressive;
 pub mod quadrature;

@@ -237,6 +237,13 @@ pub struct BenchArgs {
     /// Scale benchmark: print the error/time curve of each solve.
     #[arg(long)]
     pub curve: bool,
+    /// Scale benchmark: check the solution against an independent Monte Carlo path
+    /// tracer at this many patches (picked in proportion to their area; 0 = no check).
+    #[arg(long, default_value_t = 0)]
+    pub check_patches: usize,
+    /// Scale benchmark: paths per checked patch.
+    #[arg(long, default_value_t = 20_000)]
+    pub check_paths: usize,
 }
 
 /// Runs `lumiwall bench radiosity`.
@@ -256,6 +263,10 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         reference.stats.shadow_rays,
         t.elapsed().as_secs_f64()
     );
+    if args.check_patches > 0 {
+        println!("reference against the Monte Carlo path tracer:");
+        monte_carlo_check(&scene, &reference, args.check_patches, args.check_paths);
+    }
     println!(
         "{:<12} {:>7} {:>9} {:>10} {:>10} {:>8} {:>9} {:>10} {:>9}",
         "solver", "target", "time_s", "est_err", "true_err", "patches", "links", "rays", "MiB"
@@ -344,6 +355,49 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
     Ok(())
 }
 
+/// Compares a solution with the Monte Carlo path tracer at `n` patches picked with
+/// probability proportional to area (so plain sums estimate area-weighted ones) and
+/// prints the relative L1 difference of the patch exitances, with the tracer's own
+/// noise beside it.
+fn monte_carlo_check(scene: &Scene, sol: &Solution, n: usize, paths: usize) {
+    use lumiwall_render::radiosity::montecarlo::MonteCarloReference;
+    let t = Instant::now();
+    let mc = MonteCarloReference::new(scene);
+    let total: f64 = sol.patches.iter().map(|p| p.area_m2).sum();
+    // deterministic area-proportional picks (stratified over the cumulative area)
+    let mut cum = Vec::with_capacity(sol.patches.len());
+    let mut acc = 0.0;
+    for p in &sol.patches {
+        acc += p.area_m2;
+        cum.push(acc);
+    }
+    let (mut diff, mut sum_ref, mut noise, mut d2, mut s2, mut r2) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    for k in 0..n {
+        let u = (k as f64 + 0.5) / n as f64 * total;
+        let i = cum.partition_point(|&c| c < u).min(sol.patches.len() - 1);
+        let p = &sol.patches[i];
+        let m = scene.material_of(p.polygon);
+        let est = mc.patch_irradiance(&p.vertices, p.polygon, paths, 1000 + k as u64);
+        let rho = m.reflectance_xyz[1];
+        let reference = std::f64::consts::PI * m.emission_cd_m2[1] + rho * est.irradiance_xyz[1];
+        let sigma = rho * est.std_error_y;
+        let d = p.exitance_xyz[1] - reference;
+        diff += d.abs();
+        sum_ref += reference;
+        noise += sigma;
+        d2 += d * d;
+        s2 += sigma * sigma;
+        r2 += reference * reference;
+    }
+    println!(
+        "  Monte Carlo check ({n} patches × {paths} paths, {:.1} s): L1 difference {:.2}% (tracer noise {:.2}%), RMS difference less noise {:.2}%",
+        t.elapsed().as_secs_f64(),
+        100.0 * diff / sum_ref,
+        100.0 * noise / sum_ref,
+        100.0 * ((d2 - s2).max(0.0) / r2).sqrt()
+    );
+}
+
 /// Visibility that never classifies a pair as fully visible (the cost without the
 /// classification).
 struct AlwaysTest(SceneOccluders);
@@ -421,6 +475,9 @@ fn scale_study(args: &BenchArgs) -> Result<(), CliError> {
             s.time_s,
             format!("{:?}", sol.stop)
         );
+        if args.check_patches > 0 {
+            monte_carlo_check(&scene, &sol, args.check_patches, args.check_paths);
+        }
         if args.curve {
             for p in &sol.curve.points {
                 println!(

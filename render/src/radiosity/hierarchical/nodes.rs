@@ -142,6 +142,50 @@ impl Patch {
     pub fn is_leaf(&self) -> bool {
         self.first_child == NONE
     }
+
+    /// A point of the patch for three uniform numbers in [0, 1) (uniform by area).
+    pub fn point_at(&self, r0: f64, r1: f64, r2: f64) -> V3 {
+        let v = self.verts();
+        let tri = |a: &V3, b: &V3, c: &V3| {
+            let (mut s, mut t) = (r1, r2);
+            if s + t > 1.0 {
+                s = 1.0 - s;
+                t = 1.0 - t;
+            }
+            a + (b - a) * s + (c - a) * t
+        };
+        if v.len() == 4 {
+            let a1 = (v[1] - v[0]).cross(&(v[2] - v[0])).norm();
+            let a2 = (v[2] - v[0]).cross(&(v[3] - v[0])).norm();
+            if r0 * (a1 + a2) < a1 {
+                tri(&v[0], &v[1], &v[2])
+            } else {
+                tri(&v[0], &v[2], &v[3])
+            }
+        } else {
+            tri(&v[0], &v[1], &v[2])
+        }
+    }
+}
+
+/// SplitMix64: a small deterministic generator for sample placement.
+struct SplitMix(u64);
+
+impl SplitMix {
+    /// A uniform number in [0, 1).
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        (z >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// A seed for the rays of the link from `src` to `recv`.
+pub(super) fn link_seed(recv: Node, src: Node) -> u64 {
+    (u64::from(recv.0) << 32) ^ u64::from(src.0) ^ 0xD1B5_4A32_D192_ED03
 }
 
 /// Clusters over polygons, patches per polygon.
@@ -347,6 +391,44 @@ impl Hierarchy {
             }
             Kind::Emitter(_) => (out, 0),
         }
+    }
+
+    /// `n` points on the surfaces inside cluster `c`, distributed by area (a child
+    /// chosen in proportion to its area at every level, then a uniform point on the
+    /// polygon), with their normals; deterministic in `seed`. Shadow rays between
+    /// clusters use fresh points per link (Kresse 2.7: rays spread at random over
+    /// sender and receiver), so that sampling errors average out over the links
+    /// instead of repeating in each.
+    pub fn random_points(&self, c: usize, n: usize, seed: u64) -> Vec<(V3, V3)> {
+        let mut rng = SplitMix(seed);
+        (0..n)
+            .map(|_| {
+                let mut node = Node::cluster(c);
+                loop {
+                    match node.kind() {
+                        Kind::Cluster(k) => {
+                            let cl = &self.clusters[k];
+                            if cl.n_children == 1 {
+                                node = cl.children[0];
+                                continue;
+                            }
+                            let a0 = self.sphere(cl.children[0]).2;
+                            let a1 = self.sphere(cl.children[1]).2;
+                            node = if rng.next() * (a0 + a1) < a0 {
+                                cl.children[0]
+                            } else {
+                                cl.children[1]
+                            };
+                        }
+                        Kind::Patch(p) => {
+                            let pa = &self.patches[p];
+                            return (pa.point_at(rng.next(), rng.next(), rng.next()), pa.normal);
+                        }
+                        Kind::Emitter(_) => return (V3::zeros(), V3::z()),
+                    }
+                }
+            })
+            .collect()
     }
 
     /// Bounding sphere (centre, radius) and area of a node.

@@ -157,16 +157,25 @@ fn decide_clink(
     let cl = &h.clusters[r];
     let t = st.sender(h, ctx.emitters, l.src, &cl.centre);
     let hi = t.hi;
+    // the light reaching the cluster unoccluded (half its area faces a given
+    // direction, on average)
+    let energy = cl.w_max * 0.5 * cl.area * f64::from(l.k) * hi;
+    if matches!(l.src.kind(), Kind::Emitter(_)) {
+        // direct light casts sharp shadows inside a cluster that a few rays cannot
+        // resolve: Kresse's F_min = 0, the whole energy is the error
+        return (energy > eps).then_some(Split::Receiver);
+    }
     // sender side: its extent and the spread of its radiosity (intensity bounds)
     let rel_send = f64::from(l.rel_src) + t.rel + if hi > 0.0 { t.spread / hi } else { 0.0 };
     // receiver side: one visible fraction for every polygon inside, and constant
     // light across each polygon
-    let rel_recv = f64::from(l.rel_vis) + 0.5 * cl.poly_radius_max / f64::from(l.d).max(1e-300);
-    // light reaching the cluster (half its area faces a given direction, on average)
-    let energy = cl.w_max * 0.5 * cl.area * f64::from(l.k) * f64::from(l.v).max(0.05) * hi;
-    if energy * (rel_send + rel_recv) <= eps {
+    let v = f64::from(l.v);
+    let rel_shape = 0.5 * cl.poly_radius_max / f64::from(l.d).max(1e-300);
+    let rel_recv = f64::from(l.rel_vis) + v * rel_shape;
+    if energy * (v * rel_send + rel_recv) <= eps {
         return None;
     }
+    let rel_send = v * rel_send;
     Some(if can_s && rel_send > rel_recv {
         Split::Sender
     } else {
@@ -232,6 +241,11 @@ pub(super) fn refine(
     deadline: Option<Instant>,
 ) -> usize {
     let mut changed = 0usize;
+    // receivers whose links may decide differently than in the last round: all at
+    // first, then those that gained or lost links or had decisions deferred (nothing
+    // else changes within one refinement: the strengths stay until the next sweep)
+    let mut dirty_p = vec![true; plinks.len()];
+    let mut dirty_c = vec![true; clinks.len()];
     for _round in 0..200 {
         if deadline.is_some_and(|d| Instant::now() > d) {
             break;
@@ -242,7 +256,7 @@ pub(super) fn refine(
         let pdec: Vec<(usize, Vec<(usize, Split)>)> = plinks
             .par_iter()
             .enumerate()
-            .filter(|(_, ls)| !ls.is_empty())
+            .filter(|(r, ls)| dirty_p[*r] && !ls.is_empty())
             .filter_map(|(r, ls)| {
                 let flat = links_flat(hh, sst, ctx, r, ls, eps, lim.basis);
                 let d: Vec<(usize, Split)> = ls
@@ -258,7 +272,7 @@ pub(super) fn refine(
         let cdec: Vec<(usize, Vec<(usize, Split)>)> = clinks
             .par_iter()
             .enumerate()
-            .filter(|(_, ls)| !ls.is_empty())
+            .filter(|(r, ls)| dirty_c[*r] && !ls.is_empty())
             .filter_map(|(r, ls)| {
                 let d: Vec<(usize, Split)> = ls
                     .iter()
@@ -281,119 +295,30 @@ pub(super) fn refine(
             || pdec
                 .iter()
                 .any(|(r, d)| d.iter().any(|&(i, s)| from_cluster(*r, i, s)));
+        dirty_p.iter_mut().for_each(|d| *d = false);
+        dirty_c.iter_mut().for_each(|d| *d = false);
         let pdec: Vec<(usize, Vec<(usize, Split)>)> = if top_down {
             pdec.into_iter()
                 .filter_map(|(r, d)| {
+                    let all = d.len();
                     let d: Vec<(usize, Split)> = d
                         .into_iter()
                         .filter(|&(i, s)| from_cluster(r, i, s))
                         .collect();
+                    if d.len() < all {
+                        dirty_p[r] = true; // deferred
+                    }
                     (!d.is_empty()).then_some((r, d))
                 })
                 .collect()
         } else {
             pdec
         };
-        // top-down: while clusters still hand links down (cluster receivers, cluster
-        // senders of patches), the patches' own link sets are incomplete and their
-        // receiver tests would judge partial sums; those wait for later rounds
-        let from_cluster = |r: usize, i: usize, s: Split| {
-            s == Split::Sender && matches!(plinks[r][i].src.kind(), Kind::Cluster(_))
-        };
-        let top_down = !cdec.is_empty()
-            || pdec
-                .iter()
-                .any(|(r, d)| d.iter().any(|&(i, s)| from_cluster(*r, i, s)));
-        let pdec: Vec<(usize, Vec<(usize, Split)>)> = if top_down {
-            pdec.into_iter()
-                .filter_map(|(r, d)| {
-                    let d: Vec<(usize, Split)> = d
-                        .into_iter()
-                        .filter(|&(i, s)| from_cluster(r, i, s))
-                        .collect();
-                    (!d.is_empty()).then_some((r, d))
-                })
-                .collect()
-        } else {
-            pdec
-        };
-        // top-down: while clusters still hand links down (cluster receivers, cluster
-        // senders of patches), the patches' own link sets are incomplete and their
-        // receiver tests would judge partial sums; those wait for later rounds
-        let from_cluster = |r: usize, i: usize, s: Split| {
-            s == Split::Sender && matches!(plinks[r][i].src.kind(), Kind::Cluster(_))
-        };
-        let top_down = !cdec.is_empty()
-            || pdec
-                .iter()
-                .any(|(r, d)| d.iter().any(|&(i, s)| from_cluster(*r, i, s)));
-        let pdec: Vec<(usize, Vec<(usize, Split)>)> = if top_down {
-            pdec.into_iter()
-                .filter_map(|(r, d)| {
-                    let d: Vec<(usize, Split)> = d
-                        .into_iter()
-                        .filter(|&(i, s)| from_cluster(r, i, s))
-                        .collect();
-                    (!d.is_empty()).then_some((r, d))
-                })
-                .collect()
-        } else {
-            pdec
-        };
-        // top-down: while clusters still hand links down (cluster receivers, cluster
-        // senders of patches), the patches' own link sets are incomplete and their
-        // receiver tests would judge partial sums; those wait for later rounds
-        let from_cluster = |r: usize, i: usize, s: Split| {
-            s == Split::Sender && matches!(plinks[r][i].src.kind(), Kind::Cluster(_))
-        };
-        let top_down = !cdec.is_empty()
-            || pdec
-                .iter()
-                .any(|(r, d)| d.iter().any(|&(i, s)| from_cluster(*r, i, s)));
-        let pdec: Vec<(usize, Vec<(usize, Split)>)> = if top_down {
-            pdec.into_iter()
-                .filter_map(|(r, d)| {
-                    let d: Vec<(usize, Split)> = d
-                        .into_iter()
-                        .filter(|&(i, s)| from_cluster(r, i, s))
-                        .collect();
-                    (!d.is_empty()).then_some((r, d))
-                })
-                .collect()
-        } else {
-            pdec
-        };
-        if std::env::var("HR_DEBUG").is_ok() {
-            let nr = pdec
-                .iter()
-                .flat_map(|(_, d)| d)
-                .filter(|(_, s)| *s == Split::Receiver)
-                .count();
-            let ns = pdec
-                .iter()
-                .flat_map(|(_, d)| d)
-                .filter(|(_, s)| *s == Split::Sender)
-                .count();
-            eprintln!(
-                "round {_round}: eps {eps:.3e} patch-links recv {nr} send {ns}; cluster decisions {}",
-                cdec.len()
-            );
-            for (r, d) in pdec.iter().take(3) {
-                for (i, sp) in d.iter().take(3) {
-                    let l = &plinks[*r][*i];
-                    eprintln!(
-                        "  r {r} src {:?} {:?} k {} ks {:?} kmax {} kmin {} overlap {} nlinks {}",
-                        l.src.kind(),
-                        sp,
-                        l.k,
-                        l.ks,
-                        l.kmax,
-                        l.kmin,
-                        l.overlap,
-                        plinks[*r].len()
-                    );
-                }
-            }
+        for (r, _) in &pdec {
+            dirty_p[*r] = true;
+        }
+        for (r, _) in &cdec {
+            dirty_c[*r] = true;
         }
         // 2. split the patches that must be (clusters have their children already)
         let mut to_split: Vec<usize> = Vec::new();
@@ -487,10 +412,17 @@ pub(super) fn refine(
             .par_iter()
             .filter_map(|&(recv, src, vis)| make_link(ctx, hh, recv, src, vis))
             .collect();
+        dirty_p.resize(plinks.len(), true);
         for m in made {
             match m {
-                NewLink::P(r, l) => plinks[r].push(l),
-                NewLink::C(r, l) => clinks[r].push(l),
+                NewLink::P(r, l) => {
+                    plinks[r].push(l);
+                    dirty_p[r] = true;
+                }
+                NewLink::C(r, l) => {
+                    clinks[r].push(l);
+                    dirty_c[r] = true;
+                }
             }
         }
     }

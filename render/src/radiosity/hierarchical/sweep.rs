@@ -18,15 +18,18 @@ use crate::scene::{Scene, V3};
 use super::emitters::Emitter;
 use super::nodes::{Cluster, Hierarchy, Kind, NONE, Node, error_weight};
 use super::sampling::{CENTRE, NS, linear_centre, push_to_child};
-use super::transfer::{CLink, Overlap, PLink};
+use super::transfer::{CLink, Overlap, PLink, effective_cos};
 
 /// Irradiance of a patch element: mean and shape samples (XYZ, lux), plus the
-/// estimated error (Y, lux) of the links that brought it.
+/// estimated error (Y, lux) of the links that brought it: a part that adds up
+/// (biases and bounds) and the variance of the part that does not (independent
+/// zero-mean sampling errors of different links add in quadrature).
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Irr {
     pub avg: [f64; 3],
     pub s: [[f64; 3]; NS],
     pub err: f64,
+    pub var: f64,
 }
 
 /// Light a cluster received over one link from a surface sender this sweep: the
@@ -35,14 +38,19 @@ pub(super) struct Irr {
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Entry {
     pub origin: V3,
+    /// Bounding radius of the sender (its angular size at a polygon).
+    pub r_s: f64,
     pub d_c: f64,
     pub sn: V3,
     pub cos_sc: f64,
     pub e: [f64; 3],
-    /// Relative uncertainty (sender extent, visibility).
+    /// Relative uncertainty (the sender's extent).
     pub rel: f64,
-    /// Absolute uncertainty (Y, lux at the centre) from the sender's spread.
+    /// Absolute uncertainty (Y, lux at the centre): the sender's spread (adding
+    /// up) …
     pub err: f64,
+    /// … and the zero-mean visibility sampling error.
+    pub sd: f64,
 }
 
 impl Entry {
@@ -55,7 +63,7 @@ impl Entry {
             return (0.0, dp);
         }
         let u = w / dp;
-        let cos_p = n.dot(&u);
+        let cos_p = effective_cos(n.dot(&u), (self.r_s / dp).powi(2));
         if cos_p <= 0.0 {
             return (0.0, dp);
         }
@@ -162,7 +170,7 @@ pub(super) struct State {
     pub entries: Vec<Vec<Entry>>,
     /// Per root polygon: light of emitters linked to its clusters (constant; baked
     /// after each refinement).
-    pub cluster_direct: Vec<([f64; 3], f64)>,
+    pub cluster_direct: Vec<([f64; 3], f64, f64)>,
     /// Per cluster: emission moments, mean exitance and largest Y exitance inside.
     pub mom: Vec<Moments>,
     /// Per cluster: flux (Y) centroid of the contents.
@@ -207,7 +215,7 @@ impl State {
             own: vec![Irr::default(); np],
             tot: vec![Irr::default(); np],
             entries: vec![Vec::new(); nc],
-            cluster_direct: vec![([0.0; 3], 0.0); scene.polygons.len()],
+            cluster_direct: vec![([0.0; 3], 0.0, 0.0); scene.polygons.len()],
             mom: vec![Moments::default(); nc],
             cpos: h.clusters.iter().map(|c| c.centre).collect(),
             cb: vec![[0.0; 3]; nc],
@@ -325,7 +333,8 @@ impl State {
                             irr.s[j][c] += scale * f64::from(l.ks[j]) * t.sig[c];
                         }
                     }
-                    irr.err += k * (t.spread + t.sig[1] * (t.rel + f64::from(l.rel_vis)));
+                    irr.err += k * (t.spread + t.sig[1] * t.rel);
+                    irr.var += (k * t.sig[1] * f64::from(l.rel_vis)).powi(2);
                 }
                 irr
             })
@@ -345,6 +354,7 @@ impl State {
                         }
                         let t = me.sender(h, emitters, l.src, &cr);
                         let d_c = (t.origin - cr).norm();
+                        let r_s = h.sphere(l.src).1;
                         let (sn, cos_sc, k) = match l.src.kind() {
                             Kind::Patch(s) => {
                                 let sn = h.patches[s].normal;
@@ -356,12 +366,14 @@ impl State {
                         let kv = k * f64::from(l.v);
                         Some(Entry {
                             origin: t.origin,
+                            r_s,
                             d_c,
                             sn,
                             cos_sc,
                             e: t.sig.map(|s| kv * s),
-                            rel: f64::from(l.rel_src + l.rel_vis) + t.rel,
+                            rel: f64::from(l.rel_src) + t.rel,
                             err: kv * t.spread,
+                            sd: k * t.sig[1] * f64::from(l.rel_vis),
                         })
                     })
                     .collect()
@@ -402,7 +414,7 @@ impl State {
         for (r, _) in clinks.iter().enumerate() {
             let cl = &h.clusters[r];
             for e in &self.entries[r] {
-                out[4] += cl.w_max * cl.area * 0.5 * (e.err + e.rel * e.e[1]);
+                out[4] += cl.w_max * cl.area * 0.5 * (e.err + e.sd + e.rel * e.e[1]);
                 out[5] += cl.w_max * cl.area * 0.5 * e.e[1];
             }
         }
@@ -425,7 +437,8 @@ impl State {
             .map(|p| {
                 let pa = &h.patches[p];
                 let mut e = [0.0; 3];
-                let mut err = 0.0;
+                let err = 0.0;
+                let mut var = 0.0;
                 let mut c = pa.cluster;
                 while c != NONE {
                     for l in &clinks[c as usize] {
@@ -436,11 +449,11 @@ impl State {
                             continue;
                         }
                         let em = &emitters[i];
-                        let irr = em.mean_irradiance(scene, pa.verts(), &pa.normal, pa.area)
-                            * f64::from(l.v);
-                        if irr <= 0.0 {
+                        let unocc = em.mean_irradiance(scene, pa.verts(), &pa.normal, pa.area);
+                        if unocc <= 0.0 {
                             continue;
                         }
+                        let irr = unocc * f64::from(l.v);
                         let col = em.color();
                         for k in 0..3 {
                             e[k] += irr * col[k];
@@ -448,11 +461,11 @@ impl State {
                         let shape = em.position().map_or(0.0, |lp| {
                             0.5 * pa.radius / (lp - pa.centre).norm().max(1e-300)
                         });
-                        err += irr * col[1] * (f64::from(l.rel_vis) + shape);
+                        var += (col[1] * (unocc * f64::from(l.rel_vis) + irr * shape)).powi(2);
                     }
                     c = h.clusters[c as usize].parent;
                 }
-                (e, err)
+                (e, err, var)
             })
             .collect();
     }
@@ -472,7 +485,7 @@ impl State {
                     if pa.parent == NONE {
                         // light of the enclosing clusters, at this polygon's own
                         // distance and orientation
-                        let (mut add, mut err) = me.cluster_direct[pa.polygon as usize];
+                        let (mut add, mut err, mut var) = me.cluster_direct[pa.polygon as usize];
                         let mut c = pa.cluster;
                         while c != NONE {
                             for e in &me.entries[c as usize] {
@@ -483,7 +496,8 @@ impl State {
                                     }
                                     // the polygon's own extent: a constant cannot
                                     // follow the variation across it
-                                    err += f * (e.e[1] * (e.rel + 0.5 * pa.radius / dp) + e.err);
+                                    err += f * (e.e[1] * e.rel + e.err);
+                                    var += (f * (e.sd + e.e[1] * 0.5 * pa.radius / dp)).powi(2);
                                 }
                             }
                             c = h.clusters[c as usize].parent;
@@ -495,6 +509,7 @@ impl State {
                             }
                         }
                         t.err += err;
+                        t.var += var;
                     } else {
                         let q = pa.parent as usize;
                         let parent = &h.patches[q];
@@ -510,6 +525,7 @@ impl State {
                             }
                         }
                         t.err += pt.err;
+                        t.var += pt.var;
                     }
                     t
                 })
@@ -648,7 +664,7 @@ impl State {
             t.avg[1]
         };
         LeafError {
-            error: w * (shape + t.err),
+            error: w * (shape + t.err + t.var.sqrt()),
             shape: w * shape,
             norm,
             linear,

@@ -9,12 +9,15 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::scene::{Scene, V3};
 
-use super::super::form_factor::{point_to_polygon, polygon_to_polygon};
+use super::super::form_factor::point_to_polygon;
 use super::super::quadrature;
 use super::super::visibility::{Visibility, point_in_convex};
 use super::emitters::Emitter;
-use super::nodes::{Hierarchy, Kind, Node, Patch};
+use super::nodes::{Hierarchy, Kind, Node, Patch, link_seed};
 use super::sampling::{NS, Samples};
+
+/// Random points per cluster end for the shadow rays of a cluster link.
+const CLUSTER_RAYS: usize = 4;
 
 /// Work counters of a solve.
 #[derive(Debug, Default)]
@@ -46,8 +49,6 @@ pub(super) struct PLink {
     pub ks: [f32; NS],
     /// Largest value over the receiver, unoccluded (criterion).
     pub kmax: f32,
-    /// Smallest value over the receiver, visibility-weighted (criterion).
-    pub kmin: f32,
     /// For a cluster sender, ∂k/∂(sender position): its light leaves from the flux
     /// centroid of its contents, which moves as the solution does; k was evaluated
     /// at the area centroid and is corrected to first order.
@@ -76,7 +77,11 @@ pub(super) struct CLink {
     pub v: f32,
     /// Relative uncertainty from the sender's extent.
     pub rel_src: f32,
-    /// Relative uncertainty of the visible fraction taken for every polygon inside.
+    /// Uncertainty of the visible fraction taken for every polygon inside, relative
+    /// to the unoccluded transfer: how unevenly the visible part falls on the
+    /// receiver, and the sampling error of the fraction. The segments join random
+    /// points, fresh for every link, so the fraction is unbiased and its errors are
+    /// independent between links.
     pub rel_vis: f32,
     /// Whether the pair is too close for a cluster link.
     pub overlap: Overlap,
@@ -111,6 +116,26 @@ impl PLink {
         let kc = (k + g.dot(shift)).clamp(0.0, 2.0 * k);
         (kc, kc / k)
     }
+}
+
+/// Irradiance of a uniform spherical source of angular radius σ on a surface whose
+/// normal makes the angle θ with the source's centre, relative to the normal
+/// irradiance (Snyder 1996): cos θ while the source is wholly above the horizon, a
+/// smooth closed form while the horizon cuts it, 0 below. Using max(0, cos θ) of the
+/// centre instead underestimates grazing receivers (Jensen's inequality).
+pub(super) fn effective_cos(cos_theta: f64, sin2_sigma: f64) -> f64 {
+    let c = cos_theta.clamp(-1.0, 1.0);
+    let s2 = sin2_sigma.clamp(0.0, 1.0);
+    if s2 <= 0.0 || c * c > s2 {
+        return c.max(0.0);
+    }
+    let st = (1.0 - c * c).sqrt();
+    let x = (1.0 / s2 - 1.0).sqrt();
+    let y = if st > 0.0 { -x * c / st } else { -1.0 };
+    let y = y.clamp(-1.0, 1.0);
+    let z = st * (1.0 - y * y).sqrt();
+    let e = (c * y.acos() - x * z) * s2 + (z / x).atan();
+    (e / (std::f64::consts::PI * s2)).max(0.0)
 }
 
 fn faces(a: &Patch, b: &Patch) -> bool {
@@ -259,12 +284,10 @@ fn finish_plink(
     }
     let mut ks = [0f32; NS];
     let mut kmax = extra_max;
-    let mut kmin = f64::INFINITY;
     for (j, out) in ks.iter_mut().enumerate() {
         let i = smp.shape[j];
         *out = (pv.f[i] * pv.v[i]) as f32;
         kmax = kmax.max(pv.f[i]);
-        kmin = kmin.min(pv.f[i] * pv.v[i]);
     }
     if kmax <= 0.0 || !kmax.is_finite() {
         return None;
@@ -279,7 +302,6 @@ fn finish_plink(
         k: k as f32,
         ks,
         kmax: kmax as f32,
-        kmin: kmin.max(0.0) as f32,
         grad: [grad.x as f32, grad.y as f32, grad.z as f32],
         rel_vis: rel_vis as f32,
         visible,
@@ -331,16 +353,7 @@ pub(super) fn eval_plink(
             let extra = ff_max_point(rp, &sp.centre, &sp.normal).map_or(0.0, |x| {
                 point_to_polygon(&x, &rp.normal, sp.verts(), &sp.normal)
             });
-            let mut l = finish_plink(src, &smp, &pv, extra, visible, V3::zeros())?;
-            // touching or close elements: the point form factor has an edge
-            // singularity the fixed rule misses; the mean carries the energy, so it is
-            // integrated adaptively (exact inner contour integral)
-            let d = (rp.centre - sp.centre).norm();
-            if visible && d < 1.5 * (rp.radius + sp.radius) {
-                let f = polygon_to_polygon(rp.verts(), sp.verts(), 1e-6 * f64::from(l.kmax));
-                l.k = f.value as f32;
-            }
-            Some(l)
+            finish_plink(src, &smp, &pv, extra, visible, V3::zeros())
         }
         Kind::Cluster(c) => {
             let cl = &h.clusters[c];
@@ -353,16 +366,16 @@ pub(super) fn eval_plink(
                     k: 0.0,
                     ks: [0.0; NS],
                     kmax: f32::INFINITY,
-                    kmin: 0.0,
                     grad: [0.0; 3],
                     rel_vis: 0.0,
                     visible: false,
                     overlap: true,
                 });
             }
-            // the contents are inside the shaft: rays to the cluster's samples
-            let targets = &cl.samples[..cl.n_samples];
-            let targets: Vec<V3> = targets.iter().map(|s| s.0).collect();
+            // the contents are inside the shaft: rays to random points of the cluster
+            // (those facing the point: a ray to the far side of a solid would be
+            // blocked by the sender itself)
+            let targets = h.random_points(c, CLUSTER_RAYS, link_seed(Node::patch(r), src));
             let mut grad = V3::zeros();
             for i in 0..smp.n {
                 let x = smp.pts[i];
@@ -370,10 +383,17 @@ pub(super) fn eval_plink(
                 let d2 = d.norm_squared();
                 let dl = d2.sqrt();
                 let nd = rp.normal.dot(&d);
-                if nd > 0.0 {
-                    // cos θ / d² = n·d / |d|³, and its gradient in the sender position
-                    pv.f[i] = nd / (d2 * dl);
-                    pv.v[i] = ctx.fraction(&x, &targets, [rp.polygon as usize, usize::MAX]);
+                let ec = effective_cos(nd / dl, (cl.radius / dl).powi(2));
+                if ec > 0.0 {
+                    // cos θ / d² = n·d / |d|³ (with the sender's extent at the horizon),
+                    // and its gradient in the sender position
+                    pv.f[i] = ec / d2;
+                    let seen: Vec<V3> = targets
+                        .iter()
+                        .filter(|(t, n)| n.dot(&(x - t)) > 0.0 && rp.normal.dot(&(t - x)) > 0.0)
+                        .map(|(t, _)| *t)
+                        .collect();
+                    pv.v[i] = ctx.fraction(&x, &seen, [rp.polygon as usize, usize::MAX]);
                     let g = rp.normal / (d2 * dl) - d * (3.0 * nd / (d2 * d2 * dl));
                     grad += g * (smp.w[i] * pv.v[i]);
                 }
@@ -429,15 +449,10 @@ pub(super) fn eval_clink(ctx: &Ctx, h: &Hierarchy, r: usize, src: Node) -> Optio
         rel_vis: 0.0,
         overlap: why,
     };
-    // samples of the receiver facing direction u, for rays
-    let facing = |u: &V3| -> Vec<V3> {
-        rc.samples[..rc.n_samples]
-            .iter()
-            .filter(|(_, n)| n.dot(u) > 0.0)
-            .map(|(p, _)| *p)
-            .collect()
-    };
-    let (_u, d, k0, rel_src, v) = match src.kind() {
+    // random points of the receiver facing direction u, for rays
+    let seed = link_seed(Node::cluster(r), src);
+    let facing = |u: &V3| facing_points(h, r, u, seed);
+    let (d, k0, rel_src, pv) = match src.kind() {
         Kind::Patch(s) => {
             let sp = &h.patches[s];
             // the sender's plane through the receiver's box: only part of it is lit
@@ -462,9 +477,14 @@ pub(super) fn eval_clink(ctx: &Ctx, h: &Hierarchy, r: usize, src: Node) -> Optio
             if k0 <= 0.0 {
                 return None;
             }
-            let v = sample_visibility(ctx, &facing(&u), &patch_targets(sp), sp.polygon as usize);
+            let pts = facing(&u);
+            let targets: Vec<(V3, V3)> = patch_targets(sp)
+                .into_iter()
+                .map(|t| (t, sp.normal))
+                .collect();
+            let pv = sample_visibility(ctx, &pts, &targets, sp.polygon as usize);
             // far field from the centre: the first-order terms of a uniform patch cancel
-            (u, d, k0, 2.0 * (sp.radius / d).powi(2), v)
+            (d, k0, 2.0 * (sp.radius / d).powi(2), pv)
         }
         Kind::Cluster(s) => {
             let sc = &h.clusters[s];
@@ -474,10 +494,11 @@ pub(super) fn eval_clink(ctx: &Ctx, h: &Hierarchy, r: usize, src: Node) -> Optio
                 return Some(overlap(src, Overlap::Near));
             }
             let u = dv / d;
-            let targets: Vec<V3> = sc.samples[..sc.n_samples].iter().map(|s| s.0).collect();
-            let v = sample_visibility(ctx, &facing(&u), &targets, usize::MAX);
+            let pts = facing(&u);
+            let targets = facing_points(h, s, &(-u), seed ^ 0x5555);
+            let pv = sample_visibility(ctx, &pts, &targets, usize::MAX);
             // light leaves from the flux centroid (used in the sweep): second order
-            (u, d, 1.0 / (d * d), 2.0 * (sc.radius / d).powi(2), v)
+            (d, 1.0 / (d * d), 2.0 * (sc.radius / d).powi(2), pv)
         }
         Kind::Emitter(e) => {
             let em = &ctx.emitters[e];
@@ -490,8 +511,12 @@ pub(super) fn eval_clink(ctx: &Ctx, h: &Hierarchy, r: usize, src: Node) -> Optio
             }
             let (en, u) = em.normal_irradiance(ctx.scene, &cr);
             let pts = facing(&u);
-            let v = if pts.is_empty() {
-                1.0
+            let pv = if pts.is_empty() {
+                PairVisibility {
+                    v: 1.0,
+                    spread: 0.0,
+                    pairs: 0,
+                }
             } else {
                 ctx.counters
                     .rays
@@ -499,46 +524,108 @@ pub(super) fn eval_clink(ctx: &Ctx, h: &Hierarchy, r: usize, src: Node) -> Optio
                 ctx.counters.tested.fetch_add(1, Ordering::Relaxed);
                 let seen = pts
                     .iter()
-                    .filter(|p| {
+                    .filter(|(p, _)| {
                         !ctx.vis
                             .occluded(p, &em.ray_end(p, ctx.far), [usize::MAX; 2])
                     })
                     .count();
-                seen as f64 / pts.len() as f64
+                let v = seen as f64 / pts.len() as f64;
+                // one ray per point: each point is lit or not
+                PairVisibility {
+                    v,
+                    spread: 2.0 * v * (1.0 - v),
+                    pairs: pts.len(),
+                }
             };
             let d = em.position().map_or(f64::INFINITY, |p| (p - cr).norm());
             // each polygon gets the light's own intensity towards it: exact geometry
-            (u, d, en.max(0.5 * kmax), 0.0, v)
+            (d, en.max(0.5 * kmax), 0.0, pv)
         }
-    };
-    let rel_vis = if v > 0.0 && v < 1.0 {
-        2.0 * v * (1.0 - v)
-    } else {
-        0.0
     };
     Some(CLink {
         src,
         d: d as f32,
         k: k0 as f32,
-        v: v as f32,
+        v: pv.v as f32,
         rel_src: rel_src as f32,
-        rel_vis: rel_vis as f32,
+        rel_vis: pv.uncertainty() as f32,
         overlap: Overlap::None,
     })
 }
 
-/// Fraction of unblocked segments between the receiver points and the targets
-/// (all pairs); 1 without receiver points (no surface inside faces the sender).
-fn sample_visibility(ctx: &Ctx, pts: &[V3], targets: &[V3], sender_poly: usize) -> f64 {
-    if pts.is_empty() || targets.is_empty() {
-        return 1.0;
+/// Up to [`CLUSTER_RAYS`] random points of cluster `c` on surfaces facing `u`.
+fn facing_points(h: &Hierarchy, c: usize, u: &V3, seed: u64) -> Vec<(V3, V3)> {
+    let mut out: Vec<(V3, V3)> = h
+        .random_points(c, 4 * CLUSTER_RAYS, seed)
+        .into_iter()
+        .filter(|(_, n)| n.dot(u) > 0.0)
+        .collect();
+    out.truncate(CLUSTER_RAYS);
+    out
+}
+
+/// Visibility between the points of a cluster link's ends.
+#[derive(Debug, Clone, Copy)]
+struct PairVisibility {
+    /// Unblocked fraction of the segments.
+    v: f64,
+    /// Mean deviation of the receiver points' own fractions from `v`: how unevenly
+    /// the visible part falls on the receiver (the error of one `v` for all of it).
+    spread: f64,
+    /// Segments tested.
+    pairs: usize,
+}
+
+impl PairVisibility {
+    /// Zero-mean uncertainty relative to the unoccluded transfer: the uneven part
+    /// and the sampling error of `v`, its variance by the rule of succession so that
+    /// n agreeing segments still leave the chance of a shadow between them.
+    fn uncertainty(&self) -> f64 {
+        let n = self.pairs as f64;
+        let p = (self.v * n + 1.0) / (n + 2.0);
+        self.spread + (p * (1.0 - p) / (n + 2.0)).sqrt()
+    }
+}
+
+/// Visibility of the segments between receiver and sender points (with their surface
+/// normals) that face each other; fully visible when no pair does (orientation alone
+/// then decides).
+fn sample_visibility(
+    ctx: &Ctx,
+    pts: &[(V3, V3)],
+    targets: &[(V3, V3)],
+    sender_poly: usize,
+) -> PairVisibility {
+    let mut pairs = 0usize;
+    let mut seen = 0usize;
+    let mut per_point: Vec<f64> = Vec::with_capacity(pts.len());
+    for (p, np) in pts {
+        let (mut n, mut s) = (0usize, 0usize);
+        for (t, nt) in targets {
+            let d = t - p;
+            if np.dot(&d) > 0.0 && nt.dot(&d) < 0.0 {
+                n += 1;
+                s += usize::from(!ctx.vis.occluded(p, t, [usize::MAX, sender_poly]));
+            }
+        }
+        if n > 0 {
+            per_point.push(s as f64 / n as f64);
+        }
+        pairs += n;
+        seen += s;
+    }
+    if pairs == 0 {
+        return PairVisibility {
+            v: 1.0,
+            spread: 0.0,
+            pairs: 0,
+        };
     }
     ctx.counters.tested.fetch_add(1, Ordering::Relaxed);
-    let mut seen = 0.0;
-    for p in pts {
-        seen += ctx.fraction(p, targets, [usize::MAX, sender_poly]);
-    }
-    seen / pts.len() as f64
+    ctx.counters.rays.fetch_add(pairs as u64, Ordering::Relaxed);
+    let v = seen as f64 / pairs as f64;
+    let spread = per_point.iter().map(|x| (x - v).abs()).sum::<f64>() / per_point.len() as f64;
+    PairVisibility { v, spread, pairs }
 }
 
 fn box_corners(lo: &V3, hi: &V3) -> [V3; 8] {
