@@ -97,7 +97,6 @@ impl Aabb {
 enum Step {
     Miss,
     Closer(f64),
-    Stop,
 }
 
 enum Tree {
@@ -359,17 +358,33 @@ impl Bvh {
         } else {
             1e-6
         };
-        let mut hit = false;
-        self.traverse(from, dir, m, 1.0 - m, |slot, t_lim| {
-            let tri = &self.tris[slot];
-            if ray_triangle(from, dir, tri, m, t_lim).is_some() {
-                hit = true;
-                Step::Stop
-            } else {
-                Step::Miss
+        if self.nodes.is_empty() || !from.iter().chain(dir.iter()).all(|v| v.is_finite()) {
+            return false;
+        }
+        // any hit ends the query: no front-to-back order, each node's slabs are
+        // tested once, when it is popped
+        let inv = [1.0 / dir[0], 1.0 / dir[1], 1.0 / dir[2]];
+        let (t0, t1) = (m, 1.0 - m);
+        let mut stack = Stack::new();
+        stack.push(0);
+        while let Some(i) = stack.pop() {
+            let n = &self.nodes[i];
+            if slab(n, from, inv, t0, t1).is_none() {
+                continue;
             }
-        });
-        hit
+            if n.count > 0 {
+                let first = n.index as usize;
+                for tri in &self.tris[first..first + n.count as usize] {
+                    if ray_triangle(from, dir, tri, t0, t1).is_some() {
+                        return true;
+                    }
+                }
+            } else {
+                stack.push(n.index as usize);
+                stack.push(i + 1);
+            }
+        }
+        false
     }
 
     /// Region query: true as soon as `accept_triangle` accepts a triangle (given its
@@ -433,7 +448,6 @@ impl Bvh {
                     match test(k, t_lim) {
                         Step::Miss => {}
                         Step::Closer(t) => t_lim = t,
-                        Step::Stop => return,
                     }
                 }
             } else {

@@ -85,14 +85,15 @@ pub(crate) fn facing(a: &MeshElem, b: &MeshElem) -> bool {
         && a.verts.iter().any(|v| b.normal.dot(&(v - b.verts[0])) > s)
 }
 
-/// Direct illuminance (XYZ lux) of every element from the scene's point lights, with
-/// shadow rays where needed.
+/// Direct illuminance (XYZ lux) of every element from the scene's point lights and
+/// daylight, with shadow rays where needed.
 pub(crate) fn direct_light(
     scene: &Scene,
     vis: &dyn Visibility,
     mesh: &[MeshElem],
     rays: &AtomicU64,
 ) -> Vec<[f64; 3]> {
+    let far = 4.0 * scene_extent(scene) + 1.0;
     mesh.par_iter()
         .map(|e| {
             let mut h = [0.0; 3];
@@ -119,9 +120,48 @@ pub(crate) fn direct_light(
                     *v += irr * l.color_xyz[c];
                 }
             }
+            if let Some(d) = &scene.sky {
+                // distant sources: shadow rays to a point beyond the scene
+                for src in d.sources() {
+                    let u = src.direction.normalize();
+                    let cos = e.normal.dot(&u);
+                    if cos <= 0.0 {
+                        continue;
+                    }
+                    let ends: Vec<V3> = e.verts.iter().map(|v| v + u * far).collect();
+                    let candidate = vis.may_occlude(&e.verts, e.polygon, &ends, usize::MAX);
+                    let mut seen = 0.0;
+                    for (x, w) in &e.points {
+                        if candidate {
+                            rays.fetch_add(1, Ordering::Relaxed);
+                            if vis.occluded(x, &(x + u * far), [usize::MAX, e.polygon]) {
+                                continue;
+                            }
+                        }
+                        seen += w;
+                    }
+                    let irr = src.normal_illuminance_lux * cos * seen;
+                    for (c, v) in h.iter_mut().enumerate() {
+                        *v += irr * src.color_xyz[c];
+                    }
+                }
+            }
             h
         })
         .collect()
+}
+
+/// Diagonal of the scene's bounding box in metres.
+pub(crate) fn scene_extent(scene: &Scene) -> f64 {
+    let mut lo = V3::repeat(f64::INFINITY);
+    let mut hi = V3::repeat(f64::NEG_INFINITY);
+    for p in &scene.polygons {
+        for v in &p.vertices {
+            lo = lo.inf(v);
+            hi = hi.sup(v);
+        }
+    }
+    (hi - lo).norm()
 }
 
 /// Form factor from receiver `r` to source `s` (area average over r's Gauss points,

@@ -36,6 +36,53 @@ pub struct SceneFile {
     pub lights: Vec<LightFile>,
     /// Camera.
     pub camera: Option<CameraFile>,
+    /// Daylight: a CIE sky (with sun for the clear sky).
+    pub sky: Option<SkyFile>,
+}
+
+/// The `[sky]` entry: a CIE standard sky, discretised into distant cells.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SkyFile {
+    /// `overcast` (CIE standard overcast, Moon & Spencer) or `clear` (CIE clear sky,
+    /// ISO 15469 type 12, with sun).
+    pub model: String,
+    /// Zenith luminance in cd/m².
+    pub zenith_luminance_cd_m2: f64,
+    /// Clear sky: sun position, azimuth (degrees from north towards east) and
+    /// elevation (degrees above the horizon).
+    pub sun_azimuth_deg: Option<f64>,
+    /// See `sun_azimuth_deg`.
+    pub sun_elevation_deg: Option<f64>,
+    /// Clear sky: the sun's normal illuminance in lux (default: the IES clear-sky
+    /// model from the elevation).
+    pub sun_normal_illuminance_lux: Option<f64>,
+    /// Zenith-angle bands of the sky's discretisation (cells of about equal solid
+    /// angle per band).
+    #[serde(default = "sky_bands")]
+    pub bands: usize,
+    /// World up (zenith) direction.
+    #[serde(default = "z_up")]
+    pub up: [f64; 3],
+    /// World north (made orthogonal to `up`).
+    #[serde(default = "y_north")]
+    pub north: [f64; 3],
+    /// Sky chromaticity (default D65: 0.3127, 0.3290).
+    pub sky_xy: Option<[f64; 2]>,
+    /// Sun chromaticity (default 0.3324, 0.3474, about 5500 K).
+    pub sun_xy: Option<[f64; 2]>,
+}
+
+fn sky_bands() -> usize {
+    8
+}
+
+fn z_up() -> [f64; 3] {
+    [0.0, 0.0, 1.0]
+}
+
+fn y_north() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
 }
 
 fn one() -> f64 {
@@ -76,9 +123,19 @@ pub struct LightFile {
     /// Name for messages.
     #[serde(default)]
     pub name: String,
-    /// `point` or `spot`.
+    /// `point`, `spot`, or `goniometric` (an IES LM-63 `.ies` or EULUMDAT `.ldt`
+    /// file).
     #[serde(rename = "type")]
     pub kind: String,
+    /// Goniometric: the photometric file, relative to the scene file.
+    pub file: Option<String>,
+    /// Goniometric: world direction of the photometric axis (nadir, γ = 0°).
+    pub aim: Option<[f64; 3]>,
+    /// Goniometric: world direction of the C0° plane (default: chosen from `aim`).
+    pub c0: Option<[f64; 3]>,
+    /// Goniometric: multiplies the file's intensities (e.g. a dimming factor); use
+    /// `flux_lm` instead to set the total flux.
+    pub scale: Option<f64>,
     /// Position (file units).
     pub position: [f64; 3],
     /// Luminous intensity in cd (on the axis for spots).
@@ -176,7 +233,7 @@ fn material(name: &str, m: &MaterialFile) -> Result<Material, SceneError> {
     })
 }
 
-fn light(i: usize, l: &LightFile, unit_m: f64) -> Result<Light, SceneError> {
+fn light(i: usize, l: &LightFile, unit_m: f64, base_dir: &Path) -> Result<Light, SceneError> {
     let name = if l.name.is_empty() {
         format!("light {i}")
     } else {
@@ -224,12 +281,13 @@ fn light(i: usize, l: &LightFile, unit_m: f64) -> Result<Light, SceneError> {
                 outer_half_angle_rad: outer,
             }
         }
+        "goniometric" => {
+            return goniometric(&name, l, position, color_xyz, base_dir);
+        }
         other => {
             return Err(invalid(
                 what,
-                format!(
-                    "type `{other}` is not known; use `point` or `spot` (goniometric lights are added through the API)"
-                ),
+                format!("type `{other}` is not known; use `point`, `spot` or `goniometric`"),
             ));
         }
     };
@@ -248,6 +306,156 @@ fn light(i: usize, l: &LightFile, unit_m: f64) -> Result<Light, SceneError> {
         color_xyz,
         kind,
     })
+}
+
+/// A goniometric light from an IES LM-63 or EULUMDAT file.
+fn goniometric(
+    name: &str,
+    l: &LightFile,
+    position: V3,
+    color_xyz: [f64; 3],
+    base_dir: &Path,
+) -> Result<Light, SceneError> {
+    use crate::photometry::{IntensityDistribution, LightFrame, to_scene_light};
+    let what = format!("light `{name}`");
+    let file = l
+        .file
+        .as_ref()
+        .ok_or_else(|| invalid(&what, "a goniometric light needs `file` (.ies or .ldt)"))?;
+    let path = base_dir.join(file);
+    let text = std::fs::read_to_string(&path).map_err(|source| SceneError::Io {
+        path: path.clone(),
+        source,
+    })?;
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let parsed = match ext.as_deref() {
+        Some("ies") => IntensityDistribution::from_ies_lm63(&text),
+        Some("ldt") => IntensityDistribution::from_eulumdat(&text),
+        _ => {
+            return Err(invalid(
+                &what,
+                format!(
+                    "{}: the file must end in .ies (LM-63) or .ldt (EULUMDAT)",
+                    path.display()
+                ),
+            ));
+        }
+    };
+    let mut dist = parsed.map_err(|e| invalid(&what, format!("{}: {e}", path.display())))?;
+    match (l.flux_lm, l.scale, l.intensity_cd) {
+        (_, _, Some(_)) => {
+            return Err(invalid(
+                &what,
+                "a goniometric light takes `flux_lm` or `scale`, not `intensity_cd`",
+            ));
+        }
+        (Some(_), Some(_), _) => return Err(invalid(&what, "give `flux_lm` or `scale`, not both")),
+        (Some(f), None, _) => {
+            if !(f.is_finite() && f > 0.0) {
+                return Err(invalid(&what, format!("flux {f} lm must be positive")));
+            }
+            dist = dist.scaled_to_flux(f);
+        }
+        (None, Some(k), _) => {
+            if !(k.is_finite() && k >= 0.0) {
+                return Err(invalid(&what, format!("scale {k} must be ≥ 0")));
+            }
+            dist = dist.scaled_by(k);
+        }
+        (None, None, _) => {}
+    }
+    let aim = l.aim.unwrap_or([0.0, 0.0, -1.0]);
+    if v3(aim).norm() <= 0.0 || !aim.iter().all(|c| c.is_finite()) {
+        return Err(invalid(&what, "`aim` must be a non-zero direction"));
+    }
+    let frame = match l.c0 {
+        Some(c0) => LightFrame::from_axis(c0, aim),
+        None => LightFrame::aimed(aim),
+    };
+    let mut light = to_scene_light(name, &dist, [position.x, position.y, position.z], &frame);
+    light.color_xyz = color_xyz;
+    Ok(light)
+}
+
+/// Daylight from a `[sky]` entry, in world coordinates.
+fn daylight(s: &SkyFile) -> Result<super::types::Daylight, SceneError> {
+    use super::types::{Daylight, DirectionalSource};
+    use crate::photometry::Sky;
+    let what = "sky";
+    if !(s.zenith_luminance_cd_m2.is_finite() && s.zenith_luminance_cd_m2 > 0.0) {
+        return Err(invalid(what, "zenith_luminance_cd_m2 must be positive"));
+    }
+    if !(1..=90).contains(&s.bands) {
+        return Err(invalid(
+            what,
+            format!("bands {} must be in 1..=90", s.bands),
+        ));
+    }
+    let up = v3(s.up)
+        .try_normalize(1e-12)
+        .ok_or_else(|| invalid(what, "`up` must be a non-zero direction"))?;
+    let north = v3(s.north) - up * up.dot(&v3(s.north));
+    let north = north
+        .try_normalize(1e-12)
+        .ok_or_else(|| invalid(what, "`north` must not be parallel to `up`"))?;
+    let east = north.cross(&up);
+    // the sky model's frame: x east, y north, z up
+    let world = |d: [f64; 3]| east * d[0] + north * d[1] + up * d[2];
+    let sky_col = xy_to_xyz("sky colour", Some(s.sky_xy.unwrap_or([0.3127, 0.3290])))?;
+    let sun_col = xy_to_xyz("sun colour", Some(s.sun_xy.unwrap_or([0.3324, 0.3474])))?;
+    let sky = match s.model.as_str() {
+        "overcast" => {
+            if s.sun_azimuth_deg.is_some() || s.sun_elevation_deg.is_some() {
+                return Err(invalid(what, "the overcast sky has no sun; remove sun_*"));
+            }
+            Sky::cie_overcast(s.zenith_luminance_cd_m2)
+        }
+        "clear" => {
+            let (Some(az), Some(el)) = (s.sun_azimuth_deg, s.sun_elevation_deg) else {
+                return Err(invalid(
+                    what,
+                    "the clear sky needs sun_azimuth_deg and sun_elevation_deg",
+                ));
+            };
+            if !(az.is_finite() && el.is_finite() && (-90.0..=90.0).contains(&el)) {
+                return Err(invalid(what, "sun elevation must lie in [−90°, 90°]"));
+            }
+            let (az, el) = (az.to_radians(), el.to_radians());
+            let dir = [az.sin() * el.cos(), az.cos() * el.cos(), el.sin()];
+            let sky = Sky::cie_clear(dir, s.zenith_luminance_cd_m2);
+            match s.sun_normal_illuminance_lux {
+                Some(e) if e.is_finite() && e >= 0.0 => sky.with_sun_normal_illuminance_lux(e),
+                Some(e) => {
+                    return Err(invalid(what, format!("sun illuminance {e} lx must be ≥ 0")));
+                }
+                None => sky,
+            }
+        }
+        other => {
+            return Err(invalid(
+                what,
+                format!("model `{other}` is not known; use `overcast` or `clear`"),
+            ));
+        }
+    };
+    let sky_cells = sky
+        .patches(s.bands)
+        .into_iter()
+        .map(|c| DirectionalSource {
+            direction: world(c.direction),
+            normal_illuminance_lux: c.luminance_cd_m2 * c.solid_angle_sr,
+            color_xyz: sky_col,
+        })
+        .collect();
+    let sun = sky.sun().map(|sun| DirectionalSource {
+        direction: world(sun.direction),
+        normal_illuminance_lux: sun.normal_illuminance_lux,
+        color_xyz: sun_col,
+    });
+    Ok(Daylight { sky_cells, sun })
 }
 
 /// Parses a scene from TOML text; `base_dir` resolves the OBJ path.
@@ -369,7 +577,7 @@ pub fn parse_scene_toml(
         .lights
         .iter()
         .enumerate()
-        .map(|(i, l)| light(i, l, file.unit_m))
+        .map(|(i, l)| light(i, l, file.unit_m, base_dir))
         .collect::<Result<Vec<_>, _>>()?;
     let camera = match &file.camera {
         None => None,
@@ -390,13 +598,14 @@ pub fn parse_scene_toml(
             })
         }
     };
+    let sky = file.sky.as_ref().map(daylight).transpose()?;
     Ok((
         Scene {
             polygons,
             materials,
             lights,
             camera,
-            sky: None,
+            sky,
         },
         report,
     ))

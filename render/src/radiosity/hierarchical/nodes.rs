@@ -72,6 +72,8 @@ pub(super) struct Cluster {
     /// Up to two children (clusters or root patches); `n_children` are valid.
     pub children: [Node; 2],
     pub n_children: usize,
+    /// Area share of the first child (for area-weighted sampling).
+    pub first_share: f64,
     pub parent: u32,
     /// Normal cone of the contents: axis and cosine/sine of the half angle (cos = −1
     /// for normals in every direction).
@@ -306,6 +308,11 @@ impl Hierarchy {
             } else {
                 V3::z()
             };
+            let first_share = match self.clusters[c].children[0].kind() {
+                Kind::Patch(p) => self.patches[p].area,
+                Kind::Cluster(k) => self.clusters[k].area,
+                Kind::Emitter(_) => 0.0,
+            } / area.max(1e-300);
             let cl = &mut self.clusters[c];
             cl.lo = lo;
             cl.hi = hi;
@@ -314,6 +321,7 @@ impl Hierarchy {
             cl.cone_axis = cone_axis;
             cl.rho_max = rho_max;
             cl.w_max = w_max;
+            cl.first_share = first_share;
             cl.poly_radius_max = poly_radius_max;
             cl.samples = samples;
             cl.n_samples = n_samples;
@@ -400,35 +408,49 @@ impl Hierarchy {
     /// sender and receiver), so that sampling errors average out over the links
     /// instead of repeating in each.
     pub fn random_points(&self, c: usize, n: usize, seed: u64) -> Vec<(V3, V3)> {
+        self.random_points_where(c, n, n, seed, |_| true)
+    }
+
+    /// Like [`Hierarchy::random_points`], keeping only points whose normal passes
+    /// `keep`, until `n` are kept or `tries` were drawn.
+    pub fn random_points_where(
+        &self,
+        c: usize,
+        n: usize,
+        tries: usize,
+        seed: u64,
+        keep: impl Fn(&V3) -> bool,
+    ) -> Vec<(V3, V3)> {
         let mut rng = SplitMix(seed);
-        (0..n)
-            .map(|_| {
-                let mut node = Node::cluster(c);
-                loop {
-                    match node.kind() {
-                        Kind::Cluster(k) => {
-                            let cl = &self.clusters[k];
-                            if cl.n_children == 1 {
-                                node = cl.children[0];
-                                continue;
-                            }
-                            let a0 = self.sphere(cl.children[0]).2;
-                            let a1 = self.sphere(cl.children[1]).2;
-                            node = if rng.next() * (a0 + a1) < a0 {
-                                cl.children[0]
-                            } else {
-                                cl.children[1]
-                            };
-                        }
-                        Kind::Patch(p) => {
-                            let pa = &self.patches[p];
-                            return (pa.point_at(rng.next(), rng.next(), rng.next()), pa.normal);
-                        }
-                        Kind::Emitter(_) => return (V3::zeros(), V3::z()),
+        let mut out = Vec::with_capacity(n);
+        for _ in 0..tries {
+            if out.len() == n {
+                break;
+            }
+            let mut node = Node::cluster(c);
+            let point = loop {
+                match node.kind() {
+                    Kind::Cluster(k) => {
+                        let cl = &self.clusters[k];
+                        node = if cl.n_children == 1 || rng.next() < cl.first_share {
+                            cl.children[0]
+                        } else {
+                            cl.children[1]
+                        };
                     }
+                    Kind::Patch(p) => {
+                        let pa = &self.patches[p];
+                        if !keep(&pa.normal) {
+                            break None;
+                        }
+                        break Some((pa.point_at(rng.next(), rng.next(), rng.next()), pa.normal));
+                    }
+                    Kind::Emitter(_) => break None,
                 }
-            })
-            .collect()
+            };
+            out.extend(point);
+        }
+        out
     }
 
     /// Bounding sphere (centre, radius) and area of a node.
@@ -463,6 +485,7 @@ fn build_node(
         area: 0.0,
         children: [Node(0); 2],
         n_children: 0,
+        first_share: 1.0,
         parent,
         cone_axis: V3::z(),
         cone_cos: -1.0,

@@ -555,13 +555,7 @@ pub(super) fn eval_clink(ctx: &Ctx, h: &Hierarchy, r: usize, src: Node) -> Optio
 
 /// Up to [`CLUSTER_RAYS`] random points of cluster `c` on surfaces facing `u`.
 fn facing_points(h: &Hierarchy, c: usize, u: &V3, seed: u64) -> Vec<(V3, V3)> {
-    let mut out: Vec<(V3, V3)> = h
-        .random_points(c, 4 * CLUSTER_RAYS, seed)
-        .into_iter()
-        .filter(|(_, n)| n.dot(u) > 0.0)
-        .collect();
-    out.truncate(CLUSTER_RAYS);
-    out
+    h.random_points_where(c, CLUSTER_RAYS, 4 * CLUSTER_RAYS, seed, |n| n.dot(u) > 0.0)
 }
 
 /// Visibility between the points of a cluster link's ends.
