@@ -26,6 +26,48 @@ pub struct Patch {
     pub vertex_exitance_xyz: Vec<[f64; 3]>,
 }
 
+impl Patch {
+    /// The solution's exitance (XYZ, lm/m²) at `point` of this patch: the mean for a
+    /// constant patch; for a linear one the vertex values interpolated over the
+    /// patch's fan triangles (as Gouraud shading shows it).
+    pub fn exitance_at(&self, point: &V3) -> [f64; 3] {
+        let v = &self.vertices;
+        let vals = &self.vertex_exitance_xyz;
+        if vals.len() != v.len() || v.len() < 3 {
+            return self.exitance_xyz;
+        }
+        let q = point - self.normal * self.normal.dot(&(point - v[0]));
+        let mut best = (f64::NEG_INFINITY, [0.0; 3]);
+        for k in 1..v.len() - 1 {
+            let (a, b, c) = (v[0], v[k], v[k + 1]);
+            let area = (b - a).cross(&(c - a)).dot(&self.normal);
+            if area.abs() <= 1e-300 {
+                continue;
+            }
+            let l1 = (c - b).cross(&(q - b)).dot(&self.normal) / area;
+            let l2 = (a - c).cross(&(q - c)).dot(&self.normal) / area;
+            let l3 = 1.0 - l1 - l2;
+            // the triangle the point is in (largest smallest coordinate)
+            let inside = l1.min(l2).min(l3);
+            if inside > best.0 {
+                let w = [l1.max(0.0), l2.max(0.0), l3.max(0.0)];
+                let sw = (w[0] + w[1] + w[2]).max(1e-300);
+                best = (
+                    inside,
+                    std::array::from_fn(|ch| {
+                        (w[0] * vals[0][ch] + w[1] * vals[k][ch] + w[2] * vals[k + 1][ch]) / sw
+                    }),
+                );
+            }
+        }
+        if best.0.is_finite() {
+            best.1
+        } else {
+            self.exitance_xyz
+        }
+    }
+}
+
 /// Counters of a solve.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct SolveStats {
@@ -110,7 +152,8 @@ impl Solution {
     }
 
     /// Area-weighted relative L1 difference in Y between `self` and `reference`,
-    /// sampled at the reference's patch centres: Σ A |B − B_ref| / Σ A B_ref.
+    /// sampled at the reference's patch centres: Σ A |B − B_ref| / Σ A B_ref, with
+    /// `self` evaluated by its representation ([`Patch::exitance_at`]).
     pub fn relative_error_against(&self, reference: &Solution) -> f64 {
         let mut num = 0.0;
         let mut den = 0.0;
@@ -118,7 +161,7 @@ impl Solution {
             let c = r.vertices.iter().sum::<V3>() / r.vertices.len() as f64;
             let b = self
                 .patch_at(r.polygon, &c)
-                .map(|p| p.exitance_xyz[1])
+                .map(|p| p.exitance_at(&c)[1])
                 .unwrap_or(0.0);
             num += r.area_m2 * (b - r.exitance_xyz[1]).abs();
             den += r.area_m2 * r.exitance_xyz[1];

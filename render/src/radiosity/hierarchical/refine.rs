@@ -16,7 +16,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::nodes::{Hierarchy, Kind, Node, error_weight};
-use super::sampling::{CENTRE, NS, linear_centre};
+use super::sampling::{NS, shape_error};
 use super::sweep::{Basis, State};
 use super::transfer::{CLink, Ctx, Overlap, PLink, eval_clink, eval_plink};
 
@@ -50,12 +50,12 @@ fn area(h: &Hierarchy, n: Node) -> f64 {
 }
 
 /// The part of a link's variation over the receiver that the basis must absorb:
-/// the range for constant receivers, the bend (centre against the corners' linear
-/// representation) for linear ones.
+/// the range for constant receivers, a bound of the same size for what the linear
+/// representation misses (its mean deviation from the samples' quadratic fit, times
+/// the range-to-mean ratio of a linear function at these samples).
 fn receiver_variation(corners: usize, ks: &[f64; NS], basis: Basis) -> f64 {
-    let (lo, hi) = ks[..corners]
+    let (lo, hi) = ks
         .iter()
-        .chain(std::iter::once(&ks[CENTRE]))
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
             (a.min(v), b.max(v))
         });
@@ -63,7 +63,7 @@ fn receiver_variation(corners: usize, ks: &[f64; NS], basis: Basis) -> f64 {
     if basis == Basis::Constant {
         return range;
     }
-    let bend = 2.0 * (ks[CENTRE] - linear_centre(corners, ks)).abs();
+    let bend = 3.0 * shape_error(corners, ks, true);
     if basis == Basis::Linear {
         bend
     } else {
@@ -79,13 +79,10 @@ fn receiver_variation(corners: usize, ks: &[f64; NS], basis: Basis) -> f64 {
 fn receiver_error(l: &PLink, corners: usize, scale: f64, sig_hi: f64, basis: Basis) -> f64 {
     let ks: [f64; NS] = l.ks.map(|v| scale * f64::from(v));
     let k = scale * f64::from(l.k);
-    let dev = ks[..corners].iter().map(|v| (v - k).abs()).sum::<f64>() / corners as f64;
-    let constant = 0.65 * dev;
-    let bend = 0.5 * (ks[CENTRE] - linear_centre(corners, &ks)).abs();
     let shape = match basis {
-        Basis::Constant => constant,
-        Basis::Linear => bend,
-        Basis::Auto => constant.min(bend),
+        Basis::Constant => shape_error(corners, &ks, false),
+        Basis::Linear => shape_error(corners, &ks, true),
+        Basis::Auto => shape_error(corners, &ks, false).min(shape_error(corners, &ks, true)),
     };
     let peak = (scale * f64::from(l.kmax) - ks.iter().fold(0.0, |a: f64, &b| a.max(b))).max(0.0);
     (shape + 0.25 * peak + k * f64::from(l.rel_vis)) * sig_hi

@@ -1,13 +1,15 @@
-//! Sample points of a patch element and the linear representation built on them.
+//! Sample points of a patch element and the representations built on them.
 //!
 //! The averaging rule is 3×3 Gauss–Legendre on quads (bilinear map) and the 7-point
-//! Radon rule of degree 5 on triangles. Its points nearest the corners and its centre
-//! double as the shape samples of Kresse 2.5.4: the corner samples carry the linear
-//! (vertex) representation — bilinear through them on quads, affine on triangles, in
-//! the element's own parameters — and the centre measures how far the function
-//! bends. Because quadtree children are the parameter-space quarters of their parent,
-//! pushing the representation to a child and extrapolating it to the vertices are
-//! fixed weight tables.
+//! Radon rule of degree 5 on triangles. Its points double as the shape samples of
+//! Kresse 2.5.4: the samples nearest the corners carry the linear (vertex)
+//! representation — bilinear through them on quads, affine on triangles, in the
+//! element's own parameters — and all of them together determine a quadratic
+//! (biquadratic on quads, least squares on triangles), which is what the error of a
+//! constant or linear representation is measured against and what is pushed to
+//! children. Because quadtree children are the parameter-space quarters of their
+//! parent, pushing, extrapolating to the vertices and measuring are fixed weight
+//! tables.
 
 use std::sync::OnceLock;
 
@@ -15,10 +17,10 @@ use crate::scene::V3;
 
 use super::super::quadrature;
 
-/// Shape samples per element: up to four corner samples and the centre (last).
-pub(super) const NS: usize = 5;
-/// Index of the centre among the shape samples.
-pub(super) const CENTRE: usize = 4;
+/// Shape samples per element: up to four corner samples, the centre, and the
+/// points between (edge samples on quads, the inner ring on triangles; slots a
+/// triangle lacks repeat its centre).
+pub(super) const NS: usize = 9;
 
 /// The points of one element.
 #[derive(Debug, Clone)]
@@ -29,7 +31,7 @@ pub(super) struct Samples {
     pub w: [f64; 9],
     /// Number of quadrature points.
     pub n: usize,
-    /// Quadrature index of each shape sample (corners, then the centre at [`CENTRE`]).
+    /// Quadrature index of each shape sample (corners, centre, the points between).
     pub shape: [usize; NS],
 }
 
@@ -65,7 +67,7 @@ impl Samples {
                 pts,
                 w,
                 n: 9,
-                shape: [0, 6, 8, 2, 4],
+                shape: [0, 6, 8, 2, 4, 3, 7, 5, 1],
             }
         } else {
             let (a, b, c) = (verts[0], verts[1], verts[2]);
@@ -89,12 +91,12 @@ impl Samples {
                 pts,
                 w,
                 n: 7,
-                shape: [0, 1, 2, 3, 3],
+                shape: [0, 1, 2, 3, 3, 4, 5, 6, 3],
             }
         }
     }
 
-    /// Shape sample `k` (a corner sample for k < corners, the centre for k = CENTRE).
+    /// Shape sample `k` (a corner sample for k < corners, the centre for k = 4).
     #[cfg(test)]
     pub fn shape_point(&self, k: usize) -> V3 {
         self.pts[self.shape[k]]
@@ -107,185 +109,389 @@ fn quad_jacobian(v: &[V3], s: f64, t: f64) -> f64 {
     ds.cross(&dt).norm()
 }
 
-/// Weights of the linear representation: value at a point = Σᵢ wᵢ · (corner sample i).
-type Weights = [f64; 4];
+/// Weights on the shape samples: value at a point = Σⱼ wⱼ · (shape sample j).
+type Weights = [f64; NS];
 
-/// Fixed tables: for each child (4) the weights of its shape samples (5) on the
-/// parent's corner samples, and the weights of the vertices (4) on the element's own
-/// corner samples; one set for quads, one for triangles.
+/// Subdivisions per side of the grid where the representation error is measured.
+const SUB: usize = 6;
+/// Points of that grid (equal areas: a square grid on quads, the centroids of the
+/// triangles of a regular subdivision on triangles).
+const M: usize = SUB * SUB;
+
+/// Fixed tables, one set for quads and one for triangles.
 struct Tables {
-    quad_push: [[Weights; NS]; 4],
-    quad_vertex: [Weights; 4],
-    tri_push: [[Weights; NS]; 4],
-    tri_vertex: [Weights; 4],
+    quad: ShapeTables,
+    tri: ShapeTables,
 }
 
-/// Bilinear Lagrange weights on the corner-sample grid {g0, g2}² at (s, t); corner
-/// order (g0,g0), (g2,g0), (g2,g2), (g0,g2) like the shape samples.
-fn quad_weights(s: f64, t: f64) -> Weights {
+struct ShapeTables {
+    /// For each child (4), its shape samples from the parent's quadratic fit.
+    push: [[Weights; NS]; 4],
+    /// The vertices (up to 4) of the linear representation.
+    vertex: [Weights; 4],
+    /// At the error points: quadratic fit minus the mean (constant basis).
+    err_constant: [Weights; M],
+    /// At the error points: quadratic fit minus the shown linear representation.
+    err_linear: [Weights; M],
+}
+
+/// Lagrange weights on the nodes {g0, ½, g2} at `x`.
+fn lagrange3(x: f64) -> [f64; 3] {
+    let gl = quadrature::gauss_legendre_01(3);
+    let n = [gl[0].0, 0.5, gl[2].0];
+    std::array::from_fn(|a| {
+        let mut w = 1.0;
+        for b in 0..3 {
+            if b != a {
+                w *= (x - n[b]) / (n[a] - n[b]);
+            }
+        }
+        w
+    })
+}
+
+/// Node indices (along s, along t) of the quad's shape samples.
+const QUAD_NODES: [(usize, usize); NS] = [
+    (0, 0),
+    (2, 0),
+    (2, 2),
+    (0, 2),
+    (1, 1),
+    (1, 0),
+    (2, 1),
+    (1, 2),
+    (0, 1),
+];
+
+/// Biquadratic interpolation of the nine quad samples at (s, t).
+fn quad_fit(s: f64, t: f64) -> Weights {
+    let (ls, lt) = (lagrange3(s), lagrange3(t));
+    QUAD_NODES.map(|(a, b)| ls[a] * lt[b])
+}
+
+/// Bilinear Lagrange weights on the corner-sample grid {g0, g2}² at (s, t).
+fn quad_bilinear(s: f64, t: f64) -> Weights {
     let gl = quadrature::gauss_legendre_01(3);
     let (g0, g2) = (gl[0].0, gl[2].0);
     let a = (s - g0) / (g2 - g0);
     let b = (t - g0) / (g2 - g0);
-    [(1.0 - a) * (1.0 - b), a * (1.0 - b), a * b, (1.0 - a) * b]
+    let mut w = [0.0; NS];
+    w[..4].copy_from_slice(&[(1.0 - a) * (1.0 - b), a * (1.0 - b), a * b, (1.0 - a) * b]);
+    w
 }
 
-/// Affine weights on the three corner samples at barycentric `l`.
-fn tri_weights(l: [f64; 3]) -> Weights {
-    let d = 1.0 - 3.0 * RADON_A;
-    [
-        (l[0] - RADON_A) / d,
-        (l[1] - RADON_A) / d,
-        (l[2] - RADON_A) / d,
-        0.0,
-    ]
-}
-
-fn tables() -> &'static Tables {
-    static T: OnceLock<Tables> = OnceLock::new();
-    T.get_or_init(|| {
-        let gl = quadrature::gauss_legendre_01(3);
-        let (g0, g2) = (gl[0].0, gl[2].0);
-        // shape samples of an element in its own (s, t)
-        let quad_shape = [(g0, g0), (g2, g0), (g2, g2), (g0, g2), (0.5, 0.5)];
-        // child k of `quadrature::split4` is the parameter quarter at this offset
-        let quad_off = [(0.0, 0.0), (0.5, 0.0), (0.5, 0.5), (0.0, 0.5)];
-        let quad_push = std::array::from_fn(|c| {
-            std::array::from_fn(|j| {
-                let (s, t) = quad_shape[j];
-                quad_weights(quad_off[c].0 + 0.5 * s, quad_off[c].1 + 0.5 * t)
-            })
-        });
-        let quad_vertex =
-            [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)].map(|(s, t)| quad_weights(s, t));
-        // triangle children: their vertices in the parent's barycentrics
-        let (v0, v1, v2) = ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]);
-        let m01 = [0.5, 0.5, 0.0];
-        let m12 = [0.0, 0.5, 0.5];
-        let m20 = [0.5, 0.0, 0.5];
-        let kids = [
-            [v0, m01, m20],
-            [m01, v1, m12],
-            [m20, m12, v2],
-            [m01, m12, m20],
-        ];
-        let ta = 1.0 - 2.0 * RADON_A;
-        let tri_shape = [
-            [ta, RADON_A, RADON_A],
-            [RADON_A, ta, RADON_A],
-            [RADON_A, RADON_A, ta],
-            [1.0 / 3.0; 3],
-            [1.0 / 3.0; 3],
-        ];
-        let tri_push = std::array::from_fn(|c| {
-            std::array::from_fn(|j| {
-                let mu = tri_shape[j];
-                let k = &kids[c];
-                let l: [f64; 3] =
-                    std::array::from_fn(|i| mu[0] * k[0][i] + mu[1] * k[1][i] + mu[2] * k[2][i]);
-                tri_weights(l)
-            })
-        });
-        let tri_vertex = [tri_weights(v0), tri_weights(v1), tri_weights(v2), [0.0; 4]];
-        Tables {
-            quad_push,
-            quad_vertex,
-            tri_push,
-            tri_vertex,
+/// The quad's shown linear representation at (s, t): the vertex values (bilinear
+/// through the corner samples) interpolated over the fan triangles (v0, v1, v2) and
+/// (v0, v2, v3), as [`crate::radiosity::Patch::exitance_at`] and Gouraud shading do.
+fn quad_shown(vertex: &[Weights; 4], s: f64, t: f64) -> Weights {
+    let [v0, v1, v2, v3] = vertex;
+    std::array::from_fn(|j| {
+        if s >= t {
+            v0[j] + (v1[j] - v0[j]) * s + (v2[j] - v1[j]) * t
+        } else {
+            v0[j] + (v2[j] - v3[j]) * s + (v3[j] - v0[j]) * t
         }
     })
 }
 
-fn apply(w: &Weights, corners: usize, vals: &[[f64; 3]; NS]) -> [f64; 3] {
+/// Barycentrics of the triangle's shape samples.
+fn tri_shape() -> [[f64; 3]; NS] {
+    let (ta, tb) = (1.0 - 2.0 * RADON_A, 1.0 - 2.0 * RADON_B);
+    let c = [1.0 / 3.0; 3];
+    [
+        [ta, RADON_A, RADON_A],
+        [RADON_A, ta, RADON_A],
+        [RADON_A, RADON_A, ta],
+        c,
+        c,
+        [tb, RADON_B, RADON_B],
+        [RADON_B, tb, RADON_B],
+        [RADON_B, RADON_B, tb],
+        c,
+    ]
+}
+
+/// The distinct samples of a triangle (slots 3 and 8 repeat the centre at 4).
+const TRI_DISTINCT: [usize; 7] = [0, 1, 2, 4, 5, 6, 7];
+
+fn quadratic_terms(l: &[f64; 3]) -> [f64; 6] {
+    let (x, y) = (l[1], l[2]);
+    [1.0, x, y, x * x, x * y, y * y]
+}
+
+/// Least-squares quadratic through the seven triangle samples, as weights at `l`.
+fn tri_fit(pinv: &nalgebra::SMatrix<f64, 6, 7>, l: &[f64; 3]) -> Weights {
+    let phi = nalgebra::SVector::<f64, 6>::from(quadratic_terms(l));
+    let w = pinv.transpose() * phi;
+    let mut out = [0.0; NS];
+    for (k, &slot) in TRI_DISTINCT.iter().enumerate() {
+        out[slot] = w[k];
+    }
+    out
+}
+
+/// Affine weights on the three corner samples at barycentric `l`.
+fn tri_linear(l: &[f64; 3]) -> Weights {
+    let d = 1.0 - 3.0 * RADON_A;
+    let mut w = [0.0; NS];
+    for i in 0..3 {
+        w[i] = (l[i] - RADON_A) / d;
+    }
+    w
+}
+
+fn sub(a: &Weights, b: &Weights) -> Weights {
+    std::array::from_fn(|j| a[j] - b[j])
+}
+
+/// `fit − mean of fit over the points` for each point.
+fn minus_mean(fit: &[Weights; M]) -> [Weights; M] {
+    let mean: Weights = std::array::from_fn(|j| fit.iter().map(|w| w[j]).sum::<f64>() / M as f64);
+    fit.map(|w| sub(&w, &mean))
+}
+
+fn quad_tables() -> ShapeTables {
+    let gl = quadrature::gauss_legendre_01(3);
+    let (g0, g2) = (gl[0].0, gl[2].0);
+    let param = |n: usize| [g0, 0.5, g2][n];
+    // child k of `quadrature::split4` is the parameter quarter at this offset
+    let off = [(0.0, 0.0), (0.5, 0.0), (0.5, 0.5), (0.0, 0.5)];
+    let push = std::array::from_fn(|c| {
+        std::array::from_fn(|j| {
+            let (a, b) = QUAD_NODES[j];
+            quad_fit(off[c].0 + 0.5 * param(a), off[c].1 + 0.5 * param(b))
+        })
+    });
+    let vertex = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)].map(|(s, t)| quad_bilinear(s, t));
+    let h = 1.0 / SUB as f64;
+    let pts: [(f64, f64); M] =
+        std::array::from_fn(|m| (((m / SUB) as f64 + 0.5) * h, ((m % SUB) as f64 + 0.5) * h));
+    let fit = pts.map(|(s, t)| quad_fit(s, t));
+    let err_linear =
+        std::array::from_fn(|m| sub(&fit[m], &quad_shown(&vertex, pts[m].0, pts[m].1)));
+    ShapeTables {
+        push,
+        vertex,
+        err_constant: minus_mean(&fit),
+        err_linear,
+    }
+}
+
+fn tri_tables() -> ShapeTables {
+    let shape = tri_shape();
+    let design =
+        nalgebra::SMatrix::<f64, 7, 6>::from_fn(|r, c| quadratic_terms(&shape[TRI_DISTINCT[r]])[c]);
+    // the seven Radon points are unisolvent for quadratics: AᵀA is invertible
+    let normal = design.transpose() * design;
+    let pinv = normal
+        .try_inverse()
+        .map(|inv| inv * design.transpose())
+        .unwrap_or_else(nalgebra::SMatrix::<f64, 6, 7>::zeros);
+    let (v0, v1, v2) = ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]);
+    let m01 = [0.5, 0.5, 0.0];
+    let m12 = [0.0, 0.5, 0.5];
+    let m20 = [0.5, 0.0, 0.5];
+    // triangle children (`quadrature::split4` order): vertices in the parent's
+    // barycentrics
+    let kids = [
+        [v0, m01, m20],
+        [m01, v1, m12],
+        [m20, m12, v2],
+        [m01, m12, m20],
+    ];
+    let push = std::array::from_fn(|c| {
+        std::array::from_fn(|j| {
+            let mu = shape[j];
+            let k = &kids[c];
+            let l: [f64; 3] =
+                std::array::from_fn(|i| mu[0] * k[0][i] + mu[1] * k[1][i] + mu[2] * k[2][i]);
+            tri_fit(&pinv, &l)
+        })
+    });
+    let vertex = [tri_linear(&v0), tri_linear(&v1), tri_linear(&v2), [0.0; NS]];
+    // centroids of the SUB² triangles of a regular subdivision
+    let n = SUB as f64;
+    let mut pts = Vec::with_capacity(M);
+    for i in 0..SUB {
+        for j in 0..SUB - i {
+            pts.push([(i as f64 + 1.0 / 3.0) / n, (j as f64 + 1.0 / 3.0) / n]);
+            if i + j + 1 < SUB {
+                pts.push([(i as f64 + 2.0 / 3.0) / n, (j as f64 + 2.0 / 3.0) / n]);
+            }
+        }
+    }
+    let bary = |m: usize| [1.0 - pts[m][0] - pts[m][1], pts[m][0], pts[m][1]];
+    let fit: [Weights; M] = std::array::from_fn(|m| tri_fit(&pinv, &bary(m)));
+    let err_linear = std::array::from_fn(|m| sub(&fit[m], &tri_linear(&bary(m))));
+    ShapeTables {
+        push,
+        vertex,
+        err_constant: minus_mean(&fit),
+        err_linear,
+    }
+}
+
+fn tables(corners: usize) -> &'static ShapeTables {
+    static T: OnceLock<Tables> = OnceLock::new();
+    let t = T.get_or_init(|| Tables {
+        quad: quad_tables(),
+        tri: tri_tables(),
+    });
+    if corners == 4 { &t.quad } else { &t.tri }
+}
+
+fn apply(w: &Weights, vals: &[[f64; 3]; NS]) -> [f64; 3] {
     let mut out = [0.0; 3];
-    for i in 0..corners {
+    for (wj, v) in w.iter().zip(vals) {
         for c in 0..3 {
-            out[c] += w[i] * vals[i][c];
+            out[c] += wj * v[c];
         }
     }
     out
 }
 
 /// The shape samples of child `child` (0..4, in `quadrature::split4` order) from the
-/// parent's linear representation (`corners` = 4 for quads, 3 for triangles).
+/// parent's samples through their quadratic fit (`corners` = 4 for quads, 3 for
+/// triangles).
 pub(super) fn push_to_child(
     corners: usize,
     child: usize,
     parent: &[[f64; 3]; NS],
 ) -> [[f64; 3]; NS] {
-    let t = tables();
-    let w = if corners == 4 {
-        &t.quad_push[child]
-    } else {
-        &t.tri_push[child]
-    };
-    std::array::from_fn(|j| apply(&w[j], corners, parent))
+    let w = &tables(corners).push[child];
+    std::array::from_fn(|j| apply(&w[j], parent))
 }
 
 /// The linear representation at the element's vertices.
 pub(super) fn at_vertices(corners: usize, vals: &[[f64; 3]; NS]) -> Vec<[f64; 3]> {
-    let t = tables();
-    let w = if corners == 4 {
-        &t.quad_vertex
-    } else {
-        &t.tri_vertex
-    };
-    w[..corners]
+    tables(corners).vertex[..corners]
         .iter()
-        .map(|w| apply(w, corners, vals))
+        .map(|w| apply(w, vals))
         .collect()
 }
 
-/// The linear representation's value at the centre (the mean of the corner samples
-/// for both shapes).
-pub(super) fn linear_centre(corners: usize, vals: &[f64; NS]) -> f64 {
-    vals[..corners].iter().sum::<f64>() / corners as f64
+/// Mean absolute difference over the element between the quadratic fit of the
+/// samples and their representation: the mean for a constant element, the shown
+/// vertex interpolation for a linear one. Exact for quadratic functions.
+pub(super) fn shape_error(corners: usize, vals: &[f64; NS], linear: bool) -> f64 {
+    let t = tables(corners);
+    let rows = if linear {
+        &t.err_linear
+    } else {
+        &t.err_constant
+    };
+    rows.iter()
+        .map(|w| w.iter().zip(vals).map(|(a, b)| a * b).sum::<f64>().abs())
+        .sum::<f64>()
+        / M as f64
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn linear(x: &V3) -> [f64; 3] {
-        [1.0 + 2.0 * x.x - 0.5 * x.y, 3.0 * x.z, -x.x + x.y + x.z]
+    /// A quadratic in space, one per channel (the third is affine).
+    fn quadratic(x: &V3) -> [f64; 3] {
+        [
+            1.0 + 2.0 * x.x - 0.5 * x.y + 0.7 * x.x * x.x - 1.3 * x.y * x.y,
+            3.0 * x.z + x.x * x.y,
+            -x.x + x.y + x.z,
+        ]
+    }
+
+    fn samples(s: &Samples) -> [[f64; 3]; NS] {
+        std::array::from_fn(|j| quadratic(&s.shape_point(j)))
+    }
+
+    /// Dense reference of the mean |f − representation| for channel `c`.
+    fn dense_error(verts: &[V3], c: usize, rep: impl Fn(&V3) -> f64) -> f64 {
+        let n = 300;
+        let h = 1e-6;
+        let (mut num, mut den) = (0.0, 0.0);
+        for i in 0..n {
+            for j in 0..n {
+                let (s, t) = ((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
+                let x = quadrature::map_unit_square(verts, s, t);
+                let ds = quadrature::map_unit_square(verts, s + h, t) - x;
+                let dt = quadrature::map_unit_square(verts, s, t + h) - x;
+                let w = ds.cross(&dt).norm();
+                num += w * (quadratic(&x)[c] - rep(&x)).abs();
+                den += w;
+            }
+        }
+        num / den
     }
 
     fn check(verts: &[V3]) {
         let s = Samples::of(verts);
         let corners = verts.len();
-        let vals: [[f64; 3]; NS] = std::array::from_fn(|j| linear(&s.shape_point(j)));
-        // an affine function is reproduced at the vertices and in every child
+        let vals = samples(&s);
+        // the affine channel is reproduced at the vertices
         for (v, got) in verts.iter().zip(at_vertices(corners, &vals)) {
-            let want = linear(v);
-            for c in 0..3 {
-                assert!((got[c] - want[c]).abs() < 1e-12, "{got:?} vs {want:?}");
-            }
+            assert!((got[2] - quadratic(v)[2]).abs() < 1e-12, "{got:?}");
         }
+        // the quadratic fit is exact: pushed samples equal the function's own
         let kids = quadrature::split4(verts);
         for (k, kv) in kids.iter().enumerate() {
-            let ks = Samples::of(kv);
+            let want = samples(&Samples::of(kv));
             let pushed = push_to_child(corners, k, &vals);
             for j in 0..NS {
-                let want = linear(&ks.shape_point(j));
                 for c in 0..3 {
                     assert!(
-                        (pushed[j][c] - want[c]).abs() < 1e-12,
-                        "child {k} sample {j}"
+                        (pushed[j][c] - want[j][c]).abs() < 1e-12,
+                        "child {k} sample {j}: {:?} vs {:?}",
+                        pushed[j],
+                        want[j]
                     );
                 }
             }
         }
-        let centre: [f64; NS] = std::array::from_fn(|j| vals[j][0]);
-        assert!(
-            (linear_centre(corners, &centre) - linear(&s.shape_point(CENTRE))[0]).abs() < 1e-12
-        );
+        // the error measures match a dense integration of the represented functions
+        let vertex = at_vertices(corners, &vals);
+        for c in 0..3 {
+            let ys: [f64; NS] = std::array::from_fn(|j| vals[j][c]);
+            let mean = s.w[..s.n]
+                .iter()
+                .zip(&s.pts)
+                .map(|(w, x)| w * quadratic(x)[c])
+                .sum::<f64>();
+            let want_const = dense_error(verts, c, |_| mean);
+            let got_const = shape_error(corners, &ys, false);
+            assert!(
+                (got_const - want_const).abs() <= 0.1 * want_const + 1e-12,
+                "constant, channel {c}: {got_const} vs {want_const}"
+            );
+            let patch = crate::radiosity::Patch {
+                polygon: 0,
+                vertices: verts.to_vec(),
+                normal: (verts[1] - verts[0])
+                    .cross(&(verts[2] - verts[0]))
+                    .normalize(),
+                area_m2: 1.0,
+                exitance_xyz: [0.0; 3],
+                irradiance_xyz: [0.0; 3],
+                vertex_exitance_xyz: vertex.clone(),
+            };
+            let want_lin = dense_error(verts, c, |x| patch.exitance_at(x)[c]);
+            let got_lin = shape_error(corners, &ys, true);
+            assert!(
+                (got_lin - want_lin).abs() <= 0.1 * want_lin + 1e-9,
+                "linear, channel {c}: {got_lin} vs {want_lin}"
+            );
+        }
         // weights average
         assert!((s.w[..s.n].iter().sum::<f64>() - 1.0).abs() < 1e-12);
     }
 
     #[test]
-    fn linear_representation_is_exact_for_affine_functions() {
-        // a parallelogram (bilinear map affine) and a triangle
+    fn representations_and_their_errors_are_exact_for_quadratics() {
+        // a square, a parallelogram (bilinear map affine) and a triangle
+        check(&[
+            V3::new(0.0, 0.0, 0.0),
+            V3::new(1.0, 0.0, 0.0),
+            V3::new(1.0, 1.0, 0.0),
+            V3::new(0.0, 1.0, 0.0),
+        ]);
         check(&[
             V3::new(0.0, 0.0, 0.0),
             V3::new(2.0, 0.5, 0.0),
@@ -297,28 +503,5 @@ mod tests {
             V3::new(1.0, 0.2, 1.0),
             V3::new(0.3, 1.1, 1.2),
         ]);
-    }
-
-    #[test]
-    fn rules_integrate_polynomials() {
-        // ∫ x² over the unit square = 1/3; over the triangle (0,0),(1,0),(0,1): mean 1/6
-        let sq = Samples::of(&[
-            V3::new(0.0, 0.0, 0.0),
-            V3::new(1.0, 0.0, 0.0),
-            V3::new(1.0, 1.0, 0.0),
-            V3::new(0.0, 1.0, 0.0),
-        ]);
-        let m: f64 = (0..sq.n).map(|i| sq.w[i] * sq.pts[i].x.powi(2)).sum();
-        assert!((m - 1.0 / 3.0).abs() < 1e-12);
-        let tr = Samples::of(&[
-            V3::new(0.0, 0.0, 0.0),
-            V3::new(1.0, 0.0, 0.0),
-            V3::new(0.0, 1.0, 0.0),
-        ]);
-        let m: f64 = (0..tr.n)
-            .map(|i| tr.w[i] * tr.pts[i].x.powi(2) * tr.pts[i].y)
-            .sum();
-        // mean of x²y over the triangle = 2 · 1/60
-        assert!((m - 1.0 / 30.0).abs() < 1e-12, "{m}");
     }
 }

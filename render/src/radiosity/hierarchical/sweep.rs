@@ -17,7 +17,7 @@ use crate::scene::{Scene, V3};
 
 use super::emitters::Emitter;
 use super::nodes::{Cluster, Hierarchy, Kind, NONE, Node, error_weight};
-use super::sampling::{CENTRE, NS, linear_centre, push_to_child};
+use super::sampling::{NS, push_to_child, shape_error};
 use super::transfer::{CLink, Overlap, PLink, effective_cos};
 
 /// Irradiance of a patch element: mean and shape samples (XYZ, lux), plus the
@@ -641,12 +641,9 @@ impl State {
         let w = error_weight(rho);
         let t = &self.tot[p];
         let n = pa.nv.min(4);
-        let dev = (0..n).map(|j| (t.s[j][1] - t.avg[1]).abs()).sum::<f64>() / n as f64;
-        // L1 deviation of a linear function from its mean ≈ 0.65 × the deviation at
-        // samples this close to the corners
-        let constant = 0.65 * dev;
         let ys: [f64; NS] = std::array::from_fn(|j| t.s[j][1]);
-        let lin = 0.5 * (ys[CENTRE] - linear_centre(n, &ys)).abs();
+        let constant = shape_error(n, &ys, false);
+        let lin = shape_error(n, &ys, true);
         let (shape, linear) = match basis {
             Basis::Constant => (constant, false),
             Basis::Linear => (lin, true),
