@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use lumiwall_render::radiosity::hierarchical::Basis;
 use lumiwall_render::radiosity::output::{
     plot_curves_png, render_image, write_curve_csv, write_exr, write_ply, write_preview_png,
 };
@@ -24,6 +25,27 @@ pub enum Method {
     Radiosity,
     /// Progressive refinement (shooting) on a uniform mesh.
     Progressive,
+}
+
+/// Receiver representation of the hierarchical solver (Kresse 2.5.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum BasisArg {
+    /// One value per patch (what a lighting engineer reads off).
+    Constant,
+    /// Vertex values on every patch (smooth Gouraud shading).
+    Linear,
+    /// Constant where it meets the error bound, linear where it does not.
+    Auto,
+}
+
+impl From<BasisArg> for Basis {
+    fn from(b: BasisArg) -> Self {
+        match b {
+            BasisArg::Constant => Basis::Constant,
+            BasisArg::Linear => Basis::Linear,
+            BasisArg::Auto => Basis::Auto,
+        }
+    }
 }
 
 /// Arguments of `lumiwall render`.
@@ -50,6 +72,9 @@ pub struct RenderArgs {
     /// Hierarchical solver: smallest element area in m² (0 = automatic).
     #[arg(long, default_value_t = 0.0)]
     pub min_area_m2: f64,
+    /// Hierarchical solver: receiver representation.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub basis: BasisArg,
 }
 
 fn parse_fraction(s: &str) -> Result<f64, String> {
@@ -104,6 +129,7 @@ fn solve(
     stop: StopRule,
     max_edge_m: f64,
     min_area_m2: f64,
+    basis: Basis,
 ) -> Result<Solution, CliError> {
     let r = match method {
         Method::Radiosity => solve_hierarchical(
@@ -112,6 +138,7 @@ fn solve(
             &HierarchicalOptions {
                 stop,
                 min_area_m2,
+                basis,
                 ..HierarchicalOptions::default()
             },
         ),
@@ -143,6 +170,7 @@ pub fn run(args: RenderArgs) -> Result<(), CliError> {
         stop,
         args.max_edge_m,
         args.min_area_m2,
+        args.basis.into(),
     )?;
     println!(
         "{:>9} {:>7} {:>11} {:>11} {:>11} {:>8} {:>10}",
@@ -293,7 +321,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
                 time_limit: limit,
                 max_iterations: usize::MAX,
             };
-            let sol = solve(&scene, &occ, method, stop, edge, 0.0)?;
+            let sol = solve(&scene, &occ, method, stop, edge, 0.0, Basis::Auto)?;
             let est = sol
                 .curve
                 .last()
@@ -317,6 +345,39 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             }
         }
     }
+    // receiver bases at one target: what the linear representation saves
+    println!("receiver bases (hierarchical, 2 %; true error of the represented function):");
+    println!(
+        "  {:<9} {:>9} {:>10} {:>10} {:>8} {:>8} {:>9}",
+        "basis", "time_s", "est_err", "true_err", "patches", "linear", "links"
+    );
+    for (name, basis) in [
+        ("constant", Basis::Constant),
+        ("linear", Basis::Linear),
+        ("auto", Basis::Auto),
+    ] {
+        let stop = StopRule {
+            target_error: 0.02,
+            time_limit: limit,
+            max_iterations: usize::MAX,
+        };
+        let sol = solve(&scene, &occ, Method::Radiosity, stop, 0.0, 0.0, basis)?;
+        let est = sol
+            .curve
+            .last()
+            .map(|p| p.estimated_error)
+            .unwrap_or(f64::NAN);
+        println!(
+            "  {:<9} {:>9.3} {:>9.2}% {:>9.2}% {:>8} {:>8} {:>9}",
+            name,
+            sol.stats.time_s,
+            100.0 * est,
+            100.0 * sol.relative_error_against(&reference),
+            sol.stats.patches,
+            sol.stats.linear_patches,
+            sol.stats.links
+        );
+    }
     if let Some(p) = &args.plot {
         let pairs: Vec<_> = curves.iter().zip([[200, 30, 30], [30, 30, 200]]).collect();
         plot_curves_png(&pairs, Some(0.01), p).map_err(|e| CliError::failure(e.to_string()))?;
@@ -339,9 +400,18 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         stop,
         0.0,
         0.0,
+        Basis::Auto,
     )?;
     let always = AlwaysTest(SceneOccluders::new(&empty));
-    let without = solve(&empty, &always, Method::Radiosity, stop, 0.0, 0.0)?;
+    let without = solve(
+        &empty,
+        &always,
+        Method::Radiosity,
+        stop,
+        0.0,
+        0.0,
+        Basis::Auto,
+    )?;
     println!("no occluders (cornell_empty, hierarchical, 2 %):");
     for (name, s) in [
         ("classification skips rays", &with_culling),
@@ -453,7 +523,7 @@ fn scale_study(args: &BenchArgs) -> Result<(), CliError> {
             time_limit: Some(Duration::from_secs_f64(args.time_limit_s)),
             max_iterations: usize::MAX,
         };
-        let sol = solve(&scene, &vis, Method::Radiosity, stop, 0.0, 0.0)?;
+        let sol = solve(&scene, &vis, Method::Radiosity, stop, 0.0, 0.0, Basis::Auto)?;
         let s = &sol.stats;
         println!(
             "{:>9} {:>6} {:>8} {:>9} {:>10} {:>9} {:>8.1} {:>11} {:>7.2}% {:>8.2} {:>9.2} {:>8}",
