@@ -8,6 +8,8 @@
 //! and sRGB PNG input and writes PNG output.
 
 pub mod cpu;
+#[cfg(target_arch = "x86_64")]
+mod cpu_avx2;
 pub mod error;
 pub mod frame;
 #[cfg(feature = "gpu")]

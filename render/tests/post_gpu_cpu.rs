@@ -9,8 +9,8 @@
 
 mod post_support;
 
-use lumiwall_profiles::BlackMode;
 use lumiwall_profiles::apply::{ApplyOptions, PixelFlags, PreparedProfile};
+use lumiwall_profiles::{BlackMode, OutOfGamut};
 use lumiwall_render::post::cpu::pixel_centre;
 use lumiwall_render::post::{XyzFrame, apply_cpu};
 use post_support::*;
@@ -29,12 +29,17 @@ fn frame(n_side: u32, seed: u64) -> XyzFrame {
 fn cpu_image_path_is_bit_identical_to_the_scalar_reference() {
     let d = infitec_display();
     let f = frame(300, 7);
-    for (flat, dither) in [(None, false), (Some(vignette()), true)] {
+    for (flat, dither, mode) in [
+        (None, false, OutOfGamut::Clip),
+        (Some(vignette()), true, OutOfGamut::Clip),
+        (Some(vignette()), false, OutOfGamut::FalseColour),
+    ] {
         let prof = profile(&d, BlackMode::Individual, flat, 10);
         let pp = PreparedProfile::new(
             &prof,
             &ApplyOptions {
                 dither,
+                out_of_gamut: Some(mode),
                 ..Default::default()
             },
         )

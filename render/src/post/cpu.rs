@@ -145,14 +145,16 @@ fn block(
     }
 }
 
-/// One row through [`block`]; `gains` gives each pixel's flat-field gain, if any.
+/// Pixels of row `y` from column `xs` on through [`block`]; `row_gain` holds the
+/// row's flat-field gains per texel column and `cols` each pixel column's texels.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn row_kernel(
+pub(super) fn portable_block(
     pp: &PreparedProfile,
     irow: &[[f32; 3]],
     orow: &mut [[u16; 3]],
     frow: &mut [u8],
+    xs: usize,
     y: u32,
     row_gain: &[[f32; 3]],
     cols: &[(usize, usize, f32)],
@@ -166,7 +168,7 @@ fn row_kernel(
         .zip(frow.chunks_mut(BLOCK))
         .enumerate()
     {
-        let x0 = b * BLOCK;
+        let x0 = xs + b * BLOCK;
         if flat {
             let n = ib.len();
             let (first, last) = (cols[x0], cols[x0 + n - 1]);
@@ -195,23 +197,6 @@ fn row_kernel(
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[allow(clippy::too_many_arguments)]
-fn row_kernel_avx2(
-    pp: &PreparedProfile,
-    irow: &[[f32; 3]],
-    orow: &mut [[u16; 3]],
-    frow: &mut [u8],
-    y: u32,
-    row_gain: &[[f32; 3]],
-    cols: &[(usize, usize, f32)],
-    hist: &mut [u64; 16],
-) {
-    // Same code, compiled for 8-wide vectors (no FMA: results stay bit-identical).
-    row_kernel(pp, irow, orow, frow, y, row_gain, cols, hist)
-}
-
 /// Runs one row with the widest vector unit available.
 #[allow(clippy::too_many_arguments)]
 fn run_row(
@@ -222,15 +207,17 @@ fn run_row(
     y: u32,
     row_gain: &[[f32; 3]],
     cols: &[(usize, usize, f32)],
+    weights: &[f32],
     hist: &mut [u64; 16],
 ) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked at run time just above).
-        unsafe { row_kernel_avx2(pp, irow, orow, frow, y, row_gain, cols, hist) };
+        unsafe { super::cpu_avx2::row(pp, irow, orow, frow, y, row_gain, cols, weights, hist) };
         return;
     }
-    row_kernel(pp, irow, orow, frow, y, row_gain, cols, hist)
+    let _ = weights;
+    portable_block(pp, irow, orow, frow, 0, y, row_gain, cols, hist)
 }
 
 /// Runs the post pass over a whole frame for one display.
@@ -270,6 +257,8 @@ pub fn apply_cpu_into(pp: &PreparedProfile, frame: &XyzFrame, out: &mut CodeImag
             .collect(),
         None => Vec::new(),
     };
+    // The same weights on their own, for vector loads.
+    let weights: Vec<f32> = cols.iter().map(|c| c.2).collect();
     let hist = out
         .codes
         .par_chunks_mut(chunk)
@@ -295,7 +284,9 @@ pub fn apply_cpu_into(pp: &PreparedProfile, frame: &XyzFrame, out: &mut CodeImag
                         (0..tw).map(|tx| lerp3(ff.gain[y0 * tw + tx], ff.gain[y1 * tw + tx], fy)),
                     );
                 }
-                run_row(pp, irow, orow, frow, y, &row_gain, &cols, &mut hist);
+                run_row(
+                    pp, irow, orow, frow, y, &row_gain, &cols, &weights, &mut hist,
+                );
             }
             hist
         })
