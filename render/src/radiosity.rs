@@ -5,9 +5,14 @@
 //! Quantities: radiosity B is luminous exitance in lm/m² carried as XYZ (Y photometric);
 //! for Lambertian surfaces the luminance is B/π in cd/m². Area emitters emit π·L.
 //!
-//! Not built yet: clustering (initial linking is quadratic in input polygons, so the
-//! ≥100k-triangle scale scene is out of reach), the linear basis, sky/sun emitters
-//! (the scene hook exists), Hahn's simultaneous progressive refinement.
+//! The hierarchical solver clusters the scene (a SAH tree over the input polygons)
+//! so that initial linking is linear in their number, refines with Kresse's criterion
+//! for every light type (area emitters, point, spot and goniometric lights, a CIE
+//! sky with sun), represents receivers with a constant, linear or automatic basis,
+//! and spends shadow rays only on partially visible links. An independent Monte
+//! Carlo path tracer (`montecarlo`) checks its error estimate.
+//!
+//! Not built: Hahn's simultaneous progressive refinement for animations.
 
 pub mod curve;
 pub mod form_factor;

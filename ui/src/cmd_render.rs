@@ -243,8 +243,8 @@ pub struct BenchArgs {
     /// Reference mesh: longest element edge in metres.
     #[arg(long, default_value_t = 0.035)]
     pub reference_edge_m: f64,
-    /// Time limit per solve in seconds.
-    #[arg(long, default_value_t = 120.0)]
+    /// Time limit per solve in seconds (the scale acceptance: 5 % within 5 minutes).
+    #[arg(long, default_value_t = 300.0)]
     pub time_limit_s: f64,
     /// Write the error/time curves of both solvers as a PNG here.
     #[arg(long)]

@@ -79,8 +79,12 @@ fn receiver_variation(corners: usize, ks: &[f64; NS], basis: Basis) -> f64 {
 fn receiver_error(l: &PLink, corners: usize, scale: f64, sig_hi: f64, basis: Basis) -> f64 {
     let ks: [f64; NS] = l.ks.map(|v| scale * f64::from(v));
     let k = scale * f64::from(l.k);
+    // A shadow edge across the receiver (the samples' visibility differs) is no
+    // polynomial: the linear basis cannot be trusted to follow it.
+    let shadowed = l.rel_vis > 0.0;
     let shape = match basis {
         Basis::Constant => shape_error(corners, &ks, false),
+        _ if shadowed => shape_error(corners, &ks, false),
         Basis::Linear => shape_error(corners, &ks, true),
         Basis::Auto => shape_error(corners, &ks, false).min(shape_error(corners, &ks, true)),
     };

@@ -127,6 +127,9 @@ struct Tables {
 struct ShapeTables {
     /// For each child (4), its shape samples from the parent's quadratic fit.
     push: [[Weights; NS]; 4],
+    /// For each child, the mean of the parent's fit over the child minus its mean
+    /// over the parent (the four shifts sum to zero: pushing conserves flux).
+    shift: [Weights; 4],
     /// The vertices (up to 4) of the linear representation.
     vertex: [Weights; 4],
     /// At the error points: quadratic fit minus the mean (constant basis).
@@ -244,6 +247,17 @@ fn sub(a: &Weights, b: &Weights) -> Weights {
     std::array::from_fn(|j| a[j] - b[j])
 }
 
+/// Shifts of the children's means from the pushed samples, with `w` the element's
+/// own quadrature weight per shape sample (exact for the fit on quads and
+/// triangles alike: both rules integrate quadratics exactly).
+fn mean_shifts(push: &[[Weights; NS]; 4], w: &Weights) -> [Weights; 4] {
+    let means: [Weights; 4] = std::array::from_fn(|c| {
+        std::array::from_fn(|i| (0..NS).map(|j| w[j] * push[c][j][i]).sum::<f64>())
+    });
+    let all: Weights = std::array::from_fn(|i| means.iter().map(|m| m[i]).sum::<f64>() / 4.0);
+    means.map(|m| sub(&m, &all))
+}
+
 /// `fit − mean of fit over the points` for each point.
 fn minus_mean(fit: &[Weights; M]) -> [Weights; M] {
     let mean: Weights = std::array::from_fn(|j| fit.iter().map(|w| w[j]).sum::<f64>() / M as f64);
@@ -269,7 +283,9 @@ fn quad_tables() -> ShapeTables {
     let fit = pts.map(|(s, t)| quad_fit(s, t));
     let err_linear =
         std::array::from_fn(|m| sub(&fit[m], &quad_shown(&vertex, pts[m].0, pts[m].1)));
+    let w = QUAD_NODES.map(|(a, b)| gl[a].1 * gl[b].1);
     ShapeTables {
+        shift: mean_shifts(&push, &w),
         push,
         vertex,
         err_constant: minus_mean(&fit),
@@ -323,7 +339,19 @@ fn tri_tables() -> ShapeTables {
     let bary = |m: usize| [1.0 - pts[m][0] - pts[m][1], pts[m][0], pts[m][1]];
     let fit: [Weights; M] = std::array::from_fn(|m| tri_fit(&pinv, &bary(m)));
     let err_linear = std::array::from_fn(|m| sub(&fit[m], &tri_linear(&bary(m))));
+    let w = [
+        RADON_WA,
+        RADON_WA,
+        RADON_WA,
+        0.0,
+        9.0 / 40.0,
+        RADON_WB,
+        RADON_WB,
+        RADON_WB,
+        0.0,
+    ];
     ShapeTables {
+        shift: mean_shifts(&push, &w),
         push,
         vertex,
         err_constant: minus_mean(&fit),
@@ -360,6 +388,12 @@ pub(super) fn push_to_child(
 ) -> [[f64; 3]; NS] {
     let w = &tables(corners).push[child];
     std::array::from_fn(|j| apply(&w[j], parent))
+}
+
+/// How much child `child`'s mean differs from the parent's, by the parent's
+/// quadratic fit (zero on average over the four children).
+pub(super) fn mean_shift(corners: usize, child: usize, parent: &[[f64; 3]; NS]) -> [f64; 3] {
+    apply(&tables(corners).shift[child], parent)
 }
 
 /// The linear representation at the element's vertices.
@@ -435,6 +469,22 @@ mod tests {
         for (k, kv) in kids.iter().enumerate() {
             let want = samples(&Samples::of(kv));
             let pushed = push_to_child(corners, k, &vals);
+            // the child's mean from the parent's mean and the shift
+            let ks = Samples::of(kv);
+            let shift = mean_shift(corners, k, &vals);
+            for c in 0..3 {
+                let mean = |s: &Samples| {
+                    (0..s.n)
+                        .map(|i| s.w[i] * quadratic(&s.pts[i])[c])
+                        .sum::<f64>()
+                };
+                let got = mean(&s) + shift[c];
+                assert!(
+                    (got - mean(&ks)).abs() < 1e-12,
+                    "child {k} mean: {got} vs {}",
+                    mean(&ks)
+                );
+            }
             for j in 0..NS {
                 for c in 0..3 {
                     assert!(

@@ -17,7 +17,7 @@ use crate::scene::{Scene, V3};
 
 use super::emitters::Emitter;
 use super::nodes::{Cluster, Hierarchy, Kind, NONE, Node, error_weight};
-use super::sampling::{NS, push_to_child, shape_error};
+use super::sampling::{NS, mean_shift, push_to_child, shape_error};
 use super::transfer::{CLink, Overlap, PLink, effective_cos};
 
 /// Irradiance of a patch element: mean and shape samples (XYZ, lux), plus the
@@ -516,8 +516,11 @@ impl State {
                         let pt = &me.tot[q];
                         let child = p - parent.first_child as usize;
                         let pushed = push_to_child(parent.nv.min(4), child, &pt.s);
+                        // the parent's irradiance over this quarter: its mean plus
+                        // the fit's gradient and bend (never below zero)
+                        let shift = mean_shift(parent.nv.min(4), child, &pt.s);
                         for k in 0..3 {
-                            t.avg[k] += pt.avg[k];
+                            t.avg[k] += pt.avg[k] + shift[k].max(-pt.avg[k]);
                         }
                         for j in 0..NS {
                             for k in 0..3 {

@@ -631,3 +631,44 @@ fn box_corners(lo: &V3, hi: &V3) -> [V3; 8] {
         )
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// ∫ over the cap of max(0, n·ω) dω relative to π sin²σ, by the midpoint rule in
+    /// polar coordinates about the cap's centre (the normal tilted by θ from it).
+    fn cap_integral(theta: f64, sigma: f64) -> f64 {
+        let (na, nf) = (400, 800);
+        let n = V3::new(theta.sin(), 0.0, theta.cos());
+        let mut sum = 0.0;
+        for i in 0..na {
+            let a = (i as f64 + 0.5) / na as f64 * sigma;
+            for j in 0..nf {
+                let f = (j as f64 + 0.5) / nf as f64 * std::f64::consts::TAU;
+                let w = V3::new(a.sin() * f.cos(), a.sin() * f.sin(), a.cos());
+                sum += n.dot(&w).max(0.0) * a.sin();
+            }
+        }
+        let d = (sigma / na as f64) * (std::f64::consts::TAU / nf as f64);
+        sum * d / (std::f64::consts::PI * sigma.sin().powi(2))
+    }
+
+    #[test]
+    fn effective_cosine_matches_the_integral_over_the_source() {
+        for sigma_deg in [2.0f64, 20.0, 45.0, 80.0] {
+            let sigma = sigma_deg.to_radians();
+            let mut theta_deg = 0.0;
+            while theta_deg <= 90.0 + sigma_deg + 1.0 {
+                let theta = f64::to_radians(theta_deg);
+                let want = cap_integral(theta, sigma);
+                let got = effective_cos(theta.cos(), sigma.sin().powi(2));
+                assert!(
+                    (got - want).abs() < 2e-3,
+                    "σ {sigma_deg}°, θ {theta_deg}°: {got} vs {want}"
+                );
+                theta_deg += 7.5;
+            }
+        }
+    }
+}
