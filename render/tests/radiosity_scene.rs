@@ -115,3 +115,82 @@ vertices = [[0, 0, 0], [1, 0, 0], [1, 0, 0], [0, 1, 0]]
     assert_eq!(s.polygons.len(), 6);
     assert!(s.polygons.iter().all(|p| p.vertices.len() == 3));
 }
+
+/// Kresse 2.2.6: a T-vertex (two small quads beside one large one) is fixed by
+/// splitting, a face wound against its neighbours is flipped, a deliberate back face
+/// (same corners, opposite winding) is kept, an edge shared by three faces is
+/// reported; all counted in the report, the repaired area unchanged.
+#[test]
+fn topology_is_repaired_or_reported_per_object() {
+    let text = r#"
+[materials.grey]
+reflectance_y = 0.5
+# object "floor": a 2 × 1 quad below two 1 × 1 quads → T-vertex at (1, 1, 0); a
+# fourth quad on the right wound the other way
+[[polygons]]
+name = "floor"
+material = "grey"
+vertices = [[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0]]
+[[polygons]]
+name = "floor"
+material = "grey"
+vertices = [[0, 1, 0], [1, 1, 0], [1, 2, 0], [0, 2, 0]]
+[[polygons]]
+name = "floor"
+material = "grey"
+vertices = [[1, 1, 0], [2, 1, 0], [2, 2, 0], [1, 2, 0]]
+[[polygons]]
+name = "floor"
+material = "grey"
+vertices = [[2, 0, 0], [2, 1, 0], [3, 1, 0], [3, 0, 0]]
+# object "sheet": front and back of a panel (both kept)
+[[polygons]]
+name = "sheet"
+material = "grey"
+vertices = [[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]]
+[[polygons]]
+name = "sheet"
+material = "grey"
+vertices = [[0, 1, 1], [1, 1, 1], [1, 0, 1], [0, 0, 1]]
+# object "fin": three faces on one edge (non-manifold, reported)
+[[polygons]]
+name = "fin"
+material = "grey"
+vertices = [[5, 0, 0], [6, 0, 0], [5, 0, 1]]
+[[polygons]]
+name = "fin"
+material = "grey"
+vertices = [[6, 0, 0], [5, 0, 0], [5, 1, 0]]
+[[polygons]]
+name = "fin"
+material = "grey"
+vertices = [[5, 0, 0], [6, 0, 0], [5, -1, 0.2]]
+"#;
+    let (s, report) = parse_scene_toml(text, Path::new("."), Path::new("t.toml")).unwrap();
+    println!("{}", report.summary());
+    assert!(report.t_vertices_fixed >= 1, "{}", report.summary());
+    assert_eq!(report.triangles_flipped, 2, "{}", report.summary());
+    assert_eq!(report.duplicate_faces_removed, 0);
+    assert!(report.non_manifold_edges >= 1);
+    let area = |name: &str| -> f64 {
+        s.polygons
+            .iter()
+            .filter(|p| p.object == name)
+            .map(|p| lumiwall_render::scene::polygon_area_m2(&p.vertices))
+            .sum()
+    };
+    assert!(
+        (area("floor") - 5.0).abs() < 1e-9,
+        "floor area {}",
+        area("floor")
+    );
+    // all floor faces now face +z
+    for p in s.polygons.iter().filter(|p| p.object == "floor") {
+        let n = (p.vertices[1] - p.vertices[0]).cross(&(p.vertices[2] - p.vertices[0]));
+        assert!(n.z > 0.0, "floor face {:?} faces down", p.vertices);
+    }
+    // both sides of the sheet survive
+    let sheet: Vec<_> = s.polygons.iter().filter(|p| p.object == "sheet").collect();
+    assert_eq!(sheet.len(), 2);
+    assert!((area("sheet") - 2.0).abs() < 1e-9);
+}

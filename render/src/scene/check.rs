@@ -1,7 +1,8 @@
 //! Input checks on polygons: non-finite coordinates, degenerate faces, non-planar or
-//! non-convex quads and larger polygons. Problems are repaired (split, dropped) and
-//! counted, never fatal. Topology checks (T-vertices, non-manifold edges, normal
-//! consistency) belong to `mesh::check_and_repair`.
+//! non-convex quads and larger polygons; then, per object, topology (Kresse 2.2.6:
+//! T-vertices, duplicate faces, inconsistent windings, non-manifold edges) through
+//! `mesh::check_and_repair`. Problems are repaired (split, dropped, flipped) or
+//! reported, and counted, never fatal.
 
 use super::geom::{V3, newell, polygon_area_m2};
 use super::types::Polygon;
@@ -22,19 +23,35 @@ pub struct CheckReport {
     pub split_quads: usize,
     /// Polygons with more than four vertices fan-triangulated.
     pub triangulated_ngons: usize,
+    /// T-vertices (a vertex inside a neighbour's edge) fixed by splitting.
+    pub t_vertices_fixed: usize,
+    /// Triangles (of the object's triangulation) whose winding was reversed to agree
+    /// with their neighbours.
+    pub triangles_flipped: usize,
+    /// Faces removed as duplicates of another face of the same object.
+    pub duplicate_faces_removed: usize,
+    /// Edges shared by more than two faces of one object (reported, not changed).
+    pub non_manifold_edges: usize,
+    /// Objects whose faces were replaced by the repaired triangles.
+    pub objects_repaired: usize,
 }
 
 impl CheckReport {
     /// One line for logs and the CLI.
     pub fn summary(&self) -> String {
         format!(
-            "{} polygons in, {} out; dropped {} non-finite, {} degenerate; split {} quads; triangulated {} n-gons",
+            "{} polygons in, {} out; dropped {} non-finite, {} degenerate; split {} quads; triangulated {} n-gons; topology: {} T-vertices fixed, {} triangles flipped, {} duplicates removed, {} non-manifold edges ({} objects repaired)",
             self.input_polygons,
             self.output_polygons,
             self.dropped_non_finite,
             self.dropped_degenerate,
             self.split_quads,
-            self.triangulated_ngons
+            self.triangulated_ngons,
+            self.t_vertices_fixed,
+            self.triangles_flipped,
+            self.duplicate_faces_removed,
+            self.non_manifold_edges,
+            self.objects_repaired
         )
     }
 }
@@ -119,6 +136,93 @@ pub fn check_polygons(input: Vec<Polygon>) -> (Vec<Polygon>, CheckReport) {
             out.push(p.clone());
         }
     }
+    let out = check_topology(out, &mut report);
     report.output_polygons = out.len();
     (out, report)
+}
+
+/// Topology per object (faces with the same object name and material): the
+/// object's faces as one triangle mesh through [`crate::mesh::check_and_repair`].
+/// An object that needs no repair keeps its polygons (quads stay quads); one with
+/// T-vertices, duplicates or flipped faces is replaced by the repaired triangles.
+fn check_topology(polygons: Vec<Polygon>, report: &mut CheckReport) -> Vec<Polygon> {
+    use crate::mesh::{IndexedMesh, check_and_repair};
+    use std::collections::HashMap;
+    // A face with the same corners as an earlier one but the opposite winding is a
+    // deliberate back face (a two-sided sheet of one-sided polygons): it goes into a
+    // layer of its own, so that neither is dropped as a duplicate nor flipped.
+    type Key = (String, usize, usize);
+    let mut groups: Vec<(Key, Vec<Polygon>)> = Vec::new();
+    let mut index: HashMap<Key, usize> = HashMap::new();
+    let mut seen: HashMap<(String, usize, Vec<[u64; 3]>), V3> = HashMap::new();
+    for p in polygons {
+        let mut corners: Vec<[u64; 3]> = p
+            .vertices
+            .iter()
+            .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
+            .collect();
+        corners.sort_unstable();
+        let n = newell(&p.vertices);
+        let sig = (p.object.clone(), p.material, corners);
+        let layer = match seen.get(&sig) {
+            Some(first) if first.dot(&n) < 0.0 => 1,
+            Some(_) => 0,
+            None => {
+                seen.insert(sig, n);
+                0
+            }
+        };
+        let key = (p.object.clone(), p.material, layer);
+        let g = *index.entry(key.clone()).or_insert_with(|| {
+            groups.push((key, Vec::new()));
+            groups.len() - 1
+        });
+        groups[g].1.push(p);
+    }
+    let mut out = Vec::new();
+    for ((object, material, _), faces) in groups {
+        if faces.len() < 2 {
+            out.extend(faces);
+            continue;
+        }
+        let mut mesh = IndexedMesh {
+            positions: Vec::new(),
+            triangles: Vec::new(),
+        };
+        for f in &faces {
+            let base = mesh.positions.len() as u32;
+            mesh.positions
+                .extend(f.vertices.iter().map(|v| [v.x, v.y, v.z]));
+            for k in 1..f.vertices.len().saturating_sub(1) as u32 {
+                mesh.triangles.push([base, base + k, base + k + 1]);
+            }
+        }
+        let r = check_and_repair(&mut mesh);
+        report.non_manifold_edges += r.non_manifold_edges;
+        let changed = r.t_vertices_fixed + r.triangles_flipped + r.duplicate_triangles_removed > 0;
+        if !changed {
+            out.extend(faces);
+            continue;
+        }
+        report.t_vertices_fixed += r.t_vertices_fixed;
+        report.triangles_flipped += r.triangles_flipped;
+        report.duplicate_faces_removed += r.duplicate_triangles_removed;
+        report.objects_repaired += 1;
+        for t in 0..mesh.triangles.len() {
+            let Some(tri) = mesh.triangle_positions(t) else {
+                continue;
+            };
+            let vertices: Vec<V3> = tri.iter().map(|c| V3::new(c[0], c[1], c[2])).collect();
+            if degenerate(&vertices) {
+                report.dropped_degenerate += 1;
+                continue;
+            }
+            out.push(Polygon {
+                vertices,
+                material,
+                object: object.clone(),
+            });
+        }
+    }
+    out
 }
