@@ -9,4 +9,5 @@ pub mod mesh;
 pub mod photometry;
 pub mod post;
 pub mod radiosity;
+pub mod rng;
 pub mod scene;

@@ -5,21 +5,11 @@
 
 use lumiwall_render::radiosity::quadrature::map_unit_square;
 use lumiwall_render::radiosity::{BvhOccluders, SceneOccluders, Visibility};
+use lumiwall_render::rng::SplitMix64;
 use lumiwall_render::scene::{V3, load_scene};
 
-struct Rng(u64);
-impl Rng {
-    fn unit(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// A random sub-patch (parameter rectangle) of polygon `p`.
-fn sub_patch(verts: &[V3], rng: &mut Rng) -> Vec<V3> {
+fn sub_patch(verts: &[V3], rng: &mut SplitMix64) -> Vec<V3> {
     let (s0, t0) = (0.8 * rng.unit(), 0.8 * rng.unit());
     let (ds, dt) = (0.05 + 0.15 * rng.unit(), 0.05 + 0.15 * rng.unit());
     let corners = if verts.len() == 4 {
@@ -37,7 +27,7 @@ fn normal(v: &[V3]) -> V3 {
     (v[1] - v[0]).cross(&(v[2] - v[0])).normalize()
 }
 
-fn point_in(v: &[V3], rng: &mut Rng) -> V3 {
+fn point_in(v: &[V3], rng: &mut SplitMix64) -> V3 {
     // convex combination (inside the convex patch)
     let w: Vec<f64> = v.iter().map(|_| rng.unit() + 1e-3).collect();
     let s: f64 = w.iter().sum();
@@ -51,7 +41,7 @@ fn classification_is_conservative_and_useful() {
     let (scene, _) = load_scene(&path).unwrap();
     let bvh = BvhOccluders::new(&scene);
     let brute = SceneOccluders::new(&scene);
-    let mut rng = Rng(7);
+    let mut rng = SplitMix64(7);
     let np = scene.polygons.len();
     let (mut free, mut partial, mut blocked_seen) = (0, 0, 0);
     for _ in 0..6000 {

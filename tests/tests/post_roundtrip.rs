@@ -19,20 +19,6 @@ use lumiwall_profiles::{
     BlackMode, DisplayKey, DisplayProfile, FORMAT_VERSION, MeasurementInfo, OutOfGamut, ToneCurve,
 };
 
-/// SplitMix64: a tiny seeded generator (this test crate has no `rand`).
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn unit(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 fn wall_file(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../fixtures/walls")
@@ -120,7 +106,7 @@ fn delta_e2000_reproduces_sharma_pairs() {
 /// (what a meter reading a spot sees); otherwise one pixel, rounded.
 fn round_trip(wall: &VirtualWall, patch: bool) -> Vec<(f64, f64)> {
     let centre = [0.5, 0.5];
-    let mut rng = SplitMix(2003);
+    let mut rng = lumiwall_render::rng::SplitMix64(2003);
     let mut results = Vec::new();
     for info in wall.displays() {
         let prof = true_profile(wall, info.id, info.bit_depth);

@@ -349,20 +349,6 @@ pub struct BenchArgs {
     no_gpu: bool,
 }
 
-/// SplitMix64 in 0..1 (the bench needs only a reproducible frame).
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn unit(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
-
 fn bench_display() -> AnalyticDisplay {
     let p = |x: f64, y: f64, l: f64| [x / y * l, l, (1.0 - x - y) / y * l];
     AnalyticDisplay {
@@ -507,12 +493,12 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
     let mp = n as f64 / 1e6;
     let d = bench_display();
     // Mostly in-gamut colours, a tenth out of gamut or over range.
-    let mut rng = SplitMix(42);
+    let mut rng = lumiwall_render::rng::SplitMix64(42);
     let p = d.primaries_xyz_cd_m2;
     let pixels: Vec<[f32; 3]> = (0..n)
         .map(|i| {
             let k = if i % 10 == 0 { 1.6 } else { 1.0 };
-            let l = [rng.unit() * k, rng.unit() * k, rng.unit() * k];
+            let l = [rng.unit_f32() * k, rng.unit_f32() * k, rng.unit_f32() * k];
             [0, 1, 2].map(|c| {
                 (p[0][c] as f32) * l[0] + (p[1][c] as f32) * l[1] + (p[2][c] as f32) * l[2]
             })

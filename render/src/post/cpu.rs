@@ -182,18 +182,28 @@ pub(super) fn portable_block(
                     }
                 }
             } else {
-                for j in 0..n {
-                    let col = cols[x0 + j];
-                    let gj = lerp3(row_gain[col.0], row_gain[col.1], col.2);
-                    g[0][j] = gj[0];
-                    g[1][j] = gj[1];
-                    g[2][j] = gj[2];
-                }
+                pixel_gains(row_gain, &cols[x0..x0 + n], &mut g);
             }
             block(pp, ib, Some(&g), x0 as u32, y, ob, fb, hist);
         } else {
             block(pp, ib, None, x0 as u32, y, ob, fb, hist);
         }
+    }
+}
+
+/// Flat-field gains of consecutive pixels (`cols`: their texel columns and weights)
+/// into lanes `g[c][j]`, pixel by pixel (blocks that straddle a texel column).
+#[inline(always)]
+pub(super) fn pixel_gains<const L: usize>(
+    row_gain: &[[f32; 3]],
+    cols: &[(usize, usize, f32)],
+    g: &mut [[f32; L]; 3],
+) {
+    for (j, col) in cols.iter().enumerate().take(L) {
+        let gj = lerp3(row_gain[col.0], row_gain[col.1], col.2);
+        g[0][j] = gj[0];
+        g[1][j] = gj[1];
+        g[2][j] = gj[2];
     }
 }
 

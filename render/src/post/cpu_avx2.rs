@@ -8,10 +8,10 @@ use std::arch::x86_64::*;
 
 use lumiwall_profiles::OutOfGamut;
 use lumiwall_profiles::apply::{
-    GAMUT_TOLERANCE, MAX_INPUT_CD_M2, PixelFlags, PreparedProfile, dither_threshold, lerp3,
+    GAMUT_TOLERANCE, MAX_INPUT_CD_M2, PixelFlags, PreparedProfile, dither_threshold,
 };
 
-use super::cpu::portable_block;
+use super::cpu::{pixel_gains, portable_block};
 
 /// Pixels per step.
 const LANES: usize = 8;
@@ -260,13 +260,7 @@ pub(super) unsafe fn row(
                     }
                 }
             } else {
-                for j in 0..LANES {
-                    let col = cols[x0 + j];
-                    let gj = lerp3(row_gain[col.0], row_gain[col.1], col.2);
-                    g[0][j] = gj[0];
-                    g[1][j] = gj[1];
-                    g[2][j] = gj[2];
-                }
+                pixel_gains(row_gain, &cols[x0..x0 + LANES], &mut g);
             }
         }
         let thr: &[f32; LANES] = if x0 & 15 == 0 {

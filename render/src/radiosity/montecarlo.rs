@@ -271,23 +271,6 @@ fn cosine_direction(n: &V3, rng: &mut ChaCha8Rng) -> V3 {
 
 /// A uniformly distributed point on a triangle or (planar convex) quad.
 fn uniform_point(verts: &[V3], rng: &mut ChaCha8Rng) -> V3 {
-    let tri = |a: &V3, b: &V3, c: &V3, rng: &mut ChaCha8Rng| {
-        let (mut s, mut t): (f64, f64) = (rng.random(), rng.random());
-        if s + t > 1.0 {
-            s = 1.0 - s;
-            t = 1.0 - t;
-        }
-        a + (b - a) * s + (c - a) * t
-    };
-    if verts.len() == 4 {
-        let a1 = (verts[1] - verts[0]).cross(&(verts[2] - verts[0])).norm();
-        let a2 = (verts[2] - verts[0]).cross(&(verts[3] - verts[0])).norm();
-        if rng.random::<f64>() * (a1 + a2) < a1 {
-            tri(&verts[0], &verts[1], &verts[2], rng)
-        } else {
-            tri(&verts[0], &verts[2], &verts[3], rng)
-        }
-    } else {
-        tri(&verts[0], &verts[1], &verts[2], rng)
-    }
+    let r: [f64; 3] = [rng.random(), rng.random(), rng.random()];
+    super::quadrature::uniform_point(verts, r[0], r[1], r[2])
 }

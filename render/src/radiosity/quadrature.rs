@@ -137,3 +137,28 @@ pub fn split4(v: &[V3]) -> Vec<Vec<V3>> {
         ]
     }
 }
+
+/// A point uniformly distributed by area on a triangle or planar convex quad, from
+/// three uniform numbers in [0, 1): `r0` picks the quad's half (by area), `r1`, `r2`
+/// the point in the triangle (folded square).
+pub fn uniform_point(v: &[V3], r0: f64, r1: f64, r2: f64) -> V3 {
+    let tri = |a: &V3, b: &V3, c: &V3| {
+        let (mut s, mut t) = (r1, r2);
+        if s + t > 1.0 {
+            s = 1.0 - s;
+            t = 1.0 - t;
+        }
+        a + (b - a) * s + (c - a) * t
+    };
+    if v.len() == 4 {
+        let a1 = (v[1] - v[0]).cross(&(v[2] - v[0])).norm();
+        let a2 = (v[2] - v[0]).cross(&(v[3] - v[0])).norm();
+        if r0 * (a1 + a2) < a1 {
+            tri(&v[0], &v[1], &v[2])
+        } else {
+            tri(&v[0], &v[2], &v[3])
+        }
+    } else {
+        tri(&v[0], &v[1], &v[2])
+    }
+}

@@ -46,15 +46,7 @@ pub struct SceneOccluders {
     eps: f64,
 }
 
-fn bbox(points: &[V3]) -> (V3, V3) {
-    let mut lo = V3::repeat(f64::INFINITY);
-    let mut hi = V3::repeat(f64::NEG_INFINITY);
-    for p in points {
-        lo = lo.inf(p);
-        hi = hi.sup(p);
-    }
-    (lo, hi)
-}
+use super::shaft::bounds as bbox;
 
 impl SceneOccluders {
     /// Builds the occluder set from every polygon of the scene.

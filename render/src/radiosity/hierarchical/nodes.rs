@@ -147,41 +147,7 @@ impl Patch {
 
     /// A point of the patch for three uniform numbers in [0, 1) (uniform by area).
     pub fn point_at(&self, r0: f64, r1: f64, r2: f64) -> V3 {
-        let v = self.verts();
-        let tri = |a: &V3, b: &V3, c: &V3| {
-            let (mut s, mut t) = (r1, r2);
-            if s + t > 1.0 {
-                s = 1.0 - s;
-                t = 1.0 - t;
-            }
-            a + (b - a) * s + (c - a) * t
-        };
-        if v.len() == 4 {
-            let a1 = (v[1] - v[0]).cross(&(v[2] - v[0])).norm();
-            let a2 = (v[2] - v[0]).cross(&(v[3] - v[0])).norm();
-            if r0 * (a1 + a2) < a1 {
-                tri(&v[0], &v[1], &v[2])
-            } else {
-                tri(&v[0], &v[2], &v[3])
-            }
-        } else {
-            tri(&v[0], &v[1], &v[2])
-        }
-    }
-}
-
-/// SplitMix64: a small deterministic generator for sample placement.
-struct SplitMix(u64);
-
-impl SplitMix {
-    /// A uniform number in [0, 1).
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
+        crate::radiosity::quadrature::uniform_point(self.verts(), r0, r1, r2)
     }
 }
 
@@ -421,7 +387,7 @@ impl Hierarchy {
         seed: u64,
         keep: impl Fn(&V3) -> bool,
     ) -> Vec<(V3, V3)> {
-        let mut rng = SplitMix(seed);
+        let mut rng = crate::rng::SplitMix64(seed);
         let mut out = Vec::with_capacity(n);
         for _ in 0..tries {
             if out.len() == n {
@@ -432,7 +398,7 @@ impl Hierarchy {
                 match node.kind() {
                     Kind::Cluster(k) => {
                         let cl = &self.clusters[k];
-                        node = if cl.n_children == 1 || rng.next() < cl.first_share {
+                        node = if cl.n_children == 1 || rng.unit() < cl.first_share {
                             cl.children[0]
                         } else {
                             cl.children[1]
@@ -443,7 +409,7 @@ impl Hierarchy {
                         if !keep(&pa.normal) {
                             break None;
                         }
-                        break Some((pa.point_at(rng.next(), rng.next(), rng.next()), pa.normal));
+                        break Some((pa.point_at(rng.unit(), rng.unit(), rng.unit()), pa.normal));
                     }
                     Kind::Emitter(_) => break None,
                 }
