@@ -16,7 +16,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::nodes::{Hierarchy, Kind, Node, error_weight};
-use super::sampling::{NS, shape_error};
+use super::sampling::{NS, linear_error, shape_error};
 use super::sweep::{Basis, State};
 use super::transfer::{CLink, Ctx, Overlap, PLink, eval_clink, eval_plink};
 
@@ -63,7 +63,7 @@ fn receiver_variation(corners: usize, ks: &[f64; NS], basis: Basis) -> f64 {
     if basis == Basis::Constant {
         return range;
     }
-    let bend = 3.0 * shape_error(corners, ks, true);
+    let bend = 3.0 * linear_error(corners, ks);
     if basis == Basis::Linear {
         bend
     } else {
@@ -85,8 +85,8 @@ fn receiver_error(l: &PLink, corners: usize, scale: f64, sig_hi: f64, basis: Bas
     let shape = match basis {
         Basis::Constant => shape_error(corners, &ks, false),
         _ if shadowed => shape_error(corners, &ks, false),
-        Basis::Linear => shape_error(corners, &ks, true),
-        Basis::Auto => shape_error(corners, &ks, false).min(shape_error(corners, &ks, true)),
+        Basis::Linear => linear_error(corners, &ks),
+        Basis::Auto => shape_error(corners, &ks, false).min(linear_error(corners, &ks)),
     };
     let peak = (scale * f64::from(l.kmax) - ks.iter().fold(0.0, |a: f64, &b| a.max(b))).max(0.0);
     (shape + 0.25 * peak + k * f64::from(l.rel_vis)) * sig_hi

@@ -390,6 +390,21 @@ pub(super) fn push_to_child(
     std::array::from_fn(|j| apply(&w[j], parent))
 }
 
+/// Estimated mean error of the linear representation: its deviation from the
+/// quadratic fit, `q`, plus what the fit itself misses. The latter is taken as the
+/// next term of the series: `q` times the ratio `q / c` of the quadratic part to the
+/// variation `c` about the mean (at most `q`). Where the function is smooth at the
+/// element's scale the ratio is small and the estimate is the quadratic one; where
+/// it bends as much as it slopes (near a light, in a corner) it is doubled.
+pub(super) fn linear_error(corners: usize, vals: &[f64; NS]) -> f64 {
+    let q = shape_error(corners, vals, true);
+    let c = shape_error(corners, vals, false);
+    if q <= 0.0 || c <= 0.0 {
+        return q;
+    }
+    q * (1.0 + (q / c).min(1.0))
+}
+
 /// How much child `child`'s mean differs from the parent's, by the parent's
 /// quadratic fit (zero on average over the four children).
 pub(super) fn mean_shift(corners: usize, child: usize, parent: &[[f64; 3]; NS]) -> [f64; 3] {

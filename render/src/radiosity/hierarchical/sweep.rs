@@ -17,7 +17,7 @@ use crate::scene::{Scene, V3};
 
 use super::emitters::Emitter;
 use super::nodes::{Cluster, Hierarchy, Kind, NONE, Node, error_weight};
-use super::sampling::{NS, mean_shift, push_to_child, shape_error};
+use super::sampling::{NS, linear_error, mean_shift, push_to_child, shape_error};
 use super::transfer::{CLink, Overlap, PLink, effective_cos};
 
 /// Irradiance of a patch element: mean and shape samples (XYZ, lux), plus the
@@ -646,7 +646,7 @@ impl State {
         let n = pa.nv.min(4);
         let ys: [f64; NS] = std::array::from_fn(|j| t.s[j][1]);
         let constant = shape_error(n, &ys, false);
-        let lin = shape_error(n, &ys, true);
+        let lin = linear_error(n, &ys);
         let (shape, linear) = match basis {
             Basis::Constant => (constant, false),
             Basis::Linear => (lin, true),
