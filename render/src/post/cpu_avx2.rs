@@ -273,26 +273,24 @@ pub(super) unsafe fn row(
         let ob = &mut orow[x0..x0 + LANES];
         let fb = &mut frow[x0..x0 + LANES];
         let (slow, over) = unsafe { fast8(pp, ib, flat.then_some(&g), thr, ob) };
-        if slow == 0 && over == 0 {
-            fb.fill(0);
-            hist[0] += LANES as u64;
-        } else {
-            for j in 0..LANES {
-                if slow & (1 << j) != 0 {
-                    let px = pp.apply_gain(ib[j], flat.then(|| [g[0][j], g[1][j], g[2][j]]));
-                    ob[j] = pp.quantise_pixel(px.drive, (x0 + j) as u32, y);
-                    fb[j] = px.flags.0 as u8;
-                    hist[(px.flags.0 & 15) as usize] += 1;
-                } else {
-                    let f = if over & (1 << j) != 0 {
-                        PixelFlags::OVER_RANGE.0
-                    } else {
-                        0
-                    };
-                    fb[j] = f as u8;
-                    hist[f as usize] += 1;
-                }
-            }
+        // flags without branches: OVER_RANGE on the lanes scaled here, 0 elsewhere
+        // (the reference's lanes are overwritten below)
+        let mut flag_bytes = 0u64;
+        for j in 0..LANES {
+            flag_bytes |=
+                (u64::from((over >> j) & 1) * u64::from(PixelFlags::OVER_RANGE.0)) << (8 * j);
+        }
+        fb.copy_from_slice(&flag_bytes.to_le_bytes());
+        hist[PixelFlags::OVER_RANGE.0 as usize] += u64::from(over.count_ones());
+        hist[0] += u64::from(LANES as u32 - (over | slow).count_ones());
+        let mut rest = slow;
+        while rest != 0 {
+            let j = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let px = pp.apply_gain(ib[j], flat.then(|| [g[0][j], g[1][j], g[2][j]]));
+            ob[j] = pp.quantise_pixel(px.drive, (x0 + j) as u32, y);
+            fb[j] = px.flags.0 as u8;
+            hist[(px.flags.0 & 15) as usize] += 1;
         }
     }
     let x0 = full * LANES;
