@@ -206,6 +206,8 @@ pub fn write_exr(
 }
 
 // --- a tiny 3×5 bitmap font for the plot labels ---
+/// A 3×5 bitmap glyph (rows top down, bit 4 = left column): digits and the few
+/// letters the axis labels use.
 fn glyph(c: char) -> [u8; 5] {
     match c {
         '0' => [7, 5, 5, 5, 7],
@@ -223,6 +225,18 @@ fn glyph(c: char) -> [u8; 5] {
         's' => [0, 7, 4, 1, 7],
         'e' => [0, 7, 7, 4, 7],
         '-' => [0, 0, 7, 0, 0],
+        'a' => [0, 6, 3, 5, 7],
+        'd' => [1, 1, 7, 5, 7],
+        'g' => [7, 5, 7, 1, 6],
+        'i' => [2, 0, 2, 2, 2],
+        'l' => [6, 2, 2, 2, 7],
+        'm' => [0, 7, 7, 5, 5],
+        'o' => [0, 7, 5, 5, 7],
+        'r' => [0, 7, 4, 4, 4],
+        't' => [2, 7, 2, 2, 3],
+        'w' => [0, 5, 5, 7, 7],
+        '(' => [1, 2, 2, 2, 1],
+        ')' => [4, 2, 2, 2, 4],
         _ => [0; 5],
     }
 }
@@ -274,7 +288,7 @@ pub fn plot_curves_png(
     path: &Path,
 ) -> Result<(), RadiosityError> {
     let (w, h) = (800u32, 500u32);
-    let (l, r, t, b) = (90.0, 20.0, 20.0, 50.0);
+    let (l, r, t, b) = (90.0, 40.0, 30.0, 60.0);
     let mut img = image::RgbImage::from_pixel(w, h, image::Rgb([255, 255, 255]));
     let pts: Vec<(f64, f64)> = curves
         .iter()
@@ -301,7 +315,9 @@ pub fn plot_curves_png(
         let label = if pct >= 1.0 {
             format!("{pct:.0}%")
         } else {
-            format!("{pct:.0e}%")
+            // 0.1%, 0.01%, … with as many decimals as the decade needs
+            let decimals = (-pct.log10()).ceil().max(1.0) as usize;
+            format!("{pct:.decimals$}%")
         };
         text(&mut img, 5, y as i64 - 5, &label, 2, black);
         d += 1.0;
@@ -310,15 +326,31 @@ pub fn plot_curves_png(
         let tt = tmax * k as f64 / 4.0;
         let x = sx(tt);
         line(&mut img, (x, t), (x, h as f64 - b), grey);
+        let label = format!("{tt:.2}s");
+        // the last label ends at the axis end instead of running off the image
+        let shift = if k == 4 {
+            12 * label.len() as i64 - 12
+        } else {
+            10
+        };
         text(
             &mut img,
-            x as i64 - 10,
+            x as i64 - shift,
             h as i64 - b as i64 + 10,
-            &format!("{tt:.2}s"),
+            &label,
             2,
             black,
         );
     }
+    text(&mut img, 5, 5, "estimated error (log)", 2, black);
+    text(
+        &mut img,
+        (w as i64) / 2 - 84,
+        h as i64 - 22,
+        "wall time (s)",
+        2,
+        black,
+    );
     line(&mut img, (l, t), (l, h as f64 - b), black);
     line(
         &mut img,
@@ -342,7 +374,9 @@ pub fn plot_curves_png(
             }
             let q = (sx(p.time_s), sy(p.estimated_error));
             if let Some(a) = prev {
-                line(&mut img, a, q, *col);
+                // each estimate holds until the next report: steps, not slopes
+                line(&mut img, a, (q.0, a.1), *col);
+                line(&mut img, (q.0, a.1), q, *col);
             }
             prev = Some(q);
         }
