@@ -3,8 +3,8 @@
 //! polygon, links at whatever level the error bound allows, between clusters, patches,
 //! lights (point, spot, goniometric) and daylight (sun, sky cells).
 //!
-//! The solve alternates refinement at a tolerance ε ([`refine`], Kresse's criterion)
-//! with Jacobi sweeps of gather/push–pull ([`sweep`]) until the linear solve is ahead
+//! The solve alternates refinement at a tolerance ε (`refine`, Kresse's criterion)
+//! with Jacobi sweeps of gather/push–pull (`sweep`) until the linear solve is ahead
 //! of the mesh, then halves ε, until the estimated error (solve residual plus the
 //! discretisation error of every leaf: the shape of its irradiance under the chosen
 //! basis and the error bounds of its links) reaches the target. Each sweep reports a

@@ -1,4 +1,4 @@
-//! Haines–Wallace shafts (Kresse 2.7.2, [HW91]): the convex region spanned by two
+//! Haines–Wallace shafts (Kresse 2.7.2, Haines & Wallace 1991): the convex region spanned by two
 //! axis-aligned boxes, represented as their union box cut by the planes through
 //! corresponding edges of the two boxes. Whatever lies entirely outside one of the
 //! faces or planes cannot meet any segment between the two boxes.
