@@ -1,6 +1,6 @@
 //! A Klein K-10-A on a pseudo-terminal: serves the instrument's serial protocol,
 //! backed by any [`Colorimeter`] (normally the virtual wall's meter), so that the
-//! real driver, [`KleinK10a`](super::KleinK10a), can be tested and used end to end
+//! real driver, [`KleinK10a`], can be tested and used end to end
 //! without hardware. A [`FaultPlan`] injects the failures a real line and meter
 //! produce: silence, garbage, over-range, instrument status codes, slow answers and
 //! a dropped line that comes back.

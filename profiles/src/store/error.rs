@@ -158,7 +158,7 @@ pub enum StoreError {
         display: u32,
         /// Eye.
         eye: Eye,
-        /// " since <time>" or empty.
+        /// " since `<time>`" or empty.
         window: String,
     },
 }
