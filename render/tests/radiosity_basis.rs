@@ -5,42 +5,30 @@
 //! linear basis reaches the same error with fewer patches, and the automatic choice
 //! uses it only where a constant does not meet the bound.
 
+mod radiosity_support;
+
 use std::time::Duration;
 
 use lumiwall_render::radiosity::hierarchical::Basis;
 use lumiwall_render::radiosity::{
     HierarchicalOptions, NoOccluders, Solution, StopRule, solve_hierarchical,
 };
-use lumiwall_render::scene::{Light, LightKind, Material, Polygon, Scene, V3};
+use lumiwall_render::scene::{Light, LightKind, Scene, V3};
+use radiosity_support::plane_under;
 
 const RHO: f64 = 0.5;
 const I_CD: f64 = 300.0;
 
 fn scene() -> Scene {
-    Scene {
-        polygons: vec![Polygon {
-            vertices: vec![
-                V3::new(-2., -2., 0.),
-                V3::new(2., -2., 0.),
-                V3::new(2., 2., 0.),
-                V3::new(-2., 2., 0.),
-            ],
-            material: 0,
-            object: "floor".into(),
-        }],
-        materials: vec![Material {
-            name: "grey".into(),
-            reflectance_xyz: [RHO; 3],
-            emission_cd_m2: [0.0; 3],
-        }],
-        lights: vec![Light {
+    plane_under(
+        Light {
             name: "bulb".into(),
             position: V3::new(0.4, -0.3, 1.2),
             color_xyz: [1.0; 3],
             kind: LightKind::Isotropic { intensity_cd: I_CD },
-        }],
-        ..Scene::default()
-    }
+        },
+        RHO,
+    )
 }
 
 fn exact(x: &V3) -> f64 {

@@ -7,28 +7,14 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use lumiwall_render::radiosity::{HierarchicalOptions, NoOccluders, StopRule, solve_hierarchical};
-use lumiwall_render::scene::{Light, LightKind, Material, Polygon, Scene, V3};
+mod radiosity_support;
 
+use lumiwall_render::scene::{Light, LightKind, Scene, V3};
+use radiosity_support::plane_under;
+
+/// The plane is black: only direct light.
 fn plane_with(light: Light) -> Scene {
-    Scene {
-        polygons: vec![Polygon {
-            vertices: vec![
-                V3::new(-2., -2., 0.),
-                V3::new(2., -2., 0.),
-                V3::new(2., 2., 0.),
-                V3::new(-2., 2., 0.),
-            ],
-            material: 0,
-            object: "floor".into(),
-        }],
-        materials: vec![Material {
-            name: "black".into(),
-            reflectance_xyz: [0.0; 3],
-            emission_cd_m2: [0.0; 3],
-        }],
-        lights: vec![light],
-        ..Scene::default()
-    }
+    plane_under(light, 0.0)
 }
 
 /// Solid angle of a triangle seen from the origin (Van Oosterom & Strackee 1983).

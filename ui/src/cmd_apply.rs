@@ -537,18 +537,12 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         std::hint::black_box(&dst);
     });
     // The bandwidth limit is the faster of the two copies; both % columns refer to it.
-    let t_copy = if t_copy_n.0 < t_copy1.0 {
-        t_copy_n
-    } else {
-        t_copy1
-    };
-    let memcpy = mp / t_copy.0;
+    // (A copy of ~10 ms is below the clock tick of the CPU-time counter, so the
+    // copies' wall-clock rate is the reference of both % columns.)
+    let memcpy = mp / t_copy_n.0.min(t_copy1.0);
     // Under load the wall clock depends on the other jobs; Mpx per CPU-second does not
     // (much). "idle est." = Mpx/CPU-s × threads the path can use on this machine.
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
-    // A copy of ~10 ms is below the clock tick of the CPU-time counter, so its
-    // wall-clock rate is the reference of both % columns.
-    let memcpy_cpu = memcpy;
     let row = |name: &str, (t, cpu): (f64, f64), threads: f64| {
         let per_cpu = mp / cpu.max(1e-9);
         let idle = per_cpu * threads.min(cores);
@@ -560,7 +554,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             100.0 * (mp / t) / memcpy,
             per_cpu,
             idle,
-            100.0 * idle / memcpy_cpu
+            100.0 * idle / memcpy
         );
     };
     row(

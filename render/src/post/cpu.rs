@@ -145,8 +145,33 @@ fn block(
     }
 }
 
+/// Each pixel column's place in the flat-field texture (the same for every row;
+/// empty without a texture): its two texel columns, and the weight between them
+/// apart, for vector loads.
+pub(super) struct Columns {
+    /// Left and right texel column.
+    pub texels: Vec<(usize, usize)>,
+    /// Weight of the right one.
+    pub weights: Vec<f32>,
+}
+
+impl Columns {
+    fn new(pp: &PreparedProfile, width: u32) -> Self {
+        let (texels, weights) = match &pp.flat {
+            Some(ff) => (0..width)
+                .map(|x| {
+                    let (t0, t1, f) = texel_axis(pixel_centre(x, width), ff.width);
+                    ((t0, t1), f)
+                })
+                .unzip(),
+            None => (Vec::new(), Vec::new()),
+        };
+        Self { texels, weights }
+    }
+}
+
 /// Pixels of row `y` from column `xs` on through [`block`]; `row_gain` holds the
-/// row's flat-field gains per texel column and `cols` each pixel column's texels.
+/// row's flat-field gains per texel column.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn portable_block(
@@ -157,7 +182,7 @@ pub(super) fn portable_block(
     xs: usize,
     y: u32,
     row_gain: &[[f32; 3]],
-    cols: &[(usize, usize, f32)],
+    cols: &Columns,
     hist: &mut [u64; 16],
 ) {
     let flat = pp.flat.is_some();
@@ -171,18 +196,18 @@ pub(super) fn portable_block(
         let x0 = xs + b * BLOCK;
         if flat {
             let n = ib.len();
-            let (first, last) = (cols[x0], cols[x0 + n - 1]);
+            let (first, last) = (cols.texels[x0], cols.texels[x0 + n - 1]);
             if first.0 == last.0 {
                 // The whole block lies between the same two texel columns (the usual
                 // case: a texel spans tens of pixels): same lerp, vectorised.
                 let (c0, c1) = (row_gain[first.0], row_gain[first.1]);
                 for c in 0..3 {
-                    for (j, col) in cols[x0..x0 + n].iter().enumerate() {
-                        g[c][j] = c0[c] + (c1[c] - c0[c]) * col.2;
+                    for (j, f) in cols.weights[x0..x0 + n].iter().enumerate() {
+                        g[c][j] = c0[c] + (c1[c] - c0[c]) * f;
                     }
                 }
             } else {
-                pixel_gains(row_gain, &cols[x0..x0 + n], &mut g);
+                pixel_gains(row_gain, cols, x0, n, &mut g);
             }
             block(pp, ib, Some(&g), x0 as u32, y, ob, fb, hist);
         } else {
@@ -191,16 +216,20 @@ pub(super) fn portable_block(
     }
 }
 
-/// Flat-field gains of consecutive pixels (`cols`: their texel columns and weights)
-/// into lanes `g[c][j]`, pixel by pixel (blocks that straddle a texel column).
+/// Flat-field gains of the `n` (≤ L) pixels from column `x0` into lanes `g[c][j]`,
+/// pixel by pixel (blocks that straddle a texel column).
 #[inline(always)]
 pub(super) fn pixel_gains<const L: usize>(
     row_gain: &[[f32; 3]],
-    cols: &[(usize, usize, f32)],
+    cols: &Columns,
+    x0: usize,
+    n: usize,
     g: &mut [[f32; L]; 3],
 ) {
-    for (j, col) in cols.iter().enumerate().take(L) {
-        let gj = lerp3(row_gain[col.0], row_gain[col.1], col.2);
+    let texels = &cols.texels[x0..x0 + n];
+    let weights = &cols.weights[x0..x0 + n];
+    for (j, (t, f)) in texels.iter().zip(weights).enumerate().take(L) {
+        let gj = lerp3(row_gain[t.0], row_gain[t.1], *f);
         g[0][j] = gj[0];
         g[1][j] = gj[1];
         g[2][j] = gj[2];
@@ -216,17 +245,15 @@ fn run_row(
     frow: &mut [u8],
     y: u32,
     row_gain: &[[f32; 3]],
-    cols: &[(usize, usize, f32)],
-    weights: &[f32],
+    cols: &Columns,
     hist: &mut [u64; 16],
 ) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2 (checked at run time just above).
-        unsafe { super::cpu_avx2::row(pp, irow, orow, frow, y, row_gain, cols, weights, hist) };
+        unsafe { super::cpu_avx2::row(pp, irow, orow, frow, y, row_gain, cols, hist) };
         return;
     }
-    let _ = weights;
     portable_block(pp, irow, orow, frow, 0, y, row_gain, cols, hist)
 }
 
@@ -260,15 +287,7 @@ pub fn apply_cpu_into(pp: &PreparedProfile, frame: &XyzFrame, out: &mut CodeImag
     }
     let rows_per_task = (PIXELS_PER_TASK / w).max(1);
     let chunk = rows_per_task * w;
-    // Texel columns and weights per pixel column (same for every row).
-    let cols: Vec<(usize, usize, f32)> = match &pp.flat {
-        Some(ff) => (0..frame.width)
-            .map(|x| texel_axis(pixel_centre(x, frame.width), ff.width))
-            .collect(),
-        None => Vec::new(),
-    };
-    // The same weights on their own, for vector loads.
-    let weights: Vec<f32> = cols.iter().map(|c| c.2).collect();
+    let cols = Columns::new(pp, frame.width);
     let hist = out
         .codes
         .par_chunks_mut(chunk)
@@ -294,9 +313,7 @@ pub fn apply_cpu_into(pp: &PreparedProfile, frame: &XyzFrame, out: &mut CodeImag
                         (0..tw).map(|tx| lerp3(ff.gain[y0 * tw + tx], ff.gain[y1 * tw + tx], fy)),
                     );
                 }
-                run_row(
-                    pp, irow, orow, frow, y, &row_gain, &cols, &weights, &mut hist,
-                );
+                run_row(pp, irow, orow, frow, y, &row_gain, &cols, &mut hist);
             }
             hist
         })

@@ -11,7 +11,7 @@ use lumiwall_profiles::apply::{
     GAMUT_TOLERANCE, MAX_INPUT_CD_M2, PixelFlags, PreparedProfile, dither_threshold,
 };
 
-use super::cpu::{pixel_gains, portable_block};
+use super::cpu::{Columns, pixel_gains, portable_block};
 
 /// Pixels per step.
 const LANES: usize = 8;
@@ -226,8 +226,7 @@ pub(super) unsafe fn row(
     frow: &mut [u8],
     y: u32,
     row_gain: &[[f32; 3]],
-    cols: &[(usize, usize, f32)],
-    weights: &[f32],
+    cols: &Columns,
     hist: &mut [u64; 16],
 ) {
     let degenerate = pp.luts.iter().any(|l| l.pairs().is_empty());
@@ -245,11 +244,11 @@ pub(super) unsafe fn row(
         let x0 = b * LANES;
         let ib = &irow[x0..x0 + LANES];
         if flat {
-            let (first, last) = (cols[x0], cols[x0 + LANES - 1]);
+            let (first, last) = (cols.texels[x0], cols.texels[x0 + LANES - 1]);
             if first.0 == last.0 {
                 // one texel span: the reference's lerp, eight lanes at once
                 let (c0, c1) = (row_gain[first.0], row_gain[first.1]);
-                let w = &weights[x0..x0 + LANES];
+                let w = &cols.weights[x0..x0 + LANES];
                 for c in 0..3 {
                     // SAFETY: AVX2 is enabled here; `w` and `g[c]` hold 8 floats.
                     unsafe {
@@ -260,7 +259,7 @@ pub(super) unsafe fn row(
                     }
                 }
             } else {
-                pixel_gains(row_gain, &cols[x0..x0 + LANES], &mut g);
+                pixel_gains(row_gain, cols, x0, LANES, &mut g);
             }
         }
         let thr: &[f32; LANES] = if x0 & 15 == 0 {

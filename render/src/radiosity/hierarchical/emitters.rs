@@ -64,28 +64,8 @@ impl Emitter {
     /// Illuminance (Y, lux per unit colour) at `x` on a surface with unit normal `n`,
     /// unoccluded.
     pub fn irradiance(&self, scene: &Scene, x: &V3, n: &V3) -> f64 {
-        match self {
-            Emitter::Point {
-                light, position, ..
-            } => {
-                let d = position - x;
-                let d2 = d.norm_squared();
-                if d2 <= 0.0 {
-                    return 0.0;
-                }
-                let dn = d / d2.sqrt();
-                let cos = n.dot(&dn);
-                if cos <= 0.0 {
-                    return 0.0;
-                }
-                scene.lights[*light].intensity_cd(&(-dn)) * cos / d2
-            }
-            Emitter::Directional {
-                direction,
-                normal_lux,
-                ..
-            } => normal_lux * n.dot(direction).max(0.0),
-        }
+        let (e, u) = self.normal_irradiance(scene, x);
+        e * n.dot(&u).max(0.0)
     }
 
     /// Mean illuminance (Y, lux per unit colour) over the polygon `verts` (unit normal

@@ -63,7 +63,7 @@ fn receiver_variation(corners: usize, ks: &[f64; NS], basis: Basis) -> f64 {
     if basis == Basis::Constant {
         return range;
     }
-    let bend = 3.0 * linear_error(corners, ks);
+    let bend = 3.0 * linear_error(corners, ks, shape_error(corners, ks, false));
     if basis == Basis::Linear {
         bend
     } else {
@@ -82,11 +82,12 @@ fn receiver_error(l: &PLink, corners: usize, scale: f64, sig_hi: f64, basis: Bas
     // A shadow edge across the receiver (the samples' visibility differs) is no
     // polynomial: the linear basis cannot be trusted to follow it.
     let shadowed = l.rel_vis > 0.0;
+    let constant = shape_error(corners, &ks, false);
     let shape = match basis {
-        Basis::Constant => shape_error(corners, &ks, false),
-        _ if shadowed => shape_error(corners, &ks, false),
-        Basis::Linear => linear_error(corners, &ks),
-        Basis::Auto => shape_error(corners, &ks, false).min(linear_error(corners, &ks)),
+        Basis::Constant => constant,
+        _ if shadowed => constant,
+        Basis::Linear => linear_error(corners, &ks, constant),
+        Basis::Auto => constant.min(linear_error(corners, &ks, constant)),
     };
     let peak = (scale * f64::from(l.kmax) - ks.iter().fold(0.0, |a: f64, &b| a.max(b))).max(0.0);
     (shape + 0.25 * peak + k * f64::from(l.rel_vis)) * sig_hi

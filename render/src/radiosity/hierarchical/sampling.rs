@@ -258,10 +258,28 @@ fn mean_shifts(push: &[[Weights; NS]; 4], w: &Weights) -> [Weights; 4] {
     means.map(|m| sub(&m, &all))
 }
 
-/// `fit − mean of fit over the points` for each point.
-fn minus_mean(fit: &[Weights; M]) -> [Weights; M] {
-    let mean: Weights = std::array::from_fn(|j| fit.iter().map(|w| w[j]).sum::<f64>() / M as f64);
-    fit.map(|w| sub(&w, &mean))
+impl ShapeTables {
+    /// The tables from the push and vertex weights, the quadratic fit and the shown
+    /// linear representation at the error points, and the element's quadrature
+    /// weight per shape sample.
+    fn assemble(
+        push: [[Weights; NS]; 4],
+        vertex: [Weights; 4],
+        fit: &[Weights; M],
+        shown: &[Weights; M],
+        w: &Weights,
+    ) -> Self {
+        // constant basis: the fit against its mean over the error points
+        let mean: Weights =
+            std::array::from_fn(|j| fit.iter().map(|f| f[j]).sum::<f64>() / M as f64);
+        Self {
+            shift: mean_shifts(&push, w),
+            push,
+            vertex,
+            err_constant: fit.map(|f| sub(&f, &mean)),
+            err_linear: std::array::from_fn(|m| sub(&fit[m], &shown[m])),
+        }
+    }
 }
 
 fn quad_tables() -> ShapeTables {
@@ -281,16 +299,9 @@ fn quad_tables() -> ShapeTables {
     let pts: [(f64, f64); M] =
         std::array::from_fn(|m| (((m / SUB) as f64 + 0.5) * h, ((m % SUB) as f64 + 0.5) * h));
     let fit = pts.map(|(s, t)| quad_fit(s, t));
-    let err_linear =
-        std::array::from_fn(|m| sub(&fit[m], &quad_shown(&vertex, pts[m].0, pts[m].1)));
+    let shown = pts.map(|(s, t)| quad_shown(&vertex, s, t));
     let w = QUAD_NODES.map(|(a, b)| gl[a].1 * gl[b].1);
-    ShapeTables {
-        shift: mean_shifts(&push, &w),
-        push,
-        vertex,
-        err_constant: minus_mean(&fit),
-        err_linear,
-    }
+    ShapeTables::assemble(push, vertex, &fit, &shown, &w)
 }
 
 fn tri_tables() -> ShapeTables {
@@ -338,7 +349,7 @@ fn tri_tables() -> ShapeTables {
     }
     let bary = |m: usize| [1.0 - pts[m][0] - pts[m][1], pts[m][0], pts[m][1]];
     let fit: [Weights; M] = std::array::from_fn(|m| tri_fit(&pinv, &bary(m)));
-    let err_linear = std::array::from_fn(|m| sub(&fit[m], &tri_linear(&bary(m))));
+    let shown: [Weights; M] = std::array::from_fn(|m| tri_linear(&bary(m)));
     let w = [
         RADON_WA,
         RADON_WA,
@@ -350,13 +361,7 @@ fn tri_tables() -> ShapeTables {
         RADON_WB,
         0.0,
     ];
-    ShapeTables {
-        shift: mean_shifts(&push, &w),
-        push,
-        vertex,
-        err_constant: minus_mean(&fit),
-        err_linear,
-    }
+    ShapeTables::assemble(push, vertex, &fit, &shown, &w)
 }
 
 fn tables(corners: usize) -> &'static ShapeTables {
@@ -396,9 +401,10 @@ pub(super) fn push_to_child(
 /// variation `c` about the mean (at most `q`). Where the function is smooth at the
 /// element's scale the ratio is small and the estimate is the quadratic one; where
 /// it bends as much as it slopes (near a light, in a corner) it is doubled.
-pub(super) fn linear_error(corners: usize, vals: &[f64; NS]) -> f64 {
+/// `c` is the constant estimate `shape_error(corners, vals, false)`, which every
+/// caller has already computed.
+pub(super) fn linear_error(corners: usize, vals: &[f64; NS], c: f64) -> f64 {
     let q = shape_error(corners, vals, true);
-    let c = shape_error(corners, vals, false);
     if q <= 0.0 || c <= 0.0 {
         return q;
     }
@@ -546,6 +552,12 @@ mod tests {
         }
         // weights average
         assert!((s.w[..s.n].iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        // every quadrature point is a shape sample (visibility relies on it)
+        let mut seen = [false; 9];
+        for &i in &s.shape {
+            seen[i] = true;
+        }
+        assert!(seen[..s.n].iter().all(|&b| b));
     }
 
     #[test]

@@ -646,7 +646,7 @@ impl State {
         let n = pa.nv.min(4);
         let ys: [f64; NS] = std::array::from_fn(|j| t.s[j][1]);
         let constant = shape_error(n, &ys, false);
-        let lin = linear_error(n, &ys);
+        let lin = linear_error(n, &ys, constant);
         let (shape, linear) = match basis {
             Basis::Constant => (constant, false),
             Basis::Linear => (lin, true),

@@ -237,30 +237,20 @@ fn patch_targets(p: &Patch) -> Vec<V3> {
     buf.into_iter().map(|(x, _)| x).collect()
 }
 
-/// Visibility of an area sender from the receiver's points, stratified: each shape
-/// sample sees every sender point, the other points one each in turn (the average
-/// still uses every sender point): 24 rays instead of 36 on a quad.
-fn stratified_visibility(
+/// Visibility of an area sender from the receiver's points: every quadrature point
+/// is a shape sample (`Samples::shape` covers them all), so each sees every sender
+/// point.
+fn area_visibility(
     ctx: &Ctx,
     smp: &Samples,
     pv: &mut PointValues,
     targets: &[V3],
     skip: [usize; 2],
 ) {
-    let mut is_shape = [false; 9];
-    for &i in &smp.shape {
-        is_shape[i] = true;
-    }
     for i in 0..smp.n {
-        if pv.f[i] <= 0.0 {
-            continue;
+        if pv.f[i] > 0.0 {
+            pv.v[i] = ctx.fraction(&smp.pts[i], targets, skip);
         }
-        let x = smp.pts[i];
-        pv.v[i] = if is_shape[i] {
-            ctx.fraction(&x, targets, skip)
-        } else {
-            ctx.fraction(&x, &targets[i % targets.len()..=i % targets.len()], skip)
-        };
     }
 }
 
@@ -348,7 +338,7 @@ pub(super) fn eval_plink(
                 pv.f[i] = point_to_polygon(&x, &rp.normal, sp.verts(), &sp.normal);
             }
             if !visible {
-                stratified_visibility(ctx, &smp, &mut pv, &targets, skip);
+                area_visibility(ctx, &smp, &mut pv, &targets, skip);
             }
             let extra = ff_max_point(rp, &sp.centre, &sp.normal).map_or(0.0, |x| {
                 point_to_polygon(&x, &rp.normal, sp.verts(), &sp.normal)
