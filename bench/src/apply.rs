@@ -1,0 +1,1 @@
+//! `lumiwall bench apply`: post-pass throughput against a memory copy, and banding.

@@ -1,0 +1,6 @@
+//! Benchmarks behind `lumiwall bench`: each measures one part of lumiwall against a peer
+//! measured in the same run and returns a table; the command line only prints it.
+
+pub mod apply;
+pub mod radiosity;
+pub mod readings;

@@ -1,0 +1,1 @@
+//! `lumiwall bench radiosity`: error against time on the Cornell box, and the scale study.

@@ -1,0 +1,1 @@
+//! `lumiwall bench readings`: calibration accuracy against the number of meter readings.
