@@ -14,9 +14,6 @@ use crate::measure::meter_offset::MeterCorrection;
 use crate::measure::{CHANNEL_NAMES, MeasuredDisplay};
 use crate::solve::{SolveOptions, WallSolution};
 
-/// CIE 1931 2° colour-matching functions (colour-science export, see the file header).
-const CIE1931_CSV: &str = include_str!("../../fixtures/cie/cie1931_2deg_1nm.csv");
-
 /// What the report is made of.
 #[derive(Debug, Clone, Copy)]
 pub struct ReportInputs<'a> {
@@ -32,29 +29,14 @@ pub struct ReportInputs<'a> {
     pub meter_correction: Option<&'a MeterCorrection>,
 }
 
-/// xy of the spectral locus from a CIE 1931 CMF table (CSV `wavelength_nm,x_bar,y_bar,
-/// z_bar`, `#` comments), for wavelengths `from_nm..=to_nm`.
-pub fn locus_from_cmf_csv(text: &str, from_nm: f64, to_nm: f64) -> Vec<(f64, [f64; 2])> {
-    text.lines()
-        .filter(|l| !l.trim_start().starts_with('#'))
-        .filter_map(|l| {
-            let v: Vec<f64> = l
-                .split(',')
-                .map(|f| f.trim().parse::<f64>())
-                .collect::<Result<_, _>>()
-                .ok()?;
-            if v.len() < 4 || v[0] < from_nm || v[0] > to_nm {
-                return None;
-            }
-            let s = v[1] + v[2] + v[3];
-            (s > 0.0).then(|| (v[0], [v[1] / s, v[2] / s]))
-        })
-        .collect()
-}
-
-/// The CIE 1931 spectral locus 380–700 nm (xy).
+/// The CIE 1931 spectral locus 380–700 nm (xy), from the shared observer table.
 pub fn cie1931_locus() -> Vec<(f64, [f64; 2])> {
-    locus_from_cmf_csv(CIE1931_CSV, 380.0, 700.0)
+    lumiwall_core::observer::cie1931()
+        .map(|o| o.spectral_locus(380.0, 700.0))
+        .unwrap_or_default()
+        .into_iter()
+        .map(|(wl, xy)| (wl, xy.to_array()))
+        .collect()
 }
 
 fn xy(x: Xyz) -> [f64; 2] {

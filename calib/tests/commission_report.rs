@@ -2,7 +2,7 @@
 //! Table of the 2° observer: 520 nm x 0.0743 y 0.8338; 700 nm x 0.7347 y 0.2653;
 //! 450 nm x 0.1566 y 0.0177).
 
-use lumiwall_calib::report::{cie1931_locus, locus_from_cmf_csv};
+use lumiwall_calib::report::cie1931_locus;
 
 #[test]
 fn locus_matches_published_chromaticities() {
@@ -19,11 +19,4 @@ fn locus_matches_published_chromaticities() {
             "{nm}: {p:?}"
         );
     }
-}
-
-#[test]
-fn locus_parser_skips_comments_headers_and_bad_rows() {
-    let text = "# comment\nwavelength_nm,x_bar,y_bar,z_bar\n500,1,2,1\nbad,row\n600,0,0,0\n";
-    let l = locus_from_cmf_csv(text, 380.0, 700.0);
-    assert_eq!(l, vec![(500.0, [0.25, 0.5])]);
 }

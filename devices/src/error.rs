@@ -64,6 +64,12 @@ pub enum DeviceError {
     Config(String),
 }
 
+impl From<lumiwall_core::CoreError> for DeviceError {
+    fn from(e: lumiwall_core::CoreError) -> Self {
+        DeviceError::Config(e.to_string())
+    }
+}
+
 impl DeviceError {
     /// True for errors after which retrying the same reading can succeed
     /// (timeouts and garbled answers); false for errors a retry will not fix.

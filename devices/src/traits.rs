@@ -2,19 +2,9 @@
 
 use serde::{Deserialize, Serialize};
 
-pub use lumiwall_profiles::Eye;
+pub use lumiwall_core::{DisplayId, Eye};
 
 use crate::{DeviceError, Xyz};
-
-/// Index of one display (one projector, one eye) on the wall, 0-based, in wall-file order.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-pub struct DisplayId(pub u32);
-
-impl std::fmt::Display for DisplayId {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "#{}", self.0)
-    }
-}
 
 /// Static facts about one display.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -26,9 +26,9 @@
 //! so every path runs exactly this arithmetic.
 
 pub mod lut;
-pub mod mat3;
+pub use lumiwall_core::mat3;
 pub mod model;
-pub mod srgb;
+pub use lumiwall_core::srgb;
 
 use std::ops::BitOr;
 
@@ -95,6 +95,12 @@ pub enum ApplyError {
     /// Colour-space parameters that give no matrix.
     #[error("colour space is degenerate: {0}")]
     ColourSpace(String),
+}
+
+impl From<lumiwall_core::CoreError> for ApplyError {
+    fn from(e: lumiwall_core::CoreError) -> Self {
+        ApplyError::ColourSpace(e.to_string())
+    }
 }
 
 /// What happened to a pixel in the post pass (a small bit set).

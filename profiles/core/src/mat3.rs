@@ -1,7 +1,17 @@
-//! Small 3×3 f64 matrix helpers (row-major) used to build post-pass matrices.
+//! Row-major 3×3 f64 matrices as stored in profiles (`[[f64; 3]; 3]`), with the few
+//! operations the profile maths needs, and the bridge to nalgebra for the solvers.
+
+use nalgebra::Matrix3;
+
+/// A row-major 3×3 matrix, `m[row][col]`, as profiles store it.
+pub type Mat3 = [[f64; 3]; 3];
+
+/// Reciprocal condition estimate (|det| / product of row norms) below which a matrix is
+/// treated as singular by [`inverse`].
+pub const SINGULAR_RCOND: f64 = 1e-12;
 
 /// `m · v`.
-pub fn mul_vec(m: &[[f64; 3]; 3], v: &[f64; 3]) -> [f64; 3] {
+pub fn mul_vec(m: &Mat3, v: &[f64; 3]) -> [f64; 3] {
     [
         m[0][0] * v[0] + m[0][1] * v[1] + m[0][2] * v[2],
         m[1][0] * v[0] + m[1][1] * v[1] + m[1][2] * v[2],
@@ -10,7 +20,7 @@ pub fn mul_vec(m: &[[f64; 3]; 3], v: &[f64; 3]) -> [f64; 3] {
 }
 
 /// `a · b`.
-pub fn mul(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+pub fn mul(a: &Mat3, b: &Mat3) -> Mat3 {
     let mut r = [[0.0; 3]; 3];
     for (i, row) in r.iter_mut().enumerate() {
         for (j, cell) in row.iter_mut().enumerate() {
@@ -21,22 +31,22 @@ pub fn mul(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
 }
 
 /// Determinant.
-pub fn det(m: &[[f64; 3]; 3]) -> f64 {
+pub fn det(m: &Mat3) -> f64 {
     m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
         - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
 }
 
 /// Inverse by the adjugate, `None` when the matrix is singular or so ill-conditioned
-/// that the reciprocal condition estimate (|det| / product of row norms) is below
-/// `1e-12`, or the result is not finite.
-pub fn inverse(m: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
+/// that the reciprocal condition estimate is below [`SINGULAR_RCOND`], or the result is
+/// not finite.
+pub fn inverse(m: &Mat3) -> Option<Mat3> {
     let d = det(m);
     let norms: f64 = m
         .iter()
         .map(|r| (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt())
         .product();
-    if !(d.is_finite() && norms > 0.0) || d.abs() < 1e-12 * norms {
+    if !(d.is_finite() && norms > 0.0) || d.abs() < SINGULAR_RCOND * norms {
         return None;
     }
     let c =
@@ -51,7 +61,7 @@ pub fn inverse(m: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
 }
 
 /// Matrix whose columns are `cols[0]`, `cols[1]`, `cols[2]`.
-pub fn from_columns(cols: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+pub fn from_columns(cols: &[[f64; 3]; 3]) -> Mat3 {
     let mut m = [[0.0; 3]; 3];
     for (j, col) in cols.iter().enumerate() {
         for (i, v) in col.iter().enumerate() {
@@ -59,6 +69,16 @@ pub fn from_columns(cols: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
         }
     }
     m
+}
+
+/// As a nalgebra matrix (same rows and columns).
+pub fn to_matrix3(m: &Mat3) -> Matrix3<f64> {
+    Matrix3::from_fn(|i, j| m[i][j])
+}
+
+/// From a nalgebra matrix (same rows and columns).
+pub fn from_matrix3(m: &Matrix3<f64>) -> Mat3 {
+    [0, 1, 2].map(|i| [0, 1, 2].map(|j| m[(i, j)]))
 }
 
 #[cfg(test)]

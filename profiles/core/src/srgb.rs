@@ -5,7 +5,7 @@
 //! display's measured curve, which would only bring the curves' irregularities back.
 //! We use the sRGB EOTF of IEC 61966-2-1 (a 2.4 power with a linear toe).
 
-use super::{ApplyError, mat3};
+use crate::{CoreError, Mat3, Xy, mat3};
 
 /// xy chromaticities of the sRGB / Rec. 709 primaries `[R, G, B]`.
 pub const SRGB_PRIMARIES_XY: [[f64; 2]; 3] = [[0.64, 0.33], [0.30, 0.60], [0.15, 0.06]];
@@ -31,28 +31,28 @@ pub fn decode_srgb(encoded: f32) -> f32 {
 pub fn rgb_to_xyz_matrix(
     primaries_xy: &[[f64; 2]; 3],
     white_xyz_cd_m2: &[f64; 3],
-) -> Result<[[f64; 3]; 3], ApplyError> {
+) -> Result<Mat3, CoreError> {
     let mut cols = [[0.0; 3]; 3];
     for (c, p) in primaries_xy.iter().enumerate() {
         let [x, y] = *p;
-        if !(x.is_finite() && y.is_finite() && y > 0.0 && x >= 0.0 && x + y <= 1.0) {
-            return Err(ApplyError::ColourSpace(format!(
+        if !Xy::new(x, y).is_valid() {
+            return Err(CoreError::ColourSpace(format!(
                 "primary {c} has chromaticity x={x}, y={y}"
             )));
         }
         cols[c] = [x / y, 1.0, (1.0 - x - y) / y];
     }
     if !(white_xyz_cd_m2.iter().all(|v| v.is_finite()) && white_xyz_cd_m2[1] > 0.0) {
-        return Err(ApplyError::ColourSpace(format!(
+        return Err(CoreError::ColourSpace(format!(
             "white XYZ {white_xyz_cd_m2:?} cd/m² has no positive luminance"
         )));
     }
     let p = mat3::from_columns(&cols);
     let inv = mat3::inverse(&p)
-        .ok_or_else(|| ApplyError::ColourSpace("the primaries are collinear".into()))?;
+        .ok_or_else(|| CoreError::ColourSpace("the primaries are collinear".into()))?;
     let s = mat3::mul_vec(&inv, white_xyz_cd_m2);
     if s.iter().any(|v| *v <= 0.0) {
-        return Err(ApplyError::ColourSpace(
+        return Err(CoreError::ColourSpace(
             "the white lies outside the primaries' triangle".into(),
         ));
     }
