@@ -19,6 +19,9 @@ pub enum CoreError {
     /// A bit depth outside 1..=16.
     #[error("bit depth {0} is not supported; use 1 to 16 bits")]
     BitDepth(u32),
+    /// A headroom outside (0, 1].
+    #[error("headroom {0} is not in (0, 1]")]
+    Headroom(f64),
     /// A channel index other than 0, 1, 2.
     #[error("channel index {0} is not red (0), green (1) or blue (2)")]
     ChannelIndex(usize),

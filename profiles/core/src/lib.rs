@@ -3,7 +3,7 @@
 //! - colour: [`Xyz`] (absolute CIE 1931 tristimulus, Y in cd/m²), [`Xy`] (chromaticity),
 //!   [`Lab`] (CIELAB against an absolute reference white) with CIEDE2000 in [`lab`];
 //! - displays: [`Channel`] (red, green, blue), [`BitDepth`] (max code, quantisation),
-//!   [`Eye`], [`DisplayId`] and [`DisplayKey`];
+//!   [`Headroom`] (largest planned channel usage), [`Eye`], [`DisplayId`] and [`DisplayKey`];
 //! - data: the CIE 1931 2° observer and D65 ([`observer`], parsed once), the sRGB
 //!   decoding curve ([`srgb`]) and row-major 3×3 matrices ([`Mat3`], [`mat3`]).
 //!
@@ -19,6 +19,7 @@ mod bit_depth;
 mod channel;
 mod display;
 mod error;
+mod headroom;
 pub mod lab;
 pub mod mat3;
 pub mod observer;
@@ -29,6 +30,7 @@ pub use bit_depth::BitDepth;
 pub use channel::Channel;
 pub use display::{DisplayId, DisplayKey, Eye};
 pub use error::CoreError;
+pub use headroom::Headroom;
 pub use lab::Lab;
 pub use mat3::Mat3;
 pub use xyz::{Xy, Xyz};
