@@ -59,6 +59,13 @@ fn start_with(faults: FaultPlan, values: Vec<Xyz>) -> (Emulator, EmulatedPort, A
     (emu, port, calls)
 }
 
+/// An emulator of the default fake with `faults`, and the driver opened on it.
+fn open_meter(faults: FaultPlan, config: K10aConfig) -> (Emulator, KleinK10a) {
+    let (emu, port, _calls) = start(faults);
+    let meter = port.open(config).unwrap();
+    (emu, meter)
+}
+
 fn config(timeout_ms: u64, retries: u32) -> K10aConfig {
     K10aConfig {
         read_timeout: Duration::from_millis(timeout_ms),
@@ -110,11 +117,13 @@ fn identifies_itself_and_round_trips_readings() {
 
 #[test]
 fn garbage_gives_garbled_then_next_reading_is_clean() {
-    let (_emu, port, _calls) = start(FaultPlan {
-        garbage_on: vec![1],
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(500, 0)).unwrap();
+    let (_emu, mut meter) = open_meter(
+        FaultPlan {
+            garbage_on: vec![1],
+            ..FaultPlan::default()
+        },
+        config(500, 0),
+    );
     match meter.measure() {
         Err(DeviceError::Garbled { command, .. }) => assert_eq!(command, "N5"),
         other => panic!("expected Garbled, got {other:?}"),
@@ -182,16 +191,18 @@ fn over_range_is_reported() {
 
 #[test]
 fn retry_recovers_from_one_transient_fault() {
-    let (emu, port, _calls) = start(FaultPlan {
-        garbage_on: vec![1],
-        stop_after_readings: None,
-        slow_on: vec![SlowAnswer {
-            reading: 3,
-            delay_ms: 400,
-        }],
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(150, 1)).unwrap();
+    let (emu, mut meter) = open_meter(
+        FaultPlan {
+            garbage_on: vec![1],
+            stop_after_readings: None,
+            slow_on: vec![SlowAnswer {
+                reading: 3,
+                delay_ms: 400,
+            }],
+            ..FaultPlan::default()
+        },
+        config(150, 1),
+    );
     assert_close(meter.measure().unwrap(), value(0));
     assert_eq!(meter.stats().retries, 1);
     assert_eq!(emu.readings_requested(), 2);
@@ -203,11 +214,13 @@ fn retry_recovers_from_one_transient_fault() {
 
 #[test]
 fn no_retry_when_retries_is_zero() {
-    let (emu, port, _calls) = start(FaultPlan {
-        garbage_on: vec![1],
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(500, 0)).unwrap();
+    let (emu, mut meter) = open_meter(
+        FaultPlan {
+            garbage_on: vec![1],
+            ..FaultPlan::default()
+        },
+        config(500, 0),
+    );
     assert!(matches!(meter.measure(), Err(DeviceError::Garbled { .. })));
     assert_eq!(emu.readings_requested(), 1);
     assert_eq!(meter.stats().retries, 0);
@@ -215,14 +228,16 @@ fn no_retry_when_retries_is_zero() {
 
 #[test]
 fn slow_answer_times_out_and_the_stale_answer_is_not_used() {
-    let (_emu, port, _calls) = start(FaultPlan {
-        slow_on: vec![SlowAnswer {
-            reading: 1,
-            delay_ms: 400,
-        }],
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(150, 0)).unwrap();
+    let (_emu, mut meter) = open_meter(
+        FaultPlan {
+            slow_on: vec![SlowAnswer {
+                reading: 1,
+                delay_ms: 400,
+            }],
+            ..FaultPlan::default()
+        },
+        config(150, 0),
+    );
     assert!(matches!(meter.measure(), Err(DeviceError::Timeout { .. })));
     // The late answer to reading 1 carries value 0; the next reading must be value 1.
     assert_close(meter.measure().unwrap(), value(1));
@@ -230,11 +245,13 @@ fn slow_answer_times_out_and_the_stale_answer_is_not_used() {
 
 #[test]
 fn uniformly_slow_meter_works_with_a_long_enough_timeout() {
-    let (_emu, port, _calls) = start(FaultPlan {
-        answer_delay_ms: 120,
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(600, 0)).unwrap();
+    let (_emu, mut meter) = open_meter(
+        FaultPlan {
+            answer_delay_ms: 120,
+            ..FaultPlan::default()
+        },
+        config(600, 0),
+    );
     let t0 = Instant::now();
     assert_close(meter.measure().unwrap(), value(0));
     assert!(t0.elapsed() >= Duration::from_millis(120));
@@ -242,14 +259,16 @@ fn uniformly_slow_meter_works_with_a_long_enough_timeout() {
 
 #[test]
 fn dropped_line_comes_back_and_retries_resume() {
-    let (_emu, port, _calls) = start(FaultPlan {
-        line_drops: vec![LineDrop {
-            at_reading: 2,
-            duration_ms: 250,
-        }],
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(150, 3)).unwrap();
+    let (_emu, mut meter) = open_meter(
+        FaultPlan {
+            line_drops: vec![LineDrop {
+                at_reading: 2,
+                duration_ms: 250,
+            }],
+            ..FaultPlan::default()
+        },
+        config(150, 3),
+    );
     assert_close(meter.measure().unwrap(), value(0));
     assert_close(meter.measure().unwrap(), value(1));
     assert!(meter.stats().retries >= 1);
@@ -272,11 +291,13 @@ fn instrument_status_codes_are_mapped() {
             code,
         })
         .collect();
-    let (_emu, port, _calls) = start(FaultPlan {
-        status_on,
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(500, 2)).unwrap();
+    let (_emu, mut meter) = open_meter(
+        FaultPlan {
+            status_on,
+            ..FaultPlan::default()
+        },
+        config(500, 2),
+    );
     for (code, meaning) in codes {
         match meter.measure() {
             Err(DeviceError::Instrument {
@@ -297,24 +318,26 @@ fn instrument_status_codes_are_mapped() {
 
 #[test]
 fn auto_ranging_status_is_repeated_then_reported() {
-    let (_emu, port, _calls) = start(FaultPlan {
-        status_on: vec![
-            StatusFault {
-                reading: 1,
-                code: 'v',
-            },
-            StatusFault {
-                reading: 2,
-                code: 'u',
-            },
-            StatusFault {
-                reading: 4,
-                code: 'v',
-            },
-        ],
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(500, 0)).unwrap();
+    let (_emu, mut meter) = open_meter(
+        FaultPlan {
+            status_on: vec![
+                StatusFault {
+                    reading: 1,
+                    code: 'v',
+                },
+                StatusFault {
+                    reading: 2,
+                    code: 'u',
+                },
+                StatusFault {
+                    reading: 4,
+                    code: 'v',
+                },
+            ],
+            ..FaultPlan::default()
+        },
+        config(500, 0),
+    );
     // Readings 1 and 2 are range changes, reading 3 succeeds.
     assert_close(meter.measure().unwrap(), value(0));
     assert_eq!(meter.stats().range_repeats, 2);
