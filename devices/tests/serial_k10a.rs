@@ -44,7 +44,20 @@ fn start(faults: FaultPlan) -> (Emulator, EmulatedPort, Arc<AtomicU32>) {
     start_with(faults, (0..50).map(value).collect())
 }
 
+/// Instrument time scale of the fault tests: 1 % of the real K-10-A timing.
+const FAST_TIME_SCALE: f64 = 0.01;
+
 fn start_with(faults: FaultPlan, values: Vec<Xyz>) -> (Emulator, EmulatedPort, Arc<AtomicU32>) {
+    spawn_scaled(faults, values, FAST_TIME_SCALE)
+}
+
+/// An emulator of a [`ListMeter`] answering `values`, its instrument time scaled by
+/// `time_scale`, and the meter's call counter.
+fn spawn_scaled(
+    faults: FaultPlan,
+    values: Vec<Xyz>,
+    time_scale: f64,
+) -> (Emulator, EmulatedPort, Arc<AtomicU32>) {
     let calls = Arc::new(AtomicU32::new(0));
     let meter = ListMeter {
         values,
@@ -53,7 +66,7 @@ fn start_with(faults: FaultPlan, values: Vec<Xyz>) -> (Emulator, EmulatedPort, A
     let (emu, port) = Emulator::spawn_with(
         Box::new(meter),
         faults,
-        EmulatorOptions::with_time_scale(0.01),
+        EmulatorOptions::with_time_scale(time_scale),
     )
     .unwrap();
     (emu, port, calls)
@@ -403,7 +416,7 @@ fn missing_port_is_an_io_error() {
 }
 
 #[test]
-fn fault_plan_is_serde() {
+fn fault_plan_round_trips_through_json_and_defaults_missing_fields() {
     let plan = FaultPlan {
         stop_after_readings: Some(7),
         garbage_on: vec![2],
@@ -444,16 +457,7 @@ fn port_can_be_reopened_after_the_driver_is_dropped() {
 fn emulator_takes_the_instruments_measurement_time() {
     // N5: 1/8 s per reading plus 15 bytes at 9600 baud 8N1 (15.625 ms) = 140.625 ms,
     // here at half speed.
-    let meter = ListMeter {
-        values: vec![value(0)],
-        calls: Arc::new(AtomicU32::new(0)),
-    };
-    let (_emu, port) = Emulator::spawn_with(
-        Box::new(meter),
-        FaultPlan::default(),
-        EmulatorOptions::with_time_scale(0.5),
-    )
-    .unwrap();
+    let (_emu, port, _calls) = spawn_scaled(FaultPlan::default(), vec![value(0)], 0.5);
     let mut meter = port.open(config(1000, 0)).unwrap();
     let t0 = Instant::now();
     for _ in 0..4 {
@@ -468,17 +472,9 @@ fn emulator_takes_the_instruments_measurement_time() {
 }
 
 #[test]
-fn emulator_without_instrument_time_is_fast() {
-    let meter = ListMeter {
-        values: (0..10).map(value).collect(),
-        calls: Arc::new(AtomicU32::new(0)),
-    };
-    let (_emu, port) = Emulator::spawn_with(
-        Box::new(meter),
-        FaultPlan::default(),
-        EmulatorOptions::with_time_scale(0.0),
-    )
-    .unwrap();
+fn emulator_without_instrument_time_answers_200_readings_within_4_s() {
+    let (_emu, port, _calls) =
+        spawn_scaled(FaultPlan::default(), (0..10).map(value).collect(), 0.0);
     let mut meter = port.open(config(1000, 0)).unwrap();
     let n = 200;
     let t0 = Instant::now();
