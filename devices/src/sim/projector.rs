@@ -167,13 +167,21 @@ pub fn validate_spec(p: &ProjectorSpec) -> Result<(), DeviceError> {
 
 /// One projector's manufacturing scatter and overrides applied to the wall's model.
 struct Individual {
+    /// Relative lamp power.
     lamp_power: f64,
+    /// Shift of each panel filter band (nm).
     panel_shift: [f64; 3],
+    /// Shift of the comb filter bands, by band index mod 3 (nm).
     comb_shift: [f64; 3],
+    /// Per-channel gain (scatter × eye × overrides).
     gain: [f64; 3],
+    /// Transfer curves, R, G, B.
     curves: [TransferCurve; 3],
+    /// Falloff after scatter.
     falloff: FalloffSpec,
+    /// Lamp hours at simulation start.
     lamp_hours: f64,
+    /// DLP white segment.
     white_segment: f64,
 }
 
@@ -260,8 +268,11 @@ impl Individual {
 
 /// XYZ (cd/m²) of a display's channels, black and white segment at full drive.
 struct Tristimuli {
+    /// Each channel at full drive, black excluded.
     channel_xyz: [[f64; 3]; 3],
+    /// All channels at drive 0.
     black_xyz: [f64; 3],
+    /// The full white segment.
     white_segment_xyz: [f64; 3],
 }
 
