@@ -44,7 +44,20 @@ fn start(faults: FaultPlan) -> (Emulator, EmulatedPort, Arc<AtomicU32>) {
     start_with(faults, (0..50).map(value).collect())
 }
 
+/// Instrument time scale of the fault tests: 1 % of the real K-10-A timing.
+const FAST_TIME_SCALE: f64 = 0.01;
+
 fn start_with(faults: FaultPlan, values: Vec<Xyz>) -> (Emulator, EmulatedPort, Arc<AtomicU32>) {
+    spawn_scaled(faults, values, FAST_TIME_SCALE)
+}
+
+/// An emulator of a [`ListMeter`] answering `values`, its instrument time scaled by
+/// `time_scale`, and the meter's call counter.
+fn spawn_scaled(
+    faults: FaultPlan,
+    values: Vec<Xyz>,
+    time_scale: f64,
+) -> (Emulator, EmulatedPort, Arc<AtomicU32>) {
     let calls = Arc::new(AtomicU32::new(0));
     let meter = ListMeter {
         values,
@@ -53,10 +66,17 @@ fn start_with(faults: FaultPlan, values: Vec<Xyz>) -> (Emulator, EmulatedPort, A
     let (emu, port) = Emulator::spawn_with(
         Box::new(meter),
         faults,
-        EmulatorOptions::with_time_scale(0.01),
+        EmulatorOptions::with_time_scale(time_scale),
     )
     .unwrap();
     (emu, port, calls)
+}
+
+/// An emulator of the default fake with `faults`, and the driver opened on it.
+fn open_meter(faults: FaultPlan, config: K10aConfig) -> (Emulator, KleinK10a) {
+    let (emu, port, _calls) = start(faults);
+    let meter = port.open(config).unwrap();
+    (emu, meter)
 }
 
 fn config(timeout_ms: u64, retries: u32) -> K10aConfig {
@@ -110,11 +130,13 @@ fn identifies_itself_and_round_trips_readings() {
 
 #[test]
 fn garbage_gives_garbled_then_next_reading_is_clean() {
-    let (_emu, port, _calls) = start(FaultPlan {
-        garbage_on: vec![1],
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(500, 0)).unwrap();
+    let (_emu, mut meter) = open_meter(
+        FaultPlan {
+            garbage_on: vec![1],
+            ..FaultPlan::default()
+        },
+        config(500, 0),
+    );
     match meter.measure() {
         Err(DeviceError::Garbled { command, .. }) => assert_eq!(command, "N5"),
         other => panic!("expected Garbled, got {other:?}"),
@@ -182,16 +204,18 @@ fn over_range_is_reported() {
 
 #[test]
 fn retry_recovers_from_one_transient_fault() {
-    let (emu, port, _calls) = start(FaultPlan {
-        garbage_on: vec![1],
-        stop_after_readings: None,
-        slow_on: vec![SlowAnswer {
-            reading: 3,
-            delay_ms: 400,
-        }],
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(150, 1)).unwrap();
+    let (emu, mut meter) = open_meter(
+        FaultPlan {
+            garbage_on: vec![1],
+            stop_after_readings: None,
+            slow_on: vec![SlowAnswer {
+                reading: 3,
+                delay_ms: 400,
+            }],
+            ..FaultPlan::default()
+        },
+        config(150, 1),
+    );
     assert_close(meter.measure().unwrap(), value(0));
     assert_eq!(meter.stats().retries, 1);
     assert_eq!(emu.readings_requested(), 2);
@@ -203,11 +227,13 @@ fn retry_recovers_from_one_transient_fault() {
 
 #[test]
 fn no_retry_when_retries_is_zero() {
-    let (emu, port, _calls) = start(FaultPlan {
-        garbage_on: vec![1],
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(500, 0)).unwrap();
+    let (emu, mut meter) = open_meter(
+        FaultPlan {
+            garbage_on: vec![1],
+            ..FaultPlan::default()
+        },
+        config(500, 0),
+    );
     assert!(matches!(meter.measure(), Err(DeviceError::Garbled { .. })));
     assert_eq!(emu.readings_requested(), 1);
     assert_eq!(meter.stats().retries, 0);
@@ -215,14 +241,16 @@ fn no_retry_when_retries_is_zero() {
 
 #[test]
 fn slow_answer_times_out_and_the_stale_answer_is_not_used() {
-    let (_emu, port, _calls) = start(FaultPlan {
-        slow_on: vec![SlowAnswer {
-            reading: 1,
-            delay_ms: 400,
-        }],
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(150, 0)).unwrap();
+    let (_emu, mut meter) = open_meter(
+        FaultPlan {
+            slow_on: vec![SlowAnswer {
+                reading: 1,
+                delay_ms: 400,
+            }],
+            ..FaultPlan::default()
+        },
+        config(150, 0),
+    );
     assert!(matches!(meter.measure(), Err(DeviceError::Timeout { .. })));
     // The late answer to reading 1 carries value 0; the next reading must be value 1.
     assert_close(meter.measure().unwrap(), value(1));
@@ -230,11 +258,13 @@ fn slow_answer_times_out_and_the_stale_answer_is_not_used() {
 
 #[test]
 fn uniformly_slow_meter_works_with_a_long_enough_timeout() {
-    let (_emu, port, _calls) = start(FaultPlan {
-        answer_delay_ms: 120,
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(600, 0)).unwrap();
+    let (_emu, mut meter) = open_meter(
+        FaultPlan {
+            answer_delay_ms: 120,
+            ..FaultPlan::default()
+        },
+        config(600, 0),
+    );
     let t0 = Instant::now();
     assert_close(meter.measure().unwrap(), value(0));
     assert!(t0.elapsed() >= Duration::from_millis(120));
@@ -242,14 +272,16 @@ fn uniformly_slow_meter_works_with_a_long_enough_timeout() {
 
 #[test]
 fn dropped_line_comes_back_and_retries_resume() {
-    let (_emu, port, _calls) = start(FaultPlan {
-        line_drops: vec![LineDrop {
-            at_reading: 2,
-            duration_ms: 250,
-        }],
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(150, 3)).unwrap();
+    let (_emu, mut meter) = open_meter(
+        FaultPlan {
+            line_drops: vec![LineDrop {
+                at_reading: 2,
+                duration_ms: 250,
+            }],
+            ..FaultPlan::default()
+        },
+        config(150, 3),
+    );
     assert_close(meter.measure().unwrap(), value(0));
     assert_close(meter.measure().unwrap(), value(1));
     assert!(meter.stats().retries >= 1);
@@ -272,11 +304,13 @@ fn instrument_status_codes_are_mapped() {
             code,
         })
         .collect();
-    let (_emu, port, _calls) = start(FaultPlan {
-        status_on,
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(500, 2)).unwrap();
+    let (_emu, mut meter) = open_meter(
+        FaultPlan {
+            status_on,
+            ..FaultPlan::default()
+        },
+        config(500, 2),
+    );
     for (code, meaning) in codes {
         match meter.measure() {
             Err(DeviceError::Instrument {
@@ -297,24 +331,26 @@ fn instrument_status_codes_are_mapped() {
 
 #[test]
 fn auto_ranging_status_is_repeated_then_reported() {
-    let (_emu, port, _calls) = start(FaultPlan {
-        status_on: vec![
-            StatusFault {
-                reading: 1,
-                code: 'v',
-            },
-            StatusFault {
-                reading: 2,
-                code: 'u',
-            },
-            StatusFault {
-                reading: 4,
-                code: 'v',
-            },
-        ],
-        ..FaultPlan::default()
-    });
-    let mut meter = port.open(config(500, 0)).unwrap();
+    let (_emu, mut meter) = open_meter(
+        FaultPlan {
+            status_on: vec![
+                StatusFault {
+                    reading: 1,
+                    code: 'v',
+                },
+                StatusFault {
+                    reading: 2,
+                    code: 'u',
+                },
+                StatusFault {
+                    reading: 4,
+                    code: 'v',
+                },
+            ],
+            ..FaultPlan::default()
+        },
+        config(500, 0),
+    );
     // Readings 1 and 2 are range changes, reading 3 succeeds.
     assert_close(meter.measure().unwrap(), value(0));
     assert_eq!(meter.stats().range_repeats, 2);
@@ -380,7 +416,7 @@ fn missing_port_is_an_io_error() {
 }
 
 #[test]
-fn fault_plan_is_serde() {
+fn fault_plan_round_trips_through_json_and_defaults_missing_fields() {
     let plan = FaultPlan {
         stop_after_readings: Some(7),
         garbage_on: vec![2],
@@ -421,16 +457,7 @@ fn port_can_be_reopened_after_the_driver_is_dropped() {
 fn emulator_takes_the_instruments_measurement_time() {
     // N5: 1/8 s per reading plus 15 bytes at 9600 baud 8N1 (15.625 ms) = 140.625 ms,
     // here at half speed.
-    let meter = ListMeter {
-        values: vec![value(0)],
-        calls: Arc::new(AtomicU32::new(0)),
-    };
-    let (_emu, port) = Emulator::spawn_with(
-        Box::new(meter),
-        FaultPlan::default(),
-        EmulatorOptions::with_time_scale(0.5),
-    )
-    .unwrap();
+    let (_emu, port, _calls) = spawn_scaled(FaultPlan::default(), vec![value(0)], 0.5);
     let mut meter = port.open(config(1000, 0)).unwrap();
     let t0 = Instant::now();
     for _ in 0..4 {
@@ -445,17 +472,9 @@ fn emulator_takes_the_instruments_measurement_time() {
 }
 
 #[test]
-fn emulator_without_instrument_time_is_fast() {
-    let meter = ListMeter {
-        values: (0..10).map(value).collect(),
-        calls: Arc::new(AtomicU32::new(0)),
-    };
-    let (_emu, port) = Emulator::spawn_with(
-        Box::new(meter),
-        FaultPlan::default(),
-        EmulatorOptions::with_time_scale(0.0),
-    )
-    .unwrap();
+fn emulator_without_instrument_time_answers_200_readings_within_4_s() {
+    let (_emu, port, _calls) =
+        spawn_scaled(FaultPlan::default(), (0..10).map(value).collect(), 0.0);
     let mut meter = port.open(config(1000, 0)).unwrap();
     let n = 200;
     let t0 = Instant::now();

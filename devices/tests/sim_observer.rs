@@ -1,12 +1,12 @@
 //! The embedded CIE tables integrate reference spectra to their published
 //! chromaticities (CIE 015:2018: E = 1/3, 1/3; D65 = 0.31272, 0.32903).
 
+use lumiwall_devices::Xyz;
 use lumiwall_devices::sim::observer::{N_SAMPLES, Spectrum, cie1931, d65, wavelength_nm};
 use lumiwall_devices::sim::spectra::{Band, planck};
 
 fn xy(t: [f64; 3]) -> [f64; 2] {
-    let s = t[0] + t[1] + t[2];
-    [t[0] / s, t[1] / s]
+    Xyz::from_array(t).xy().unwrap()
 }
 
 #[test]

@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use lumiwall_core::Xy;
 use lumiwall_devices::sim::VirtualWall;
 use lumiwall_devices::{DeviceError, DisplayId, Xyz};
 
@@ -49,7 +50,7 @@ fn xy(x: Xyz) -> [f64; 2] {
 }
 
 fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    (a[0] - b[0]).hypot(a[1] - b[1])
+    Xy::from(a).distance(Xy::from(b))
 }
 
 #[test]
@@ -332,7 +333,7 @@ fn lambertian_screen_is_view_independent_specular_is_not() {
 }
 
 #[test]
-fn bad_inputs_are_typed_errors() {
+fn bad_inputs_are_refused_and_a_missing_file_is_an_io_error() {
     let w = wall("mono-2x1.toml");
     assert!(w.emitted_xyz(DisplayId(9), [0.0; 3], C).is_err());
     assert!(w.emitted_xyz(D0, [1.5, 0.0, 0.0], C).is_err());

@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use lumiwall_core::Xy;
 use lumiwall_devices::sim::VirtualWall;
 use lumiwall_devices::{DisplayId, Eye, Xyz};
 use nalgebra::{Matrix3, Vector3};
@@ -14,7 +15,7 @@ fn wall(name: &str) -> VirtualWall {
 }
 
 fn sub(a: Xyz, b: Xyz) -> Vector3<f64> {
-    Vector3::new(a.x - b.x, a.y - b.y, a.z - b.z)
+    (a - b).to_vector()
 }
 
 /// Channel drive (relative intensity) each display needs for white `xy` at Y = 1.
@@ -25,8 +26,7 @@ fn white_mix(w: &VirtualWall, id: DisplayId, xy: [f64; 2]) -> Vector3<f64> {
         sub(p.green, p.black),
         sub(p.blue, p.black),
     ]);
-    let t = Xyz::from_xy_luminance(xy[0], xy[1], 1.0);
-    m.try_inverse().unwrap() * Vector3::new(t.x, t.y, t.z)
+    m.try_inverse().unwrap() * Xy::from(xy).with_luminance(1.0).to_vector()
 }
 
 /// Channel usage for the common white (largest channel over all displays = 1) and
@@ -136,8 +136,8 @@ fn infitec_pair_reproduces_kresse_tab6() {
     // Black: sub-cd/m², and of another chromaticity than the white.
     for p in [l, r] {
         assert!(p.black.y > 0.1 && p.black.y < 1.0);
-        let (k, wh) = (p.black.xy().unwrap(), p.white.xy().unwrap());
-        assert!((k[0] - wh[0]).hypot(k[1] - wh[1]) > 0.03);
+        let (k, wh) = (p.black.chromaticity(), p.white.chromaticity());
+        assert!(k.unwrap().distance(wh.unwrap()) > 0.03);
     }
 }
 

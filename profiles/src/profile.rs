@@ -1,10 +1,10 @@
 //! The `DisplayProfile` type and its file format.
 
-use std::fmt;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use lumiwall_core::{Channel, Headroom};
 pub use lumiwall_core::{DisplayKey, Eye};
 
 use crate::ProfileError;
@@ -197,17 +197,14 @@ impl DisplayProfile {
         if !self.xyz_to_drive.iter().all(finite3) || !self.primaries_xyz_cd_m2.iter().all(finite3) {
             return Err(bad("matrix has a non-finite value".into()));
         }
-        if !(self.headroom > 0.0 && self.headroom <= 1.0) {
-            return Err(bad(format!("headroom {} is not in (0, 1]", self.headroom)));
-        }
+        Headroom::new(self.headroom).map_err(|e| bad(e.to_string()))?;
         if !matches!(self.bit_depth, 8 | 10 | 12 | 16) {
             return Err(bad(format!(
                 "bit depth {} is not 8, 10, 12 or 16",
                 self.bit_depth
             )));
         }
-        for (c, curve) in self.curves.iter().enumerate() {
-            let ch = ["red", "green", "blue"][c];
+        for (ch, curve) in Channel::ALL.into_iter().zip(&self.curves) {
             if curve.inverse_lut.len() < MIN_LUT_ENTRIES {
                 return Err(bad(format!(
                     "{ch} inverse LUT has {} entries, at least {MIN_LUT_ENTRIES} needed",

@@ -183,6 +183,135 @@ fn eye_text(eye: Eye) -> &'static str {
     }
 }
 
+/// Maps an SQLite error of the named action to the store's error.
+type SqlErr<'a> = &'a dyn Fn(&'static str, rusqlite::Error) -> StoreError;
+
+/// Checks a run and its profiles and returns each profile's compressed document, in
+/// order. Every document is read back as `latest`/`history` will: this catches values
+/// `validate` does not check and JSON cannot hold (a NaN is written as `null`), so the
+/// store never holds an unreadable row.
+fn documents_of_run(
+    run: &CommissionRun,
+    profiles: &[DisplayProfile],
+) -> Result<Vec<Vec<u8>>, StoreError> {
+    if run.wall.trim().is_empty() {
+        return Err(StoreError::InvalidRun("the run has no wall name".into()));
+    }
+    if profiles.is_empty() {
+        return Err(StoreError::InvalidRun(format!(
+            "the run of wall {} holds no profile",
+            run.wall
+        )));
+    }
+    let mut seen = HashSet::new();
+    let mut documents = Vec::with_capacity(profiles.len());
+    for p in profiles {
+        documents.push(document_of(p)?);
+        if p.display.wall != run.wall {
+            return Err(StoreError::InvalidRun(format!(
+                "profile of {} belongs to wall {:?}, the run is of wall {:?}",
+                p.display, p.display.wall, run.wall
+            )));
+        }
+        if !seen.insert((p.display.display, p.display.eye)) {
+            return Err(StoreError::InvalidRun(format!(
+                "the run holds two profiles of display {} ({})",
+                p.display.display, p.display.eye
+            )));
+        }
+    }
+    Ok(documents)
+}
+
+/// One profile validated, written as its compact document, read back and compressed.
+fn document_of(p: &DisplayProfile) -> Result<Vec<u8>, StoreError> {
+    let invalid = |e| StoreError::InvalidProfile(Box::new(e));
+    p.validate().map_err(invalid)?;
+    let origin = PathBuf::from(format!("{} (being recorded)", p.display.file_stem()));
+    let json = document::compact_json(p).map_err(|e| {
+        invalid(ProfileError::Parse {
+            path: origin.clone(),
+            message: e.to_string(),
+        })
+    })?;
+    DisplayProfile::from_json(&json, &origin).map_err(invalid)?;
+    document::compress(&json).map_err(|e| {
+        StoreError::InvalidRun(format!("cannot compress the profile of {}: {e}", p.display))
+    })
+}
+
+/// Refuses a second run of the same wall at the same time.
+fn refuse_same_run(
+    tx: &rusqlite::Transaction<'_>,
+    run: &CommissionRun,
+    e: SqlErr<'_>,
+) -> Result<(), StoreError> {
+    let existing: Option<i64> = tx
+        .query_row(
+            "SELECT id FROM runs WHERE wall = ?1 AND started_unix_ms = ?2",
+            params![run.wall, run.started_utc.as_millisecond()],
+            |r| r.get(0),
+        )
+        .optional()
+        .map_err(|err| e("looking for the same run", err))?;
+    match existing {
+        Some(existing) => Err(StoreError::DuplicateRun {
+            wall: run.wall.clone(),
+            time: run.started_utc.to_string(),
+            existing,
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Inserts the run's row and returns its id.
+fn insert_run(tx: &rusqlite::Transaction<'_>, run: &CommissionRun) -> rusqlite::Result<i64> {
+    tx.execute(
+        "INSERT INTO runs (wall, started_utc, started_unix_ms, source, note, lumiwall_version)
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
+        params![
+            run.wall,
+            run.started_utc.to_string(),
+            run.started_utc.as_millisecond(),
+            run.source,
+            run.note,
+            env!("CARGO_PKG_VERSION"),
+        ],
+    )?;
+    Ok(tx.last_insert_rowid())
+}
+
+/// Inserts one row per profile of run `id`, with its compressed document.
+fn insert_profiles(
+    tx: &rusqlite::Transaction<'_>,
+    id: i64,
+    profiles: &[DisplayProfile],
+    documents: &[Vec<u8>],
+    e: SqlErr<'_>,
+) -> Result<(), StoreError> {
+    let mut stmt = tx
+        .prepare(
+            "INSERT INTO profiles
+             (run_id, display, eye, tile_col, tile_row, format_version, created_utc, document)
+             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
+        )
+        .map_err(|err| e("preparing the profile insert", err))?;
+    for (p, blob) in profiles.iter().zip(documents) {
+        stmt.execute(params![
+            id,
+            p.display.display,
+            eye_text(p.display.eye),
+            p.display.tile_col,
+            p.display.tile_row,
+            p.format_version,
+            p.created_utc,
+            blob,
+        ])
+        .map_err(|err| e("recording a profile", err))?;
+    }
+    Ok(())
+}
+
 /// The SQLite profile store. One value per open connection; several processes may
 /// open the same file (WAL mode lets readers run beside one writer).
 #[derive(Debug)]
@@ -284,106 +413,16 @@ impl ProfileStore {
         run: &CommissionRun,
         profiles: &[DisplayProfile],
     ) -> Result<RunId, StoreError> {
-        if run.wall.trim().is_empty() {
-            return Err(StoreError::InvalidRun("the run has no wall name".into()));
-        }
-        if profiles.is_empty() {
-            return Err(StoreError::InvalidRun(format!(
-                "the run of wall {} holds no profile",
-                run.wall
-            )));
-        }
-        let mut seen = HashSet::new();
-        let mut documents = Vec::with_capacity(profiles.len());
-        for p in profiles {
-            p.validate()
-                .map_err(|e| StoreError::InvalidProfile(Box::new(e)))?;
-            // Read the document back as `latest`/`history` will: this catches values
-            // `validate` does not check and JSON cannot hold (a NaN is written as
-            // `null`), so the store never holds an unreadable row.
-            let origin = PathBuf::from(format!("{} (being recorded)", p.display.file_stem()));
-            let json = document::compact_json(p).map_err(|e| {
-                StoreError::InvalidProfile(Box::new(ProfileError::Parse {
-                    path: origin.clone(),
-                    message: e.to_string(),
-                }))
-            })?;
-            DisplayProfile::from_json(&json, &origin)
-                .map_err(|e| StoreError::InvalidProfile(Box::new(e)))?;
-            let blob = document::compress(&json).map_err(|e| {
-                StoreError::InvalidRun(format!("cannot compress the profile of {}: {e}", p.display))
-            })?;
-            documents.push(blob);
-            if p.display.wall != run.wall {
-                return Err(StoreError::InvalidRun(format!(
-                    "profile of {} belongs to wall {:?}, the run is of wall {:?}",
-                    p.display, p.display.wall, run.wall
-                )));
-            }
-            if !seen.insert((p.display.display, p.display.eye)) {
-                return Err(StoreError::InvalidRun(format!(
-                    "the run holds two profiles of display {} ({})",
-                    p.display.display, p.display.eye
-                )));
-            }
-        }
+        let documents = documents_of_run(run, profiles)?;
         let (path, busy) = (self.path.clone(), self.busy_timeout);
         let e = |action, err| sql_err_after(&path, busy, action, err);
         let tx = self
             .conn
             .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)
             .map_err(|err| e("starting the transaction", err))?;
-        let existing: Option<i64> = tx
-            .query_row(
-                "SELECT id FROM runs WHERE wall = ?1 AND started_unix_ms = ?2",
-                params![run.wall, run.started_utc.as_millisecond()],
-                |r| r.get(0),
-            )
-            .optional()
-            .map_err(|err| e("looking for the same run", err))?;
-        if let Some(existing) = existing {
-            return Err(StoreError::DuplicateRun {
-                wall: run.wall.clone(),
-                time: run.started_utc.to_string(),
-                existing,
-            });
-        }
-        tx.execute(
-            "INSERT INTO runs (wall, started_utc, started_unix_ms, source, note, lumiwall_version)
-             VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
-            params![
-                run.wall,
-                run.started_utc.to_string(),
-                run.started_utc.as_millisecond(),
-                run.source,
-                run.note,
-                env!("CARGO_PKG_VERSION"),
-            ],
-        )
-        .map_err(|err| e("recording the run", err))?;
-        let id = tx.last_insert_rowid();
-        {
-            let mut stmt = tx
-                .prepare(
-                    "INSERT INTO profiles
-                     (run_id, display, eye, tile_col, tile_row, format_version, created_utc, document)
-                     VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
-                )
-                .map_err(|err| e("preparing the profile insert", err))?;
-            for (p, blob) in profiles.iter().zip(&documents) {
-                stmt.execute(params![
-                    id,
-                    p.display.display,
-                    eye_text(p.display.eye),
-                    p.display.tile_col,
-                    p.display.tile_row,
-                    p.format_version,
-                    p.created_utc,
-                    blob,
-                ])
-                .map_err(|err| e("recording a profile", err))?;
-            }
-        }
+        refuse_same_run(&tx, run, &e)?;
+        let id = insert_run(&tx, run).map_err(|err| e("recording the run", err))?;
+        insert_profiles(&tx, id, profiles, &documents, &e)?;
         tx.commit().map_err(|err| e("committing the run", err))?;
         Ok(RunId(id))
     }
@@ -429,6 +468,20 @@ impl ProfileStore {
         Ok((t, p))
     }
 
+    /// Runs `sql` with `params` and maps every row; errors name `action`.
+    fn query_all<T>(
+        &self,
+        action: &'static str,
+        sql: &str,
+        params: impl rusqlite::Params,
+        map: impl FnMut(&rusqlite::Row<'_>) -> rusqlite::Result<T>,
+    ) -> Result<Vec<T>, StoreError> {
+        let mut stmt = self.conn.prepare(sql).map_err(|e| self.err(action, e))?;
+        stmt.query_map(params, map)
+            .and_then(|rows| rows.collect::<Result<Vec<_>, _>>())
+            .map_err(|e| self.err(action, e))
+    }
+
     fn query_rows(
         &self,
         wall: &str,
@@ -436,11 +489,7 @@ impl ProfileStore {
         sql: &str,
         params: &[&dyn rusqlite::ToSql],
     ) -> Result<Vec<(Timestamp, DisplayProfile)>, StoreError> {
-        let mut stmt = self.conn.prepare(sql).map_err(|e| self.err(action, e))?;
-        let rows = stmt
-            .query_map(params, read_row)
-            .and_then(|rows| rows.collect::<Result<Vec<_>, _>>())
-            .map_err(|e| self.err(action, e))?;
+        let rows = self.query_all(action, sql, params, read_row)?;
         rows.into_iter().map(|r| self.parse_row(wall, r)).collect()
     }
 
@@ -493,19 +542,13 @@ impl ProfileStore {
         since: Option<Timestamp>,
     ) -> Result<Vec<(u32, Eye)>, StoreError> {
         let since_ms = since.map_or(i64::MIN, |t| t.as_millisecond());
-        let mut stmt = self
-            .conn
-            .prepare(
-                "SELECT DISTINCT p.display, p.eye FROM profiles p JOIN runs r ON r.id = p.run_id
-                 WHERE r.wall = ?1 AND r.started_unix_ms >= ?2",
-            )
-            .map_err(|e| self.err("listing displays", e))?;
-        let rows = stmt
-            .query_map(params![wall, since_ms], |r| {
-                Ok((r.get::<_, u32>(0)?, r.get::<_, String>(1)?))
-            })
-            .and_then(|rows| rows.collect::<Result<Vec<_>, _>>())
-            .map_err(|e| self.err("listing displays", e))?;
+        let rows = self.query_all(
+            "listing displays",
+            "SELECT DISTINCT p.display, p.eye FROM profiles p JOIN runs r ON r.id = p.run_id
+             WHERE r.wall = ?1 AND r.started_unix_ms >= ?2",
+            params![wall, since_ms],
+            |r| Ok((r.get::<_, u32>(0)?, r.get::<_, String>(1)?)),
+        )?;
         let mut out = rows
             .into_iter()
             .map(|(d, eye)| {
@@ -588,24 +631,20 @@ impl ProfileStore {
 
     /// Every wall in the store, by name.
     pub fn walls(&self) -> Result<Vec<WallInfo>, StoreError> {
-        let mut stmt = self
-            .conn
-            .prepare(
-                "SELECT wall, COUNT(*), MIN(started_unix_ms), MAX(started_unix_ms)
-                 FROM runs GROUP BY wall ORDER BY wall",
-            )
-            .map_err(|e| self.err("listing walls", e))?;
-        let rows = stmt
-            .query_map([], |r| {
+        let rows = self.query_all(
+            "listing walls",
+            "SELECT wall, COUNT(*), MIN(started_unix_ms), MAX(started_unix_ms)
+             FROM runs GROUP BY wall ORDER BY wall",
+            [],
+            |r| {
                 Ok((
                     r.get::<_, String>(0)?,
                     r.get::<_, i64>(1)?,
                     r.get::<_, i64>(2)?,
                     r.get::<_, i64>(3)?,
                 ))
-            })
-            .and_then(|rows| rows.collect::<Result<Vec<_>, _>>())
-            .map_err(|e| self.err("listing walls", e))?;
+            },
+        )?;
         rows.into_iter()
             .map(|(wall, runs, first, last)| {
                 let t = |ms: i64| {
@@ -624,16 +663,13 @@ impl ProfileStore {
 
     /// Every run of `wall`, oldest first.
     pub fn runs(&self, wall: &str) -> Result<Vec<RunInfo>, StoreError> {
-        let mut stmt = self
-            .conn
-            .prepare(
-                "SELECT r.id, r.started_utc, r.source, r.note, r.lumiwall_version,
-                        (SELECT COUNT(*) FROM profiles p WHERE p.run_id = r.id)
-                 FROM runs r WHERE r.wall = ?1 ORDER BY r.started_unix_ms, r.id",
-            )
-            .map_err(|e| self.err("listing runs", e))?;
-        let rows = stmt
-            .query_map([wall], |r| {
+        let rows = self.query_all(
+            "listing runs",
+            "SELECT r.id, r.started_utc, r.source, r.note, r.lumiwall_version,
+                    (SELECT COUNT(*) FROM profiles p WHERE p.run_id = r.id)
+             FROM runs r WHERE r.wall = ?1 ORDER BY r.started_unix_ms, r.id",
+            [wall],
+            |r| {
                 Ok((
                     r.get::<_, i64>(0)?,
                     r.get::<_, String>(1)?,
@@ -642,9 +678,8 @@ impl ProfileStore {
                     r.get::<_, String>(4)?,
                     r.get::<_, i64>(5)?,
                 ))
-            })
-            .and_then(|rows| rows.collect::<Result<Vec<_>, _>>())
-            .map_err(|e| self.err("listing runs", e))?;
+            },
+        )?;
         rows.into_iter()
             .map(|(id, utc, source, note, version, n)| {
                 let started_utc = utc.parse::<Timestamp>().map_err(|e| {

@@ -3,7 +3,7 @@
 
 mod common;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use common::{power_curve, profile};
 use lumiwall_profiles::{
@@ -63,6 +63,11 @@ fn the_json_document_has_the_documented_field_names() {
         "measurement",
     ] {
         assert!(keys.contains(&k), "missing {k} in {keys:?}");
+        let format_md = include_str!("../FORMAT.md");
+        assert!(
+            format_md.contains(&format!("`{k}`")) || format_md.contains(&format!("`{k}.")),
+            "{k} is not documented in FORMAT.md"
+        );
     }
     assert_eq!(keys.len(), 18, "undocumented field in {keys:?}");
     assert_eq!(v["display"]["eye"], "mono");
@@ -191,12 +196,18 @@ fn save_leaves_no_temporary_file() {
     assert_eq!(DisplayProfile::load(&path).unwrap().display.display, 1);
 }
 
+/// `p.json` in `dir`, saved with display 3's profile, and that profile.
+fn saved_old_profile(dir: &Path) -> (PathBuf, DisplayProfile) {
+    let path = dir.join("p.json");
+    let old = profile("hall-a", 3);
+    old.save(&path).unwrap();
+    (path, old)
+}
+
 #[test]
 fn failed_save_keeps_the_old_file_intact() {
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("p.json");
-    let old = profile("hall-a", 3);
-    old.save(&path).unwrap();
+    let (path, old) = saved_old_profile(dir.path());
     let before = std::fs::read(&path).unwrap();
 
     // Make the write of the temporary file fail: the name `save` writes to is taken
@@ -216,12 +227,10 @@ fn failed_save_keeps_the_old_file_intact() {
 
 #[cfg(unix)]
 #[test]
-fn save_into_read_only_folder_fails_and_keeps_the_old_file() {
+fn save_into_read_only_folder_fails_and_keeps_the_old_file_unless_root() {
     use std::os::unix::fs::PermissionsExt;
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("p.json");
-    let old = profile("hall-a", 3);
-    old.save(&path).unwrap();
+    let (path, old) = saved_old_profile(dir.path());
     std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o555)).unwrap();
     let probe = dir.path().join("probe");
     let root_ignores_modes = std::fs::write(&probe, b"x").is_ok();

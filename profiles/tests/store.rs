@@ -96,6 +96,15 @@ fn store_with_three_nights() -> ProfileStore {
     store
 }
 
+/// A store file at `path` holding the first night's run, open.
+fn file_store_with_first_night(path: &Path) -> ProfileStore {
+    let mut store = ProfileStore::open(path).unwrap();
+    store
+        .record(&nightly_run(&NIGHTS[0]), &night_profiles(&NIGHTS[0]))
+        .unwrap();
+    store
+}
+
 fn close(a: f64, b: f64, tol: f64) -> bool {
     (a - b).abs() <= tol
 }
@@ -295,10 +304,7 @@ fn inject_failure(path: &Path) {
 fn failure_in_the_middle_of_a_run_leaves_the_previous_state() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("wall.lumistore");
-    let mut store = ProfileStore::open(&path).unwrap();
-    store
-        .record(&nightly_run(&NIGHTS[0]), &night_profiles(&NIGHTS[0]))
-        .unwrap();
+    let mut store = file_store_with_first_night(&path);
     inject_failure(&path);
 
     // Display 0's two profiles and the run row are written before display 1 fails.
@@ -366,12 +372,7 @@ fn invalid_runs_write_nothing() {
 fn newer_schema_is_refused_and_left_untouched() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("wall.lumistore");
-    {
-        let mut store = ProfileStore::open(&path).unwrap();
-        store
-            .record(&nightly_run(&NIGHTS[0]), &night_profiles(&NIGHTS[0]))
-            .unwrap();
-    }
+    drop(file_store_with_first_night(&path));
     let future = schema::SCHEMA_VERSION + 4;
     {
         let raw = rusqlite::Connection::open(&path).unwrap();
@@ -477,12 +478,7 @@ fn garbage_or_damaged_file_is_a_clear_error_not_a_panic() {
 
     // A real store with its header overwritten.
     let path = dir.path().join("wall.lumistore");
-    {
-        let mut store = ProfileStore::open(&path).unwrap();
-        store
-            .record(&nightly_run(&NIGHTS[0]), &night_profiles(&NIGHTS[0]))
-            .unwrap();
-    }
+    drop(file_store_with_first_night(&path));
     let mut bytes = std::fs::read(&path).unwrap();
     bytes[..16].copy_from_slice(b"garbagegarbage!\0");
     std::fs::write(&path, &bytes).unwrap();
@@ -514,12 +510,7 @@ fn garbage_or_damaged_file_is_a_clear_error_not_a_panic() {
 fn hand_edited_profile_row_is_reported_with_its_run() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("wall.lumistore");
-    let store = {
-        let mut s = ProfileStore::open(&path).unwrap();
-        s.record(&nightly_run(&NIGHTS[0]), &night_profiles(&NIGHTS[0]))
-            .unwrap();
-        s
-    };
+    let store = file_store_with_first_night(&path);
     // Edit display 1 right's stored document: claim format version 9.
     let raw = rusqlite::Connection::open(&path).unwrap();
     let blob: Vec<u8> = raw
@@ -632,7 +623,7 @@ fn the_same_run_recorded_twice_is_refused() {
 }
 
 #[test]
-fn two_processes_creating_the_same_store_at_once_migrate_it_once() {
+fn four_connections_creating_the_same_store_at_once_migrate_it_once() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("wall.lumistore");
     let handles: Vec<_> = (0..4)
@@ -652,7 +643,7 @@ fn two_processes_creating_the_same_store_at_once_migrate_it_once() {
 }
 
 #[test]
-fn full_size_wall_48_projectors_two_eyes_with_flat_fields() {
+fn full_size_wall_of_96_profiles_with_flat_fields_records_and_reports_drift() {
     // HEyeWall size: 48 projectors × 2 eyes, 64 × 32 flat-field textures (Kresse).
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("heyewall.lumistore");

@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use super::wall::VirtualWall;
 use crate::{Colorimeter, DeviceError, MeterInfo, Xyz};
+use lumiwall_core::Xy;
 
 /// Error model of a spot colorimeter.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -175,7 +176,7 @@ impl SimMeter {
                 device: self.name(),
             });
         }
-        let Some([x, y]) = truth.xy() else {
+        let Some(Xy { x, y }) = truth.chromaticity() else {
             return Err(DeviceError::TooDark {
                 device: self.name(),
                 y_cd_m2: y_true,
@@ -212,7 +213,7 @@ impl SimMeter {
             // Perfect meter: hand back the exact tristimulus values (no xyY round trip).
             return Ok(truth);
         }
-        Ok(Xyz::from_xy_luminance(xm, ym, lum))
+        Ok(Xy::new(xm, ym).with_luminance(lum))
     }
 }
 

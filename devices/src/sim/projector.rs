@@ -8,14 +8,17 @@ use rand_chacha::ChaCha8Rng;
 use super::curve::TransferCurve;
 use super::observer::{Spectrum, cie1931};
 use super::spectra::{self, Band};
-use super::wall_file::{AgeingSpec, FalloffSpec, ProjectorSpec, WallFile, WarmupSpec};
+use super::wall_file::{AgeingSpec, FalloffSpec, ProjectorSpec, ScatterSpec, WallFile, WarmupSpec};
 use crate::{DeviceError, DisplayId, DisplayInfo, Eye};
+use lumiwall_core::{BitDepth, Channel};
 
 /// Everything the simulator knows about one display, fixed at construction.
 #[derive(Debug, Clone)]
 pub struct SimDisplay {
     /// Static facts.
     pub info: DisplayInfo,
+    /// `info.bit_depth`, checked.
+    depth: BitDepth,
     /// XYZ (cd/m², Y = luminance) of each channel at full drive, black excluded, at
     /// the centre, new lamp, warmed up, head-on on a gain-1 screen.
     pub channel_xyz: [[f64; 3]; 3],
@@ -70,55 +73,83 @@ fn check_finite_nonneg(what: &str, v: f64) -> Result<(), DeviceError> {
     }
 }
 
-/// Validates the projector model of a wall file.
-pub fn validate_spec(p: &ProjectorSpec) -> Result<(), DeviceError> {
-    if !(1..=16).contains(&p.bit_depth) {
-        return Err(DeviceError::Config(format!(
+/// Smallest and largest lamp colour temperature a wall file may ask for (K).
+const LAMP_CCT_RANGE_K: std::ops::RangeInclusive<f64> = 1000.0..=30000.0;
+/// Smallest transfer-curve γ the manufacturing scatter may leave (keeps curves rising).
+const MIN_SCATTERED_GAMMA: f64 = 0.3;
+/// Range the scattered S-curve centre is kept in, away from the curve's ends.
+const S_CENTRE_RANGE: (f64, f64) = (0.05, 0.95);
+/// The shoulder scatters relatively this many times more than `scatter.curve_shape`.
+const SHOULDER_SCATTER_FACTOR: f64 = 4.0;
+
+/// Floor of the hotspot width and of the ageing and warm-up time constants, so that
+/// a zero in a hand-made model divides by something.
+const MIN_LENGTH: f64 = 1e-6;
+/// Least output an aged lamp keeps per channel (the model never goes fully dark).
+const MIN_AGEING_FACTOR: f64 = 0.02;
+
+/// The bit depth of a projector model, refused outside 1..=16 bits.
+fn bit_depth(p: &ProjectorSpec) -> Result<BitDepth, DeviceError> {
+    BitDepth::new(p.bit_depth).map_err(|_| {
+        DeviceError::Config(format!(
             "projector.bit_depth must be 1..=16, got {}",
             p.bit_depth
-        )));
+        ))
+    })
+}
+
+fn check_positive(what: &str, v: f64) -> Result<(), DeviceError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(DeviceError::Config(format!("{what} must be > 0")))
     }
+}
+
+/// Validates the projector model of a wall file.
+pub fn validate_spec(p: &ProjectorSpec) -> Result<(), DeviceError> {
+    bit_depth(p)?;
     if !(p.lamp.white_cd_m2.is_finite() && p.lamp.white_cd_m2 > 0.0) {
         return Err(DeviceError::Config(format!(
             "projector.lamp.white_cd_m2 must be > 0, got {}",
             p.lamp.white_cd_m2
         )));
     }
-    if !(1000.0..=30000.0).contains(&p.lamp.cct_k) {
+    if !LAMP_CCT_RANGE_K.contains(&p.lamp.cct_k) {
         return Err(DeviceError::Config(format!(
             "projector.lamp.cct_k must be in 1000..=30000 K, got {}",
             p.lamp.cct_k
         )));
     }
-    for (name, c) in ["red", "green", "blue"].iter().zip(p.curves.curves()) {
+    for (channel, c) in Channel::ALL.into_iter().zip(p.curves.curves()) {
         c.validate()
-            .map_err(|e| DeviceError::Config(format!("projector.curves.{name}: {e}")))?;
+            .map_err(|e| DeviceError::Config(format!("projector.curves.{channel}: {e}")))?;
     }
-    check_finite_nonneg("projector.white_segment", p.white_segment)?;
-    check_finite_nonneg("projector.lamp_hours", p.lamp_hours)?;
-    check_finite_nonneg("projector.throw_m", p.throw_m)?;
+    for (what, v) in [
+        ("projector.white_segment", p.white_segment),
+        ("projector.lamp_hours", p.lamp_hours),
+        ("projector.throw_m", p.throw_m),
+    ] {
+        check_finite_nonneg(what, v)?;
+    }
     for v in p.black.leak.iter().chain([&p.black.stray]) {
         check_finite_nonneg("projector.black leak/stray", *v)?;
     }
     for v in p.falloff.vignetting {
         check_finite_nonneg("projector.falloff.vignetting", v)?;
     }
-    check_finite_nonneg("projector.falloff.hotspot_gain", p.falloff.hotspot_gain)?;
-    check_finite_nonneg("projector.ageing.fast_loss", p.ageing.fast_loss)?;
-    check_finite_nonneg(
-        "projector.ageing.slow_loss_per_1000h",
-        p.ageing.slow_loss_per_1000h,
-    )?;
-    if !(p.ageing.fast_hours.is_finite() && p.ageing.fast_hours > 0.0) {
-        return Err(DeviceError::Config(
-            "projector.ageing.fast_hours must be > 0".into(),
-        ));
+    for (what, v) in [
+        ("projector.falloff.hotspot_gain", p.falloff.hotspot_gain),
+        ("projector.ageing.fast_loss", p.ageing.fast_loss),
+        (
+            "projector.ageing.slow_loss_per_1000h",
+            p.ageing.slow_loss_per_1000h,
+        ),
+    ] {
+        check_finite_nonneg(what, v)?;
     }
-    if !(p.warmup.minutes.is_finite() && p.warmup.minutes > 0.0) {
-        return Err(DeviceError::Config(
-            "projector.warmup.minutes must be > 0".into(),
-        ));
-    }
+    check_positive("projector.ageing.fast_hours", p.ageing.fast_hours)?;
+    check_positive("projector.warmup.minutes", p.warmup.minutes)?;
     for v in p.warmup.deficit.iter().chain(&p.ageing.channel_weight) {
         check_finite_nonneg("projector.warmup.deficit / ageing.channel_weight", *v)?;
     }
@@ -134,6 +165,181 @@ pub fn validate_spec(p: &ProjectorSpec) -> Result<(), DeviceError> {
     Ok(())
 }
 
+/// One projector's manufacturing scatter and overrides applied to the wall's model.
+struct Individual {
+    /// Relative lamp power.
+    lamp_power: f64,
+    /// Shift of each panel filter band (nm).
+    panel_shift: [f64; 3],
+    /// Shift of the comb filter bands, by band index mod 3 (nm).
+    comb_shift: [f64; 3],
+    /// Per-channel gain (scatter × eye × overrides).
+    gain: [f64; 3],
+    /// Transfer curves, R, G, B.
+    curves: [TransferCurve; 3],
+    /// Falloff after scatter.
+    falloff: FalloffSpec,
+    /// Lamp hours at simulation start.
+    lamp_hours: f64,
+    /// DLP white segment.
+    white_segment: f64,
+}
+
+impl Individual {
+    /// Draws the manufacturing scatter, always in the same order (the order is part of
+    /// what a seed means).
+    fn draw(p: &ProjectorSpec, sc: &ScatterSpec, rng: &mut ChaCha8Rng) -> Self {
+        let lamp_power = 1.0 + uniform(rng, sc.lamp_power_rel);
+        let panel_shift: [f64; 3] = std::array::from_fn(|_| uniform(rng, sc.panel_shift_nm));
+        let comb_shift: [f64; 3] = std::array::from_fn(|_| uniform(rng, sc.comb_shift_nm));
+        let gain: [f64; 3] = std::array::from_fn(|_| 1.0 + uniform(rng, sc.channel_gain_rel));
+        let mut curves = p.curves.curves();
+        for c in &mut curves {
+            c.gamma = (c.gamma + uniform(rng, sc.gamma)).max(MIN_SCATTERED_GAMMA);
+            c.s_weight = (c.s_weight + uniform(rng, sc.curve_shape)).clamp(0.0, 1.0);
+            c.s_centre = (c.s_centre + uniform(rng, sc.curve_shape))
+                .clamp(S_CENTRE_RANGE.0, S_CENTRE_RANGE.1);
+        }
+        let mut falloff = p.falloff;
+        for a in &mut falloff.vignetting {
+            *a = (*a * (1.0 + uniform(rng, sc.vignetting_rel))).max(0.0);
+        }
+        falloff.hotspot_offset[0] += uniform(rng, sc.hotspot_offset);
+        falloff.hotspot_offset[1] += uniform(rng, sc.hotspot_offset);
+        let lamp_hours = match sc.lamp_hours {
+            Some([lo, hi]) if hi > lo => rng.random_range(lo..=hi),
+            Some([lo, _]) => lo,
+            None => p.lamp_hours,
+        };
+        for c in &mut curves {
+            let k = 1.0 + uniform(rng, SHOULDER_SCATTER_FACTOR * sc.curve_shape);
+            c.shoulder = (c.shoulder * k).max(0.0);
+        }
+        Self {
+            lamp_power,
+            panel_shift,
+            comb_shift,
+            gain,
+            curves,
+            falloff,
+            lamp_hours,
+            white_segment: p.white_segment,
+        }
+    }
+
+    /// Applies the eye's channel gains and the wall file's overrides of display
+    /// `index`, and checks what they leave.
+    fn adjust(&mut self, wall: &WallFile, index: u32, eye: Eye) -> Result<(), DeviceError> {
+        let cg = &wall.projector.channel_gain;
+        let eye_gain = match eye {
+            Eye::Mono => cg.mono,
+            Eye::Left => cg.left,
+            Eye::Right => cg.right,
+        };
+        self.scale_gain(eye_gain);
+        for o in wall.overrides.iter().filter(|o| o.display == index) {
+            if let Some(h) = o.lamp_hours {
+                self.lamp_hours = h;
+            }
+            if let Some(k) = o.lamp_power {
+                self.lamp_power *= k;
+            }
+            if let Some(g) = o.channel_gain {
+                self.scale_gain(g);
+            }
+            if let Some(w) = o.white_segment {
+                self.white_segment = w;
+            }
+        }
+        check_finite_nonneg("override lamp_hours", self.lamp_hours)?;
+        check_finite_nonneg("lamp power after overrides", self.lamp_power)?;
+        for g in self.gain {
+            check_finite_nonneg("channel gain after overrides", g)?;
+        }
+        Ok(())
+    }
+
+    fn scale_gain(&mut self, k: [f64; 3]) {
+        for (g, k) in self.gain.iter_mut().zip(k) {
+            *g *= k;
+        }
+    }
+}
+
+/// XYZ (cd/m²) of a display's channels, black and white segment at full drive.
+struct Tristimuli {
+    /// Each channel at full drive, black excluded.
+    channel_xyz: [[f64; 3]; 3],
+    /// All channels at drive 0.
+    black_xyz: [f64; 3],
+    /// The full white segment.
+    white_segment_xyz: [f64; 3],
+}
+
+/// Transmission of the stereo comb filter in front of `eye` (none for mono), its
+/// bands shifted by this projector's scatter.
+fn comb_filter(wall: &WallFile, eye: Eye, comb_shift: [f64; 3]) -> Spectrum {
+    let spec = match eye {
+        Eye::Mono => return Spectrum::constant(1.0),
+        Eye::Left => &wall.infitec.left,
+        Eye::Right => &wall.infitec.right,
+    };
+    let bands: Vec<Band> = spec
+        .bands
+        .iter()
+        .enumerate()
+        .map(|(i, b)| b.shifted(comb_shift[i % 3]))
+        .collect();
+    spectra::comb(&bands, spec.leak)
+}
+
+/// Integrates the lamp through the comb filter and each panel filter.
+fn tristimuli(wall: &WallFile, eye: Eye, ind: &Individual) -> Result<Tristimuli, DeviceError> {
+    let p = &wall.projector;
+    let obs = cie1931()?;
+    let lamp = spectra::lamp(
+        p.lamp.kind,
+        p.lamp.cct_k,
+        p.lamp.line_fwhm_nm,
+        p.lamp.red_deficit,
+    );
+    let comb = comb_filter(wall, eye, ind.comb_shift);
+    let lamp_y = obs.tristimulus(&lamp)[1];
+    if lamp_y.is_nan() || lamp_y <= 0.0 {
+        return Err(DeviceError::Config(
+            "lamp spectrum has no luminance in 360–830 nm".into(),
+        ));
+    }
+    let scale = p.lamp.white_cd_m2 * ind.lamp_power / lamp_y;
+    let through_comb = lamp.mul(&comb);
+    let panels: Vec<Spectrum> = p
+        .panel
+        .bands()
+        .iter()
+        .zip(ind.panel_shift)
+        .map(|(b, s)| b.shifted(s).spectrum())
+        .collect();
+    let channel_xyz: [[f64; 3]; 3] = std::array::from_fn(|c| {
+        obs.tristimulus(&through_comb.mul(&panels[c]))
+            .map(|v| v * scale * ind.gain[c])
+    });
+    let leak = panels
+        .iter()
+        .zip(p.black.leak)
+        .fold(Spectrum::constant(p.black.stray), |acc, (s, k)| {
+            acc.add(&s.scaled(k))
+        });
+    let black_xyz = obs.tristimulus(&through_comb.mul(&leak)).map(|v| v * scale);
+    let white_segment_xyz = obs
+        .tristimulus(&through_comb)
+        .map(|v| v * scale * ind.white_segment);
+    Ok(Tristimuli {
+        channel_xyz,
+        black_xyz,
+        white_segment_xyz,
+    })
+}
+
 impl SimDisplay {
     /// Builds display `index` of `wall` on tile (`col`, `row`) for `eye`, drawing its
     /// manufacturing scatter from `rng`.
@@ -146,120 +352,10 @@ impl SimDisplay {
         rng: &mut ChaCha8Rng,
     ) -> Result<Self, DeviceError> {
         let p = &wall.projector;
-        let sc = &wall.scatter;
-        let obs = cie1931()?;
-
-        // Manufacturing scatter, always drawn in the same order.
-        let mut lamp_power = 1.0 + uniform(rng, sc.lamp_power_rel);
-        let panel_shift: [f64; 3] = std::array::from_fn(|_| uniform(rng, sc.panel_shift_nm));
-        let comb_shift: [f64; 3] = std::array::from_fn(|_| uniform(rng, sc.comb_shift_nm));
-        let mut gain: [f64; 3] = std::array::from_fn(|_| 1.0 + uniform(rng, sc.channel_gain_rel));
-        let mut curves = p.curves.curves();
-        for c in &mut curves {
-            c.gamma = (c.gamma + uniform(rng, sc.gamma)).max(0.3);
-            c.s_weight = (c.s_weight + uniform(rng, sc.curve_shape)).clamp(0.0, 1.0);
-            c.s_centre = (c.s_centre + uniform(rng, sc.curve_shape)).clamp(0.05, 0.95);
-        }
-        let mut falloff = p.falloff;
-        for a in &mut falloff.vignetting {
-            *a = (*a * (1.0 + uniform(rng, sc.vignetting_rel))).max(0.0);
-        }
-        falloff.hotspot_offset[0] += uniform(rng, sc.hotspot_offset);
-        falloff.hotspot_offset[1] += uniform(rng, sc.hotspot_offset);
-        let mut lamp_hours = match sc.lamp_hours {
-            Some([lo, hi]) if hi > lo => rng.random_range(lo..=hi),
-            Some([lo, _]) => lo,
-            None => p.lamp_hours,
-        };
-        for c in &mut curves {
-            c.shoulder = (c.shoulder * (1.0 + uniform(rng, 4.0 * sc.curve_shape))).max(0.0);
-        }
-        let mut white_segment = p.white_segment;
-
-        let eye_gain = match eye {
-            Eye::Mono => p.channel_gain.mono,
-            Eye::Left => p.channel_gain.left,
-            Eye::Right => p.channel_gain.right,
-        };
-        for c in 0..3 {
-            gain[c] *= eye_gain[c];
-        }
-        for o in wall.overrides.iter().filter(|o| o.display == index) {
-            if let Some(h) = o.lamp_hours {
-                lamp_hours = h;
-            }
-            if let Some(k) = o.lamp_power {
-                lamp_power *= k;
-            }
-            if let Some(g) = o.channel_gain {
-                for c in 0..3 {
-                    gain[c] *= g[c];
-                }
-            }
-            if let Some(w) = o.white_segment {
-                white_segment = w;
-            }
-        }
-        check_finite_nonneg("override lamp_hours", lamp_hours)?;
-        check_finite_nonneg("lamp power after overrides", lamp_power)?;
-        for g in gain {
-            check_finite_nonneg("channel gain after overrides", g)?;
-        }
-
-        // Spectra.
-        let lamp = spectra::lamp(
-            p.lamp.kind,
-            p.lamp.cct_k,
-            p.lamp.line_fwhm_nm,
-            p.lamp.red_deficit,
-        );
-        let comb = match eye {
-            Eye::Mono => Spectrum::constant(1.0),
-            Eye::Left | Eye::Right => {
-                let spec = if eye == Eye::Left {
-                    &wall.infitec.left
-                } else {
-                    &wall.infitec.right
-                };
-                let bands: Vec<Band> = spec
-                    .bands
-                    .iter()
-                    .enumerate()
-                    .map(|(i, b)| b.shifted(comb_shift[i % 3]))
-                    .collect();
-                spectra::comb(&bands, spec.leak)
-            }
-        };
-        let lamp_y = obs.tristimulus(&lamp)[1];
-        if lamp_y.is_nan() || lamp_y <= 0.0 {
-            return Err(DeviceError::Config(
-                "lamp spectrum has no luminance in 360–830 nm".into(),
-            ));
-        }
-        let scale = p.lamp.white_cd_m2 * lamp_power / lamp_y;
-        let through_comb = lamp.mul(&comb);
-        let panels: Vec<Spectrum> = p
-            .panel
-            .bands()
-            .iter()
-            .zip(panel_shift)
-            .map(|(b, s)| b.shifted(s).spectrum())
-            .collect();
-        let channel_xyz: [[f64; 3]; 3] = std::array::from_fn(|c| {
-            obs.tristimulus(&through_comb.mul(&panels[c]))
-                .map(|v| v * scale * gain[c])
-        });
-        let leak = panels
-            .iter()
-            .zip(p.black.leak)
-            .fold(Spectrum::constant(p.black.stray), |acc, (s, k)| {
-                acc.add(&s.scaled(k))
-            });
-        let black_xyz = obs.tristimulus(&through_comb.mul(&leak)).map(|v| v * scale);
-        let white_segment_xyz = obs
-            .tristimulus(&through_comb)
-            .map(|v| v * scale * white_segment);
-
+        let depth = bit_depth(p)?;
+        let mut ind = Individual::draw(p, &wall.scatter, rng);
+        ind.adjust(wall, index, eye)?;
+        let tri = tristimuli(wall, eye, &ind)?;
         let (cols, rows) = (wall.tiles.cols, wall.tiles.rows);
         let (w, h) = (wall.tiles.width_m, wall.tiles.height_m);
         let info = DisplayInfo {
@@ -273,15 +369,16 @@ impl SimDisplay {
         debug_assert!(col < cols && row < rows);
         Ok(Self {
             info,
-            channel_xyz,
-            black_xyz,
-            white_segment_xyz,
-            curves,
-            falloff,
+            depth,
+            channel_xyz: tri.channel_xyz,
+            black_xyz: tri.black_xyz,
+            white_segment_xyz: tri.white_segment_xyz,
+            curves: ind.curves,
+            falloff: ind.falloff,
             ageing: p.ageing,
             warmup: p.warmup,
-            lamp_hours_at_start: lamp_hours,
-            lamp_power,
+            lamp_hours_at_start: ind.lamp_hours,
+            lamp_power: ind.lamp_power,
             tile_origin_m: [col as f64 * w, (rows - 1 - row) as f64 * h],
             tile_size_m: [w, h],
             throw_m: p.throw_m,
@@ -290,8 +387,7 @@ impl SimDisplay {
 
     /// Drive after quantisation to the display's bit depth (code / max code).
     pub fn quantise(&self, drive: f64) -> f64 {
-        let max_code = ((1u64 << self.info.bit_depth) - 1) as f64;
-        (drive.clamp(0.0, 1.0) * max_code).round() / max_code
+        self.depth.quantise(drive)
     }
 
     /// Relative intensity (black removed, 1 at full drive) of channel `c` for a drive,
@@ -307,7 +403,7 @@ impl SimDisplay {
         let hot = |u: f64, v: f64| {
             let du = u - 0.5 - f.hotspot_offset[0];
             let dv = v - 0.5 - f.hotspot_offset[1];
-            let s = f.hotspot_sigma.max(1e-6);
+            let s = f.hotspot_sigma.max(MIN_LENGTH);
             1.0 + f.hotspot_gain * (-(du * du + dv * dv) / (2.0 * s * s)).exp()
         };
         let h = hot(uv[0], uv[1]) / hot(0.5, 0.5);
@@ -318,15 +414,15 @@ impl SimDisplay {
     pub fn ageing_factor(&self, hours: f64) -> [f64; 3] {
         let a = &self.ageing;
         let h = hours.max(0.0);
-        let loss = a.fast_loss * (1.0 - (-h / a.fast_hours.max(1e-6)).exp())
+        let loss = a.fast_loss * (1.0 - (-h / a.fast_hours.max(MIN_LENGTH)).exp())
             + a.slow_loss_per_1000h * h / 1000.0;
-        std::array::from_fn(|c| (1.0 - a.channel_weight[c] * loss).max(0.02))
+        std::array::from_fn(|c| (1.0 - a.channel_weight[c] * loss).max(MIN_AGEING_FACTOR))
     }
 
     /// Warm-up factor per channel `minutes` after switch-on.
     pub fn warmup_factor(&self, minutes: f64) -> [f64; 3] {
         let w = &self.warmup;
-        let e = (-minutes.max(0.0) / w.minutes.max(1e-6)).exp();
+        let e = (-minutes.max(0.0) / w.minutes.max(MIN_LENGTH)).exp();
         std::array::from_fn(|c| 1.0 - w.deficit[c] * e)
     }
 

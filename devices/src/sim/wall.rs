@@ -13,6 +13,7 @@ use super::screen;
 use super::spectra::Band;
 use super::wall_file::{Stereo, WallFile};
 use crate::{DeviceError, DisplayId, DisplayInfo, Eye, MeterPositioner, PatternOutput, Xyz};
+use lumiwall_core::Channel;
 
 #[derive(Debug)]
 struct WallState {
@@ -100,8 +101,8 @@ fn validate_optics(file: &WallFile) -> Result<(), DeviceError> {
         }
     }
     let panel = file.projector.panel;
-    for (name, b) in ["red", "green", "blue"].iter().zip(panel.bands()) {
-        check_band(&format!("projector.panel.{name}"), &b)?;
+    for (channel, b) in Channel::ALL.into_iter().zip(panel.bands()) {
+        check_band(&format!("projector.panel.{channel}"), &b)?;
     }
     let s = &file.scatter;
     for (what, v) in [
@@ -255,6 +256,21 @@ impl VirtualWall {
         })
     }
 
+    /// Checks that `display` exists, then that `valid` (the checked argument) holds,
+    /// then applies `set` to the state: what showing and aiming share.
+    fn set_for(
+        &self,
+        display: DisplayId,
+        valid: Result<(), DeviceError>,
+        set: impl FnOnce(&mut WallState),
+    ) -> Result<(), DeviceError> {
+        let mut s = self.lock();
+        s.display(display)?;
+        valid?;
+        set(&mut s);
+        Ok(())
+    }
+
     fn lock(&self) -> MutexGuard<'_, WallState> {
         // A panic in another thread cannot leave the state half-updated (every update
         // is a single assignment), so a poisoned lock is safe to reuse.
@@ -337,7 +353,7 @@ impl VirtualWall {
     ) -> Result<f64, DeviceError> {
         let s = self.lock();
         let d = s.display(id)?;
-        if channel > 2 {
+        if Channel::from_index(channel).is_err() {
             return Err(DeviceError::Config(format!(
                 "channel {channel} does not exist (0 = red, 1 = green, 2 = blue)"
             )));
@@ -418,11 +434,9 @@ impl PatternOutput for SimPatternOutput {
     }
 
     fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError> {
-        let mut s = self.wall.lock();
-        s.display(display)?;
-        check_drive(drive)?;
-        s.shown = Some((display, drive));
-        Ok(())
+        self.wall.set_for(display, check_drive(drive), |s| {
+            s.shown = Some((display, drive));
+        })
     }
 }
 
@@ -434,10 +448,7 @@ pub struct SimPositioner {
 
 impl MeterPositioner for SimPositioner {
     fn aim(&mut self, display: DisplayId, uv: [f64; 2]) -> Result<(), DeviceError> {
-        let mut s = self.wall.lock();
-        s.display(display)?;
-        check_uv(uv)?;
-        s.aimed = Some((display, uv));
-        Ok(())
+        self.wall
+            .set_for(display, check_uv(uv), |s| s.aimed = Some((display, uv)))
     }
 }

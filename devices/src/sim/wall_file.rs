@@ -550,78 +550,63 @@ pub struct OverrideSpec {
     pub white_segment: Option<f64>,
 }
 
-fn one() -> f64 {
-    1.0
+/// Defines the serde default functions of the wall file, one per defaulted value, each
+/// returning its documented constant (serde's `default = "path"` needs a function).
+macro_rules! serde_defaults {
+    ($($(#[doc = $doc:literal])* $name:ident: $ty:ty = $value:expr;)*) => {
+        $( $(#[doc = $doc])* fn $name() -> $ty { $value } )*
+    };
 }
-fn ones3() -> [f64; 3] {
-    [1.0; 3]
-}
-fn d_tile_w() -> f64 {
-    5.0 / 6.0
-}
-fn d_tile_h() -> f64 {
-    2.5 / 4.0
-}
-fn d_spr() -> f64 {
-    1.0
-}
-fn d_on() -> f64 {
-    30.0
-}
-fn d_spec_w() -> f64 {
-    15.0
-}
-fn d_meter_dist() -> f64 {
-    2.0
-}
-fn d_bits() -> u32 {
-    8
-}
-fn d_throw() -> f64 {
-    1.6
-}
-fn d_cct() -> f64 {
-    7500.0
-}
-fn d_line() -> f64 {
-    9.0
-}
-fn d_red_deficit() -> f64 {
-    0.35
-}
-fn d_leak() -> [f64; 3] {
-    [0.0007, 0.0006, 0.0024]
-}
-fn d_stray() -> f64 {
-    0.0002
-}
-fn d_vignetting() -> [f64; 3] {
-    [0.18, 0.20, 0.23]
-}
-fn d_hot() -> f64 {
-    0.04
-}
-fn d_hot_sigma() -> f64 {
-    0.25
-}
-fn d_fast() -> f64 {
-    0.15
-}
-fn d_fast_h() -> f64 {
-    50.0
-}
-fn d_slow() -> f64 {
-    0.025
-}
-fn d_age_w() -> [f64; 3] {
-    [0.9, 1.0, 1.25]
-}
-fn d_warm() -> [f64; 3] {
-    [0.12, 0.08, 0.06]
-}
-fn d_warm_min() -> f64 {
-    4.0
-}
-fn d_comb_leak() -> f64 {
-    0.002
+
+serde_defaults! {
+    /// A factor of 1 (no change).
+    one: f64 = 1.0;
+    /// Per-channel factors of 1 (no change).
+    ones3: [f64; 3] = [1.0; 3];
+    /// Width of one tile on the screen (m).
+    d_tile_w: f64 = 5.0 / 6.0;
+    /// Height of one tile on the screen (m).
+    d_tile_h: f64 = 2.5 / 4.0;
+    /// Simulated seconds per meter reading.
+    d_spr: f64 = 1.0;
+    /// Minutes since switch-on when the simulation starts.
+    d_on: f64 = 30.0;
+    /// σ of the screen's hotspot lobe (degrees).
+    d_spec_w: f64 = 15.0;
+    /// Head-on meter distance from the aimed spot (m).
+    d_meter_dist: f64 = 2.0;
+    /// Bits per channel of the projector input.
+    d_bits: u32 = 8;
+    /// Throw distance behind the screen (m).
+    d_throw: f64 = 1.6;
+    /// Lamp colour temperature (K).
+    d_cct: f64 = 7500.0;
+    /// Width of the pressure-broadened Hg lines of a UHP lamp (nm).
+    d_line: f64 = 9.0;
+    /// Fraction of the lamp continuum missing in the red (UHP).
+    d_red_deficit: f64 = 0.35;
+    /// Leak through the red, green and blue panels at black.
+    d_leak: [f64; 3] = [0.0007, 0.0006, 0.0024];
+    /// Stray light that bypasses the panels.
+    d_stray: f64 = 0.0002;
+    /// Vignetting coefficients, R, G, B.
+    d_vignetting: [f64; 3] = [0.18, 0.20, 0.23];
+    /// Hotspot amplitude.
+    d_hot: f64 = 0.04;
+    /// Hotspot σ (uv units).
+    d_hot_sigma: f64 = 0.25;
+    /// Fraction of lamp output lost early on.
+    d_fast: f64 = 0.15;
+    /// Time constant of the early loss (hours).
+    d_fast_h: f64 = 50.0;
+    /// Slow lamp loss per 1000 hours (fraction).
+    d_slow: f64 = 0.025;
+    /// Per-channel ageing weights (UHP lamps lose blue fastest).
+    d_age_w: [f64; 3] = [0.9, 1.0, 1.25];
+    /// Output missing right after switch-on, per channel.
+    d_warm: [f64; 3] = [0.12, 0.08, 0.06];
+    /// Warm-up time constant (minutes).
+    d_warm_min: f64 = 4.0;
+    /// Out-of-band transmission of the comb filters.
+    d_comb_leak: f64 = 0.002;
 }

@@ -68,7 +68,10 @@ pub fn srgb_to_xyz(encoded: [f32; 3], rgb_to_xyz: &[[f64; 3]; 3]) -> [f32; 3] {
 }
 
 #[cfg(test)]
-#[allow(clippy::needless_range_loop)]
+#[allow(
+    clippy::needless_range_loop,
+    reason = "the tests index matrices and arrays side by side"
+)]
 mod tests {
     use super::*;
 

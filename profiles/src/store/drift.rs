@@ -7,6 +7,8 @@
 
 use jiff::Timestamp;
 
+use lumiwall_core::Xyz;
+
 use crate::{DisplayKey, DisplayProfile};
 
 /// How one display changed between a baseline profile and a current one.
@@ -55,8 +57,7 @@ pub fn native_white_xyz_cd_m2(p: &DisplayProfile) -> [f64; 3] {
 
 /// CIE 1931 xy of an XYZ triple; `None` where X + Y + Z is not positive.
 pub fn xy_of(xyz: [f64; 3]) -> Option<[f64; 2]> {
-    let s = xyz[0] + xyz[1] + xyz[2];
-    (s > 0.0 && s.is_finite()).then(|| [xyz[0] / s, xyz[1] / s])
+    Xyz::from_array(xyz).xy()
 }
 
 impl Drift {
@@ -72,8 +73,11 @@ impl Drift {
         let wb = native_white_xyz_cd_m2(baseline);
         let wc = native_white_xyz_cd_m2(current);
         let white_luminance_change_pct = (wb[1] > 0.0).then(|| 100.0 * (wc[1] - wb[1]) / wb[1]);
-        let white_delta_xy = match (xy_of(wb), xy_of(wc)) {
-            (Some(a), Some(b)) => Some((b[0] - a[0]).hypot(b[1] - a[1])),
+        let white_delta_xy = match (
+            Xyz::from_array(wb).chromaticity(),
+            Xyz::from_array(wc).chromaticity(),
+        ) {
+            (Some(a), Some(b)) => Some(b.distance(a)),
             _ => None,
         };
         let bu = baseline.channel_usage;

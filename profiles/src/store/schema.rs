@@ -116,9 +116,8 @@ fn inspect(conn: &Connection, path: &Path) -> Result<Found, StoreError> {
     Ok(Found::Store(version))
 }
 
-/// Checks the file, refuses foreign or newer stores, and migrates an older or new
-/// one to [`SCHEMA_VERSION`] in one transaction.
-pub fn prepare(conn: &mut Connection, path: &Path) -> Result<(), StoreError> {
+/// The schema version of the file (0 when empty), refused when newer than this build's.
+fn readable_version(conn: &Connection, path: &Path) -> Result<u32, StoreError> {
     let current = match inspect(conn, path)? {
         Found::Empty => 0,
         Found::Store(v) => v,
@@ -130,6 +129,13 @@ pub fn prepare(conn: &mut Connection, path: &Path) -> Result<(), StoreError> {
             supported: SCHEMA_VERSION,
         });
     }
+    Ok(current)
+}
+
+/// Checks the file, refuses foreign or newer stores, and migrates an older or new
+/// one to [`SCHEMA_VERSION`] in one transaction.
+pub fn prepare(conn: &mut Connection, path: &Path) -> Result<(), StoreError> {
+    let current = readable_version(conn, path)?;
     // Only now that the file is known to be ours (or empty) may it be changed.
     let _mode: String = conn
         .query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0))
@@ -143,17 +149,7 @@ pub fn prepare(conn: &mut Connection, path: &Path) -> Result<(), StoreError> {
         .transaction_with_behavior(TransactionBehavior::Immediate)
         .map_err(|e| sql_err(path, "starting the schema migration", e))?;
     // Another process may have migrated between the check and the lock: look again.
-    let current = match inspect(&tx, path)? {
-        Found::Empty => 0,
-        Found::Store(v) => v,
-    };
-    if current > SCHEMA_VERSION {
-        return Err(StoreError::NewerSchema {
-            path: path.to_path_buf(),
-            found: current,
-            supported: SCHEMA_VERSION,
-        });
-    }
+    let current = readable_version(&tx, path)?;
     tx.execute_batch(VERSION_TABLE_SQL)
         .map_err(|e| sql_err(path, "creating the schema version table", e))?;
     let now = jiff::Timestamp::now().to_string();

@@ -1,6 +1,6 @@
 //! Hand-built profiles shared by the profile crate's tests.
 
-#![allow(dead_code)]
+#![allow(dead_code, reason = "each test binary uses only some of these helpers")]
 
 use lumiwall_profiles::{
     BlackMode, DisplayKey, DisplayProfile, Eye, FORMAT_VERSION, FlatField, MeasurementInfo,
@@ -8,7 +8,7 @@ use lumiwall_profiles::{
 };
 
 /// A tone curve of a pure power law `I = d^gamma`, with a 1024-entry inverse LUT.
-pub fn power_curve(gamma: f64) -> ToneCurve {
+pub(crate) fn power_curve(gamma: f64) -> ToneCurve {
     let forward = (0..=16)
         .map(|i| {
             let d = f64::from(i) / 16.0;
@@ -26,7 +26,7 @@ pub fn power_curve(gamma: f64) -> ToneCurve {
 
 /// A valid profile of display `display` (`eye`) of `wall` with the given measured
 /// primaries `[R, G, B]` (XYZ cd/m², black excluded), black XYZ and channel usage.
-pub fn profile_with(
+pub(crate) fn profile_with(
     wall: &str,
     display: u32,
     eye: Eye,
@@ -85,10 +85,11 @@ pub fn profile_with(
 
 /// Measured primaries of the test display on the first night: white = R + G + B =
 /// (90, 100, 92) cd/m².
-pub const PRIMARIES: [[f64; 3]; 3] = [[40.0, 20.0, 2.0], [35.0, 70.0, 10.0], [15.0, 10.0, 80.0]];
+pub(crate) const PRIMARIES: [[f64; 3]; 3] =
+    [[40.0, 20.0, 2.0], [35.0, 70.0, 10.0], [15.0, 10.0, 80.0]];
 
 /// A valid mono profile of `display` with the first night's primaries.
-pub fn profile(wall: &str, display: u32) -> DisplayProfile {
+pub(crate) fn profile(wall: &str, display: u32) -> DisplayProfile {
     profile_with(
         wall,
         display,
