@@ -2,7 +2,7 @@
 //! polygons) that names an optional OBJ file for the geometry (read with `tobj`).
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::Deserialize;
 
@@ -605,101 +605,12 @@ pub fn parse_scene_toml(
             "must be a positive number of metres per unit",
         ));
     }
-    let mut materials = Vec::new();
-    let mut index = BTreeMap::new();
-    for (name, m) in &file.materials {
-        index.insert(name.clone(), materials.len());
-        materials.push(material(name, m)?);
-    }
-    let lookup = |object: &str, name: &str| {
-        index
-            .get(name)
-            .copied()
-            .ok_or_else(|| SceneError::UnknownMaterial {
-                object: object.to_string(),
-                material: name.to_string(),
-            })
+    let materials = Materials::of(&file)?;
+    let mut raw = match &file.geometry {
+        Some(obj) => obj_polygons(&file, &materials, &base_dir.join(obj))?,
+        None => Vec::new(),
     };
-    let mut raw = Vec::new();
-    if let Some(obj) = &file.geometry {
-        let path: PathBuf = base_dir.join(obj);
-        let opts = tobj::LoadOptions {
-            single_index: false,
-            triangulate: false,
-            ignore_points: true,
-            ignore_lines: true,
-        };
-        let (models, mtl) = tobj::load_obj(&path, &opts).map_err(|e| SceneError::Obj {
-            path: path.clone(),
-            message: e.to_string(),
-        })?;
-        let mtl_names: Vec<String> = mtl
-            .map(|m| m.into_iter().map(|m| m.name).collect())
-            .unwrap_or_default();
-        for model in models {
-            let mesh = &model.mesh;
-            let mat_name = file
-                .objects
-                .get(&model.name)
-                .cloned()
-                .or_else(|| mesh.material_id.and_then(|i| mtl_names.get(i).cloned()))
-                .or_else(|| file.default_material.clone())
-                .ok_or_else(|| SceneError::UnknownMaterial {
-                    object: model.name.clone(),
-                    material: "(none: no [objects] entry, usemtl or default_material)".into(),
-                })?;
-            let mat = lookup(&model.name, &mat_name)?;
-            let vertex = |k: u32| -> Option<V3> {
-                let k = k as usize * 3;
-                let p = mesh.positions.get(k..k + 3)?;
-                Some(V3::new(p[0] as f64, p[1] as f64, p[2] as f64) * file.unit_m)
-            };
-            let arities: Vec<u32> = if mesh.face_arities.is_empty() {
-                vec![3; mesh.indices.len() / 3]
-            } else {
-                mesh.face_arities.clone()
-            };
-            let mut at = 0usize;
-            for a in arities {
-                let idx = mesh
-                    .indices
-                    .get(at..at + a as usize)
-                    .ok_or_else(|| SceneError::Obj {
-                        path: path.clone(),
-                        message: format!(
-                            "object `{}` has a face past the end of its index list",
-                            model.name
-                        ),
-                    })?;
-                at += a as usize;
-                let vertices: Option<Vec<V3>> = idx.iter().map(|&k| vertex(k)).collect();
-                let vertices = vertices.ok_or_else(|| SceneError::Obj {
-                    path: path.clone(),
-                    message: format!(
-                        "object `{}` refers to a vertex that does not exist",
-                        model.name
-                    ),
-                })?;
-                raw.push(Polygon {
-                    vertices,
-                    material: mat,
-                    object: model.name.clone(),
-                });
-            }
-        }
-    }
-    for (i, p) in file.polygons.iter().enumerate() {
-        let name = if p.name.is_empty() {
-            format!("polygon {i}")
-        } else {
-            p.name.clone()
-        };
-        raw.push(Polygon {
-            vertices: p.vertices.iter().map(|&v| v3(v) * file.unit_m).collect(),
-            material: lookup(&name, &p.material)?,
-            object: name,
-        });
-    }
+    raw.extend(inline_polygons(&file, &materials)?);
     let (polygons, report) = check_polygons(raw);
     if polygons.is_empty() {
         return Err(SceneError::Empty(report.summary()));
@@ -710,36 +621,175 @@ pub fn parse_scene_toml(
         .enumerate()
         .map(|(i, l)| light(i, l, file.unit_m, base_dir))
         .collect::<Result<Vec<_>, _>>()?;
-    let camera = match &file.camera {
-        None => None,
-        Some(c) => {
-            if !(c.vfov_deg > 0.0 && c.vfov_deg < 179.0 && c.width > 0 && c.height > 0) {
-                return Err(invalid(
-                    "camera",
-                    "need 0 < vfov_deg < 179 and width, height > 0",
-                ));
-            }
-            Some(Camera {
-                position: v3(c.position) * file.unit_m,
-                look_at: v3(c.look_at) * file.unit_m,
-                up: v3(c.up),
-                vfov_deg: c.vfov_deg,
-                width_px: c.width,
-                height_px: c.height,
-            })
-        }
-    };
+    let camera = file
+        .camera
+        .as_ref()
+        .map(|c| camera(c, file.unit_m))
+        .transpose()?;
     let sky = file.sky.as_ref().map(daylight).transpose()?;
     Ok((
         Scene {
             polygons,
-            materials,
+            materials: materials.list,
             lights,
             camera,
             sky,
         },
         report,
     ))
+}
+
+/// The scene's materials, in name order, and their indices by name.
+struct Materials {
+    list: Vec<Material>,
+    index: BTreeMap<String, usize>,
+}
+
+impl Materials {
+    fn of(file: &SceneFile) -> Result<Self, SceneError> {
+        let mut list = Vec::new();
+        let mut index = BTreeMap::new();
+        for (name, m) in &file.materials {
+            index.insert(name.clone(), list.len());
+            list.push(material(name, m)?);
+        }
+        Ok(Self { list, index })
+    }
+
+    /// Index of material `name`, used by `object`.
+    fn lookup(&self, object: &str, name: &str) -> Result<usize, SceneError> {
+        self.index
+            .get(name)
+            .copied()
+            .ok_or_else(|| SceneError::UnknownMaterial {
+                object: object.to_string(),
+                material: name.to_string(),
+            })
+    }
+}
+
+/// Every face of the OBJ file at `path`, in metres, with its material from
+/// `[objects]`, `usemtl` or `default_material` (in that order).
+fn obj_polygons(
+    file: &SceneFile,
+    materials: &Materials,
+    path: &Path,
+) -> Result<Vec<Polygon>, SceneError> {
+    let opts = tobj::LoadOptions {
+        single_index: false,
+        triangulate: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let (models, mtl) = tobj::load_obj(path, &opts).map_err(|e| SceneError::Obj {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let mtl_names: Vec<String> = mtl
+        .map(|m| m.into_iter().map(|m| m.name).collect())
+        .unwrap_or_default();
+    let mut raw = Vec::new();
+    for model in models {
+        let mat_name = file
+            .objects
+            .get(&model.name)
+            .cloned()
+            .or_else(|| {
+                model
+                    .mesh
+                    .material_id
+                    .and_then(|i| mtl_names.get(i).cloned())
+            })
+            .or_else(|| file.default_material.clone())
+            .ok_or_else(|| SceneError::UnknownMaterial {
+                object: model.name.clone(),
+                material: "(none: no [objects] entry, usemtl or default_material)".into(),
+            })?;
+        let material = materials.lookup(&model.name, &mat_name)?;
+        model_faces(&model, material, file.unit_m, path, &mut raw)?;
+    }
+    Ok(raw)
+}
+
+/// Appends the faces of one OBJ model (scaled by `unit_m`) to `raw`.
+fn model_faces(
+    model: &tobj::Model,
+    material: usize,
+    unit_m: f64,
+    path: &Path,
+    raw: &mut Vec<Polygon>,
+) -> Result<(), SceneError> {
+    let mesh = &model.mesh;
+    let obj_error = |message: &str| SceneError::Obj {
+        path: path.to_path_buf(),
+        message: format!("object `{}` {message}", model.name),
+    };
+    let vertex = |k: u32| -> Option<V3> {
+        let k = k as usize * 3;
+        let p = mesh.positions.get(k..k + 3)?;
+        Some(V3::new(p[0] as f64, p[1] as f64, p[2] as f64) * unit_m)
+    };
+    let arities: Vec<u32> = if mesh.face_arities.is_empty() {
+        vec![3; mesh.indices.len() / 3]
+    } else {
+        mesh.face_arities.clone()
+    };
+    let mut at = 0usize;
+    for a in arities {
+        let idx = mesh
+            .indices
+            .get(at..at + a as usize)
+            .ok_or_else(|| obj_error("has a face past the end of its index list"))?;
+        at += a as usize;
+        let vertices: Option<Vec<V3>> = idx.iter().map(|&k| vertex(k)).collect();
+        let vertices =
+            vertices.ok_or_else(|| obj_error("refers to a vertex that does not exist"))?;
+        raw.push(Polygon {
+            vertices,
+            material,
+            object: model.name.clone(),
+        });
+    }
+    Ok(())
+}
+
+/// The scene file's `[[polygons]]`, in metres.
+fn inline_polygons(file: &SceneFile, materials: &Materials) -> Result<Vec<Polygon>, SceneError> {
+    let mut raw = Vec::with_capacity(file.polygons.len());
+    for (i, p) in file.polygons.iter().enumerate() {
+        let name = if p.name.is_empty() {
+            format!("polygon {i}")
+        } else {
+            p.name.clone()
+        };
+        raw.push(Polygon {
+            vertices: p.vertices.iter().map(|&v| v3(v) * file.unit_m).collect(),
+            material: materials.lookup(&name, &p.material)?,
+            object: name,
+        });
+    }
+    Ok(raw)
+}
+
+/// Widest vertical field of view a camera may have, degrees (exclusive).
+const MAX_VFOV_DEG: f64 = 179.0;
+
+/// The `[camera]` entry, in metres.
+fn camera(c: &CameraFile, unit_m: f64) -> Result<Camera, SceneError> {
+    if !(c.vfov_deg > 0.0 && c.vfov_deg < MAX_VFOV_DEG && c.width > 0 && c.height > 0) {
+        return Err(invalid(
+            "camera",
+            "need 0 < vfov_deg < 179 and width, height > 0",
+        ));
+    }
+    Ok(Camera {
+        position: v3(c.position) * unit_m,
+        look_at: v3(c.look_at) * unit_m,
+        up: v3(c.up),
+        vfov_deg: c.vfov_deg,
+        width_px: c.width,
+        height_px: c.height,
+    })
 }
 
 /// Loads a scene file from disk.

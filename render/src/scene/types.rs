@@ -196,7 +196,7 @@ impl Light {
 
 /// Flux in lm of a [`LightKind::Spot`] of 1 cd on the axis (numerical integral of the
 /// linear angular falloff; exact 2π(1 − cos θ) when inner = outer).
-pub fn spot_flux_per_cd(inner: f64, outer: f64) -> f64 {
+pub(super) fn spot_flux_per_cd(inner: f64, outer: f64) -> f64 {
     let tau = std::f64::consts::TAU;
     let full = tau * (1.0 - inner.cos());
     if outer <= inner {
