@@ -365,26 +365,10 @@ impl Bvh {
         // tested once, when it is popped
         let inv = [1.0 / dir[0], 1.0 / dir[1], 1.0 / dir[2]];
         let (t0, t1) = (m, 1.0 - m);
-        let mut stack = Stack::new();
-        stack.push(0);
-        while let Some(i) = stack.pop() {
-            let n = &self.nodes[i];
-            if slab(n, from, inv, t0, t1).is_none() {
-                continue;
-            }
-            if n.count > 0 {
-                let first = n.index as usize;
-                for tri in &self.tris[first..first + n.count as usize] {
-                    if ray_triangle(from, dir, tri, t0, t1).is_some() {
-                        return true;
-                    }
-                }
-            } else {
-                stack.push(n.index as usize);
-                stack.push(i + 1);
-            }
-        }
-        false
+        self.any_in_leaves(
+            |n| slab(n, from, inv, t0, t1).is_some(),
+            |k| ray_triangle(from, dir, &self.tris[k], t0, t1).is_some(),
+        )
     }
 
     /// Region query: true as soon as `accept_triangle` accepts a triangle (given its
@@ -399,19 +383,31 @@ impl Bvh {
         if self.nodes.is_empty() {
             return false;
         }
+        self.any_in_leaves(
+            |n| enter_box(&n.bmin, &n.bmax),
+            |k| accept_triangle(self.order[k], &self.tris[k]),
+        )
+    }
+
+    /// Depth-first search in any order: true as soon as `accept` accepts a triangle
+    /// (by storage slot) in a leaf reached through nodes that `enter` lets through.
+    /// The tree must not be empty.
+    fn any_in_leaves(
+        &self,
+        mut enter: impl FnMut(&Node) -> bool,
+        mut accept: impl FnMut(usize) -> bool,
+    ) -> bool {
         let mut stack = Stack::new();
         stack.push(0);
         while let Some(i) = stack.pop() {
             let n = &self.nodes[i];
-            if !enter_box(&n.bmin, &n.bmax) {
+            if !enter(n) {
                 continue;
             }
             if n.count > 0 {
                 let first = n.index as usize;
-                for k in first..first + n.count as usize {
-                    if accept_triangle(self.order[k], &self.tris[k]) {
-                        return true;
-                    }
+                if (first..first + n.count as usize).any(&mut accept) {
+                    return true;
                 }
             } else {
                 stack.push(n.index as usize);

@@ -19,17 +19,7 @@ impl Default for LightFrame {
     }
 }
 
-pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
+pub(crate) use crate::mesh::{cross, dot};
 
 pub(crate) fn normalize(a: [f64; 3]) -> Option<[f64; 3]> {
     let n = dot(a, a).sqrt();
