@@ -139,15 +139,16 @@ pub fn generate_scale_scene(triangles: usize, lights: usize, seed: u64) -> Gener
     let count = |bays: usize, n: usize| build(bays, n).0;
     // about sqrt(target/500) bays; then the smallest density reaching the target,
     // then the fewest bays at that density (overshoot below one bay).
-    let max_bays = ((target as f64 / 500.0).sqrt().round() as usize).clamp(2, 400);
+    let max_bays =
+        ((target as f64 / BAY_COUNT_DIVISOR).sqrt().round() as usize).clamp(MIN_BAYS, MAX_BAYS);
     let per_bay = target as f64 / max_bays as f64;
-    let mut n = (((per_bay / 23.0).sqrt()) as usize)
+    let mut n = (((per_bay / TRIANGLES_PER_BAY_PER_N2).sqrt()) as usize)
         .saturating_sub(2)
-        .max(2);
-    while n < 4000 && count(max_bays, n) < target {
+        .max(MIN_DENSITY);
+    while n < MAX_DENSITY && count(max_bays, n) < target {
         n += 1.max(n / 32);
     }
-    let (mut lo, mut hi) = (2usize, max_bays);
+    let (mut lo, mut hi) = (MIN_BAYS, max_bays);
     while lo < hi {
         let mid = (lo + hi) / 2;
         if count(mid, n) >= target {
@@ -158,7 +159,7 @@ pub fn generate_scale_scene(triangles: usize, lights: usize, seed: u64) -> Gener
     }
     let bays = lo;
     let (_, mesh, triangle_material, materials) = build(bays, n);
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x9E37_79B9_7F4A_7C15);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ LIGHT_SEED_MIX);
     let lights = lights_for(&mut rng, lights, bays);
     GeneratedScene {
         mesh,
@@ -167,6 +168,27 @@ pub fn generate_scale_scene(triangles: usize, lights: usize, seed: u64) -> Gener
         lights,
     }
 }
+
+/// The nave gets about √(triangles / this) bays, so that bay count and tessellation
+/// density grow together.
+const BAY_COUNT_DIVISOR: f64 = 500.0;
+/// Fewest bays of the nave.
+const MIN_BAYS: usize = 2;
+/// Most bays of the nave.
+const MAX_BAYS: usize = 400;
+/// Approximate triangles of one bay per squared tessellation density n (first guess
+/// of n, refined by counting).
+const TRIANGLES_PER_BAY_PER_N2: f64 = 23.0;
+/// Lowest tessellation density (quads per unit edge of a bay's patch grid).
+const MIN_DENSITY: usize = 2;
+/// The density search stops here even if the target is not reached.
+const MAX_DENSITY: usize = 4000;
+/// Mixed into the seed for the lights' random stream (2⁶⁴ / golden ratio), so that
+/// it differs from the materials' stream.
+const LIGHT_SEED_MIX: u64 = 0x9E37_79B9_7F4A_7C15;
+/// Twice the area (m²) below which a patch triangle counts as collapsed (e.g. at
+/// the centre of a lunette) and is skipped.
+const COLLAPSED_TRIANGLE_AREA2: f64 = 1e-12;
 
 /// Length of one bay along the nave (x), metres.
 const BAY_LEN: f64 = 6.0;
@@ -263,7 +285,7 @@ impl Builder {
                 for t in [[a, b, cc], [a, cc, d]] {
                     let t = if flip { [t[0], t[2], t[1]] } else { t };
                     let p = |k: usize| self.mesh.positions[t[k] as usize];
-                    if len(cross(sub(p(1), p(0)), sub(p(2), p(0)))) < 1e-12 {
+                    if len(cross(sub(p(1), p(0)), sub(p(2), p(0)))) < COLLAPSED_TRIANGLE_AREA2 {
                         continue; // collapsed quad corner (e.g. the centre of a lunette)
                     }
                     self.mesh.triangles.push(t);

@@ -21,9 +21,13 @@ impl Default for LightFrame {
 
 pub(crate) use crate::mesh::{cross, dot};
 
+/// Shortest vector [`normalize`] accepts (near the smallest normal f64, so that the
+/// division stays finite).
+const MIN_NORMALIZABLE_LENGTH: f64 = 1e-300;
+
 pub(crate) fn normalize(a: [f64; 3]) -> Option<[f64; 3]> {
     let n = dot(a, a).sqrt();
-    if n.is_finite() && n > 1e-300 {
+    if n.is_finite() && n > MIN_NORMALIZABLE_LENGTH {
         Some([a[0] / n, a[1] / n, a[2] / n])
     } else {
         None

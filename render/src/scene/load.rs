@@ -511,6 +511,9 @@ fn read_distribution(
     parsed.map_err(|e| invalid(what, format!("{}: {e}", path.display())))
 }
 
+/// Most zenith bands of a sky's discretisation (one band per degree of zenith angle).
+const MAX_SKY_BANDS: usize = 90;
+
 /// Daylight from a `[sky]` entry, in world coordinates.
 fn daylight(s: &SkyFile) -> Result<super::types::Daylight, SceneError> {
     use super::types::{Daylight, DirectionalSource};
@@ -519,18 +522,18 @@ fn daylight(s: &SkyFile) -> Result<super::types::Daylight, SceneError> {
     if !(s.zenith_luminance_cd_m2.is_finite() && s.zenith_luminance_cd_m2 > 0.0) {
         return Err(invalid(what, "zenith_luminance_cd_m2 must be positive"));
     }
-    if !(1..=90).contains(&s.bands) {
+    if !(1..=MAX_SKY_BANDS).contains(&s.bands) {
         return Err(invalid(
             what,
-            format!("bands {} must be in 1..=90", s.bands),
+            format!("bands {} must be in 1..={MAX_SKY_BANDS}", s.bands),
         ));
     }
     let up = v3(s.up)
-        .try_normalize(1e-12)
+        .try_normalize(MIN_DIRECTION_LENGTH)
         .ok_or_else(|| invalid(what, "`up` must be a non-zero direction"))?;
     let north = v3(s.north) - up * up.dot(&v3(s.north));
     let north = north
-        .try_normalize(1e-12)
+        .try_normalize(MIN_DIRECTION_LENGTH)
         .ok_or_else(|| invalid(what, "`north` must not be parallel to `up`"))?;
     let east = north.cross(&up);
     // the sky model's frame: x east, y north, z up
