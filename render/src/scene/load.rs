@@ -118,8 +118,8 @@ pub struct PolygonFile {
 
 /// A light entry: what every light has, and what its `type` adds.
 ///
-/// Read from the flat `[[lights]]` table of the file (see [`LightEntry`]); fields
-/// that belong to another `type` are accepted and ignored, as they always were.
+/// Read from the flat `[[lights]]` table of the file; fields that belong to another
+/// `type` are accepted and ignored, as they always were.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(try_from = "LightEntry")]
 pub struct LightFile {
