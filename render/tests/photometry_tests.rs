@@ -116,24 +116,14 @@ fn rotated_frame_aims_the_photometric_axis() {
     // a narrow spot aimed along +x hits a wall at x = 4 (normal −x) head-on
     let spot = IntensityDistribution::spot(1000.0, 0.1, 0.2);
     let frame = LightFrame::aimed([1.0, 0.0, 0.0]);
-    let e = direct_illuminance_lux(
-        &spot,
-        [0.0, 0.0, 0.0],
-        &frame,
-        [4.0, 0.0, 0.0],
-        [-1.0, 0.0, 0.0],
-        1.0,
-    );
+    // on the wall x = 4 (normal −x), unshadowed, from the origin
+    let wall_illuminance_lux = |point: [f64; 3]| {
+        direct_illuminance_lux(&spot, [0.0; 3], &frame, point, [-1.0, 0.0, 0.0], 1.0)
+    };
+    let e = wall_illuminance_lux([4.0, 0.0, 0.0]);
     assert!(rel(e, 1000.0 / 16.0) < 1e-12, "{e}");
     // outside the cone: dark
-    let e_off = direct_illuminance_lux(
-        &spot,
-        [0.0, 0.0, 0.0],
-        &frame,
-        [4.0, 2.0, 0.0],
-        [-1.0, 0.0, 0.0],
-        1.0,
-    );
+    let e_off = wall_illuminance_lux([4.0, 2.0, 0.0]);
     assert_eq!(e_off, 0.0);
 }
 
