@@ -2,6 +2,11 @@
 //!
 //! Run: `cargo bench -p lumiwall-render --bench mesh`.
 
+#![expect(
+    missing_docs,
+    reason = "criterion_group! generates an undocumented `pub fn benches`"
+)]
+
 use criterion::{Criterion, criterion_group, criterion_main};
 use lumiwall_render::mesh::{check_and_repair, generate_scale_scene};
 use std::hint::black_box;

@@ -10,6 +10,7 @@ mod scale_scene;
 
 pub use bvh::{Bvh, BvhStats, Hit};
 pub use indexed::IndexedMesh;
+pub(crate) use indexed::{cross, dot};
 pub use repair::{MeshReport, RepairOptions, check_and_repair, check_and_repair_with};
 pub use scale_scene::{
     GeneratedLight, GeneratedLightKind, GeneratedMaterial, GeneratedScene, generate_scale_scene,

@@ -14,7 +14,10 @@ mod types;
 pub use check::{CheckReport, check_polygons};
 pub use error::SceneError;
 pub use geom::{V3, polygon_area_m2, polygon_normal};
-pub use load::{SceneFile, load_scene, parse_scene_toml};
+pub use load::{
+    GoniometricLightFile, LightFile, LightKindFile, LightOutputFile, SceneFile, load_scene,
+    parse_scene_toml,
+};
 pub use types::{
     Camera, Daylight, DirectionalSource, IntensityFn, Light, LightKind, Material, Polygon, Scene,
 };

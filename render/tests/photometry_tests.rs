@@ -33,19 +33,30 @@ const FLOOR_POINTS: [[f64; 3]; 5] = [
     [0.5, -1.6, 0.0],
 ];
 
+/// Direct illuminance at `point` on a floor (normal +z) from `light` at `source`,
+/// axes of the light equal to world axes.
+fn floor_illuminance_lux(
+    light: &IntensityDistribution,
+    source: [f64; 3],
+    point: [f64; 3],
+    visibility: f64,
+) -> f64 {
+    direct_illuminance_lux(
+        light,
+        source,
+        &LightFrame::identity(),
+        point,
+        [0.0, 0.0, 1.0],
+        visibility,
+    )
+}
+
 #[test]
 fn isotropic_point_light_over_plane_follows_inverse_square_cosine_law() {
     let light = IntensityDistribution::isotropic(250.0);
     let pos = [0.2, -0.1, 2.5];
     for p in FLOOR_POINTS {
-        let e = direct_illuminance_lux(
-            &light,
-            pos,
-            &LightFrame::identity(),
-            p,
-            [0.0, 0.0, 1.0],
-            1.0,
-        );
+        let e = floor_illuminance_lux(&light, pos, p, 1.0);
         let (dx, dy, dz) = (pos[0] - p[0], pos[1] - p[1], pos[2] - p[2]);
         let d2 = dx * dx + dy * dy + dz * dz;
         let reference = 250.0 * (dz / d2.sqrt()) / d2;
@@ -58,39 +69,9 @@ fn isotropic_point_light_over_plane_follows_inverse_square_cosine_law() {
     }
     // behind the plane, fully shadowed, and at the source: 0
     let below = [0.0, 0.0, -1.0];
-    assert_eq!(
-        direct_illuminance_lux(
-            &light,
-            below,
-            &LightFrame::identity(),
-            [0.0; 3],
-            [0.0, 0.0, 1.0],
-            1.0
-        ),
-        0.0
-    );
-    assert_eq!(
-        direct_illuminance_lux(
-            &light,
-            pos,
-            &LightFrame::identity(),
-            [0.0; 3],
-            [0.0, 0.0, 1.0],
-            0.0
-        ),
-        0.0
-    );
-    assert_eq!(
-        direct_illuminance_lux(
-            &light,
-            pos,
-            &LightFrame::identity(),
-            pos,
-            [0.0, 0.0, 1.0],
-            1.0
-        ),
-        0.0
-    );
+    assert_eq!(floor_illuminance_lux(&light, below, [0.0; 3], 1.0), 0.0);
+    assert_eq!(floor_illuminance_lux(&light, pos, [0.0; 3], 0.0), 0.0);
+    assert_eq!(floor_illuminance_lux(&light, pos, pos, 1.0), 0.0);
 }
 
 /// The distribution the IES fixture was generated from (see its README).
@@ -135,24 +116,14 @@ fn rotated_frame_aims_the_photometric_axis() {
     // a narrow spot aimed along +x hits a wall at x = 4 (normal −x) head-on
     let spot = IntensityDistribution::spot(1000.0, 0.1, 0.2);
     let frame = LightFrame::aimed([1.0, 0.0, 0.0]);
-    let e = direct_illuminance_lux(
-        &spot,
-        [0.0, 0.0, 0.0],
-        &frame,
-        [4.0, 0.0, 0.0],
-        [-1.0, 0.0, 0.0],
-        1.0,
-    );
+    // on the wall x = 4 (normal −x), unshadowed, from the origin
+    let wall_illuminance_lux = |point: [f64; 3]| {
+        direct_illuminance_lux(&spot, [0.0; 3], &frame, point, [-1.0, 0.0, 0.0], 1.0)
+    };
+    let e = wall_illuminance_lux([4.0, 0.0, 0.0]);
     assert!(rel(e, 1000.0 / 16.0) < 1e-12, "{e}");
     // outside the cone: dark
-    let e_off = direct_illuminance_lux(
-        &spot,
-        [0.0, 0.0, 0.0],
-        &frame,
-        [4.0, 2.0, 0.0],
-        [-1.0, 0.0, 0.0],
-        1.0,
-    );
+    let e_off = wall_illuminance_lux([4.0, 2.0, 0.0]);
     assert_eq!(e_off, 0.0);
 }
 
@@ -191,21 +162,27 @@ fn spot_flux_matches_cone_solid_angle_and_rescales() {
     assert!(rel(scaled.total_flux_lm(), 1234.0) < 1e-12);
 }
 
+/// Prints the integrated flux of `d` against the `declared` flux and asserts they
+/// agree within 0.5 %.
+fn assert_integral_within_half_percent(d: &IntensityDistribution, what: &str, declared: f64) {
+    println!(
+        "{what}: integral {:.2} lm vs {declared:.2} lm, rel err {:.1e}",
+        d.total_flux_lm(),
+        rel(d.total_flux_lm(), declared)
+    );
+    assert!(
+        rel(d.total_flux_lm(), declared) < 0.005,
+        "{what}: {} vs {declared}",
+        d.total_flux_lm()
+    );
+}
+
 #[test]
 fn ies_fixture_flux_matches_header_lumens() {
     let d = IntensityDistribution::from_ies_lm63(&fixture("downlight_bilateral.ies")).unwrap();
     let header = d.declared_flux_lm().unwrap();
     assert!((header - 2262.7).abs() < 1e-9);
-    println!(
-        "IES fixture: integral {:.2} lm vs header {header:.1} lm, rel err {:.1e}",
-        d.total_flux_lm(),
-        rel(d.total_flux_lm(), header)
-    );
-    assert!(
-        rel(d.total_flux_lm(), header) < 0.005,
-        "{} vs {header}",
-        d.total_flux_lm()
-    );
+    assert_integral_within_half_percent(&d, "IES fixture: header", header);
     // and against the analytic flux of the formula the file was made from: 2π·900/2.5
     assert!(rel(d.total_flux_lm(), 2.0 * PI * 900.0 / 2.5) < 0.005);
     assert!(d.name().contains("bilateral"));
@@ -215,16 +192,7 @@ fn ies_fixture_flux_matches_header_lumens() {
 fn eulumdat_fixture_flux_matches_lamp_flux_times_lor() {
     let d = IntensityDistribution::from_eulumdat(&fixture("wallwasher_sym2.ldt")).unwrap();
     let declared = d.declared_flux_lm().unwrap();
-    println!(
-        "EULUMDAT fixture: integral {:.2} lm vs lamp flux × LORL {declared:.2} lm, rel err {:.1e}",
-        d.total_flux_lm(),
-        rel(d.total_flux_lm(), declared)
-    );
-    assert!(
-        rel(d.total_flux_lm(), declared) < 0.005,
-        "{} vs {declared}",
-        d.total_flux_lm()
-    );
+    assert_integral_within_half_percent(&d, "EULUMDAT fixture: lamp flux × LORL", declared);
     // node check: C30 (given) and its mirror C330, γ 40°: 2000 lm/1000 × formula
     let law = |c: f64, g: f64| {
         let (cr, gr) = (c.to_radians(), g.to_radians());

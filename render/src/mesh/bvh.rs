@@ -56,10 +56,24 @@ pub struct Bvh {
     tris: Vec<[[f64; 3]; 3]>,
 }
 
+/// A node with at most this many triangles becomes a leaf.
 const LEAF_MAX: usize = 4;
+/// SAH bins per split axis.
 const BINS: usize = 16;
+/// Subtrees with at least this many triangles are built in parallel.
 const PARALLEL_MIN: usize = 4096;
+/// Tolerance of the ray–triangle test on the barycentric coordinates (hits just
+/// outside an edge still count, so that rays through shared edges do not slip
+/// through).
 const EDGE_EPS: f64 = 1e-10;
+/// A ray counts as parallel to a triangle when the determinant of the hit system is
+/// at most this fraction of |e1|·|e2|·|d|.
+const PARALLEL_DET_RATIO: f64 = 1e-14;
+/// Default relative end margin of shadow segments (see [`Bvh::occluded`]).
+const SHADOW_END_MARGIN: f64 = 1e-6;
+/// A node whose triangles cannot be split by SAH stays a leaf up to this many
+/// triangles (this many times [`LEAF_MAX`]).
+const UNSPLIT_LEAF_FACTOR: usize = 4;
 
 #[derive(Clone, Copy)]
 struct Aabb {
@@ -136,7 +150,7 @@ fn build_tree(prims: &[Prim], mut items: Vec<u32>) -> Tree {
     };
     if ext[axis].is_nan() || ext[axis] <= 0.0 {
         // all centroids coincide (or are not finite): split in the middle of the list
-        if items.len() <= 4 * LEAF_MAX {
+        if items.len() <= UNSPLIT_LEAF_FACTOR * LEAF_MAX {
             return Tree::Leaf { bounds, items };
         }
         let right = items.split_off(items.len() / 2);
@@ -185,7 +199,7 @@ fn build_tree(prims: &[Prim], mut items: Vec<u32>) -> Tree {
         return join(prims, bounds, items, right);
     }
     // a split costs one more box test (≈ one triangle test); keep small leaves
-    if best.0 + bounds.area() >= leaf_cost && items.len() <= 4 * LEAF_MAX {
+    if best.0 + bounds.area() >= leaf_cost && items.len() <= UNSPLIT_LEAF_FACTOR * LEAF_MAX {
         return Tree::Leaf { bounds, items };
     }
     let split = best.1;
@@ -345,7 +359,7 @@ impl Bvh {
     /// (excluding 1e-6 of the segment length at either end, so that the surfaces at
     /// the end points do not shadow themselves).
     pub fn occluded(&self, from: [f64; 3], to: [f64; 3]) -> bool {
-        self.occluded_with_margin(from, to, 1e-6)
+        self.occluded_with_margin(from, to, SHADOW_END_MARGIN)
     }
 
     /// Like [`Bvh::occluded`] with an explicit relative end margin in [0, 0.5]
@@ -356,7 +370,7 @@ impl Bvh {
         let m = if margin.is_finite() {
             margin.clamp(0.0, 0.5)
         } else {
-            1e-6
+            SHADOW_END_MARGIN
         };
         if self.nodes.is_empty() || !from.iter().chain(dir.iter()).all(|v| v.is_finite()) {
             return false;
@@ -365,26 +379,10 @@ impl Bvh {
         // tested once, when it is popped
         let inv = [1.0 / dir[0], 1.0 / dir[1], 1.0 / dir[2]];
         let (t0, t1) = (m, 1.0 - m);
-        let mut stack = Stack::new();
-        stack.push(0);
-        while let Some(i) = stack.pop() {
-            let n = &self.nodes[i];
-            if slab(n, from, inv, t0, t1).is_none() {
-                continue;
-            }
-            if n.count > 0 {
-                let first = n.index as usize;
-                for tri in &self.tris[first..first + n.count as usize] {
-                    if ray_triangle(from, dir, tri, t0, t1).is_some() {
-                        return true;
-                    }
-                }
-            } else {
-                stack.push(n.index as usize);
-                stack.push(i + 1);
-            }
-        }
-        false
+        self.any_in_leaves(
+            |n| slab(n, from, inv, t0, t1).is_some(),
+            |k| ray_triangle(from, dir, &self.tris[k], t0, t1).is_some(),
+        )
     }
 
     /// Region query: true as soon as `accept_triangle` accepts a triangle (given its
@@ -399,19 +397,31 @@ impl Bvh {
         if self.nodes.is_empty() {
             return false;
         }
+        self.any_in_leaves(
+            |n| enter_box(&n.bmin, &n.bmax),
+            |k| accept_triangle(self.order[k], &self.tris[k]),
+        )
+    }
+
+    /// Depth-first search in any order: true as soon as `accept` accepts a triangle
+    /// (by storage slot) in a leaf reached through nodes that `enter` lets through.
+    /// The tree must not be empty.
+    fn any_in_leaves(
+        &self,
+        mut enter: impl FnMut(&Node) -> bool,
+        mut accept: impl FnMut(usize) -> bool,
+    ) -> bool {
         let mut stack = Stack::new();
         stack.push(0);
         while let Some(i) = stack.pop() {
             let n = &self.nodes[i];
-            if !enter_box(&n.bmin, &n.bmax) {
+            if !enter(n) {
                 continue;
             }
             if n.count > 0 {
                 let first = n.index as usize;
-                for k in first..first + n.count as usize {
-                    if accept_triangle(self.order[k], &self.tris[k]) {
-                        return true;
-                    }
+                if (first..first + n.count as usize).any(&mut accept) {
+                    return true;
                 }
             } else {
                 stack.push(n.index as usize);
@@ -567,7 +577,7 @@ fn ray_triangle(
     let p = cross(d, e2);
     let det = dot(e1, p);
     let scale = dot(e1, e1).sqrt() * dot(e2, e2).sqrt() * dot(d, d).sqrt();
-    if det.is_nan() || det.abs() <= 1e-14 * scale {
+    if det.is_nan() || det.abs() <= PARALLEL_DET_RATIO * scale {
         return None;
     }
     let inv = 1.0 / det;

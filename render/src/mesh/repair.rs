@@ -87,51 +87,22 @@ pub fn check_and_repair_with(mesh: &mut IndexedMesh, options: &RepairOptions) ->
         input_triangles: mesh.triangles.len(),
         ..MeshReport::default()
     };
-    let tol = if options.weld_tolerance_m.is_finite() {
-        options.weld_tolerance_m.max(0.0)
-    } else {
-        0.0
-    };
-    let min_area = if options.min_area_m2.is_finite() {
-        options.min_area_m2.max(0.0)
-    } else {
-        0.0
-    };
+    let tol = non_negative_or_zero(options.weld_tolerance_m);
+    let min_area = non_negative_or_zero(options.min_area_m2);
 
     // 1. invalid triangles
-    let n_pos = mesh.positions.len();
     let finite: Vec<bool> = mesh
         .positions
         .iter()
         .map(|p| p.iter().all(|v| v.is_finite()))
         .collect();
-    let before = mesh.triangles.len();
-    mesh.triangles.retain(|t| {
-        t.iter()
-            .all(|&i| (i as usize) < n_pos && finite[i as usize])
-    });
-    report.invalid_triangles_removed = before - mesh.triangles.len();
+    report.invalid_triangles_removed = remove_invalid_triangles(mesh, &finite);
 
     // 2. weld
-    let remap = weld(&mesh.positions, &finite, tol);
-    report.vertices_welded = remap
-        .iter()
-        .enumerate()
-        .filter(|(i, r)| finite[*i] && **r as usize != *i)
-        .count();
-    for t in &mut mesh.triangles {
-        for i in t.iter_mut() {
-            *i = remap[*i as usize];
-        }
-    }
+    report.vertices_welded = weld_vertices(mesh, &finite, tol);
 
     // 3. degenerate and duplicate triangles
-    let before = mesh.triangles.len();
-    let positions = &mesh.positions;
-    mesh.triangles.retain(|t| {
-        t[0] != t[1] && t[1] != t[2] && t[0] != t[2] && area_ok(&corners(positions, t), min_area)
-    });
-    report.degenerate_triangles_removed = before - mesh.triangles.len();
+    report.degenerate_triangles_removed = remove_degenerate_triangles(mesh, min_area);
     report.duplicate_triangles_removed = remove_duplicates(&mut mesh.triangles);
 
     // 4. T-vertices (splitting overlapping input can create duplicates: drop them too)
@@ -145,6 +116,63 @@ pub fn check_and_repair_with(mesh: &mut IndexedMesh, options: &RepairOptions) ->
     report.non_orientable_components = topo.non_orientable;
 
     // 6. unused vertices
+    report.unused_vertices_removed = remove_unused_vertices(mesh) - report.vertices_welded;
+
+    let edges = edge_map(&mesh.triangles);
+    report.non_manifold_edges = edges.values().filter(|v| v.len() > 2).count();
+    report.boundary_edges = edges.values().filter(|v| v.len() == 1).count();
+    report.output_vertices = mesh.positions.len();
+    report.output_triangles = mesh.triangles.len();
+    report
+}
+
+/// A tolerance as given when finite, clamped to ≥ 0; zero when not finite.
+fn non_negative_or_zero(v: f64) -> f64 {
+    if v.is_finite() { v.max(0.0) } else { 0.0 }
+}
+
+/// Step 1: drops triangles with an out-of-range index or a non-finite corner;
+/// returns how many.
+fn remove_invalid_triangles(mesh: &mut IndexedMesh, finite: &[bool]) -> usize {
+    let n_pos = mesh.positions.len();
+    let before = mesh.triangles.len();
+    mesh.triangles.retain(|t| {
+        t.iter()
+            .all(|&i| (i as usize) < n_pos && finite[i as usize])
+    });
+    before - mesh.triangles.len()
+}
+
+/// Step 2: welds vertices within `tol` (first one wins) in the triangles; returns
+/// how many finite vertices were merged into another.
+fn weld_vertices(mesh: &mut IndexedMesh, finite: &[bool], tol: f64) -> usize {
+    let remap = weld(&mesh.positions, finite, tol);
+    for t in &mut mesh.triangles {
+        for i in t.iter_mut() {
+            *i = remap[*i as usize];
+        }
+    }
+    remap
+        .iter()
+        .enumerate()
+        .filter(|(i, r)| finite[*i] && **r as usize != *i)
+        .count()
+}
+
+/// Step 3: drops triangles with a repeated vertex or an area below `min_area`;
+/// returns how many.
+fn remove_degenerate_triangles(mesh: &mut IndexedMesh, min_area: f64) -> usize {
+    let before = mesh.triangles.len();
+    let positions = &mesh.positions;
+    mesh.triangles.retain(|t| {
+        t[0] != t[1] && t[1] != t[2] && t[0] != t[2] && area_ok(&corners(positions, t), min_area)
+    });
+    before - mesh.triangles.len()
+}
+
+/// Step 6: keeps only referenced vertices, in order of first use, and renumbers the
+/// triangles; returns how many vertices were dropped.
+fn remove_unused_vertices(mesh: &mut IndexedMesh) -> usize {
     let mut used = vec![u32::MAX; mesh.positions.len()];
     let mut new_pos = Vec::new();
     for t in &mut mesh.triangles {
@@ -157,15 +185,9 @@ pub fn check_and_repair_with(mesh: &mut IndexedMesh, options: &RepairOptions) ->
             *i = *u;
         }
     }
-    report.unused_vertices_removed = mesh.positions.len() - new_pos.len() - report.vertices_welded;
+    let removed = mesh.positions.len() - new_pos.len();
     mesh.positions = new_pos;
-
-    let edges = edge_map(&mesh.triangles);
-    report.non_manifold_edges = edges.values().filter(|v| v.len() > 2).count();
-    report.boundary_edges = edges.values().filter(|v| v.len() == 1).count();
-    report.output_vertices = mesh.positions.len();
-    report.output_triangles = mesh.triangles.len();
-    report
+    removed
 }
 
 /// Removes triangles with the same three vertices as an earlier one (any order or
@@ -264,28 +286,79 @@ fn edge_map(tris: &[[u32; 3]]) -> HashMap<(u32, u32), Vec<(u32, bool)>> {
     m
 }
 
+/// Step 4 stops after this many passes even if splitting keeps exposing T-vertices.
+const MAX_T_VERTEX_PASSES: usize = 16;
+
+/// Smallest cell of the T-vertex search grid in metres (keeps the cell positive for
+/// zero-length edges and a zero tolerance).
+const MIN_GRID_CELL_M: f64 = 1e-12;
+
+/// Most sample points along one boundary edge when gathering candidate vertices
+/// (bounds the work for an edge that is huge compared with the grid cell).
+const MAX_EDGE_STEPS: usize = 1_000_000;
+
+/// Step 4: splits triangles whose boundary edge has vertices lying on it, pass after
+/// pass until none is left; returns how many T-vertices were fixed.
 fn fix_t_vertices(mesh: &mut IndexedMesh, tol: f64, min_area: f64) -> usize {
     let mut fixed = 0;
-    for _pass in 0..16 {
-        let edges = edge_map(&mesh.triangles);
-        let boundary: Vec<((u32, u32), u32)> = edges
-            .iter()
-            .filter(|(_, v)| v.len() == 1)
-            .map(|(k, v)| (*k, v[0].0))
-            .collect();
+    for _pass in 0..MAX_T_VERTEX_PASSES {
+        let boundary = boundary_edges(&mesh.triangles);
         if boundary.is_empty() {
             break;
         }
-        // grid of referenced vertices with a cell of about the mean boundary-edge length
+        let Some(grid) = VertexGrid::of_referenced(mesh, &boundary, tol) else {
+            break;
+        };
+        let splits = find_edge_splits(mesh, &boundary, &grid, tol);
+        if splits.is_empty() {
+            break;
+        }
+        fixed += split_triangles(mesh, &splits, min_area);
+    }
+    fixed
+}
+
+/// A boundary edge: its vertices (min, max) and the one triangle using it.
+struct BoundaryEdge {
+    a: u32,
+    b: u32,
+    triangle: u32,
+}
+
+/// Edges used by exactly one triangle.
+fn boundary_edges(tris: &[[u32; 3]]) -> Vec<BoundaryEdge> {
+    edge_map(tris)
+        .iter()
+        .filter(|(_, v)| v.len() == 1)
+        .map(|(&(a, b), v)| BoundaryEdge {
+            a,
+            b,
+            triangle: v[0].0,
+        })
+        .collect()
+}
+
+/// Referenced vertices bucketed in a uniform grid.
+struct VertexGrid {
+    /// Cell size in metres.
+    cell: f64,
+    cells: HashMap<Cell, Vec<u32>>,
+}
+
+impl VertexGrid {
+    /// A grid of the vertices the triangles refer to, with a cell of about the mean
+    /// boundary-edge length (at least four weld tolerances); `None` when that is not
+    /// finite.
+    fn of_referenced(mesh: &IndexedMesh, boundary: &[BoundaryEdge], tol: f64) -> Option<Self> {
         let pos = &mesh.positions;
         let mean_len = boundary
             .iter()
-            .map(|((a, b), _)| len(sub(pos[*a as usize], pos[*b as usize])))
+            .map(|e| len(sub(pos[e.a as usize], pos[e.b as usize])))
             .sum::<f64>()
             / boundary.len() as f64;
-        let h = mean_len.max(tol * 4.0).max(1e-12);
-        if !h.is_finite() {
-            break;
+        let cell = mean_len.max(tol * 4.0).max(MIN_GRID_CELL_M);
+        if !cell.is_finite() {
+            return None;
         }
         let mut referenced = vec![false; pos.len()];
         for t in &mesh.triangles {
@@ -293,92 +366,141 @@ fn fix_t_vertices(mesh: &mut IndexedMesh, tol: f64, min_area: f64) -> usize {
                 referenced[i as usize] = true;
             }
         }
-        let mut grid: HashMap<Cell, Vec<u32>> = HashMap::new();
+        let mut cells: HashMap<Cell, Vec<u32>> = HashMap::new();
         for (i, p) in pos.iter().enumerate() {
             if referenced[i] {
-                grid.entry(cell_of(*p, h)).or_default().push(i as u32);
+                cells.entry(cell_of(*p, cell)).or_default().push(i as u32);
             }
         }
-        // per triangle: the first edge (by corner) with T-vertices, and those vertices
-        let mut splits: HashMap<u32, (usize, Vec<(f64, u32)>)> = HashMap::new();
-        for ((a, b), tri) in boundary {
-            let (pa, pb) = (pos[a as usize], pos[b as usize]);
-            let ab = sub(pb, pa);
-            let l = len(ab);
-            if l.is_nan() || l <= 2.0 * tol {
-                continue;
-            }
-            let steps = ((l / h).ceil() as usize).clamp(1, 1_000_000);
-            let mut cand: Vec<u32> = Vec::new();
-            for s in 0..=steps {
-                let f = s as f64 / steps as f64;
-                let p = [pa[0] + ab[0] * f, pa[1] + ab[1] * f, pa[2] + ab[2] * f];
-                for nc in neighbours(cell_of(p, h)) {
-                    if let Some(v) = grid.get(&nc) {
-                        cand.extend_from_slice(v);
-                    }
-                }
-            }
-            cand.sort_unstable();
-            cand.dedup();
-            let mut on_edge: Vec<(f64, u32)> = Vec::new();
-            for v in cand {
-                if v == a || v == b {
-                    continue;
-                }
-                let pv = pos[v as usize];
-                let s = dot(sub(pv, pa), ab) / (l * l);
-                if s * l <= tol || (1.0 - s) * l <= tol {
-                    continue;
-                }
-                let foot = [pa[0] + ab[0] * s, pa[1] + ab[1] * s, pa[2] + ab[2] * s];
-                if len(sub(pv, foot)) <= tol {
-                    on_edge.push((s, v));
-                }
-            }
-            if on_edge.is_empty() {
-                continue;
-            }
-            let t = mesh.triangles[tri as usize];
-            let Some(k) = (0..3).find(|&k| {
-                let (x, y) = (t[k], t[(k + 1) % 3]);
-                (x.min(y), x.max(y)) == (a, b)
-            }) else {
-                continue;
-            };
-            // order along the triangle's own direction of the edge
-            if t[k] != a {
-                for e in &mut on_edge {
-                    e.0 = 1.0 - e.0;
-                }
-            }
-            on_edge.sort_by(|x, y| x.0.total_cmp(&y.0));
-            splits.entry(tri).or_insert((k, on_edge));
-        }
-        if splits.is_empty() {
-            break;
-        }
-        let mut new_tris = Vec::with_capacity(mesh.triangles.len() + splits.len() * 2);
-        for (ti, t) in mesh.triangles.iter().enumerate() {
-            match splits.get(&(ti as u32)) {
-                None => new_tris.push(*t),
-                Some((k, verts)) => {
-                    let (x, y, z) = (t[*k], t[(*k + 1) % 3], t[(*k + 2) % 3]);
-                    let mut chain = vec![x];
-                    chain.extend(verts.iter().map(|v| v.1));
-                    chain.push(y);
-                    for w in chain.windows(2) {
-                        let nt = [w[0], w[1], z];
-                        if area_ok(&corners(&mesh.positions, &nt), min_area) {
-                            new_tris.push(nt);
-                        }
-                    }
-                    fixed += verts.len();
-                }
-            }
-        }
-        mesh.triangles = new_tris;
+        Some(Self { cell, cells })
     }
+
+    /// Vertices in the cells along the segment from `pa` over `ab` (length `l`) and
+    /// their neighbours, sorted and without repeats.
+    fn near_segment(&self, pa: [f64; 3], ab: [f64; 3], l: f64) -> Vec<u32> {
+        let steps = ((l / self.cell).ceil() as usize).clamp(1, MAX_EDGE_STEPS);
+        let mut cand: Vec<u32> = Vec::new();
+        for s in 0..=steps {
+            let f = s as f64 / steps as f64;
+            let p = [pa[0] + ab[0] * f, pa[1] + ab[1] * f, pa[2] + ab[2] * f];
+            for nc in neighbours(cell_of(p, self.cell)) {
+                if let Some(v) = self.cells.get(&nc) {
+                    cand.extend_from_slice(v);
+                }
+            }
+        }
+        cand.sort_unstable();
+        cand.dedup();
+        cand
+    }
+}
+
+/// Vertices strictly inside edge (a, b) within `tol`, as (parameter from a, vertex).
+fn t_vertices_on_edge(
+    pos: &[[f64; 3]],
+    grid: &VertexGrid,
+    a: u32,
+    b: u32,
+    tol: f64,
+) -> Vec<(f64, u32)> {
+    let (pa, pb) = (pos[a as usize], pos[b as usize]);
+    let ab = sub(pb, pa);
+    let l = len(ab);
+    if l.is_nan() || l <= 2.0 * tol {
+        return Vec::new();
+    }
+    let mut on_edge: Vec<(f64, u32)> = Vec::new();
+    for v in grid.near_segment(pa, ab, l) {
+        if v == a || v == b {
+            continue;
+        }
+        let pv = pos[v as usize];
+        let s = dot(sub(pv, pa), ab) / (l * l);
+        if s * l <= tol || (1.0 - s) * l <= tol {
+            continue;
+        }
+        let foot = [pa[0] + ab[0] * s, pa[1] + ab[1] * s, pa[2] + ab[2] * s];
+        if len(sub(pv, foot)) <= tol {
+            on_edge.push((s, v));
+        }
+    }
+    on_edge
+}
+
+/// Where one triangle is split.
+struct EdgeSplit {
+    /// The corner k starting the split edge (k → k+1).
+    corner: usize,
+    /// The T-vertices on that edge as (parameter from corner k, vertex), in order.
+    t_vertices: Vec<(f64, u32)>,
+}
+
+/// Per triangle, the first boundary edge found with T-vertices.
+fn find_edge_splits(
+    mesh: &IndexedMesh,
+    boundary: &[BoundaryEdge],
+    grid: &VertexGrid,
+    tol: f64,
+) -> HashMap<u32, EdgeSplit> {
+    let mut splits: HashMap<u32, EdgeSplit> = HashMap::new();
+    for &BoundaryEdge { a, b, triangle } in boundary {
+        let mut on_edge = t_vertices_on_edge(&mesh.positions, grid, a, b, tol);
+        if on_edge.is_empty() {
+            continue;
+        }
+        let t = mesh.triangles[triangle as usize];
+        let Some(k) = (0..3).find(|&k| {
+            let (x, y) = (t[k], t[(k + 1) % 3]);
+            (x.min(y), x.max(y)) == (a, b)
+        }) else {
+            continue;
+        };
+        // order along the triangle's own direction of the edge
+        if t[k] != a {
+            for e in &mut on_edge {
+                e.0 = 1.0 - e.0;
+            }
+        }
+        on_edge.sort_by(|x, y| x.0.total_cmp(&y.0));
+        splits.entry(triangle).or_insert(EdgeSplit {
+            corner: k,
+            t_vertices: on_edge,
+        });
+    }
+    splits
+}
+
+/// Replaces each split triangle by the fan from its opposite corner over the
+/// T-vertices (dropping slivers below `min_area`); returns how many T-vertices.
+fn split_triangles(
+    mesh: &mut IndexedMesh,
+    splits: &HashMap<u32, EdgeSplit>,
+    min_area: f64,
+) -> usize {
+    let mut fixed = 0;
+    let mut new_tris = Vec::with_capacity(mesh.triangles.len() + splits.len() * 2);
+    for (ti, t) in mesh.triangles.iter().enumerate() {
+        match splits.get(&(ti as u32)) {
+            None => new_tris.push(*t),
+            Some(EdgeSplit {
+                corner: k,
+                t_vertices: verts,
+            }) => {
+                let (x, y, z) = (t[*k], t[(*k + 1) % 3], t[(*k + 2) % 3]);
+                let mut chain = vec![x];
+                chain.extend(verts.iter().map(|v| v.1));
+                chain.push(y);
+                for w in chain.windows(2) {
+                    let nt = [w[0], w[1], z];
+                    if area_ok(&corners(&mesh.positions, &nt), min_area) {
+                        new_tris.push(nt);
+                    }
+                }
+                fixed += verts.len();
+            }
+        }
+    }
+    mesh.triangles = new_tris;
     fixed
 }
 

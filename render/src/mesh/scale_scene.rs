@@ -139,15 +139,16 @@ pub fn generate_scale_scene(triangles: usize, lights: usize, seed: u64) -> Gener
     let count = |bays: usize, n: usize| build(bays, n).0;
     // about sqrt(target/500) bays; then the smallest density reaching the target,
     // then the fewest bays at that density (overshoot below one bay).
-    let max_bays = ((target as f64 / 500.0).sqrt().round() as usize).clamp(2, 400);
+    let max_bays =
+        ((target as f64 / BAY_COUNT_DIVISOR).sqrt().round() as usize).clamp(MIN_BAYS, MAX_BAYS);
     let per_bay = target as f64 / max_bays as f64;
-    let mut n = (((per_bay / 23.0).sqrt()) as usize)
+    let mut n = (((per_bay / TRIANGLES_PER_BAY_PER_N2).sqrt()) as usize)
         .saturating_sub(2)
-        .max(2);
-    while n < 4000 && count(max_bays, n) < target {
+        .max(MIN_DENSITY);
+    while n < MAX_DENSITY && count(max_bays, n) < target {
         n += 1.max(n / 32);
     }
-    let (mut lo, mut hi) = (2usize, max_bays);
+    let (mut lo, mut hi) = (MIN_BAYS, max_bays);
     while lo < hi {
         let mid = (lo + hi) / 2;
         if count(mid, n) >= target {
@@ -158,7 +159,7 @@ pub fn generate_scale_scene(triangles: usize, lights: usize, seed: u64) -> Gener
     }
     let bays = lo;
     let (_, mesh, triangle_material, materials) = build(bays, n);
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x9E37_79B9_7F4A_7C15);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ LIGHT_SEED_MIX);
     let lights = lights_for(&mut rng, lights, bays);
     GeneratedScene {
         mesh,
@@ -168,15 +169,47 @@ pub fn generate_scale_scene(triangles: usize, lights: usize, seed: u64) -> Gener
     }
 }
 
+/// The nave gets about √(triangles / this) bays, so that bay count and tessellation
+/// density grow together.
+const BAY_COUNT_DIVISOR: f64 = 500.0;
+/// Fewest bays of the nave.
+const MIN_BAYS: usize = 2;
+/// Most bays of the nave.
+const MAX_BAYS: usize = 400;
+/// Approximate triangles of one bay per squared tessellation density n (first guess
+/// of n, refined by counting).
+const TRIANGLES_PER_BAY_PER_N2: f64 = 23.0;
+/// Lowest tessellation density (quads per unit edge of a bay's patch grid).
+const MIN_DENSITY: usize = 2;
+/// The density search stops here even if the target is not reached.
+const MAX_DENSITY: usize = 4000;
+/// Mixed into the seed for the lights' random stream (2⁶⁴ / golden ratio), so that
+/// it differs from the materials' stream.
+const LIGHT_SEED_MIX: u64 = 0x9E37_79B9_7F4A_7C15;
+/// Twice the area (m²) below which a patch triangle counts as collapsed (e.g. at
+/// the centre of a lunette) and is skipped.
+const COLLAPSED_TRIANGLE_AREA2: f64 = 1e-12;
+
+/// Length of one bay along the nave (x), metres.
 const BAY_LEN: f64 = 6.0;
+/// Width of the nave (y), metres.
 const NAVE_W: f64 = 12.0;
+/// Height of the springing line where the barrel vault starts, metres.
 const SPRING_Z: f64 = 9.0;
+/// Distance of the column axes from the nave's centre line, metres.
 const COLUMN_Y: f64 = 4.0;
+/// Column radius, metres.
 const COLUMN_R: f64 = 0.4;
+/// Column height (the arches rest on the column tops), metres.
 const COLUMN_H: f64 = 6.0;
+/// Depth of a side chapel beyond the wall, metres.
 const CHAPEL_D: f64 = 4.0;
+/// Height of a side chapel, metres.
 const CHAPEL_H: f64 = 6.0;
+/// Wall thickness between the nave and a side chapel, metres.
 const WALL_T: f64 = 0.3;
+/// Gap between a side chapel and either end of its bay along x, metres.
+const CHAPEL_INSET: f64 = 0.5;
 
 #[derive(Clone, Copy)]
 enum Mat {
@@ -252,7 +285,7 @@ impl Builder {
                 for t in [[a, b, cc], [a, cc, d]] {
                     let t = if flip { [t[0], t[2], t[1]] } else { t };
                     let p = |k: usize| self.mesh.positions[t[k] as usize];
-                    if len(cross(sub(p(1), p(0)), sub(p(2), p(0)))) < 1e-12 {
+                    if len(cross(sub(p(1), p(0)), sub(p(2), p(0)))) < COLLAPSED_TRIANGLE_AREA2 {
                         continue; // collapsed quad corner (e.g. the centre of a lunette)
                     }
                     self.mesh.triangles.push(t);
@@ -262,7 +295,10 @@ impl Builder {
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a quad is origin, two edges, two tessellation counts, material and facing"
+    )]
     fn quad(
         &mut self,
         o: [f64; 3],
@@ -283,82 +319,92 @@ impl Builder {
     }
 
     fn nave(&mut self, bays: usize, n: usize) {
-        let r = NAVE_W / 2.0;
-        let len_total = bays as f64 * BAY_LEN;
         for bay in 0..bays {
             let x0 = bay as f64 * BAY_LEN;
-            let xm = x0 + BAY_LEN / 2.0;
-            // floor, walls, vault
+            self.bay_shell(x0, n);
+            self.bay_columns(x0, bay + 1 < bays, n);
+            self.side_chapel(bay, x0, n);
+        }
+        self.end_walls(bays as f64 * BAY_LEN, n);
+    }
+
+    /// One bay's floor, side walls and barrel vault, starting at `x0`.
+    fn bay_shell(&mut self, x0: f64, n: usize) {
+        let r = NAVE_W / 2.0;
+        self.quad(
+            [x0, -r, 0.0],
+            [BAY_LEN, 0.0, 0.0],
+            [0.0, NAVE_W, 0.0],
+            n,
+            2 * n,
+            Mat::Floor,
+            [0.0, 0.0, 1.0],
+        );
+        for (y, facing) in [(-r, 1.0), (r, -1.0)] {
             self.quad(
-                [x0, -r, 0.0],
-                [BAY_LEN, 0.0, 0.0],
-                [0.0, NAVE_W, 0.0],
-                n,
-                2 * n,
-                Mat::Floor,
-                [0.0, 0.0, 1.0],
-            );
-            self.quad(
-                [x0, -r, 0.0],
+                [x0, y, 0.0],
                 [BAY_LEN, 0.0, 0.0],
                 [0.0, 0.0, SPRING_Z],
                 n,
                 n,
                 Mat::Wall,
-                [0.0, 1.0, 0.0],
-            );
-            self.quad(
-                [x0, r, 0.0],
-                [BAY_LEN, 0.0, 0.0],
-                [0.0, 0.0, SPRING_Z],
-                n,
-                n,
-                Mat::Wall,
-                [0.0, -1.0, 0.0],
-            );
-            self.patch(
-                |u, v| {
-                    let phi = v * PI;
-                    [x0 + u * BAY_LEN, r * phi.cos(), SPRING_Z + r * phi.sin()]
-                },
-                n,
-                2 * n,
-                Mat::Vault,
-                |p| [0.0, -p[1], SPRING_Z - p[2]],
-            );
-            // columns
-            for side in [-1.0, 1.0] {
-                let (cx, cy) = (xm, side * COLUMN_Y);
-                self.patch(
-                    |u, v| {
-                        let th = u * TAU;
-                        [
-                            cx + COLUMN_R * th.cos(),
-                            cy + COLUMN_R * th.sin(),
-                            v * COLUMN_H,
-                        ]
-                    },
-                    2 * n,
-                    2 * n,
-                    Mat::Column,
-                    |p| [p[0] - cx, p[1] - cy, 0.0],
-                );
-                // arch towards the next bay's column
-                if bay + 1 < bays {
-                    self.arch(xm, xm + BAY_LEN, cy, n);
-                }
-            }
-            // side chapel on alternating sides, outside the wall
-            let side = if bay % 2 == 0 { 1.0 } else { -1.0 };
-            let y_in = side * (r + WALL_T);
-            let y_out = side * (r + WALL_T + CHAPEL_D);
-            self.room(
-                [x0 + 0.5, y_in.min(y_out), 0.0],
-                [x0 + BAY_LEN - 0.5, y_in.max(y_out), CHAPEL_H],
-                n.div_ceil(2),
+                [0.0, facing, 0.0],
             );
         }
-        // end walls and lunettes
+        self.patch(
+            |u, v| {
+                let phi = v * PI;
+                [x0 + u * BAY_LEN, r * phi.cos(), SPRING_Z + r * phi.sin()]
+            },
+            n,
+            2 * n,
+            Mat::Vault,
+            |p| [0.0, -p[1], SPRING_Z - p[2]],
+        );
+    }
+
+    /// The two columns in the middle of the bay at `x0`, each with an arch towards
+    /// the next bay's column when there is a next bay.
+    fn bay_columns(&mut self, x0: f64, has_next_bay: bool, n: usize) {
+        let xm = x0 + BAY_LEN / 2.0;
+        for side in [-1.0, 1.0] {
+            let (cx, cy) = (xm, side * COLUMN_Y);
+            self.patch(
+                |u, v| {
+                    let th = u * TAU;
+                    [
+                        cx + COLUMN_R * th.cos(),
+                        cy + COLUMN_R * th.sin(),
+                        v * COLUMN_H,
+                    ]
+                },
+                2 * n,
+                2 * n,
+                Mat::Column,
+                |p| [p[0] - cx, p[1] - cy, 0.0],
+            );
+            if has_next_bay {
+                self.arch(xm, xm + BAY_LEN, cy, n);
+            }
+        }
+    }
+
+    /// A side chapel outside the wall, on alternating sides by bay.
+    fn side_chapel(&mut self, bay: usize, x0: f64, n: usize) {
+        let r = NAVE_W / 2.0;
+        let side = if bay.is_multiple_of(2) { 1.0 } else { -1.0 };
+        let y_in = side * (r + WALL_T);
+        let y_out = side * (r + WALL_T + CHAPEL_D);
+        self.room(
+            [x0 + CHAPEL_INSET, y_in.min(y_out), 0.0],
+            [x0 + BAY_LEN - CHAPEL_INSET, y_in.max(y_out), CHAPEL_H],
+            n.div_ceil(2),
+        );
+    }
+
+    /// The end walls at x = 0 and `len_total`, with the lunettes under the vault.
+    fn end_walls(&mut self, len_total: f64, n: usize) {
+        let r = NAVE_W / 2.0;
         for (x, facing) in [(0.0, 1.0), (len_total, -1.0)] {
             self.quad(
                 [x, -r, 0.0],
@@ -490,7 +536,7 @@ fn lights_for(rng: &mut ChaCha8Rng, count: usize, bays: usize) -> Vec<GeneratedL
                 let in_chapel = rng.random_bool(0.1);
                 let position = if in_chapel {
                     let bay = rng.random_range(0..bays);
-                    let side = if bay % 2 == 0 { 1.0 } else { -1.0 };
+                    let side = if bay.is_multiple_of(2) { 1.0 } else { -1.0 };
                     let y = side * (NAVE_W / 2.0 + WALL_T + CHAPEL_D / 2.0);
                     [bay as f64 * BAY_LEN + BAY_LEN / 2.0, y, CHAPEL_H - 0.5]
                 } else {

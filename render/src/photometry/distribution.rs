@@ -569,19 +569,25 @@ fn spot_falloff(gamma: f64, inner: f64, outer: f64) -> f64 {
 
 /// ∫ f(γ) sin γ dγ from `breaks[0]` to π, composite 4-point Gauss–Legendre between
 /// the breaks (never evaluated exactly at a break, where f may jump).
+/// Nodes of the 4-point Gauss–Legendre rule on [−1, 1].
+pub(crate) const GAUSS_LEGENDRE_4_NODES: [f64; 4] = [
+    -0.861_136_311_594_052_6,
+    -0.339_981_043_584_856_3,
+    0.339_981_043_584_856_3,
+    0.861_136_311_594_052_6,
+];
+
+/// Weights of the 4-point Gauss–Legendre rule on [−1, 1] (they sum to 2).
+pub(crate) const GAUSS_LEGENDRE_4_WEIGHTS: [f64; 4] = [
+    0.347_854_845_137_453_9,
+    0.652_145_154_862_546_1,
+    0.652_145_154_862_546_1,
+    0.347_854_845_137_453_9,
+];
+
 fn integrate_sin(f: &dyn Fn(f64) -> f64, breaks: &[f64]) -> f64 {
-    const X: [f64; 4] = [
-        -0.861_136_311_594_052_6,
-        -0.339_981_043_584_856_3,
-        0.339_981_043_584_856_3,
-        0.861_136_311_594_052_6,
-    ];
-    const W: [f64; 4] = [
-        0.347_854_845_137_453_9,
-        0.652_145_154_862_546_1,
-        0.652_145_154_862_546_1,
-        0.347_854_845_137_453_9,
-    ];
+    const X: [f64; 4] = GAUSS_LEGENDRE_4_NODES;
+    const W: [f64; 4] = GAUSS_LEGENDRE_4_WEIGHTS;
     let mut pts: Vec<f64> = breaks.to_vec();
     pts.push(PI);
     let mut total = 0.0;

@@ -19,21 +19,15 @@ impl Default for LightFrame {
     }
 }
 
-pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
+pub(crate) use crate::mesh::{cross, dot};
 
-pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
+/// Shortest vector [`normalize`] accepts (near the smallest normal f64, so that the
+/// division stays finite).
+const MIN_NORMALIZABLE_LENGTH: f64 = 1e-300;
 
 pub(crate) fn normalize(a: [f64; 3]) -> Option<[f64; 3]> {
     let n = dot(a, a).sqrt();
-    if n.is_finite() && n > 1e-300 {
+    if n.is_finite() && n > MIN_NORMALIZABLE_LENGTH {
         Some([a[0] / n, a[1] / n, a[2] / n])
     } else {
         None

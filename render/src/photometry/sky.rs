@@ -2,6 +2,7 @@
 //! (type 1 of the 1942/CIE 1955 standard, L(θ) = Lz·(1 + 2 cos θ)/3) and the CIE clear
 //! sky (type 12, CIE 1973), with the sun as a directional source. World frame: +z up.
 
+use super::distribution::{GAUSS_LEGENDRE_4_NODES, GAUSS_LEGENDRE_4_WEIGHTS};
 use super::frame::{dot, normalize};
 use std::f64::consts::{FRAC_PI_2, TAU};
 
@@ -167,18 +168,8 @@ impl Sky {
         let Some(n) = normalize(normal) else {
             return 0.0;
         };
-        const GL_X: [f64; 4] = [
-            -0.861_136_311_594_052_6,
-            -0.339_981_043_584_856_3,
-            0.339_981_043_584_856_3,
-            0.861_136_311_594_052_6,
-        ];
-        const GL_W: [f64; 4] = [
-            0.347_854_845_137_453_9,
-            0.652_145_154_862_546_1,
-            0.652_145_154_862_546_1,
-            0.347_854_845_137_453_9,
-        ];
+        const GL_X: [f64; 4] = GAUSS_LEGENDRE_4_NODES;
+        const GL_W: [f64; 4] = GAUSS_LEGENDRE_4_WEIGHTS;
         let n_mu = 96;
         let n_phi = 720;
         let h = 1.0 / n_mu as f64;

@@ -56,12 +56,20 @@ impl CheckReport {
     }
 }
 
+/// A polygon is degenerate when its area is at most this fraction of its squared
+/// longest edge (a sliver or a collapsed face).
+const DEGENERATE_AREA_RATIO: f64 = 1e-10;
+
+/// A quad is planar when every vertex lies within this fraction of its longer
+/// diagonal from the plane through the first vertex.
+const QUAD_PLANARITY_TOLERANCE: f64 = 1e-6;
+
 fn degenerate(v: &[V3]) -> bool {
     let mut longest: f64 = 0.0;
     for i in 0..v.len() {
         longest = longest.max((v[(i + 1) % v.len()] - v[i]).norm_squared());
     }
-    longest <= 0.0 || polygon_area_m2(v) <= 1e-10 * longest
+    longest <= 0.0 || polygon_area_m2(v) <= DEGENERATE_AREA_RATIO * longest
 }
 
 fn quad_ok(v: &[V3]) -> bool {
@@ -72,8 +80,10 @@ fn quad_ok(v: &[V3]) -> bool {
     }
     let n = n / len;
     let scale = (v[2] - v[0]).norm().max((v[3] - v[1]).norm());
-    // planar to 1e-6 of the diagonal and convex (all corner turns agree with n)
-    let planar = v.iter().all(|p| (p - v[0]).dot(&n).abs() <= 1e-6 * scale);
+    // planar and convex (all corner turns agree with n)
+    let planar = v
+        .iter()
+        .all(|p| (p - v[0]).dot(&n).abs() <= QUAD_PLANARITY_TOLERANCE * scale);
     let convex = (0..4).all(|i| {
         let a = v[(i + 1) % 4] - v[i];
         let b = v[(i + 2) % 4] - v[(i + 1) % 4];
@@ -146,13 +156,34 @@ pub fn check_polygons(input: Vec<Polygon>) -> (Vec<Polygon>, CheckReport) {
 /// An object that needs no repair keeps its polygons (quads stay quads); one with
 /// T-vertices, duplicates or flipped faces is replaced by the repaired triangles.
 fn check_topology(polygons: Vec<Polygon>, report: &mut CheckReport) -> Vec<Polygon> {
-    use crate::mesh::{IndexedMesh, check_and_repair};
+    let mut out = Vec::new();
+    for group in group_by_object_and_layer(polygons) {
+        if group.faces.len() < 2 {
+            out.extend(group.faces);
+            continue;
+        }
+        repair_group(group, report, &mut out);
+    }
+    out
+}
+
+/// Faces of one object with one material, in one layer (see
+/// [`group_by_object_and_layer`]).
+struct FaceGroup {
+    object: String,
+    material: usize,
+    faces: Vec<Polygon>,
+}
+
+/// Groups faces by object, material and layer, in order of first appearance.
+///
+/// A face with the same corners as an earlier one but the opposite winding is a
+/// deliberate back face (a two-sided sheet of one-sided polygons): it goes into a
+/// layer of its own, so that neither is dropped as a duplicate nor flipped.
+fn group_by_object_and_layer(polygons: Vec<Polygon>) -> Vec<FaceGroup> {
     use std::collections::HashMap;
-    // A face with the same corners as an earlier one but the opposite winding is a
-    // deliberate back face (a two-sided sheet of one-sided polygons): it goes into a
-    // layer of its own, so that neither is dropped as a duplicate nor flipped.
     type Key = (String, usize, usize);
-    let mut groups: Vec<(Key, Vec<Polygon>)> = Vec::new();
+    let mut groups: Vec<FaceGroup> = Vec::new();
     let mut index: HashMap<Key, usize> = HashMap::new();
     let mut seen: HashMap<(String, usize, Vec<[u64; 3]>), V3> = HashMap::new();
     for p in polygons {
@@ -173,56 +204,59 @@ fn check_topology(polygons: Vec<Polygon>, report: &mut CheckReport) -> Vec<Polyg
             }
         };
         let key = (p.object.clone(), p.material, layer);
-        let g = *index.entry(key.clone()).or_insert_with(|| {
-            groups.push((key, Vec::new()));
+        let g = *index.entry(key).or_insert_with(|| {
+            groups.push(FaceGroup {
+                object: p.object.clone(),
+                material: p.material,
+                faces: Vec::new(),
+            });
             groups.len() - 1
         });
-        groups[g].1.push(p);
+        groups[g].faces.push(p);
     }
-    let mut out = Vec::new();
-    for ((object, material, _), faces) in groups {
-        if faces.len() < 2 {
-            out.extend(faces);
-            continue;
+    groups
+}
+
+/// Runs the mesh repair on one group's faces and appends the result to `out`: the
+/// faces unchanged when nothing needed repair, else the repaired triangles.
+fn repair_group(group: FaceGroup, report: &mut CheckReport, out: &mut Vec<Polygon>) {
+    use crate::mesh::{IndexedMesh, check_and_repair};
+    let mut mesh = IndexedMesh {
+        positions: Vec::new(),
+        triangles: Vec::new(),
+    };
+    for f in &group.faces {
+        let base = mesh.positions.len() as u32;
+        mesh.positions
+            .extend(f.vertices.iter().map(|v| [v.x, v.y, v.z]));
+        for k in 1..f.vertices.len().saturating_sub(1) as u32 {
+            mesh.triangles.push([base, base + k, base + k + 1]);
         }
-        let mut mesh = IndexedMesh {
-            positions: Vec::new(),
-            triangles: Vec::new(),
+    }
+    let r = check_and_repair(&mut mesh);
+    report.non_manifold_edges += r.non_manifold_edges;
+    let changed = r.t_vertices_fixed + r.triangles_flipped + r.duplicate_triangles_removed > 0;
+    if !changed {
+        out.extend(group.faces);
+        return;
+    }
+    report.t_vertices_fixed += r.t_vertices_fixed;
+    report.triangles_flipped += r.triangles_flipped;
+    report.duplicate_faces_removed += r.duplicate_triangles_removed;
+    report.objects_repaired += 1;
+    for t in 0..mesh.triangles.len() {
+        let Some(tri) = mesh.triangle_positions(t) else {
+            continue;
         };
-        for f in &faces {
-            let base = mesh.positions.len() as u32;
-            mesh.positions
-                .extend(f.vertices.iter().map(|v| [v.x, v.y, v.z]));
-            for k in 1..f.vertices.len().saturating_sub(1) as u32 {
-                mesh.triangles.push([base, base + k, base + k + 1]);
-            }
-        }
-        let r = check_and_repair(&mut mesh);
-        report.non_manifold_edges += r.non_manifold_edges;
-        let changed = r.t_vertices_fixed + r.triangles_flipped + r.duplicate_triangles_removed > 0;
-        if !changed {
-            out.extend(faces);
+        let vertices: Vec<V3> = tri.iter().map(|c| V3::new(c[0], c[1], c[2])).collect();
+        if degenerate(&vertices) {
+            report.dropped_degenerate += 1;
             continue;
         }
-        report.t_vertices_fixed += r.t_vertices_fixed;
-        report.triangles_flipped += r.triangles_flipped;
-        report.duplicate_faces_removed += r.duplicate_triangles_removed;
-        report.objects_repaired += 1;
-        for t in 0..mesh.triangles.len() {
-            let Some(tri) = mesh.triangle_positions(t) else {
-                continue;
-            };
-            let vertices: Vec<V3> = tri.iter().map(|c| V3::new(c[0], c[1], c[2])).collect();
-            if degenerate(&vertices) {
-                report.dropped_degenerate += 1;
-                continue;
-            }
-            out.push(Polygon {
-                vertices,
-                material,
-                object: object.clone(),
-            });
-        }
+        out.push(Polygon {
+            vertices,
+            material: group.material,
+            object: group.object.clone(),
+        });
     }
-    out
 }

@@ -5,7 +5,7 @@ pub type V3 = nalgebra::Vector3<f64>;
 
 /// Area-weighted normal (Newell's method): its length is the
 /// polygon's area in m² and its direction the unit normal (right-hand winding).
-pub fn newell(vertices: &[V3]) -> V3 {
+pub(super) fn newell(vertices: &[V3]) -> V3 {
     let mut n = V3::zeros();
     let k = vertices.len();
     for i in 0..k {

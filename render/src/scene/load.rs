@@ -2,7 +2,7 @@
 //! polygons) that names an optional OBJ file for the geometry (read with `tobj`).
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::Deserialize;
 
@@ -116,40 +116,153 @@ pub struct PolygonFile {
     pub name: String,
 }
 
-/// A light entry.
+/// A light entry: what every light has, and what its `type` adds.
+///
+/// Read from the flat `[[lights]]` table of the file; fields that belong to another
+/// `type` are accepted and ignored, as they always were.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(try_from = "LightEntry")]
+pub struct LightFile {
+    /// Name for messages (empty: numbered).
+    pub name: String,
+    /// Position (file units).
+    pub position: [f64; 3],
+    /// Chromaticity xy (default equal-energy white).
+    pub color_xy: Option<[f64; 2]>,
+    /// The kind of light and its own fields (the file's `type`).
+    pub kind: LightKindFile,
+}
+
+/// The kind-specific part of a [`LightFile`], tagged by the file's `type`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LightKindFile {
+    /// `type = "point"`: isotropic.
+    Point {
+        /// Luminous intensity in cd, or total flux in lm (exactly one of the two).
+        output: LightOutputFile,
+    },
+    /// `type = "spot"`: linear angular fall-off from `inner_deg` to `outer_deg`.
+    Spot {
+        /// Luminous intensity on the axis in cd, or total flux in lm.
+        output: LightOutputFile,
+        /// Spot axis.
+        axis: Option<[f64; 3]>,
+        /// Half angle of full intensity in degrees.
+        inner_deg: Option<f64>,
+        /// Half angle where the intensity reaches zero in degrees.
+        outer_deg: Option<f64>,
+    },
+    /// `type = "goniometric"`: an IES LM-63 `.ies` or EULUMDAT `.ldt` file.
+    Goniometric(GoniometricLightFile),
+}
+
+/// The fields of a goniometric light entry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GoniometricLightFile {
+    /// The photometric file, relative to the scene file.
+    pub file: Option<String>,
+    /// World direction of the photometric axis (nadir, γ = 0°).
+    pub aim: Option<[f64; 3]>,
+    /// World direction of the C0° plane (default: chosen from `aim`).
+    pub c0: Option<[f64; 3]>,
+    /// Multiplies the file's intensities (e.g. a dimming factor).
+    pub scale: Option<f64>,
+    /// Scales the file's intensities to this total flux in lm.
+    pub flux_lm: Option<f64>,
+}
+
+/// How bright a point or spot light is: `intensity_cd` and/or `flux_lm` as written
+/// (the loader requires exactly one of the two).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LightOutputFile {
+    /// Luminous intensity in cd (on the axis for spots).
+    pub intensity_cd: Option<f64>,
+    /// Total luminous flux in lm.
+    pub flux_lm: Option<f64>,
+}
+
+/// A `[[lights]]` table exactly as written: one flat table whose `type` selects
+/// which of the other fields matter.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct LightFile {
+struct LightEntry {
     /// Name for messages.
     #[serde(default)]
-    pub name: String,
+    name: String,
     /// `point`, `spot`, or `goniometric` (an IES LM-63 `.ies` or EULUMDAT `.ldt`
     /// file).
     #[serde(rename = "type")]
-    pub kind: String,
+    kind: String,
     /// Goniometric: the photometric file, relative to the scene file.
-    pub file: Option<String>,
+    file: Option<String>,
     /// Goniometric: world direction of the photometric axis (nadir, γ = 0°).
-    pub aim: Option<[f64; 3]>,
+    aim: Option<[f64; 3]>,
     /// Goniometric: world direction of the C0° plane (default: chosen from `aim`).
-    pub c0: Option<[f64; 3]>,
+    c0: Option<[f64; 3]>,
     /// Goniometric: multiplies the file's intensities (e.g. a dimming factor); use
     /// `flux_lm` instead to set the total flux.
-    pub scale: Option<f64>,
+    scale: Option<f64>,
     /// Position (file units).
-    pub position: [f64; 3],
+    position: [f64; 3],
     /// Luminous intensity in cd (on the axis for spots).
-    pub intensity_cd: Option<f64>,
+    intensity_cd: Option<f64>,
     /// Total luminous flux in lm (alternative to `intensity_cd`).
-    pub flux_lm: Option<f64>,
+    flux_lm: Option<f64>,
     /// Chromaticity xy (default equal-energy white).
-    pub color_xy: Option<[f64; 2]>,
+    color_xy: Option<[f64; 2]>,
     /// Spot axis.
-    pub axis: Option<[f64; 3]>,
+    axis: Option<[f64; 3]>,
     /// Spot: half angle of full intensity in degrees.
-    pub inner_deg: Option<f64>,
+    inner_deg: Option<f64>,
     /// Spot: half angle where the intensity reaches zero in degrees.
-    pub outer_deg: Option<f64>,
+    outer_deg: Option<f64>,
+}
+
+impl TryFrom<LightEntry> for LightFile {
+    type Error = String;
+
+    fn try_from(l: LightEntry) -> Result<Self, String> {
+        let output = LightOutputFile {
+            intensity_cd: l.intensity_cd,
+            flux_lm: l.flux_lm,
+        };
+        let kind = match l.kind.as_str() {
+            "point" => LightKindFile::Point { output },
+            "spot" => LightKindFile::Spot {
+                output,
+                axis: l.axis,
+                inner_deg: l.inner_deg,
+                outer_deg: l.outer_deg,
+            },
+            "goniometric" => {
+                if l.intensity_cd.is_some() {
+                    return Err(format!(
+                        "light `{}`: a goniometric light takes `flux_lm` or `scale`, not `intensity_cd`",
+                        l.name
+                    ));
+                }
+                LightKindFile::Goniometric(GoniometricLightFile {
+                    file: l.file,
+                    aim: l.aim,
+                    c0: l.c0,
+                    scale: l.scale,
+                    flux_lm: l.flux_lm,
+                })
+            }
+            other => {
+                return Err(format!(
+                    "light `{}`: type `{other}` is not known; use `point`, `spot` or `goniometric`",
+                    l.name
+                ));
+            }
+        };
+        Ok(LightFile {
+            name: l.name,
+            position: l.position,
+            color_xy: l.color_xy,
+            kind,
+        })
+    }
 }
 
 /// The camera entry.
@@ -233,6 +346,13 @@ fn material(name: &str, m: &MaterialFile) -> Result<Material, SceneError> {
     })
 }
 
+/// Default spot half angle in degrees when the file gives neither `inner_deg` nor
+/// `outer_deg` (documented in `fixtures/scenes/README.md`).
+const DEFAULT_SPOT_HALF_ANGLE_DEG: f64 = 30.0;
+
+/// Shortest direction vector the loader normalises; shorter counts as zero.
+const MIN_DIRECTION_LENGTH: f64 = 1e-12;
+
 fn light(i: usize, l: &LightFile, unit_m: f64, base_dir: &Path) -> Result<Light, SceneError> {
     let name = if l.name.is_empty() {
         format!("light {i}")
@@ -245,61 +365,20 @@ fn light(i: usize, l: &LightFile, unit_m: f64, base_dir: &Path) -> Result<Light,
         return Err(invalid(what, "position is not finite"));
     }
     let color_xyz = xy_to_xyz(&what, l.color_xy)?;
-    let kind = match l.kind.as_str() {
-        "point" => {
-            let i_cd = match (l.intensity_cd, l.flux_lm) {
-                (Some(i), None) => i,
-                (None, Some(f)) => f / (4.0 * std::f64::consts::PI),
-                _ => return Err(invalid(what, "give exactly one of intensity_cd or flux_lm")),
-            };
-            LightKind::Isotropic { intensity_cd: i_cd }
-        }
-        "spot" => {
-            let axis = v3(l
-                .axis
-                .ok_or_else(|| invalid(&what, "a spot needs `axis`"))?);
-            let axis = axis
-                .try_normalize(1e-12)
-                .ok_or_else(|| invalid(&what, "spot axis has zero length"))?;
-            let inner = l.inner_deg.unwrap_or(30.0).to_radians();
-            let outer = l
-                .outer_deg
-                .unwrap_or(l.inner_deg.unwrap_or(30.0))
-                .to_radians();
-            if !(inner > 0.0 && outer >= inner && outer <= std::f64::consts::PI) {
-                return Err(invalid(what, "need 0 < inner_deg ≤ outer_deg ≤ 180"));
-            }
-            let i_cd = match (l.intensity_cd, l.flux_lm) {
-                (Some(i), None) => i,
-                (None, Some(f)) => f / super::types::spot_flux_per_cd(inner, outer),
-                _ => return Err(invalid(what, "give exactly one of intensity_cd or flux_lm")),
-            };
-            LightKind::Spot {
-                axis,
-                intensity_cd: i_cd,
-                inner_half_angle_rad: inner,
-                outer_half_angle_rad: outer,
-            }
-        }
-        "goniometric" => {
-            return goniometric(&name, l, position, color_xyz, base_dir);
-        }
-        other => {
-            return Err(invalid(
-                what,
-                format!("type `{other}` is not known; use `point`, `spot` or `goniometric`"),
-            ));
+    let kind = match &l.kind {
+        LightKindFile::Point { output } => LightKind::Isotropic {
+            intensity_cd: intensity_cd(&what, *output, |f| f / (4.0 * std::f64::consts::PI))?,
+        },
+        LightKindFile::Spot {
+            output,
+            axis,
+            inner_deg,
+            outer_deg,
+        } => spot(&what, *output, *axis, *inner_deg, *outer_deg)?,
+        LightKindFile::Goniometric(photometry) => {
+            return goniometric(&name, photometry, position, color_xyz, base_dir);
         }
     };
-    let cd = match &kind {
-        LightKind::Isotropic { intensity_cd } | LightKind::Spot { intensity_cd, .. } => {
-            *intensity_cd
-        }
-        LightKind::Goniometric { .. } => 0.0,
-    };
-    if !(cd.is_finite() && cd >= 0.0) {
-        return Err(invalid(what, format!("intensity {cd} cd must be ≥ 0")));
-    }
     Ok(Light {
         name,
         position,
@@ -308,66 +387,88 @@ fn light(i: usize, l: &LightFile, unit_m: f64, base_dir: &Path) -> Result<Light,
     })
 }
 
+/// The intensity in cd of a point or spot: `intensity_cd` as given, or `flux_lm`
+/// through `cd_from_flux`; it must be finite and ≥ 0.
+fn intensity_cd(
+    what: &str,
+    output: LightOutputFile,
+    cd_from_flux: impl Fn(f64) -> f64,
+) -> Result<f64, SceneError> {
+    let cd = match (output.intensity_cd, output.flux_lm) {
+        (Some(i), None) => i,
+        (None, Some(f)) => cd_from_flux(f),
+        _ => return Err(invalid(what, "give exactly one of intensity_cd or flux_lm")),
+    };
+    if !(cd.is_finite() && cd >= 0.0) {
+        return Err(invalid(what, format!("intensity {cd} cd must be ≥ 0")));
+    }
+    Ok(cd)
+}
+
+/// A spot light from its file fields.
+fn spot(
+    what: &str,
+    output: LightOutputFile,
+    axis: Option<[f64; 3]>,
+    inner_deg: Option<f64>,
+    outer_deg: Option<f64>,
+) -> Result<LightKind, SceneError> {
+    let axis = v3(axis.ok_or_else(|| invalid(what, "a spot needs `axis`"))?);
+    let axis = axis
+        .try_normalize(MIN_DIRECTION_LENGTH)
+        .ok_or_else(|| invalid(what, "spot axis has zero length"))?;
+    let inner_deg = inner_deg.unwrap_or(DEFAULT_SPOT_HALF_ANGLE_DEG);
+    let inner = inner_deg.to_radians();
+    let outer = outer_deg.unwrap_or(inner_deg).to_radians();
+    if !(inner > 0.0 && outer >= inner && outer <= std::f64::consts::PI) {
+        return Err(invalid(what, "need 0 < inner_deg ≤ outer_deg ≤ 180"));
+    }
+    let intensity_cd = intensity_cd(what, output, |f| {
+        f / super::types::spot_flux_per_cd(inner, outer)
+    })?;
+    Ok(LightKind::Spot {
+        axis,
+        intensity_cd,
+        inner_half_angle_rad: inner,
+        outer_half_angle_rad: outer,
+    })
+}
+
+/// Default photometric axis of a goniometric light: straight down in a z-up scene.
+const DEFAULT_AIM: [f64; 3] = [0.0, 0.0, -1.0];
+
 /// A goniometric light from an IES LM-63 or EULUMDAT file.
 fn goniometric(
     name: &str,
-    l: &LightFile,
+    l: &GoniometricLightFile,
     position: V3,
     color_xyz: [f64; 3],
     base_dir: &Path,
 ) -> Result<Light, SceneError> {
-    use crate::photometry::{IntensityDistribution, LightFrame, to_scene_light};
+    use crate::photometry::{LightFrame, to_scene_light};
     let what = format!("light `{name}`");
     let file = l
         .file
-        .as_ref()
+        .as_deref()
         .ok_or_else(|| invalid(&what, "a goniometric light needs `file` (.ies or .ldt)"))?;
-    let path = base_dir.join(file);
-    let text = std::fs::read_to_string(&path).map_err(|source| SceneError::Io {
-        path: path.clone(),
-        source,
-    })?;
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    let parsed = match ext.as_deref() {
-        Some("ies") => IntensityDistribution::from_ies_lm63(&text),
-        Some("ldt") => IntensityDistribution::from_eulumdat(&text),
-        _ => {
-            return Err(invalid(
-                &what,
-                format!(
-                    "{}: the file must end in .ies (LM-63) or .ldt (EULUMDAT)",
-                    path.display()
-                ),
-            ));
-        }
-    };
-    let mut dist = parsed.map_err(|e| invalid(&what, format!("{}: {e}", path.display())))?;
-    match (l.flux_lm, l.scale, l.intensity_cd) {
-        (_, _, Some(_)) => {
-            return Err(invalid(
-                &what,
-                "a goniometric light takes `flux_lm` or `scale`, not `intensity_cd`",
-            ));
-        }
-        (Some(_), Some(_), _) => return Err(invalid(&what, "give `flux_lm` or `scale`, not both")),
-        (Some(f), None, _) => {
+    let mut dist = read_distribution(&what, &base_dir.join(file))?;
+    match (l.flux_lm, l.scale) {
+        (Some(_), Some(_)) => return Err(invalid(&what, "give `flux_lm` or `scale`, not both")),
+        (Some(f), None) => {
             if !(f.is_finite() && f > 0.0) {
                 return Err(invalid(&what, format!("flux {f} lm must be positive")));
             }
             dist = dist.scaled_to_flux(f);
         }
-        (None, Some(k), _) => {
+        (None, Some(k)) => {
             if !(k.is_finite() && k >= 0.0) {
                 return Err(invalid(&what, format!("scale {k} must be ≥ 0")));
             }
             dist = dist.scaled_by(k);
         }
-        (None, None, _) => {}
+        (None, None) => {}
     }
-    let aim = l.aim.unwrap_or([0.0, 0.0, -1.0]);
+    let aim = l.aim.unwrap_or(DEFAULT_AIM);
     if v3(aim).norm() <= 0.0 || !aim.iter().all(|c| c.is_finite()) {
         return Err(invalid(&what, "`aim` must be a non-zero direction"));
     }
@@ -380,6 +481,39 @@ fn goniometric(
     Ok(light)
 }
 
+/// Reads an `.ies` (LM-63) or `.ldt` (EULUMDAT) photometric file.
+fn read_distribution(
+    what: &str,
+    path: &Path,
+) -> Result<crate::photometry::IntensityDistribution, SceneError> {
+    use crate::photometry::IntensityDistribution;
+    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let parsed = match ext.as_deref() {
+        Some("ies") => IntensityDistribution::from_ies_lm63(&text),
+        Some("ldt") => IntensityDistribution::from_eulumdat(&text),
+        _ => {
+            return Err(invalid(
+                what,
+                format!(
+                    "{}: the file must end in .ies (LM-63) or .ldt (EULUMDAT)",
+                    path.display()
+                ),
+            ));
+        }
+    };
+    parsed.map_err(|e| invalid(what, format!("{}: {e}", path.display())))
+}
+
+/// Most zenith bands of a sky's discretisation (one band per degree of zenith angle).
+const MAX_SKY_BANDS: usize = 90;
+
 /// Daylight from a `[sky]` entry, in world coordinates.
 fn daylight(s: &SkyFile) -> Result<super::types::Daylight, SceneError> {
     use super::types::{Daylight, DirectionalSource};
@@ -388,18 +522,18 @@ fn daylight(s: &SkyFile) -> Result<super::types::Daylight, SceneError> {
     if !(s.zenith_luminance_cd_m2.is_finite() && s.zenith_luminance_cd_m2 > 0.0) {
         return Err(invalid(what, "zenith_luminance_cd_m2 must be positive"));
     }
-    if !(1..=90).contains(&s.bands) {
+    if !(1..=MAX_SKY_BANDS).contains(&s.bands) {
         return Err(invalid(
             what,
-            format!("bands {} must be in 1..=90", s.bands),
+            format!("bands {} must be in 1..={MAX_SKY_BANDS}", s.bands),
         ));
     }
     let up = v3(s.up)
-        .try_normalize(1e-12)
+        .try_normalize(MIN_DIRECTION_LENGTH)
         .ok_or_else(|| invalid(what, "`up` must be a non-zero direction"))?;
     let north = v3(s.north) - up * up.dot(&v3(s.north));
     let north = north
-        .try_normalize(1e-12)
+        .try_normalize(MIN_DIRECTION_LENGTH)
         .ok_or_else(|| invalid(what, "`north` must not be parallel to `up`"))?;
     let east = north.cross(&up);
     // the sky model's frame: x east, y north, z up
@@ -474,101 +608,12 @@ pub fn parse_scene_toml(
             "must be a positive number of metres per unit",
         ));
     }
-    let mut materials = Vec::new();
-    let mut index = BTreeMap::new();
-    for (name, m) in &file.materials {
-        index.insert(name.clone(), materials.len());
-        materials.push(material(name, m)?);
-    }
-    let lookup = |object: &str, name: &str| {
-        index
-            .get(name)
-            .copied()
-            .ok_or_else(|| SceneError::UnknownMaterial {
-                object: object.to_string(),
-                material: name.to_string(),
-            })
+    let materials = Materials::of(&file)?;
+    let mut raw = match &file.geometry {
+        Some(obj) => obj_polygons(&file, &materials, &base_dir.join(obj))?,
+        None => Vec::new(),
     };
-    let mut raw = Vec::new();
-    if let Some(obj) = &file.geometry {
-        let path: PathBuf = base_dir.join(obj);
-        let opts = tobj::LoadOptions {
-            single_index: false,
-            triangulate: false,
-            ignore_points: true,
-            ignore_lines: true,
-        };
-        let (models, mtl) = tobj::load_obj(&path, &opts).map_err(|e| SceneError::Obj {
-            path: path.clone(),
-            message: e.to_string(),
-        })?;
-        let mtl_names: Vec<String> = mtl
-            .map(|m| m.into_iter().map(|m| m.name).collect())
-            .unwrap_or_default();
-        for model in models {
-            let mesh = &model.mesh;
-            let mat_name = file
-                .objects
-                .get(&model.name)
-                .cloned()
-                .or_else(|| mesh.material_id.and_then(|i| mtl_names.get(i).cloned()))
-                .or_else(|| file.default_material.clone())
-                .ok_or_else(|| SceneError::UnknownMaterial {
-                    object: model.name.clone(),
-                    material: "(none: no [objects] entry, usemtl or default_material)".into(),
-                })?;
-            let mat = lookup(&model.name, &mat_name)?;
-            let vertex = |k: u32| -> Option<V3> {
-                let k = k as usize * 3;
-                let p = mesh.positions.get(k..k + 3)?;
-                Some(V3::new(p[0] as f64, p[1] as f64, p[2] as f64) * file.unit_m)
-            };
-            let arities: Vec<u32> = if mesh.face_arities.is_empty() {
-                vec![3; mesh.indices.len() / 3]
-            } else {
-                mesh.face_arities.clone()
-            };
-            let mut at = 0usize;
-            for a in arities {
-                let idx = mesh
-                    .indices
-                    .get(at..at + a as usize)
-                    .ok_or_else(|| SceneError::Obj {
-                        path: path.clone(),
-                        message: format!(
-                            "object `{}` has a face past the end of its index list",
-                            model.name
-                        ),
-                    })?;
-                at += a as usize;
-                let vertices: Option<Vec<V3>> = idx.iter().map(|&k| vertex(k)).collect();
-                let vertices = vertices.ok_or_else(|| SceneError::Obj {
-                    path: path.clone(),
-                    message: format!(
-                        "object `{}` refers to a vertex that does not exist",
-                        model.name
-                    ),
-                })?;
-                raw.push(Polygon {
-                    vertices,
-                    material: mat,
-                    object: model.name.clone(),
-                });
-            }
-        }
-    }
-    for (i, p) in file.polygons.iter().enumerate() {
-        let name = if p.name.is_empty() {
-            format!("polygon {i}")
-        } else {
-            p.name.clone()
-        };
-        raw.push(Polygon {
-            vertices: p.vertices.iter().map(|&v| v3(v) * file.unit_m).collect(),
-            material: lookup(&name, &p.material)?,
-            object: name,
-        });
-    }
+    raw.extend(inline_polygons(&file, &materials)?);
     let (polygons, report) = check_polygons(raw);
     if polygons.is_empty() {
         return Err(SceneError::Empty(report.summary()));
@@ -579,36 +624,175 @@ pub fn parse_scene_toml(
         .enumerate()
         .map(|(i, l)| light(i, l, file.unit_m, base_dir))
         .collect::<Result<Vec<_>, _>>()?;
-    let camera = match &file.camera {
-        None => None,
-        Some(c) => {
-            if !(c.vfov_deg > 0.0 && c.vfov_deg < 179.0 && c.width > 0 && c.height > 0) {
-                return Err(invalid(
-                    "camera",
-                    "need 0 < vfov_deg < 179 and width, height > 0",
-                ));
-            }
-            Some(Camera {
-                position: v3(c.position) * file.unit_m,
-                look_at: v3(c.look_at) * file.unit_m,
-                up: v3(c.up),
-                vfov_deg: c.vfov_deg,
-                width_px: c.width,
-                height_px: c.height,
-            })
-        }
-    };
+    let camera = file
+        .camera
+        .as_ref()
+        .map(|c| camera(c, file.unit_m))
+        .transpose()?;
     let sky = file.sky.as_ref().map(daylight).transpose()?;
     Ok((
         Scene {
             polygons,
-            materials,
+            materials: materials.list,
             lights,
             camera,
             sky,
         },
         report,
     ))
+}
+
+/// The scene's materials, in name order, and their indices by name.
+struct Materials {
+    list: Vec<Material>,
+    index: BTreeMap<String, usize>,
+}
+
+impl Materials {
+    fn of(file: &SceneFile) -> Result<Self, SceneError> {
+        let mut list = Vec::new();
+        let mut index = BTreeMap::new();
+        for (name, m) in &file.materials {
+            index.insert(name.clone(), list.len());
+            list.push(material(name, m)?);
+        }
+        Ok(Self { list, index })
+    }
+
+    /// Index of material `name`, used by `object`.
+    fn lookup(&self, object: &str, name: &str) -> Result<usize, SceneError> {
+        self.index
+            .get(name)
+            .copied()
+            .ok_or_else(|| SceneError::UnknownMaterial {
+                object: object.to_string(),
+                material: name.to_string(),
+            })
+    }
+}
+
+/// Every face of the OBJ file at `path`, in metres, with its material from
+/// `[objects]`, `usemtl` or `default_material` (in that order).
+fn obj_polygons(
+    file: &SceneFile,
+    materials: &Materials,
+    path: &Path,
+) -> Result<Vec<Polygon>, SceneError> {
+    let opts = tobj::LoadOptions {
+        single_index: false,
+        triangulate: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let (models, mtl) = tobj::load_obj(path, &opts).map_err(|e| SceneError::Obj {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let mtl_names: Vec<String> = mtl
+        .map(|m| m.into_iter().map(|m| m.name).collect())
+        .unwrap_or_default();
+    let mut raw = Vec::new();
+    for model in models {
+        let mat_name = file
+            .objects
+            .get(&model.name)
+            .cloned()
+            .or_else(|| {
+                model
+                    .mesh
+                    .material_id
+                    .and_then(|i| mtl_names.get(i).cloned())
+            })
+            .or_else(|| file.default_material.clone())
+            .ok_or_else(|| SceneError::UnknownMaterial {
+                object: model.name.clone(),
+                material: "(none: no [objects] entry, usemtl or default_material)".into(),
+            })?;
+        let material = materials.lookup(&model.name, &mat_name)?;
+        model_faces(&model, material, file.unit_m, path, &mut raw)?;
+    }
+    Ok(raw)
+}
+
+/// Appends the faces of one OBJ model (scaled by `unit_m`) to `raw`.
+fn model_faces(
+    model: &tobj::Model,
+    material: usize,
+    unit_m: f64,
+    path: &Path,
+    raw: &mut Vec<Polygon>,
+) -> Result<(), SceneError> {
+    let mesh = &model.mesh;
+    let obj_error = |message: &str| SceneError::Obj {
+        path: path.to_path_buf(),
+        message: format!("object `{}` {message}", model.name),
+    };
+    let vertex = |k: u32| -> Option<V3> {
+        let k = k as usize * 3;
+        let p = mesh.positions.get(k..k + 3)?;
+        Some(V3::new(p[0] as f64, p[1] as f64, p[2] as f64) * unit_m)
+    };
+    let arities: Vec<u32> = if mesh.face_arities.is_empty() {
+        vec![3; mesh.indices.len() / 3]
+    } else {
+        mesh.face_arities.clone()
+    };
+    let mut at = 0usize;
+    for a in arities {
+        let idx = mesh
+            .indices
+            .get(at..at + a as usize)
+            .ok_or_else(|| obj_error("has a face past the end of its index list"))?;
+        at += a as usize;
+        let vertices: Option<Vec<V3>> = idx.iter().map(|&k| vertex(k)).collect();
+        let vertices =
+            vertices.ok_or_else(|| obj_error("refers to a vertex that does not exist"))?;
+        raw.push(Polygon {
+            vertices,
+            material,
+            object: model.name.clone(),
+        });
+    }
+    Ok(())
+}
+
+/// The scene file's `[[polygons]]`, in metres.
+fn inline_polygons(file: &SceneFile, materials: &Materials) -> Result<Vec<Polygon>, SceneError> {
+    let mut raw = Vec::with_capacity(file.polygons.len());
+    for (i, p) in file.polygons.iter().enumerate() {
+        let name = if p.name.is_empty() {
+            format!("polygon {i}")
+        } else {
+            p.name.clone()
+        };
+        raw.push(Polygon {
+            vertices: p.vertices.iter().map(|&v| v3(v) * file.unit_m).collect(),
+            material: materials.lookup(&name, &p.material)?,
+            object: name,
+        });
+    }
+    Ok(raw)
+}
+
+/// Widest vertical field of view a camera may have, degrees (exclusive).
+const MAX_VFOV_DEG: f64 = 179.0;
+
+/// The `[camera]` entry, in metres.
+fn camera(c: &CameraFile, unit_m: f64) -> Result<Camera, SceneError> {
+    if !(c.vfov_deg > 0.0 && c.vfov_deg < MAX_VFOV_DEG && c.width > 0 && c.height > 0) {
+        return Err(invalid(
+            "camera",
+            "need 0 < vfov_deg < 179 and width, height > 0",
+        ));
+    }
+    Ok(Camera {
+        position: v3(c.position) * unit_m,
+        look_at: v3(c.look_at) * unit_m,
+        up: v3(c.up),
+        vfov_deg: c.vfov_deg,
+        width_px: c.width,
+        height_px: c.height,
+    })
 }
 
 /// Loads a scene file from disk.
@@ -619,4 +803,56 @@ pub fn load_scene(path: &Path) -> Result<(Scene, CheckReport), SceneError> {
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
     parse_scene_toml(&text, base, path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn light_entry(body: &str) -> Result<LightFile, String> {
+        #[derive(Deserialize)]
+        struct Lights {
+            lights: Vec<LightFile>,
+        }
+        toml::from_str::<Lights>(&format!("[[lights]]\n{body}"))
+            .map(|mut l| l.lights.remove(0))
+            .map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn light_type_selects_the_kind_and_fields_of_other_types_are_ignored() {
+        let l =
+            light_entry("type = \"point\"\nposition = [0, 0, 1]\nflux_lm = 10\naxis = [0, 0, -1]")
+                .unwrap();
+        assert_eq!(
+            l.kind,
+            LightKindFile::Point {
+                output: LightOutputFile {
+                    intensity_cd: None,
+                    flux_lm: Some(10.0)
+                }
+            }
+        );
+        let l =
+            light_entry("type = \"spot\"\nposition = [0, 0, 1]\nintensity_cd = 5\ninner_deg = 20")
+                .unwrap();
+        assert!(matches!(
+            l.kind,
+            LightKindFile::Spot {
+                inner_deg: Some(20.0),
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn unknown_light_type_and_unknown_field_are_rejected_with_the_name() {
+        let e = light_entry("name = \"x\"\ntype = \"laser\"\nposition = [0, 0, 1]").unwrap_err();
+        assert!(e.contains("light `x`: type `laser` is not known"), "{e}");
+        let e = light_entry("type = \"point\"\nposition = [0, 0, 1]\nintensity = 1").unwrap_err();
+        assert!(e.contains("intensity"), "{e}");
+        let e = light_entry("type = \"goniometric\"\nposition = [0, 0, 1]\nintensity_cd = 1")
+            .unwrap_err();
+        assert!(e.contains("not `intensity_cd`"), "{e}");
+    }
 }

@@ -163,7 +163,8 @@ impl Light {
                 } else if angle >= *outer_half_angle_rad {
                     0.0
                 } else {
-                    let span = (outer_half_angle_rad - inner_half_angle_rad).max(1e-12);
+                    let span =
+                        (outer_half_angle_rad - inner_half_angle_rad).max(MIN_FALLOFF_SPAN_RAD);
                     intensity_cd * (outer_half_angle_rad - angle) / span
                 }
             }
@@ -194,16 +195,23 @@ impl Light {
     }
 }
 
+/// Smallest angular width of a spot's fall-off in radians (avoids 0/0 when the
+/// inner and outer half angles are equal).
+const MIN_FALLOFF_SPAN_RAD: f64 = 1e-12;
+
+/// Simpson intervals (even) over a spot's fall-off ring in [`spot_flux_per_cd`].
+const SPOT_FALLOFF_SIMPSON_INTERVALS: usize = 512;
+
 /// Flux in lm of a [`LightKind::Spot`] of 1 cd on the axis (numerical integral of the
 /// linear angular falloff; exact 2π(1 − cos θ) when inner = outer).
-pub fn spot_flux_per_cd(inner: f64, outer: f64) -> f64 {
+pub(super) fn spot_flux_per_cd(inner: f64, outer: f64) -> f64 {
     let tau = std::f64::consts::TAU;
     let full = tau * (1.0 - inner.cos());
     if outer <= inner {
         return full;
     }
     // Simpson on the falloff ring: ∫ profile(θ) 2π sin θ dθ.
-    let n = 512;
+    let n = SPOT_FALLOFF_SIMPSON_INTERVALS;
     let h = (outer - inner) / n as f64;
     let f = |t: f64| (outer - t) / (outer - inner) * tau * t.sin();
     let mut s = f(inner) + f(outer);
