@@ -148,24 +148,22 @@ fn commission_reports_a_meter_that_stops_and_resume_completes() {
         .stdout(contains("saved by the interrupted run"));
 }
 
+/// `lumiwall verify` of `profiles` on `wall` with the exact, direct meter.
+fn verify(wall: &Path, profiles: &Path) -> Command {
+    let mut cmd = lumiwall();
+    cmd.args(["verify", "--meter", "direct", "--noise", "none", "--wall"])
+        .arg(wall)
+        .arg("--profiles")
+        .arg(profiles);
+    cmd
+}
+
 #[test]
 fn verify_passes_on_freshly_commissioned_profiles() {
     let tmp = TempDir::new().unwrap();
     let profiles = commission_small_wall(tmp.path());
-    lumiwall()
-        .args([
-            "verify",
-            "--meter",
-            "direct",
-            "--noise",
-            "none",
-            "--patches",
-            "5",
-        ])
-        .args(["--max-de", "10", "--median-de", "5", "--wall"])
-        .arg(small_wall())
-        .arg("--profiles")
-        .arg(&profiles)
+    verify(&small_wall(), &profiles)
+        .args(["--patches", "5", "--max-de", "10", "--median-de", "5"])
         .assert()
         .success()
         .stdout(contains("OVERALL"))
@@ -176,19 +174,8 @@ fn verify_passes_on_freshly_commissioned_profiles() {
 fn verify_outside_tolerance_exits_with_3() {
     let tmp = TempDir::new().unwrap();
     let profiles = commission_small_wall(tmp.path());
-    lumiwall()
-        .args([
-            "verify",
-            "--meter",
-            "direct",
-            "--noise",
-            "none",
-            "--summary-only",
-        ])
-        .args(["--max-de", "0.0001", "--wall"])
-        .arg(small_wall())
-        .arg("--profiles")
-        .arg(&profiles)
+    verify(&small_wall(), &profiles)
+        .args(["--summary-only", "--max-de", "0.0001"])
         .assert()
         .code(3)
         .stderr(contains("verification outside tolerance"));
@@ -198,19 +185,11 @@ fn verify_outside_tolerance_exits_with_3() {
 fn verify_refuses_profiles_of_another_wall_and_missing_profiles() {
     let tmp = TempDir::new().unwrap();
     let profiles = commission_small_wall(tmp.path());
-    lumiwall()
-        .args(["verify", "--meter", "direct", "--wall"])
-        .arg(fixture("walls/infitec-pair.toml"))
-        .arg("--profiles")
-        .arg(&profiles)
+    verify(&fixture("walls/infitec-pair.toml"), &profiles)
         .assert()
         .code(2)
         .stderr(contains("are for wall 'mono-2x1'"));
-    lumiwall()
-        .args(["verify", "--meter", "direct", "--wall"])
-        .arg(small_wall())
-        .arg("--profiles")
-        .arg(tmp.path().join("nothing-here"))
+    verify(&small_wall(), &tmp.path().join("nothing-here"))
         .assert()
         .code(2)
         .stderr(contains("cannot read profiles in"));
@@ -225,6 +204,18 @@ fn write_frame(path: &Path) {
     img.save(path).unwrap();
 }
 
+/// `lumiwall apply` on the CPU of `frame` through `profiles` into `out`.
+fn apply(profiles: &Path, frame: &Path, out: &Path) -> Command {
+    let mut cmd = lumiwall();
+    cmd.args(["apply", "--cpu", "--profiles"])
+        .arg(profiles)
+        .arg("--in")
+        .arg(frame)
+        .arg("--out-dir")
+        .arg(out);
+    cmd
+}
+
 #[test]
 fn apply_writes_one_image_per_display() {
     let tmp = TempDir::new().unwrap();
@@ -232,15 +223,7 @@ fn apply_writes_one_image_per_display() {
     let frame = tmp.path().join("frame.png");
     write_frame(&frame);
     let out = tmp.path().join("out");
-    lumiwall()
-        .args(["apply", "--cpu", "--profiles"])
-        .arg(&profiles)
-        .arg("--in")
-        .arg(&frame)
-        .arg("--out-dir")
-        .arg(&out)
-        .assert()
-        .success();
+    apply(&profiles, &frame, &out).assert().success();
     let pngs = std::fs::read_dir(&out).unwrap().count();
     assert_eq!(pngs, 2, "one output per display");
 }
@@ -249,25 +232,15 @@ fn apply_writes_one_image_per_display() {
 fn apply_missing_input_frame_and_bad_size_are_input_errors() {
     let tmp = TempDir::new().unwrap();
     let profiles = commission_small_wall(tmp.path());
-    lumiwall()
-        .args(["apply", "--cpu", "--profiles"])
-        .arg(&profiles)
-        .arg("--in")
-        .arg(tmp.path().join("missing.png"))
-        .arg("--out-dir")
-        .arg(tmp.path().join("out"))
+    let out = tmp.path().join("out");
+    apply(&profiles, &tmp.path().join("missing.png"), &out)
         .assert()
         .code(2)
         .stderr(contains("missing.png"));
     let frame = tmp.path().join("frame.png");
     write_frame(&frame);
-    lumiwall()
-        .args(["apply", "--cpu", "--display-size", "big", "--profiles"])
-        .arg(&profiles)
-        .arg("--in")
-        .arg(&frame)
-        .arg("--out-dir")
-        .arg(tmp.path().join("out"))
+    apply(&profiles, &frame, &out)
+        .args(["--display-size", "big"])
         .assert()
         .code(2)
         .stderr(contains("is not WIDTHxHEIGHT"));
