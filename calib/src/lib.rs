@@ -5,6 +5,7 @@
 //! black of the wall (Kresse 2003, 3.3) and produces one `DisplayProfile` per display
 //! and eye; [`verify`] reads target colours back through the whole pipeline.
 
+pub mod cli_values;
 pub mod colorimetry;
 pub mod commission;
 pub mod error;
@@ -12,6 +13,7 @@ pub mod gamut;
 pub mod measure;
 pub mod report;
 pub mod solve;
+pub mod station;
 pub mod tone;
 pub mod verify;
 

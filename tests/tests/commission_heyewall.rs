@@ -6,73 +6,52 @@
 //! References are independent of the calibration code: the meter reads the simulated
 //! wall, and ΔE2000 is taken against the target colours (what the wall should show).
 
-use std::path::PathBuf;
+mod support;
 
-use lumiwall_calib::commission::{CommissionOptions, CommissionOutcome, commission};
-use lumiwall_calib::measure::{MeasureOptions, Rig};
-use lumiwall_calib::solve::{SolveOptions, WhiteTarget};
-use lumiwall_calib::verify::{VerifyOptions, VerifyReport, default_targets, verify_wall};
-use lumiwall_devices::sim::{MeterModel, VirtualWall};
+use lumiwall_calib::commission::CommissionOutcome;
+use lumiwall_calib::measure::MeasureOptions;
+use lumiwall_calib::station::Noise;
+use lumiwall_calib::verify::{VerifyReport, default_targets};
 use lumiwall_profiles::{BlackMode, ProfileSet};
+use tempfile::TempDir;
 
-fn wall_path() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/walls/heyewall-48.toml")
+/// A commissioned and verified wall, and the folder holding its profiles.
+struct Run {
+    dir: TempDir,
+    outcome: CommissionOutcome,
+    report: VerifyReport,
 }
 
-/// Commissions the wall with `meter` and verifies it with a second meter of the same
-/// model (same instrument seed: the same physical meter).
-fn commission_and_verify(
-    model: MeterModel,
-    black_mode: BlackMode,
-    out: &std::path::Path,
-) -> (CommissionOutcome, VerifyReport) {
-    let wall = VirtualWall::from_toml_file(&wall_path()).unwrap();
-    let displays = wall.displays();
-    assert_eq!(displays.len(), 48);
-    let mut pattern = wall.pattern_output();
-    let mut positioner = wall.positioner();
-    let mut meter = wall.meter(model);
-    let mut rig = Rig {
-        pattern: &mut pattern,
-        meter: &mut meter,
-        positioner: &mut positioner,
-    };
-    let opts = CommissionOptions {
-        measure: MeasureOptions::default(),
-        solve: SolveOptions {
-            white: WhiteTarget::Cct(8500.0),
-            black_mode,
-            ..SolveOptions::default()
-        },
-        resume: false,
-        meter_correction: true,
-    };
-    let outcome = commission(&wall.name(), &displays, &mut rig, out, &opts, &mut |_| {}).unwrap();
-    let (_, profiles) = ProfileSet::load_dir(out).unwrap();
+/// Commissions the wall with a meter of error model `noise` and verifies it with the
+/// same meter (the wall's seed plays the instrument's serial number); prints the
+/// summary table.
+fn commission_and_verify(noise: Noise, black_mode: BlackMode) -> Run {
+    let dir = tempfile::tempdir().unwrap();
+    let mut station = support::direct_station("heyewall-48.toml", noise);
+    assert_eq!(station.displays().len(), 48);
+    let opts = support::options_8500k(MeasureOptions::default(), black_mode, false);
+    let outcome = station.commission(dir.path(), &opts, &mut |_| {}).unwrap();
+    let (_, profiles) = ProfileSet::load_dir(dir.path()).unwrap();
     let targets = default_targets(&profiles, 20).unwrap();
     assert_eq!(targets.len(), 20);
-    let vopts = VerifyOptions {
-        meter_xy_offset: outcome.meter_correction.as_ref().map(|c| c.xy_offset),
-        ..VerifyOptions::default()
-    };
-    let report = verify_wall(
-        &mut rig,
-        &displays,
-        &profiles,
-        &targets,
-        &vopts,
-        &mut |_| {},
-    )
-    .unwrap();
-    (outcome, report)
+    let report = station
+        .verify_commissioned(&outcome, &profiles, &targets)
+        .unwrap();
+    println!("{}", report.summary_table());
+    Run {
+        dir,
+        outcome,
+        report,
+    }
 }
 
 #[test]
 fn heyewall_noiseless_meter_meets_the_de2000_targets() {
-    let dir = tempfile::tempdir().unwrap();
-    let (outcome, report) =
-        commission_and_verify(MeterModel::noiseless(), BlackMode::Individual, dir.path());
-    println!("{}", report.summary_table());
+    let Run {
+        dir,
+        outcome,
+        report,
+    } = commission_and_verify(Noise::None, BlackMode::Individual);
 
     // Readings per display: at most 40.
     for m in &outcome.measured {
@@ -116,10 +95,9 @@ fn heyewall_noiseless_meter_meets_the_de2000_targets() {
 
 #[test]
 fn heyewall_realistic_meter_median_below_one() {
-    let dir = tempfile::tempdir().unwrap();
-    let (outcome, report) =
-        commission_and_verify(MeterModel::cs100a(2003), BlackMode::Individual, dir.path());
-    println!("{}", report.summary_table());
+    let Run {
+        outcome, report, ..
+    } = commission_and_verify(Noise::Realistic, BlackMode::Individual);
     for m in &outcome.measured {
         assert!(m.measurement.readings <= 40);
     }
@@ -132,10 +110,9 @@ fn heyewall_realistic_meter_median_below_one() {
 
 #[test]
 fn heyewall_common_black_is_the_same_on_every_display() {
-    let dir = tempfile::tempdir().unwrap();
-    let (outcome, report) =
-        commission_and_verify(MeterModel::noiseless(), BlackMode::Common, dir.path());
-    println!("{}", report.summary_table());
+    let Run {
+        outcome, report, ..
+    } = commission_and_verify(Noise::None, BlackMode::Common);
     assert_eq!(report.black.len(), 48);
     let common = outcome.solution.common_black_xyz_cd_m2;
     // Measured with the noiseless meter: the spread left is the display's own. On the

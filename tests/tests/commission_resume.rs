@@ -3,54 +3,46 @@
 //! reading, leaves nothing half-written, and a resumed run completes from the saved
 //! displays. Verification then runs through the pty as well.
 
-use std::path::{Path, PathBuf};
+mod support;
+
+use std::path::Path;
 use std::time::Duration;
 
-use lumiwall_calib::commission::{CommissionError, CommissionOptions, commission};
-use lumiwall_calib::measure::{MeasureError, MeasureOptions, Progress, Rig};
-use lumiwall_calib::solve::{SolveOptions, WhiteTarget};
-use lumiwall_calib::verify::{VerifyOptions, default_targets, verify_wall};
+use lumiwall_calib::commission::{CommissionError, CommissionOptions};
+use lumiwall_calib::measure::{MeasureError, MeasureOptions, Progress};
+use lumiwall_calib::station::{MeterChoice, Noise, Station, StationOptions};
+use lumiwall_calib::verify::default_targets;
 use lumiwall_devices::DeviceError;
-use lumiwall_devices::serial::{Emulator, EmulatorOptions, FaultPlan, K10aConfig, KleinK10a};
-use lumiwall_devices::sim::{MeterModel, VirtualWall};
-use lumiwall_profiles::ProfileSet;
+use lumiwall_devices::serial::{FaultPlan, K10aConfig};
+use lumiwall_devices::sim::VirtualWall;
+use lumiwall_profiles::{BlackMode, DisplayProfile, ProfileSet};
 
 fn wall() -> VirtualWall {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/walls/infitec-pair.toml");
-    VirtualWall::from_toml_file(&p).unwrap()
+    VirtualWall::from_toml_file(&support::wall_path("infitec-pair.toml")).unwrap()
 }
 
-/// The simulated meter behind the emulator, opened with the real driver.
-fn emulated_meter(wall: &VirtualWall, faults: FaultPlan) -> (Emulator, KleinK10a) {
-    let (emu, port) = Emulator::spawn_with(
-        Box::new(wall.meter(MeterModel::noiseless())),
+/// The noiseless simulated meter behind the emulator (fast), opened with the real
+/// driver (short timeout, no retries of its own).
+fn emulated_station(wall: &VirtualWall, faults: FaultPlan) -> Station {
+    let opts = StationOptions {
+        time_scale: 0.002,
         faults,
-        EmulatorOptions::with_time_scale(0.002),
-    )
-    .unwrap();
-    let driver = port
-        .open(K10aConfig {
+        driver: K10aConfig {
             read_timeout: Duration::from_millis(300),
             retries: 0,
             ..K10aConfig::default()
-        })
-        .unwrap();
-    (emu, driver)
+        },
+        ..StationOptions::new(MeterChoice::Emulated, Noise::None)
+    };
+    Station::with_wall(wall.clone(), &opts).unwrap()
 }
 
 fn options(resume: bool) -> CommissionOptions {
-    CommissionOptions {
-        measure: MeasureOptions {
-            max_retries: 1,
-            ..MeasureOptions::default()
-        },
-        solve: SolveOptions {
-            white: WhiteTarget::Cct(8500.0),
-            ..SolveOptions::default()
-        },
-        resume,
-        meter_correction: true,
-    }
+    let measure = MeasureOptions {
+        max_retries: 1,
+        ..MeasureOptions::default()
+    };
+    support::options_8500k(measure, BlackMode::Individual, resume)
 }
 
 fn files(dir: &Path) -> Vec<String> {
@@ -64,55 +56,32 @@ fn files(dir: &Path) -> Vec<String> {
     v
 }
 
-#[test]
-fn meter_timeout_mid_ramp_then_resume_completes() {
-    let out = tempfile::tempdir().unwrap();
-    let wall = wall();
-    let displays = wall.displays();
-    assert_eq!(displays.len(), 2);
-    let mut pattern = wall.pattern_output();
-    let mut positioner = wall.positioner();
-
-    // Run 1: the meter answers 40 readings of display 0 and 20 of display 1, then
-    // never again — 20 readings into display 1 it is measuring a ramp.
-    let (emu, mut meter) = emulated_meter(
-        &wall,
-        FaultPlan {
-            stop_after_readings: Some(60),
-            ..FaultPlan::default()
-        },
-    );
-    let mut per_display = Vec::new();
-    let err = {
-        let mut rig = Rig {
-            pattern: &mut pattern,
-            meter: &mut meter,
-            positioner: &mut positioner,
-        };
-        let mut progress = |p: Progress| {
-            if let Progress::DisplayDone { readings, .. } = p {
-                per_display.push(readings);
-            }
-        };
-        commission(
-            &wall.name(),
-            &displays,
-            &mut rig,
-            out.path(),
-            &options(false),
-            &mut progress,
-        )
-        .unwrap_err()
+/// Run 1: the meter answers 40 readings of display 0 and 20 of display 1, then never
+/// again — 20 readings into display 1 it is measuring a ramp. Returns the readings of
+/// each completed display and the error.
+fn run_until_the_meter_stops(wall: &VirtualWall, out: &Path) -> (Vec<u32>, CommissionError) {
+    let faults = FaultPlan {
+        stop_after_readings: Some(60),
+        ..FaultPlan::default()
     };
-    emu.stop();
-    assert_eq!(
-        per_display,
-        vec![40],
-        "display 0 completes with 40 readings"
-    );
+    let mut station = emulated_station(wall, faults);
+    let mut per_display = Vec::new();
+    let mut progress = |p: Progress| {
+        if let Progress::DisplayDone { readings, .. } = p {
+            per_display.push(readings);
+        }
+    };
+    let err = station
+        .commission(out, &options(false), &mut progress)
+        .unwrap_err();
+    (per_display, err)
+}
+
+/// The error names display 1, its 21st reading (a ramp), the timeout, and what to do.
+fn assert_interrupted_at_display_1_reading_21(err: &CommissionError) {
     let msg = err.to_string();
     println!("{msg}");
-    match &err {
+    match err {
         CommissionError::Interrupted {
             source:
                 MeasureError::Reading {
@@ -133,61 +102,31 @@ fn meter_timeout_mid_ramp_then_resume_completes() {
         other => panic!("unexpected error {other:?}"),
     }
     assert!(msg.contains("--resume") && msg.contains("check"), "{msg}");
-    // Nothing half-written: no profiles, no manifest, no temporary files; the run
-    // folder holds the manifest and display 0's measurement only.
-    assert_eq!(files(out.path()), vec!["run".to_string()]);
-    let run = files(&out.path().join("run"));
+}
+
+/// Nothing half-written: no profiles, no manifest, no temporary files; the run folder
+/// holds the manifest and display 0's measurement only.
+fn assert_only_display_0_saved(out: &Path) {
+    assert_eq!(files(out), vec!["run".to_string()]);
+    let run = files(&out.join("run"));
     assert_eq!(run.len(), 2, "{run:?}");
     assert!(run.contains(&"run.json".to_string()));
     assert!(
         run.iter()
             .any(|f| f.starts_with("d000-") && f.ends_with(".measurement.json"))
     );
+}
 
-    // Run 2: the meter is back; --resume measures display 1 only.
-    let (emu, mut meter) = emulated_meter(&wall, FaultPlan::default());
-    let mut resumed = Vec::new();
-    let mut measured = Vec::new();
-    let mut rig = Rig {
-        pattern: &mut pattern,
-        meter: &mut meter,
-        positioner: &mut positioner,
-    };
-    let outcome = commission(
-        &wall.name(),
-        &displays,
-        &mut rig,
-        out.path(),
-        &options(true),
-        &mut |p| match p {
-            Progress::Resumed { display, .. } => resumed.push(display.0),
-            Progress::DisplayDone { display, .. } => measured.push(display.0),
-            Progress::Reading { .. } => {}
-        },
-    )
-    .unwrap();
-    assert_eq!(resumed, vec![0]);
-    assert_eq!(measured, vec![1]);
-    assert_eq!(emu.readings_requested(), 40);
-    let (name, profiles) = ProfileSet::load_dir(out.path()).unwrap();
-    assert_eq!(name, wall.name());
-    assert_eq!(profiles.len(), 2);
-
-    // Verify through the pty: 20 colours on both eyes.
-    let targets = default_targets(&profiles, 20).unwrap();
-    let vopts = VerifyOptions {
-        meter_xy_offset: outcome.meter_correction.as_ref().map(|c| c.xy_offset),
-        ..VerifyOptions::default()
-    };
-    let report = verify_wall(
-        &mut rig,
-        &displays,
-        &profiles,
-        &targets,
-        &vopts,
-        &mut |_| {},
-    )
-    .unwrap();
+/// Verifies 20 colours on both eyes through the pty.
+fn assert_verifies_through_the_pty(
+    station: &mut Station,
+    outcome: &lumiwall_calib::commission::CommissionOutcome,
+    profiles: &[DisplayProfile],
+) {
+    let targets = default_targets(profiles, 20).unwrap();
+    let report = station
+        .verify_commissioned(outcome, profiles, &targets)
+        .unwrap();
     println!("{}\n{}", report.patch_table(), report.summary_table());
     assert_eq!(report.patches.len(), 40);
     // Two displays only (the 48-display acceptance is in commission_heyewall.rs); the
@@ -198,7 +137,42 @@ fn meter_timeout_mid_ramp_then_resume_completes() {
         report.overall.median_de
     );
     assert!(report.overall.max_de < 2.5, "max {}", report.overall.max_de);
-    emu.stop();
+}
+
+#[test]
+fn meter_timeout_mid_ramp_stops_with_a_typed_error_and_resume_completes() {
+    let out = tempfile::tempdir().unwrap();
+    let wall = wall();
+    assert_eq!(wall.displays().len(), 2);
+
+    let (per_display, err) = run_until_the_meter_stops(&wall, out.path());
+    assert_eq!(
+        per_display,
+        vec![40],
+        "display 0 completes with 40 readings"
+    );
+    assert_interrupted_at_display_1_reading_21(&err);
+    assert_only_display_0_saved(out.path());
+
+    // Run 2: the meter is back; --resume measures display 1 only.
+    let mut station = emulated_station(&wall, FaultPlan::default());
+    let mut resumed = Vec::new();
+    let mut measured = Vec::new();
+    let outcome = station
+        .commission(out.path(), &options(true), &mut |p| match p {
+            Progress::Resumed { display, .. } => resumed.push(display.0),
+            Progress::DisplayDone { display, .. } => measured.push(display.0),
+            Progress::Reading { .. } => {}
+        })
+        .unwrap();
+    assert_eq!(resumed, vec![0]);
+    assert_eq!(measured, vec![1]);
+    assert_eq!(station.emulator().unwrap().readings_requested(), 40);
+    let (name, profiles) = ProfileSet::load_dir(out.path()).unwrap();
+    assert_eq!(name, wall.name());
+    assert_eq!(profiles.len(), 2);
+
+    assert_verifies_through_the_pty(&mut station, &outcome, &profiles);
 }
 
 #[test]
@@ -211,24 +185,10 @@ fn resume_refuses_a_run_folder_of_another_wall() {
         r#"{"format_version":1,"wall":"other","displays":[],"measure":{"budget":40,"spot_uv":[0.5,0.5],"low_light":{"average":{"repeats":4}},"low_light_limit_cd_m2":null,"max_retries":2,"measure_white":true,"primary_repeats":null,"focus":null}}"#,
     )
     .unwrap();
-    let wall = wall();
-    let mut pattern = wall.pattern_output();
-    let mut positioner = wall.positioner();
-    let mut meter = wall.meter(MeterModel::noiseless());
-    let mut rig = Rig {
-        pattern: &mut pattern,
-        meter: &mut meter,
-        positioner: &mut positioner,
-    };
-    let err = commission(
-        &wall.name(),
-        &wall.displays(),
-        &mut rig,
-        out.path(),
-        &options(true),
-        &mut |_| {},
-    )
-    .unwrap_err();
+    let mut station = support::direct_station("infitec-pair.toml", Noise::None);
+    let err = station
+        .commission(out.path(), &options(true), &mut |_| {})
+        .unwrap_err();
     assert!(
         matches!(err, CommissionError::ResumeMismatch { .. }),
         "{err}"

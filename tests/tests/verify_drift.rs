@@ -4,53 +4,18 @@
 //! passes. Also checks the default target set (inside the common gamut, below white,
 //! dark colours near 1–2 cd/m²).
 
-use std::path::PathBuf;
+mod support;
 
-use lumiwall_calib::commission::{CommissionOptions, commission};
-use lumiwall_calib::measure::{MeasureOptions, Rig};
-use lumiwall_calib::solve::{SolveOptions, WhiteTarget};
-use lumiwall_calib::verify::{Tolerances, VerifyOptions, default_targets, verify_wall};
-use lumiwall_devices::sim::{MeterModel, VirtualWall};
+use lumiwall_calib::measure::MeasureOptions;
+use lumiwall_calib::station::Noise;
+use lumiwall_calib::verify::{Target, Tolerances, VerifyOptions, default_targets};
+use lumiwall_core::Xyz;
+use lumiwall_profiles::BlackMode;
 
-#[test]
-fn verify_detects_lamp_ageing() {
-    let path =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/walls/infitec-pair.toml");
-    let wall = VirtualWall::from_toml_file(&path).unwrap();
-    let displays = wall.displays();
-    let mut pattern = wall.pattern_output();
-    let mut positioner = wall.positioner();
-    let mut meter = wall.meter(MeterModel::noiseless());
-    let mut rig = Rig {
-        pattern: &mut pattern,
-        meter: &mut meter,
-        positioner: &mut positioner,
-    };
-    let out = tempfile::tempdir().unwrap();
-    let opts = CommissionOptions {
-        measure: MeasureOptions::default(),
-        solve: SolveOptions {
-            white: WhiteTarget::Cct(8500.0),
-            ..SolveOptions::default()
-        },
-        resume: false,
-        meter_correction: true,
-    };
-    let o = commission(
-        &wall.name(),
-        &displays,
-        &mut rig,
-        out.path(),
-        &opts,
-        &mut |_| {},
-    )
-    .unwrap();
-    let profiles = &o.solution.profiles;
-
-    let targets = default_targets(profiles, 20).unwrap();
+/// The default targets: 20, all below the white, at least 3 dark ones (≤ 2 cd/m²).
+fn assert_default_targets_below_white_with_dark_ones(targets: &[Target], white: Xyz) {
     assert_eq!(targets.len(), 20);
-    let white = o.solution.white_xyz_cd_m2;
-    for t in &targets {
+    for t in targets {
         assert!(
             t.xyz.y > 0.0 && t.xyz.y < white.y,
             "{}: {}",
@@ -60,6 +25,18 @@ fn verify_detects_lamp_ageing() {
     }
     let dark: Vec<_> = targets.iter().filter(|t| t.xyz.y <= 2.0 + 1e-9).collect();
     assert!(dark.len() >= 3, "dark targets: {dark:?}");
+}
+
+#[test]
+fn verify_passes_the_fresh_wall_and_detects_lamp_ageing() {
+    let mut station = support::direct_station("infitec-pair.toml", Noise::None);
+    let out = tempfile::tempdir().unwrap();
+    let opts = support::options_8500k(MeasureOptions::default(), BlackMode::Individual, false);
+    let o = station.commission(out.path(), &opts, &mut |_| {}).unwrap();
+    let profiles = &o.solution.profiles;
+
+    let targets = default_targets(profiles, 20).unwrap();
+    assert_default_targets_below_white_with_dark_ones(&targets, o.solution.white_xyz_cd_m2);
 
     let tol = Tolerances {
         max_de: 2.5,
@@ -67,15 +44,19 @@ fn verify_detects_lamp_ageing() {
         ..Tolerances::default()
     };
     let vopts = VerifyOptions::default();
-    let fresh = verify_wall(&mut rig, &displays, profiles, &targets, &vopts, &mut |_| {}).unwrap();
+    let fresh = station
+        .verify(profiles, &targets, &vopts, &mut |_| {})
+        .unwrap();
     assert!(
         fresh.violations(&tol).is_empty(),
         "{:?}",
         fresh.violations(&tol)
     );
 
-    wall.advance_hours(2000.0);
-    let aged = verify_wall(&mut rig, &displays, profiles, &targets, &vopts, &mut |_| {}).unwrap();
+    station.wall.advance_hours(2000.0);
+    let aged = station
+        .verify(profiles, &targets, &vopts, &mut |_| {})
+        .unwrap();
     println!("{}", aged.summary_table());
     let v = aged.violations(&tol);
     assert!(!v.is_empty(), "ageing not detected");

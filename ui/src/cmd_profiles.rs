@@ -5,16 +5,16 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use lumiwall_profiles::store::{
-    CommissionRun, Drift, ProfileStore, StoreError, Timestamp, drift::native_white_xyz_cd_m2,
-    drift::xy_of, parse_time,
+    CommissionRun, Drift, ProfileStore, Timestamp, drift::native_white_xyz_cd_m2, drift::xy_of,
+    parse_time,
 };
-use lumiwall_profiles::{DisplayProfile, ProfileError, ProfileSet};
+use lumiwall_profiles::{DisplayProfile, ProfileSet};
 
 use crate::CliError;
 
 /// Arguments of `lumiwall profiles`.
 #[derive(Debug, clap::Args)]
-pub struct ProfilesArgs {
+pub(crate) struct ProfilesArgs {
     #[command(subcommand)]
     command: ProfilesCommand,
 }
@@ -95,64 +95,21 @@ struct RunsArgs {
 }
 
 /// Runs `lumiwall profiles`.
-pub fn run(args: ProfilesArgs) -> Result<(), CliError> {
+pub(crate) fn run(args: ProfilesArgs) -> Result<(), CliError> {
     let text = match args.command {
         ProfilesCommand::History(a) => {
-            let store = ProfileStore::open_existing(&a.store).map_err(store_err)?;
+            let store = ProfileStore::open_existing(&a.store)?;
             history_table(&store, &a.wall, a.display)?
         }
-        ProfilesCommand::Drift(a) => {
-            let store = ProfileStore::open_existing(&a.store).map_err(store_err)?;
-            let since = a
-                .since
-                .as_deref()
-                .map(parse_time)
-                .transpose()
-                .map_err(store_err)?;
-            let drifts = store.drift_wall(&a.wall, since).map_err(store_err)?;
-            if drifts.is_empty() {
-                return Err(CliError::input(format!(
-                    "no profile of wall {:?} in {}{}; check --wall with `lumiwall profiles runs --store {}`",
-                    a.wall,
-                    a.store.display(),
-                    since.map_or(String::new(), |t| format!(" since {t}")),
-                    a.store.display()
-                )));
-            }
-            print!("{}", drift_table(&drifts));
-            return check_limits(&drifts, a.max_luminance_change_pct, a.max_delta_xy);
-        }
+        ProfilesCommand::Drift(a) => return drift(&a),
         ProfilesCommand::Import(a) => import(&a)?,
         ProfilesCommand::Runs(a) => {
-            let store = ProfileStore::open_existing(&a.store).map_err(store_err)?;
+            let store = ProfileStore::open_existing(&a.store)?;
             runs_table(&store, a.wall.as_deref())?
         }
     };
     print!("{text}");
     Ok(())
-}
-
-/// Store errors that the user fixes by changing the command are input errors (exit 2).
-fn store_err(e: StoreError) -> CliError {
-    match e {
-        StoreError::Missing { .. }
-        | StoreError::NotADatabase { .. }
-        | StoreError::Foreign { .. }
-        | StoreError::NewerSchema { .. }
-        | StoreError::BadTime { .. }
-        | StoreError::InvalidProfile(_)
-        | StoreError::InvalidRun(_)
-        | StoreError::DuplicateRun { .. }
-        | StoreError::NoHistory { .. } => CliError::input(e.to_string()),
-        _ => CliError::failure(e.to_string()),
-    }
-}
-
-fn profile_err(e: ProfileError) -> CliError {
-    match e {
-        ProfileError::Store(_) => CliError::failure(e.to_string()),
-        _ => CliError::input(e.to_string()),
-    }
 }
 
 fn time_cell(t: Timestamp) -> String {
@@ -161,6 +118,24 @@ fn time_cell(t: Timestamp) -> String {
 
 fn opt(v: Option<f64>, digits: usize) -> String {
     v.map_or("-".into(), |v| format!("{v:.digits$}"))
+}
+
+/// `lumiwall profiles drift`: prints the drift table and checks the limits.
+fn drift(a: &DriftArgs) -> Result<(), CliError> {
+    let store = ProfileStore::open_existing(&a.store)?;
+    let since = a.since.as_deref().map(parse_time).transpose()?;
+    let drifts = store.drift_wall(&a.wall, since)?;
+    if drifts.is_empty() {
+        return Err(CliError::input(format!(
+            "no profile of wall {:?} in {}{}; check --wall with `lumiwall profiles runs --store {}`",
+            a.wall,
+            a.store.display(),
+            since.map_or(String::new(), |t| format!(" since {t}")),
+            a.store.display()
+        )));
+    }
+    print!("{}", drift_table(&drifts));
+    check_limits(&drifts, a.max_luminance_change_pct, a.max_delta_xy)
 }
 
 /// One row per stored profile: native white, black and channel usage.
@@ -173,8 +148,7 @@ fn history_table(
         Some(d) => vec![d],
         None => {
             let mut ds: Vec<u32> = store
-                .displays(wall, None)
-                .map_err(store_err)?
+                .displays(wall, None)?
                 .into_iter()
                 .map(|(d, _)| d)
                 .collect();
@@ -200,7 +174,7 @@ fn history_table(
     );
     let mut rows = 0;
     for d in displays {
-        for (t, p) in store.history(wall, d).map_err(store_err)? {
+        for (t, p) in store.history(wall, d)? {
             let w = native_white_xyz_cd_m2(&p);
             let xy = xy_of(w);
             let u = p.channel_usage;
@@ -334,7 +308,7 @@ fn check_limits(
 /// The run time of an import: `--time`, else the newest `created_utc` of the profiles.
 fn import_time(time: Option<&str>, profiles: &[DisplayProfile]) -> Result<Timestamp, CliError> {
     if let Some(t) = time {
-        return parse_time(t).map_err(store_err);
+        return Ok(parse_time(t)?);
     }
     let mut newest: Option<Timestamp> = None;
     for p in profiles {
@@ -350,7 +324,7 @@ fn import_time(time: Option<&str>, profiles: &[DisplayProfile]) -> Result<Timest
 }
 
 fn import(a: &ImportArgs) -> Result<String, CliError> {
-    let (wall, profiles) = ProfileSet::load_dir(&a.dir).map_err(profile_err)?;
+    let (wall, profiles) = ProfileSet::load_dir(&a.dir)?;
     let started_utc = import_time(a.time.as_deref(), &profiles)?;
     let run = CommissionRun {
         wall: wall.clone(),
@@ -358,8 +332,8 @@ fn import(a: &ImportArgs) -> Result<String, CliError> {
         source: a.source.clone(),
         note: a.note.clone(),
     };
-    let mut store = ProfileStore::open(&a.store).map_err(store_err)?;
-    let id = store.record(&run, &profiles).map_err(store_err)?;
+    let mut store = ProfileStore::open(&a.store)?;
+    let id = store.record(&run, &profiles)?;
     Ok(format!(
         "recorded run {id} of wall {wall}: {} profiles measured {} from {} into {}\n",
         profiles.len(),
@@ -374,7 +348,7 @@ fn runs_table(store: &ProfileStore, wall: Option<&str>) -> Result<String, CliErr
     let mut out = String::new();
     match wall {
         None => {
-            let walls = store.walls().map_err(store_err)?;
+            let walls = store.walls()?;
             let _ = writeln!(
                 out,
                 "{:<20} {:>5} {:<17} {:<17}",
@@ -392,7 +366,7 @@ fn runs_table(store: &ProfileStore, wall: Option<&str>) -> Result<String, CliErr
             }
         }
         Some(wall) => {
-            let runs = store.runs(wall).map_err(store_err)?;
+            let runs = store.runs(wall)?;
             let _ = writeln!(
                 out,
                 "{:>5} {:<17} {:<10} {:>8} {:<8} note",

@@ -1,18 +1,21 @@
 //! `lumiwall render` (radiosity solve of a scene → XYZ OpenEXR in cd/m², per-vertex
 //! PLY, error/time curve as CSV and PNG) and `lumiwall bench radiosity` (error against
 //! time of both solvers on the Cornell box against a dense reference; the saving from
-//! skipping visibility work in a scene without occluders).
+//! skipping visibility work in a scene without occluders), which `lumiwall_bench`
+//! runs and this module prints.
 
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use lumiwall_render::radiosity::hierarchical::Basis;
+use lumiwall_bench::radiosity::{
+    self as bench_radiosity, BasisRow, MonteCarloCheck, ScaleRun, SolverRow, VisibilitySaving,
+};
 use lumiwall_render::radiosity::output::{
     plot_curves_png, render_image, write_curve_csv, write_exr, write_ply, write_preview_png,
 };
 use lumiwall_render::radiosity::{
-    HierarchicalOptions, ProgressiveOptions, SceneOccluders, Solution, StopRule, Visibility,
-    solve_dense_reference, solve_hierarchical, solve_progressive,
+    CurvePoint, HierarchicalOptions, ProgressiveOptions, SceneOccluders, Solution, SolveStats,
+    StopRule, solve_hierarchical, solve_progressive,
 };
 use lumiwall_render::scene::{Scene, load_scene};
 
@@ -20,7 +23,7 @@ use crate::CliError;
 
 /// Radiosity solver choice.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Method {
+pub(crate) enum Method {
     /// Hierarchical radiosity with error-bounded refinement.
     Radiosity,
     /// Progressive refinement (shooting) on a uniform mesh.
@@ -29,7 +32,7 @@ pub enum Method {
 
 /// Receiver representation of the hierarchical solver (Kresse 2.5.3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum BasisArg {
+pub(crate) enum BasisArg {
     /// One value per patch (what a lighting engineer reads off).
     Constant,
     /// Vertex values on every patch (smooth Gouraud shading).
@@ -38,49 +41,49 @@ pub enum BasisArg {
     Auto,
 }
 
-impl From<BasisArg> for Basis {
+impl From<BasisArg> for lumiwall_render::radiosity::hierarchical::Basis {
     fn from(b: BasisArg) -> Self {
         match b {
-            BasisArg::Constant => Basis::Constant,
-            BasisArg::Linear => Basis::Linear,
-            BasisArg::Auto => Basis::Auto,
+            BasisArg::Constant => Self::Constant,
+            BasisArg::Linear => Self::Linear,
+            BasisArg::Auto => Self::Auto,
         }
     }
 }
 
 /// Arguments of `lumiwall render`.
 #[derive(Debug, clap::Args)]
-pub struct RenderArgs {
+pub(crate) struct RenderArgs {
     /// Scene file (TOML, see fixtures/scenes/README.md).
-    pub scene: PathBuf,
+    scene: PathBuf,
     /// Solver.
     #[arg(long, value_enum, default_value = "radiosity")]
-    pub method: Method,
+    method: Method,
     /// Requested relative error, e.g. `1%` or `0.01`.
     #[arg(long, default_value = "1%", value_parser = parse_fraction)]
-    pub error: f64,
+    error: f64,
     /// Wall-time limit, e.g. `60s`, `2m`.
     #[arg(long, value_parser = parse_duration)]
-    pub time: Option<Duration>,
+    time: Option<Duration>,
     /// Output OpenEXR (channels X, Y, Z in cd/m²); the curve (.csv, .png) and the
     /// per-vertex radiosity (.ply) are written next to it.
     #[arg(long, default_value = "frame.exr")]
-    pub out: PathBuf,
+    out: PathBuf,
     /// Progressive solver: longest element edge in metres.
     #[arg(long, default_value_t = 0.05)]
-    pub max_edge_m: f64,
+    max_edge_m: f64,
     /// Hierarchical solver: smallest element area in m² (0 = automatic).
     #[arg(long, default_value_t = 0.0)]
-    pub min_area_m2: f64,
+    min_area_m2: f64,
     /// Hierarchical solver: receiver representation. The constant basis's error
     /// estimate is conservative; the linear one's is exact for smooth light but can
     /// be optimistic near concave corners (Cornell box at 1 %: 1.7 % measured), so
     /// use `constant` where the bound must hold.
     #[arg(long, value_enum, default_value = "auto")]
-    pub basis: BasisArg,
+    basis: BasisArg,
 }
 
-fn parse_fraction(s: &str) -> Result<f64, String> {
+pub(crate) fn parse_fraction(s: &str) -> Result<f64, String> {
     let t = s.trim();
     let v = if let Some(p) = t.strip_suffix('%') {
         p.trim().parse::<f64>().map(|v| v / 100.0)
@@ -95,7 +98,7 @@ fn parse_fraction(s: &str) -> Result<f64, String> {
     }
 }
 
-fn parse_duration(s: &str) -> Result<Duration, String> {
+pub(crate) fn parse_duration(s: &str) -> Result<Duration, String> {
     let t = s.trim();
     let (num, mult) = if let Some(n) = t.strip_suffix("ms") {
         (n, 1e-3)
@@ -119,37 +122,40 @@ fn parse_duration(s: &str) -> Result<Duration, String> {
     }
 }
 
+/// Loads a scene and reports what was checked on stderr.
 fn load(path: &Path) -> Result<Scene, CliError> {
-    let (scene, report) = load_scene(path).map_err(|e| CliError::input(e.to_string()))?;
+    let (scene, report) = load_scene(path)?;
     eprintln!("scene {}: {}", path.display(), report.summary());
     Ok(scene)
 }
 
-fn solve(
-    scene: &Scene,
-    vis: &dyn Visibility,
-    method: Method,
-    stop: StopRule,
-    max_edge_m: f64,
-    min_area_m2: f64,
-    basis: Basis,
-) -> Result<Solution, CliError> {
-    let r = match method {
-        Method::Radiosity => solve_hierarchical(
-            scene,
-            vis,
-            &HierarchicalOptions {
+/// Solves `scene` with the solver and options of `args`.
+fn solve(scene: &Scene, args: &RenderArgs) -> Result<Solution, CliError> {
+    let stop = StopRule {
+        target_error: args.error,
+        time_limit: args.time,
+        max_iterations: usize::MAX,
+    };
+    let occluders = SceneOccluders::new(scene);
+    let sol = match args.method {
+        Method::Radiosity => {
+            let opts = HierarchicalOptions {
                 stop,
-                min_area_m2,
-                basis,
+                min_area_m2: args.min_area_m2,
+                basis: args.basis.into(),
                 ..HierarchicalOptions::default()
-            },
-        ),
+            };
+            solve_hierarchical(scene, &occluders, &opts)?
+        }
         Method::Progressive => {
-            solve_progressive(scene, vis, &ProgressiveOptions { stop, max_edge_m })
+            let opts = ProgressiveOptions {
+                stop,
+                max_edge_m: args.max_edge_m,
+            };
+            solve_progressive(scene, &occluders, &opts)?
         }
     };
-    r.map_err(|e| CliError::failure(e.to_string()))
+    Ok(sol)
 }
 
 fn with_ext(p: &Path, suffix: &str) -> PathBuf {
@@ -157,44 +163,53 @@ fn with_ext(p: &Path, suffix: &str) -> PathBuf {
     p.with_file_name(format!("{stem}{suffix}"))
 }
 
+/// Bytes in a MiB.
+const MIB: f64 = 1048576.0;
+
+/// Rows of the error/time table `lumiwall render` prints (about; the last is added).
+const CURVE_TABLE_ROWS: usize = 40;
+
+/// Estimated, solve and discretisation error of a curve point, in percent.
+fn percent_errors(p: &CurvePoint) -> [f64; 3] {
+    [
+        100.0 * p.estimated_error,
+        100.0 * p.solve_error,
+        100.0 * p.discretization_error,
+    ]
+}
+
 /// Runs `lumiwall render`.
-pub fn run(args: RenderArgs) -> Result<(), CliError> {
+pub(crate) fn run(args: RenderArgs) -> Result<(), CliError> {
     let scene = load(&args.scene)?;
-    let occ = SceneOccluders::new(&scene);
-    let stop = StopRule {
-        target_error: args.error,
-        time_limit: args.time,
-        max_iterations: usize::MAX,
-    };
-    let sol = solve(
-        &scene,
-        &occ,
-        args.method,
-        stop,
-        args.max_edge_m,
-        args.min_area_m2,
-        args.basis.into(),
-    )?;
+    let sol = solve(&scene, &args)?;
+    print_curve_table(&sol);
+    print_stats(&sol);
+    for w in write_outputs(&scene, &sol, &args)? {
+        println!("wrote {}", w.display());
+    }
+    Ok(())
+}
+
+/// About [`CURVE_TABLE_ROWS`] points of the error/time curve, the last included.
+fn print_curve_table(sol: &Solution) {
     println!(
         "{:>9} {:>7} {:>11} {:>11} {:>11} {:>8} {:>10}",
         "time_s", "iter", "est_error", "solve", "discret.", "patches", "links"
     );
     let n = sol.curve.points.len();
-    let step = (n / 40).max(1);
+    let step = (n / CURVE_TABLE_ROWS).max(1);
     for (i, p) in sol.curve.points.iter().enumerate() {
         if i % step == 0 || i + 1 == n {
+            let [est, solve, disc] = percent_errors(p);
             println!(
                 "{:>9.3} {:>7} {:>10.3}% {:>10.3}% {:>10.3}% {:>8} {:>10}",
-                p.time_s,
-                p.iteration,
-                100.0 * p.estimated_error,
-                100.0 * p.solve_error,
-                100.0 * p.discretization_error,
-                p.patches,
-                p.links
+                p.time_s, p.iteration, est, solve, disc, p.patches, p.links
             );
         }
     }
+}
+
+fn print_stats(sol: &Solution) {
     let s = &sol.stats;
     println!(
         "stop: {:?}; {} patches, {} elements, {} links, {} shadow rays, visibility skipped/tested {}/{}, ~{:.1} MiB, {:.3} s",
@@ -205,302 +220,218 @@ pub fn run(args: RenderArgs) -> Result<(), CliError> {
         s.shadow_rays,
         s.visibility_skipped,
         s.visibility_tested,
-        s.memory_bytes as f64 / 1048576.0,
+        s.memory_bytes as f64 / MIB,
         s.time_s
     );
+}
+
+/// Writes the curve (CSV, PNG), the per-vertex PLY and, with a camera, the image and
+/// its preview; returns the paths written.
+fn write_outputs(
+    scene: &Scene,
+    sol: &Solution,
+    args: &RenderArgs,
+) -> Result<Vec<PathBuf>, CliError> {
     let csv = with_ext(&args.out, ".curve.csv");
     let png = with_ext(&args.out, ".curve.png");
     let ply = with_ext(&args.out, ".ply");
-    let fail = |e: lumiwall_render::radiosity::RadiosityError| CliError::failure(e.to_string());
-    write_curve_csv(&sol.curve, &csv).map_err(fail)?;
-    plot_curves_png(&[(&sol.curve, [200, 30, 30])], Some(args.error), &png).map_err(fail)?;
-    write_ply(&sol, &ply).map_err(fail)?;
+    write_curve_csv(&sol.curve, &csv)?;
+    plot_curves_png(&[(&sol.curve, [200, 30, 30])], Some(args.error), &png)?;
+    write_ply(sol, &ply)?;
     let mut wrote = vec![csv, png, ply];
     match &scene.camera {
         Some(cam) => {
-            let img = render_image(&sol, cam);
+            let img = render_image(sol, cam);
             let (w, h) = (cam.width_px as usize, cam.height_px as usize);
-            write_exr(&img, w, h, &args.out).map_err(fail)?;
+            write_exr(&img, w, h, &args.out)?;
             let preview = with_ext(&args.out, ".preview.png");
-            write_preview_png(&img, w, h, &preview).map_err(fail)?;
+            write_preview_png(&img, w, h, &preview)?;
             wrote.push(args.out.clone());
             wrote.push(preview);
         }
         None => eprintln!("scene has no [camera]: no image written"),
     }
-    for w in wrote {
-        println!("wrote {}", w.display());
-    }
-    Ok(())
+    Ok(wrote)
 }
 
 /// Arguments of `lumiwall bench radiosity`.
 #[derive(Debug, clap::Args)]
-pub struct BenchArgs {
+pub(crate) struct BenchArgs {
     /// Scene with occluders (default: the Cornell box fixture).
     #[arg(long, default_value = "fixtures/scenes/cornell/cornell.toml")]
-    pub scene: PathBuf,
+    scene: PathBuf,
     /// Same room without occluders, for the visibility saving.
     #[arg(long, default_value = "fixtures/scenes/cornell/cornell_empty.toml")]
-    pub empty_scene: PathBuf,
+    empty_scene: PathBuf,
     /// Reference mesh: longest element edge in metres.
     #[arg(long, default_value_t = 0.035)]
-    pub reference_edge_m: f64,
+    reference_edge_m: f64,
     /// Time limit per solve in seconds (the scale acceptance: 5 % within 5 minutes).
     #[arg(long, default_value_t = 300.0)]
-    pub time_limit_s: f64,
+    time_limit_s: f64,
     /// Write the error/time curves of both solvers as a PNG here.
     #[arg(long)]
-    pub plot: Option<PathBuf>,
+    plot: Option<PathBuf>,
     /// The scale benchmark (generated cathedral from render::mesh) instead of the
     /// Cornell comparison.
     #[arg(long)]
-    pub scale: bool,
+    scale: bool,
     /// Scale benchmark: triangle counts (comma-separated).
     #[arg(long, value_delimiter = ',', default_value = "100000")]
-    pub sizes: Vec<usize>,
+    sizes: Vec<usize>,
     /// Scale benchmark: number of lights.
     #[arg(long, default_value_t = 100)]
-    pub lights: usize,
+    lights: usize,
     /// Scale benchmark: requested error.
     #[arg(long, default_value = "5%", value_parser = parse_fraction)]
-    pub scale_error: f64,
+    scale_error: f64,
     /// Scale benchmark: print the error/time curve of each solve.
     #[arg(long)]
-    pub curve: bool,
-    /// Scale benchmark: check the solution against an independent Monte Carlo path
-    /// tracer at this many patches (picked in proportion to their area; 0 = no check).
+    curve: bool,
+    /// Check the solution (the Cornell reference, or each scale solve) against an
+    /// independent Monte Carlo path tracer at this many patches (picked in proportion
+    /// to their area; 0 = no check).
     #[arg(long, default_value_t = 0)]
-    pub check_patches: usize,
-    /// Scale benchmark: paths per checked patch.
+    check_patches: usize,
+    /// Paths per checked patch.
     #[arg(long, default_value_t = 20_000)]
-    pub check_paths: usize,
+    check_paths: usize,
+}
+
+impl BenchArgs {
+    fn time_limit(&self) -> Option<Duration> {
+        Some(Duration::from_secs_f64(self.time_limit_s))
+    }
 }
 
 /// Runs `lumiwall bench radiosity`.
-pub fn bench(args: BenchArgs) -> Result<(), CliError> {
+pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
     if args.scale {
         return scale_study(&args);
     }
     let scene = load(&args.scene)?;
-    let occ = SceneOccluders::new(&scene);
-    let t = Instant::now();
-    let reference = solve_dense_reference(&scene, &occ, args.reference_edge_m, 20_000)
-        .map_err(|e| CliError::failure(e.to_string()))?;
+    let reference = bench_radiosity::dense_reference(&scene, args.reference_edge_m)?;
+    let r = &reference.solution.stats;
     println!(
         "reference: dense Gauss–Seidel on a uniform mesh, {} elements, {} form factors, {} shadow rays, {:.1} s",
-        reference.stats.patches,
-        reference.stats.links,
-        reference.stats.shadow_rays,
-        t.elapsed().as_secs_f64()
+        r.patches,
+        r.links,
+        r.shadow_rays,
+        reference.elapsed.as_secs_f64()
     );
     if args.check_patches > 0 {
         println!("reference against the Monte Carlo path tracer:");
-        monte_carlo_check(&scene, &reference, args.check_patches, args.check_paths);
+        let check = bench_radiosity::monte_carlo_check(
+            &scene,
+            &reference.solution,
+            args.check_patches,
+            args.check_paths,
+        );
+        print_monte_carlo_check(&check);
     }
+    compare_solvers(&args, &scene, &reference.solution)?;
+    compare_bases(&args, &scene, &reference.solution)?;
+    let empty = load(&args.empty_scene)?;
+    print_visibility_saving(&bench_radiosity::visibility_saving(
+        &empty,
+        args.time_limit(),
+    )?);
+    Ok(())
+}
+
+/// Both solvers at several targets, and the plot of their curves.
+fn compare_solvers(args: &BenchArgs, scene: &Scene, reference: &Solution) -> Result<(), CliError> {
     println!(
         "{:<12} {:>7} {:>9} {:>10} {:>10} {:>8} {:>9} {:>10} {:>9}",
         "solver", "target", "time_s", "est_err", "true_err", "patches", "links", "rays", "MiB"
     );
-    let limit = Some(Duration::from_secs_f64(args.time_limit_s));
-    let mut curves = Vec::new();
-    for (method, name, targets, edge) in [
-        (
-            Method::Radiosity,
-            "hierarchical",
-            &[0.2, 0.1, 0.05, 0.02, 0.01][..],
-            0.0,
-        ),
-        (
-            Method::Progressive,
-            "progressive",
-            &[0.2, 0.1, 0.05, 0.02, 0.01][..],
-            0.07,
-        ),
-    ] {
-        for &target in targets {
-            let stop = StopRule {
-                target_error: target,
-                time_limit: limit,
-                max_iterations: usize::MAX,
-            };
-            let sol = solve(&scene, &occ, method, stop, edge, 0.0, Basis::Auto)?;
-            let est = sol
-                .curve
-                .last()
-                .map(|p| p.estimated_error)
-                .unwrap_or(f64::NAN);
-            let err = sol.relative_error_against(&reference);
-            println!(
-                "{:<12} {:>6.1}% {:>9.3} {:>9.2}% {:>9.2}% {:>8} {:>9} {:>10} {:>9.1}",
-                name,
-                100.0 * target,
-                sol.stats.time_s,
-                100.0 * est,
-                100.0 * err,
-                sol.stats.patches,
-                sol.stats.links,
-                sol.stats.shadow_rays,
-                sol.stats.memory_bytes as f64 / 1048576.0
-            );
-            if target == 0.01 {
-                curves.push(sol.curve.clone());
-            }
-        }
-    }
-    // receiver bases at one target: what the linear representation saves
-    println!("receiver bases (hierarchical, 2 %; true error of the represented function):");
-    println!(
-        "  {:<9} {:>9} {:>10} {:>10} {:>8} {:>8} {:>9}",
-        "basis", "time_s", "est_err", "true_err", "patches", "linear", "links"
-    );
-    for (name, basis) in [
-        ("constant", Basis::Constant),
-        ("linear", Basis::Linear),
-        ("auto", Basis::Auto),
-    ] {
-        let stop = StopRule {
-            target_error: 0.02,
-            time_limit: limit,
-            max_iterations: usize::MAX,
-        };
-        let sol = solve(&scene, &occ, Method::Radiosity, stop, 0.0, 0.0, basis)?;
-        let est = sol
-            .curve
-            .last()
-            .map(|p| p.estimated_error)
-            .unwrap_or(f64::NAN);
-        println!(
-            "  {:<9} {:>9.3} {:>9.2}% {:>9.2}% {:>8} {:>8} {:>9}",
-            name,
-            sol.stats.time_s,
-            100.0 * est,
-            100.0 * sol.relative_error_against(&reference),
-            sol.stats.patches,
-            sol.stats.linear_patches,
-            sol.stats.links
-        );
-    }
+    let curves = bench_radiosity::solver_comparison(
+        scene,
+        reference,
+        args.time_limit(),
+        &mut print_solver_row,
+    )?;
     if let Some(p) = &args.plot {
-        let pairs: Vec<_> = curves.iter().zip([[200, 30, 30], [30, 30, 200]]).collect();
-        plot_curves_png(&pairs, Some(0.01), p).map_err(|e| CliError::failure(e.to_string()))?;
+        bench_radiosity::plot_solver_curves(&curves, p)?;
         println!(
             "wrote {} (red: hierarchical, blue: progressive)",
             p.display()
         );
     }
-    // visibility saving in a room without occluders
-    let empty = load(&args.empty_scene)?;
-    let stop = StopRule {
-        target_error: 0.02,
-        time_limit: limit,
-        max_iterations: usize::MAX,
-    };
-    let with_culling = solve(
-        &empty,
-        &SceneOccluders::new(&empty),
-        Method::Radiosity,
-        stop,
-        0.0,
-        0.0,
-        Basis::Auto,
-    )?;
-    let always = AlwaysTest(SceneOccluders::new(&empty));
-    let without = solve(
-        &empty,
-        &always,
-        Method::Radiosity,
-        stop,
-        0.0,
-        0.0,
-        Basis::Auto,
-    )?;
-    println!("no occluders (cornell_empty, hierarchical, 2 %):");
-    for (name, s) in [
-        ("classification skips rays", &with_culling),
-        ("rays for every link", &without),
-    ] {
-        println!(
-            "  {:<27} {:>8.3} s, {:>10} shadow rays, {} links skipped visibility",
-            name, s.stats.time_s, s.stats.shadow_rays, s.stats.visibility_skipped
-        );
-    }
     Ok(())
 }
 
-/// Compares a solution with the Monte Carlo path tracer at `n` patches picked with
-/// probability proportional to area (so plain sums estimate area-weighted ones) and
-/// prints the relative L1 difference of the patch exitances, with the tracer's own
-/// noise beside it.
-fn monte_carlo_check(scene: &Scene, sol: &Solution, n: usize, paths: usize) {
-    use lumiwall_render::radiosity::montecarlo::MonteCarloReference;
-    let t = Instant::now();
-    let mc = MonteCarloReference::new(scene);
-    let total: f64 = sol.patches.iter().map(|p| p.area_m2).sum();
-    // deterministic area-proportional picks (stratified over the cumulative area)
-    let mut cum = Vec::with_capacity(sol.patches.len());
-    let mut acc = 0.0;
-    for p in &sol.patches {
-        acc += p.area_m2;
-        cum.push(acc);
-    }
-    let (mut diff, mut sum_ref, mut noise, mut d2, mut s2, mut r2) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-    for k in 0..n {
-        let u = (k as f64 + 0.5) / n as f64 * total;
-        let i = cum.partition_point(|&c| c < u).min(sol.patches.len() - 1);
-        let p = &sol.patches[i];
-        let m = scene.material_of(p.polygon);
-        let est = mc.patch_irradiance(&p.vertices, p.polygon, paths, 1000 + k as u64);
-        let rho = m.reflectance_xyz[1];
-        let reference = std::f64::consts::PI * m.emission_cd_m2[1] + rho * est.irradiance_xyz[1];
-        let sigma = rho * est.std_error_y;
-        let d = p.exitance_xyz[1] - reference;
-        diff += d.abs();
-        sum_ref += reference;
-        noise += sigma;
-        d2 += d * d;
-        s2 += sigma * sigma;
-        r2 += reference * reference;
-    }
+fn print_solver_row(r: &SolverRow) {
+    let s = &r.stats;
     println!(
-        "  Monte Carlo check ({n} patches × {paths} paths, {:.1} s): L1 difference {:.2}% (tracer noise {:.2}%), RMS difference less noise {:.2}%",
-        t.elapsed().as_secs_f64(),
-        100.0 * diff / sum_ref,
-        100.0 * noise / sum_ref,
-        100.0 * ((d2 - s2).max(0.0) / r2).sqrt()
+        "{:<12} {:>6.1}% {:>9.3} {:>9.2}% {:>9.2}% {:>8} {:>9} {:>10} {:>9.1}",
+        r.solver,
+        100.0 * r.target,
+        s.time_s,
+        100.0 * r.estimated_error,
+        100.0 * r.true_error,
+        s.patches,
+        s.links,
+        s.shadow_rays,
+        s.memory_bytes as f64 / MIB
     );
 }
 
-/// Visibility that never classifies a pair as fully visible (the cost without the
-/// classification).
-struct AlwaysTest(SceneOccluders);
+/// The receiver bases at one target: what the linear representation saves.
+fn compare_bases(args: &BenchArgs, scene: &Scene, reference: &Solution) -> Result<(), CliError> {
+    println!("receiver bases (hierarchical, 2 %; true error of the represented function):");
+    println!(
+        "  {:<9} {:>9} {:>10} {:>10} {:>8} {:>8} {:>9}",
+        "basis", "time_s", "est_err", "true_err", "patches", "linear", "links"
+    );
+    bench_radiosity::basis_comparison(scene, reference, args.time_limit(), &mut print_basis_row)?;
+    Ok(())
+}
 
-impl Visibility for AlwaysTest {
-    fn may_occlude(
-        &self,
-        _: &[lumiwall_render::scene::V3],
-        _: usize,
-        _: &[lumiwall_render::scene::V3],
-        _: usize,
-    ) -> bool {
-        true
+fn print_basis_row(r: &BasisRow) {
+    let s = &r.stats;
+    println!(
+        "  {:<9} {:>9.3} {:>9.2}% {:>9.2}% {:>8} {:>8} {:>9}",
+        r.basis,
+        s.time_s,
+        100.0 * r.estimated_error,
+        100.0 * r.true_error,
+        s.patches,
+        s.linear_patches,
+        s.links
+    );
+}
+
+fn print_visibility_saving(v: &VisibilitySaving) {
+    println!("no occluders (cornell_empty, hierarchical, 2 %):");
+    let rows: [(&str, &SolveStats); 2] = [
+        ("classification skips rays", &v.with_classification),
+        ("rays for every link", &v.rays_for_every_link),
+    ];
+    for (name, s) in rows {
+        println!(
+            "  {:<27} {:>8.3} s, {:>10} shadow rays, {} links skipped visibility",
+            name, s.time_s, s.shadow_rays, s.visibility_skipped
+        );
     }
-    fn occluded(
-        &self,
-        a: &lumiwall_render::scene::V3,
-        b: &lumiwall_render::scene::V3,
-        skip: [usize; 2],
-    ) -> bool {
-        self.0.occluded(a, b, skip)
-    }
+}
+
+fn print_monte_carlo_check(c: &MonteCarloCheck) {
+    println!(
+        "  Monte Carlo check ({} patches × {} paths, {:.1} s): L1 difference {:.2}% (tracer noise {:.2}%), RMS difference less noise {:.2}%",
+        c.patches,
+        c.paths,
+        c.elapsed.as_secs_f64(),
+        100.0 * c.l1_difference,
+        100.0 * c.tracer_noise,
+        100.0 * c.rms_less_noise
+    );
 }
 
 /// The scale study: the generated cathedral (render::mesh) at the given triangle
 /// counts with `--lights` lights, solved by the hierarchical solver with clustering to
 /// `--scale-error` within the time limit; one row per size.
 fn scale_study(args: &BenchArgs) -> Result<(), CliError> {
-    use lumiwall_render::mesh::generate_scale_scene;
-    use lumiwall_render::radiosity::BvhOccluders;
     println!(
         "{:>9} {:>6} {:>8} {:>9} {:>10} {:>9} {:>8} {:>11} {:>8} {:>8} {:>9} {:>8}",
         "triangles",
@@ -517,54 +448,48 @@ fn scale_study(args: &BenchArgs) -> Result<(), CliError> {
         "stop"
     );
     for &n in &args.sizes {
-        let t0 = Instant::now();
-        let scene = generate_scale_scene(n, args.lights, 7).to_scene();
-        let vis = BvhOccluders::new(&scene);
-        let setup = t0.elapsed().as_secs_f64();
-        let stop = StopRule {
-            target_error: args.scale_error,
-            time_limit: Some(Duration::from_secs_f64(args.time_limit_s)),
-            max_iterations: usize::MAX,
-        };
-        let sol = solve(&scene, &vis, Method::Radiosity, stop, 0.0, 0.0, Basis::Auto)?;
-        let s = &sol.stats;
-        println!(
-            "{:>9} {:>6} {:>8} {:>9} {:>10} {:>9} {:>8.1} {:>11} {:>7.2}% {:>8.2} {:>9.2} {:>8}",
-            scene.polygons.len(),
-            scene.lights.len(),
-            s.clusters,
-            s.patches,
-            s.links,
-            s.cluster_links,
-            s.memory_bytes as f64 / 1048576.0,
-            s.shadow_rays,
-            100.0
-                * sol
-                    .curve
-                    .last()
-                    .map(|p| p.estimated_error)
-                    .unwrap_or(f64::NAN),
-            setup,
-            s.time_s,
-            format!("{:?}", sol.stop)
-        );
+        let run = bench_radiosity::scale_run(n, args.lights, args.scale_error, args.time_limit())?;
+        print_scale_row(&run);
         if args.check_patches > 0 {
-            monte_carlo_check(&scene, &sol, args.check_patches, args.check_paths);
+            print_monte_carlo_check(&bench_radiosity::monte_carlo_check(
+                &run.scene,
+                &run.solution,
+                args.check_patches,
+                args.check_paths,
+            ));
         }
         if args.curve {
-            for p in &sol.curve.points {
-                println!(
-                    "    t {:>8.2} s  sweep {:>4}  est {:>7.3}%  solve {:>7.3}%  disc {:>7.3}%  patches {:>8}  links {:>9}",
-                    p.time_s,
-                    p.iteration,
-                    100.0 * p.estimated_error,
-                    100.0 * p.solve_error,
-                    100.0 * p.discretization_error,
-                    p.patches,
-                    p.links
-                );
-            }
+            print_scale_curve(&run.solution);
         }
     }
     Ok(())
+}
+
+fn print_scale_row(run: &ScaleRun) {
+    let s = &run.solution.stats;
+    println!(
+        "{:>9} {:>6} {:>8} {:>9} {:>10} {:>9} {:>8.1} {:>11} {:>7.2}% {:>8.2} {:>9.2} {:>8}",
+        run.scene.polygons.len(),
+        run.scene.lights.len(),
+        s.clusters,
+        s.patches,
+        s.links,
+        s.cluster_links,
+        s.memory_bytes as f64 / MIB,
+        s.shadow_rays,
+        100.0 * bench_radiosity::final_estimated_error(&run.solution),
+        run.setup_s,
+        s.time_s,
+        format!("{:?}", run.solution.stop)
+    );
+}
+
+fn print_scale_curve(sol: &Solution) {
+    for p in &sol.curve.points {
+        let [est, solve, disc] = percent_errors(p);
+        println!(
+            "    t {:>8.2} s  sweep {:>4}  est {:>7.3}%  solve {:>7.3}%  disc {:>7.3}%  patches {:>8}  links {:>9}",
+            p.time_s, p.iteration, est, solve, disc, p.patches, p.links
+        );
+    }
 }

@@ -7,49 +7,43 @@ use std::path::{Path, PathBuf};
 use indicatif::{ProgressBar, ProgressStyle};
 use lumiwall_calib::measure::meter_offset::MeterCorrection;
 use lumiwall_calib::measure::{MeasureOptions, Progress};
-use lumiwall_calib::verify::{Tolerances, VerifyOptions, default_targets, verify_wall};
+use lumiwall_calib::station::Station;
+use lumiwall_calib::verify::{Tolerances, VerifyOptions, VerifyReport, default_targets};
 use lumiwall_devices::Colorimeter;
 use lumiwall_profiles::ProfileSet;
 
 use crate::CliError;
-use crate::cmd_commission::{MeterChoice, Noise, Station};
+use crate::cmd_commission::MeterArgs;
 
 /// Arguments of `lumiwall verify`.
 #[derive(Debug, clap::Args)]
-pub struct VerifyArgs {
+pub(crate) struct VerifyArgs {
     /// Wall description (TOML).
     #[arg(long)]
-    pub wall: PathBuf,
+    wall: PathBuf,
     /// Profile folder written by `lumiwall commission`.
     #[arg(long)]
-    pub profiles: PathBuf,
+    profiles: PathBuf,
     /// Number of target colours per display.
     #[arg(long, default_value_t = 20)]
-    pub patches: usize,
+    patches: usize,
     /// Largest ΔE2000 allowed on any patch.
     #[arg(long, default_value_t = 1.5)]
-    pub max_de: f64,
+    max_de: f64,
     /// Largest median ΔE2000 allowed (per display and overall).
     #[arg(long, default_value_t = 0.5)]
-    pub median_de: f64,
+    median_de: f64,
     /// Largest black luminance difference (%) from the common black (common mode).
     #[arg(long, default_value_t = 5.0)]
-    pub black_dl: f64,
+    black_dl: f64,
     /// Largest black chromaticity difference from the common black (common mode).
     #[arg(long, default_value_t = 0.008)]
-    pub black_dxy: f64,
-    /// Meter: emulated, direct or serial:PATH.
-    #[arg(long, default_value = "emulated")]
-    pub meter: MeterChoice,
-    /// Error model of the simulated meter.
-    #[arg(long, value_enum, default_value = "realistic")]
-    pub noise: Noise,
-    /// Speed of the emulated instrument: factor on its real measurement time.
-    #[arg(long, default_value_t = 0.1)]
-    pub time_scale: f64,
+    black_dxy: f64,
+    #[command(flatten)]
+    meter: MeterArgs,
     /// Print only the summary, not every patch.
     #[arg(long)]
-    pub summary_only: bool,
+    summary_only: bool,
 }
 
 /// The xy correction saved by `lumiwall commission` for this instrument, if any.
@@ -88,14 +82,14 @@ fn load_meter_correction(
 }
 
 /// Runs `lumiwall verify`.
-pub fn run(args: VerifyArgs) -> Result<(), CliError> {
+pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
     let (wall_name, profiles) = ProfileSet::load_dir(&args.profiles).map_err(|e| {
         CliError::input(format!(
             "cannot read profiles in {}: {e}",
             args.profiles.display()
         ))
     })?;
-    let mut station = Station::open(&args.wall, &args.meter, args.noise, args.time_scale)?;
+    let mut station = Station::open(&args.wall, &args.meter.station_options())?;
     if station.wall.name() != wall_name {
         return Err(CliError::input(format!(
             "the profiles in {} are for wall '{wall_name}', the wall file is '{}'",
@@ -103,37 +97,29 @@ pub fn run(args: VerifyArgs) -> Result<(), CliError> {
             station.wall.name()
         )));
     }
-    let displays = station.displays();
-    let targets =
-        default_targets(&profiles, args.patches).map_err(|e| CliError::input(e.to_string()))?;
-    let meter_xy_offset = load_meter_correction(&args.profiles, station.meter.as_ref())?;
+    let targets = default_targets(&profiles, args.patches)?;
     let opts = VerifyOptions {
         patches: args.patches,
-        meter_xy_offset,
+        meter_xy_offset: load_meter_correction(&args.profiles, station.meter.as_ref())?,
         measure: MeasureOptions::default(),
         ..VerifyOptions::default()
     };
-    let pb = ProgressBar::new((displays.len() * targets.len()) as u64);
+    let pb = ProgressBar::new((station.displays().len() * targets.len()) as u64);
     pb.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} readings [{elapsed}, eta {eta}]")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let mut on_progress = |p: Progress| {
+    let report = station.verify(&profiles, &targets, &opts, &mut |p| {
         if let Progress::Reading { .. } = p {
             pb.inc(1);
         }
-    };
-    let mut rig = station.rig();
-    let report = verify_wall(
-        &mut rig,
-        &displays,
-        &profiles,
-        &targets,
-        &opts,
-        &mut on_progress,
-    );
+    });
     pb.finish_and_clear();
-    let report = report.map_err(|e| CliError::failure(e.to_string()))?;
+    print_report(&report?, &args)
+}
+
+/// Prints the tables and checks the tolerances (exit code 3 outside them).
+fn print_report(report: &VerifyReport, args: &VerifyArgs) -> Result<(), CliError> {
     if !args.summary_only {
         print!("{}", report.patch_table());
         println!();

@@ -14,7 +14,7 @@ mod error;
 
 use clap::{Parser, Subcommand};
 
-pub use error::CliError;
+use error::CliError;
 
 /// Multi-projector wall calibration station and photometric renderer.
 #[derive(Debug, Parser)]

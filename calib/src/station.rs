@@ -1,0 +1,308 @@
+//! The devices of a calibration station, opened together: the virtual wall's pattern
+//! output and meter positioner, and a meter — the simulated one called directly, the
+//! simulated one served through the Klein K-10A protocol on a pseudo-terminal and read
+//! by the real serial driver, or a real K-10A on a serial port.
+//!
+//! The command line (`lumiwall commission`, `verify`, `bench readings`), the station
+//! app, the pattern server and the integration tests all open their devices here, so
+//! they exercise the same meter path.
+
+// The wrappers return the (large) errors of `commission` and `verify_wall` unchanged.
+#![expect(
+    clippy::result_large_err,
+    reason = "returns the errors of commission and verify_wall unchanged"
+)]
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use lumiwall_devices::serial::{Emulator, EmulatorOptions, FaultPlan, K10aConfig, KleinK10a};
+use lumiwall_devices::sim::{MeterModel, SimPatternOutput, SimPositioner, VirtualWall};
+use lumiwall_devices::{Colorimeter, DeviceError, DisplayInfo};
+use lumiwall_profiles::DisplayProfile;
+
+use crate::commission::{CommissionError, CommissionOptions, CommissionOutcome, commission};
+use crate::measure::{Progress, Rig};
+use crate::verify::{Target, VerifyError, VerifyOptions, VerifyReport, verify_wall};
+
+/// Which meter the station reads.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum MeterChoice {
+    /// The simulated meter served on a pty by the instrument emulator, read by the
+    /// serial driver (exercises the real protocol).
+    Emulated,
+    /// The simulated meter called directly (fast; for comparisons and big benches).
+    Direct,
+    /// A real Klein K-10A on this serial port.
+    Serial(String),
+}
+
+impl std::str::FromStr for MeterChoice {
+    type Err = String;
+
+    /// Parses `emulated`, `direct` or `serial:PATH`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "emulated" => Ok(Self::Emulated),
+            "direct" => Ok(Self::Direct),
+            _ => match s.strip_prefix("serial:") {
+                Some(p) if !p.is_empty() => Ok(Self::Serial(p.to_string())),
+                _ => Err(format!(
+                    "unknown meter '{s}': use emulated, direct or serial:/dev/ttyUSB0"
+                )),
+            },
+        }
+    }
+}
+
+/// Error model of the simulated meter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Noise {
+    /// The instrument's datasheet error model (CS-100A class: 2 % luminance, ±0.004 xy,
+    /// worse below 1 cd/m²).
+    Realistic,
+    /// Exact readings.
+    None,
+}
+
+impl Noise {
+    /// Both error models, exact first.
+    pub const ALL: [Noise; 2] = [Noise::None, Noise::Realistic];
+
+    /// The simulated meter's model; `seed` plays the instrument's serial number.
+    pub fn model(self, seed: u64) -> MeterModel {
+        match self {
+            Noise::Realistic => MeterModel::cs100a(seed),
+            Noise::None => MeterModel::noiseless(),
+        }
+    }
+
+    /// The lower-case name (`realistic`, `none`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Noise::Realistic => "realistic",
+            Noise::None => "none",
+        }
+    }
+}
+
+impl std::str::FromStr for Noise {
+    type Err = String;
+
+    /// Parses `realistic` or `none`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "realistic" => Ok(Self::Realistic),
+            "none" => Ok(Self::None),
+            _ => Err(format!("unknown meter noise '{s}': use realistic or none")),
+        }
+    }
+}
+
+/// Speed of the emulated instrument used by default: a tenth of a real K-10A's
+/// measurement time, so a 48-display wall commissions in minutes.
+pub const DEFAULT_TIME_SCALE: f64 = 0.1;
+
+/// Driver settings of the station: the calibration retries transient errors itself, so
+/// the driver does not (a dead meter is reported after one timeout per attempt).
+pub fn driver_config() -> K10aConfig {
+    K10aConfig {
+        retries: 0,
+        read_timeout: Duration::from_secs(2),
+        ..K10aConfig::default()
+    }
+}
+
+/// How to open a station's meter.
+#[derive(Debug, Clone)]
+pub struct StationOptions {
+    /// Which meter.
+    pub meter: MeterChoice,
+    /// Error model of the simulated meter (seeded with the wall's seed).
+    pub noise: Noise,
+    /// Factor on the emulated instrument's real measurement time (1 = real timing).
+    pub time_scale: f64,
+    /// Faults injected into the emulated meter (`MeterChoice::Emulated` only).
+    pub faults: FaultPlan,
+    /// Settings of the serial driver (emulated and real meters).
+    pub driver: K10aConfig,
+}
+
+impl StationOptions {
+    /// `meter` with `noise`, the default time scale, no faults and [`driver_config`].
+    pub fn new(meter: MeterChoice, noise: Noise) -> Self {
+        Self {
+            meter,
+            noise,
+            time_scale: DEFAULT_TIME_SCALE,
+            faults: FaultPlan::default(),
+            driver: driver_config(),
+        }
+    }
+}
+
+/// Why a station could not be opened.
+#[derive(Debug, thiserror::Error)]
+pub enum StationError {
+    /// The wall file could not be read or is invalid.
+    #[error("cannot load wall {}: {source}", path.display())]
+    Wall {
+        /// The wall file.
+        path: PathBuf,
+        /// What was wrong with it.
+        #[source]
+        source: DeviceError,
+    },
+    /// The pty emulator could not be started.
+    #[error("cannot start the meter emulator: {0}")]
+    Emulator(#[source] DeviceError),
+    /// The serial driver could not open the emulator's pty.
+    #[error("cannot open the emulated meter: {0}")]
+    EmulatedMeter(#[source] DeviceError),
+    /// The serial driver could not open the real meter.
+    #[error("cannot open the meter on {port}: {source}")]
+    Meter {
+        /// The serial port.
+        port: String,
+        /// What the driver reported.
+        #[source]
+        source: DeviceError,
+    },
+}
+
+/// The devices of a station: the virtual wall's pattern output and positioner and a
+/// meter (possibly behind the pty emulator).
+pub struct Station {
+    /// The virtual wall.
+    pub wall: VirtualWall,
+    /// Pattern output.
+    pub pattern: SimPatternOutput,
+    /// Positioner.
+    pub positioner: SimPositioner,
+    /// The meter as the calibration sees it.
+    pub meter: Box<dyn Colorimeter + Send>,
+    /// The emulator serving the pty, if any (stopped on drop of the station).
+    emulator: Option<Emulator>,
+}
+
+impl std::fmt::Debug for Station {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Station")
+            .field("wall", &self.wall.name())
+            .field("meter", &self.meter.info())
+            .field("emulated", &self.emulator.is_some())
+            .finish()
+    }
+}
+
+impl Station {
+    /// Opens the wall file and the meter `opts` names.
+    pub fn open(wall_path: &Path, opts: &StationOptions) -> Result<Self, StationError> {
+        let wall = VirtualWall::from_toml_file(wall_path).map_err(|source| StationError::Wall {
+            path: wall_path.to_path_buf(),
+            source,
+        })?;
+        Self::with_wall(wall, opts)
+    }
+
+    /// Opens the meter `opts` names on an already loaded wall (clones of one wall share
+    /// its state: a second station on a clone sees the same lamps and clock).
+    pub fn with_wall(wall: VirtualWall, opts: &StationOptions) -> Result<Self, StationError> {
+        let model = opts.noise.model(wall.seed());
+        let (meter, emulator): (Box<dyn Colorimeter + Send>, Option<Emulator>) = match &opts.meter {
+            MeterChoice::Direct => (Box::new(wall.meter(model)), None),
+            MeterChoice::Emulated => {
+                let sim = Box::new(wall.meter(model));
+                let emulator_opts = EmulatorOptions::with_time_scale(opts.time_scale);
+                let (emu, port) = Emulator::spawn_with(sim, opts.faults.clone(), emulator_opts)
+                    .map_err(StationError::Emulator)?;
+                let driver = port
+                    .open(opts.driver.clone())
+                    .map_err(StationError::EmulatedMeter)?;
+                (Box::new(driver), Some(emu))
+            }
+            MeterChoice::Serial(port) => {
+                let driver = KleinK10a::open(port, opts.driver.clone()).map_err(|source| {
+                    StationError::Meter {
+                        port: port.clone(),
+                        source,
+                    }
+                })?;
+                (Box::new(driver), None)
+            }
+        };
+        Ok(Self {
+            pattern: wall.pattern_output(),
+            positioner: wall.positioner(),
+            wall,
+            meter,
+            emulator,
+        })
+    }
+
+    /// The displays of the wall.
+    pub fn displays(&self) -> Vec<DisplayInfo> {
+        self.wall.displays()
+    }
+
+    /// The three devices as the calibration sees them.
+    pub fn rig(&mut self) -> Rig<'_> {
+        Rig {
+            pattern: &mut self.pattern,
+            meter: self.meter.as_mut(),
+            positioner: &mut self.positioner,
+        }
+    }
+
+    /// The pty emulator behind the meter (`MeterChoice::Emulated` only).
+    pub fn emulator(&self) -> Option<&Emulator> {
+        self.emulator.as_ref()
+    }
+
+    /// Commissions every display of the wall into `out_dir` (see [`commission`]).
+    pub fn commission(
+        &mut self,
+        out_dir: &Path,
+        opts: &CommissionOptions,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<CommissionOutcome, CommissionError> {
+        let wall = self.wall.name();
+        let displays = self.displays();
+        commission(&wall, &displays, &mut self.rig(), out_dir, opts, progress)
+    }
+
+    /// Shows `targets` through `profiles` on every display and reads them back (see
+    /// [`verify_wall`]).
+    pub fn verify(
+        &mut self,
+        profiles: &[DisplayProfile],
+        targets: &[Target],
+        opts: &VerifyOptions,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<VerifyReport, VerifyError> {
+        let displays = self.displays();
+        verify_wall(
+            &mut self.rig(),
+            &displays,
+            profiles,
+            targets,
+            opts,
+            progress,
+        )
+    }
+
+    /// Verifies right after commissioning: [`Station::verify`] with the default options
+    /// and the meter correction `outcome` estimated, without progress reports.
+    pub fn verify_commissioned(
+        &mut self,
+        outcome: &CommissionOutcome,
+        profiles: &[DisplayProfile],
+        targets: &[Target],
+    ) -> Result<VerifyReport, VerifyError> {
+        let opts = VerifyOptions {
+            meter_xy_offset: outcome.meter_correction.as_ref().map(|c| c.xy_offset),
+            ..VerifyOptions::default()
+        };
+        self.verify(profiles, targets, &opts, &mut |_| {})
+    }
+}

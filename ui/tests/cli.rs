@@ -1,0 +1,411 @@
+//! The `lumiwall` command line end to end: every subcommand's happy path on small
+//! fixtures (the two-display mono wall, the Cornell box at a coarse error, the cheapest
+//! bench settings) and its main errors, asserting the exit code (0 ok, 2 input or
+//! usage error, 3 outside tolerance) and the key part of the message.
+
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+use predicates::prelude::*;
+use predicates::str::contains;
+use tempfile::TempDir;
+
+/// A file or folder of the repository's fixtures.
+fn fixture(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../fixtures")
+        .join(rel)
+}
+
+/// The smallest wall: two mono projectors.
+fn small_wall() -> PathBuf {
+    fixture("walls/mono-2x1.toml")
+}
+
+fn lumiwall() -> Command {
+    Command::cargo_bin("lumiwall").unwrap()
+}
+
+/// Commissions the small wall with the exact, direct meter into `dir/profiles`.
+fn commission_small_wall(dir: &Path) -> PathBuf {
+    let out = dir.join("profiles");
+    lumiwall()
+        .args([
+            "commission",
+            "--meter",
+            "direct",
+            "--noise",
+            "none",
+            "--wall",
+        ])
+        .arg(small_wall())
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success()
+        .stdout(contains("commissioning mono-2x1: 2 displays"))
+        .stdout(contains("profiles: "));
+    out
+}
+
+/// Records the commissioned profiles of the small wall in `dir/store.lumistore`.
+fn store_with_one_run(dir: &Path) -> PathBuf {
+    let profiles = commission_small_wall(dir);
+    let store = dir.join("store.lumistore");
+    lumiwall()
+        .args(["profiles", "import", "--time", "2026-11-20", "--store"])
+        .arg(&store)
+        .arg("--dir")
+        .arg(&profiles)
+        .assert()
+        .success()
+        .stdout(contains("recorded run 1 of wall mono-2x1: 2 profiles"));
+    store
+}
+
+#[test]
+fn commission_writes_profiles_and_reports_of_the_small_wall() {
+    let tmp = TempDir::new().unwrap();
+    let out = commission_small_wall(tmp.path());
+    assert!(out.join("wall.json").is_file());
+    assert!(out.join("report.html").is_file());
+}
+
+#[test]
+fn commission_through_the_emulated_meter_succeeds() {
+    let tmp = TempDir::new().unwrap();
+    lumiwall()
+        .args(["commission", "--meter", "emulated", "--noise", "none"])
+        .args(["--time-scale", "0.002", "--wall"])
+        .arg(small_wall())
+        .arg("--out")
+        .arg(tmp.path().join("p"))
+        .assert()
+        .success()
+        .stdout(contains("meter Emulated"));
+}
+
+#[test]
+fn commission_missing_wall_file_is_an_input_error() {
+    let tmp = TempDir::new().unwrap();
+    lumiwall()
+        .args([
+            "commission",
+            "--meter",
+            "direct",
+            "--wall",
+            "no-such-wall.toml",
+        ])
+        .arg("--out")
+        .arg(tmp.path())
+        .assert()
+        .code(2)
+        .stderr(contains("cannot load wall no-such-wall.toml"));
+}
+
+#[test]
+fn commission_rejects_bad_option_values() {
+    let tmp = TempDir::new().unwrap();
+    let run = |args: &[&str]| {
+        // Every value is checked before the meter is opened.
+        lumiwall()
+            .args(["commission", "--wall"])
+            .arg(small_wall())
+            .arg("--out")
+            .arg(tmp.path())
+            .args(args)
+            .assert()
+            .code(2)
+    };
+    run(&["--headroom", "1.5"]).stderr(contains("--headroom 1.5 must be in (0, 1]"));
+    run(&["--white", "3000K"]).stderr(contains("outside 4000"));
+    run(&["--white", "xy:0.8,0.5"]).stderr(contains("not a valid chromaticity"));
+    run(&["--white", "D65"]).stderr(contains("use 8500K, xy:0.291,0.300 or native:3"));
+    run(&["--low-light", "avg:0"]).stderr(contains("use avg:N (N ≥ 1) or skip"));
+    run(&["--meter", "usb"]).stderr(contains("unknown meter 'usb'"));
+    run(&["--noise", "loud"]).stderr(contains("invalid value 'loud'"));
+}
+
+#[test]
+fn commission_reports_a_meter_that_stops_and_resume_completes() {
+    let tmp = TempDir::new().unwrap();
+    let out = tmp.path().join("p");
+    let commission = |extra: &[&str]| {
+        lumiwall()
+            .args(["commission", "--meter", "emulated", "--noise", "none"])
+            .args(["--time-scale", "0.002", "--wall"])
+            .arg(small_wall())
+            .arg("--out")
+            .arg(&out)
+            .args(extra)
+            .assert()
+    };
+    commission(&["--fault-stop-after", "50"])
+        .code(1)
+        .stderr(contains("re-run with --resume"));
+    commission(&["--resume"])
+        .success()
+        .stdout(contains("saved by the interrupted run"));
+}
+
+/// `lumiwall verify` of `profiles` on `wall` with the exact, direct meter.
+fn verify(wall: &Path, profiles: &Path) -> Command {
+    let mut cmd = lumiwall();
+    cmd.args(["verify", "--meter", "direct", "--noise", "none", "--wall"])
+        .arg(wall)
+        .arg("--profiles")
+        .arg(profiles);
+    cmd
+}
+
+#[test]
+fn verify_passes_on_freshly_commissioned_profiles() {
+    let tmp = TempDir::new().unwrap();
+    let profiles = commission_small_wall(tmp.path());
+    verify(&small_wall(), &profiles)
+        .args(["--patches", "5", "--max-de", "10", "--median-de", "5"])
+        .assert()
+        .success()
+        .stdout(contains("OVERALL"))
+        .stdout(contains("PASS: within max ΔE2000 10"));
+}
+
+#[test]
+fn verify_outside_tolerance_exits_with_3() {
+    let tmp = TempDir::new().unwrap();
+    let profiles = commission_small_wall(tmp.path());
+    verify(&small_wall(), &profiles)
+        .args(["--summary-only", "--max-de", "0.0001"])
+        .assert()
+        .code(3)
+        .stderr(contains("verification outside tolerance"));
+}
+
+#[test]
+fn verify_refuses_profiles_of_another_wall_and_missing_profiles() {
+    let tmp = TempDir::new().unwrap();
+    let profiles = commission_small_wall(tmp.path());
+    verify(&fixture("walls/infitec-pair.toml"), &profiles)
+        .assert()
+        .code(2)
+        .stderr(contains("are for wall 'mono-2x1'"));
+    verify(&small_wall(), &tmp.path().join("nothing-here"))
+        .assert()
+        .code(2)
+        .stderr(contains("cannot read profiles in"));
+}
+
+/// A 4×2 sRGB test frame (a grey ramp).
+fn write_frame(path: &Path) {
+    let img = image::RgbImage::from_fn(4, 2, |x, y| {
+        let v = (40 * (x + 4 * y)) as u8;
+        image::Rgb([v, v, v])
+    });
+    img.save(path).unwrap();
+}
+
+/// `lumiwall apply` on the CPU of `frame` through `profiles` into `out`.
+fn apply(profiles: &Path, frame: &Path, out: &Path) -> Command {
+    let mut cmd = lumiwall();
+    cmd.args(["apply", "--cpu", "--profiles"])
+        .arg(profiles)
+        .arg("--in")
+        .arg(frame)
+        .arg("--out-dir")
+        .arg(out);
+    cmd
+}
+
+#[test]
+fn apply_writes_one_image_per_display() {
+    let tmp = TempDir::new().unwrap();
+    let profiles = commission_small_wall(tmp.path());
+    let frame = tmp.path().join("frame.png");
+    write_frame(&frame);
+    let out = tmp.path().join("out");
+    apply(&profiles, &frame, &out).assert().success();
+    let pngs = std::fs::read_dir(&out).unwrap().count();
+    assert_eq!(pngs, 2, "one output per display");
+}
+
+#[test]
+fn apply_missing_input_frame_and_bad_size_are_input_errors() {
+    let tmp = TempDir::new().unwrap();
+    let profiles = commission_small_wall(tmp.path());
+    let out = tmp.path().join("out");
+    apply(&profiles, &tmp.path().join("missing.png"), &out)
+        .assert()
+        .code(2)
+        .stderr(contains("missing.png"));
+    let frame = tmp.path().join("frame.png");
+    write_frame(&frame);
+    apply(&profiles, &frame, &out)
+        .args(["--display-size", "big"])
+        .assert()
+        .code(2)
+        .stderr(contains("is not WIDTHxHEIGHT"));
+}
+
+#[test]
+fn render_writes_the_curve_mesh_and_image_of_the_cornell_box() {
+    let tmp = TempDir::new().unwrap();
+    let out = tmp.path().join("frame.exr");
+    lumiwall()
+        .args(["render", "--error", "20%", "--out"])
+        .arg(&out)
+        .arg(fixture("scenes/cornell/cornell.toml"))
+        .assert()
+        .success()
+        .stdout(contains("est_error"))
+        .stdout(contains("wrote"));
+    for name in [
+        "frame.exr",
+        "frame.curve.csv",
+        "frame.curve.png",
+        "frame.ply",
+    ] {
+        assert!(tmp.path().join(name).is_file(), "{name}");
+    }
+}
+
+#[test]
+fn render_rejects_a_missing_scene_and_bad_error_and_time_values() {
+    lumiwall()
+        .args(["render", "no-such-scene.toml"])
+        .assert()
+        .code(2)
+        .stderr(contains("no-such-scene.toml"));
+    let scene = fixture("scenes/cornell/cornell.toml");
+    lumiwall()
+        .args(["render", "--error", "150%"])
+        .arg(&scene)
+        .assert()
+        .code(2)
+        .stderr(contains("must be between 0 and 100 %"));
+    lumiwall()
+        .args(["render", "--time", "soon"])
+        .arg(&scene)
+        .assert()
+        .code(2)
+        .stderr(contains("is not a duration like 60s or 2m"));
+}
+
+#[test]
+fn profiles_import_history_drift_and_runs_read_the_store() {
+    let tmp = TempDir::new().unwrap();
+    let store = store_with_one_run(tmp.path());
+    let profiles = |args: &[&str]| {
+        lumiwall()
+            .arg("profiles")
+            .args(args)
+            .arg("--store")
+            .arg(&store)
+            .assert()
+    };
+    profiles(&["history", "--wall", "mono-2x1"])
+        .success()
+        .stdout(contains("2026-11-20 00:00Z"));
+    profiles(&["drift", "--wall", "mono-2x1"])
+        .success()
+        .stdout(contains("largest white luminance change"));
+    profiles(&["runs"]).success().stdout(contains("mono-2x1"));
+    profiles(&["runs", "--wall", "mono-2x1"])
+        .success()
+        .stdout(contains("import"));
+}
+
+#[test]
+fn profiles_report_a_missing_store_an_unknown_wall_and_a_duplicate_import() {
+    let tmp = TempDir::new().unwrap();
+    lumiwall()
+        .args(["profiles", "runs", "--store"])
+        .arg(tmp.path().join("none.lumistore"))
+        .assert()
+        .code(2)
+        .stderr(contains("does not exist"));
+    let store = store_with_one_run(tmp.path());
+    for sub in ["history", "drift"] {
+        lumiwall()
+            .args(["profiles", sub, "--wall", "hall-z", "--store"])
+            .arg(&store)
+            .assert()
+            .code(2)
+            .stderr(contains("hall-z"));
+    }
+    lumiwall()
+        .args(["profiles", "import", "--time", "2026-11-20", "--store"])
+        .arg(&store)
+        .arg("--dir")
+        .arg(tmp.path().join("profiles"))
+        .assert()
+        .code(2)
+        .stderr(contains("already has run 1"));
+}
+
+#[test]
+fn bench_readings_prints_one_row_per_noise_model() {
+    let tmp = TempDir::new().unwrap();
+    lumiwall()
+        .args([
+            "bench",
+            "readings",
+            "--budgets",
+            "16",
+            "--patches",
+            "5",
+            "--wall",
+        ])
+        .arg(small_wall())
+        .arg("--out")
+        .arg(tmp.path())
+        .assert()
+        .success()
+        .stdout(contains("ΔE2000 median"))
+        .stdout(contains("none            16"))
+        .stdout(contains("realistic       16"));
+}
+
+#[test]
+fn bench_radiosity_scale_study_prints_a_row_per_size() {
+    lumiwall()
+        .args([
+            "bench",
+            "radiosity",
+            "--scale",
+            "--sizes",
+            "200",
+            "--lights",
+            "1",
+        ])
+        .args(["--time-limit-s", "0.5"])
+        .assert()
+        .success()
+        .stdout(contains("triangles"))
+        .stdout(predicate::str::is_match(r"\n\s+\d+\s+1\s").unwrap());
+}
+
+#[test]
+fn bench_apply_prints_its_table_on_a_tiny_frame() {
+    lumiwall()
+        .args(["bench", "apply", "--width", "64", "--height", "32"])
+        .args(["--repeats", "1", "--no-gpu"])
+        .assert()
+        .success()
+        .stdout(contains("16 bit"));
+}
+
+#[test]
+fn bench_subcommands_have_help_and_reject_unknown_ones() {
+    for sub in ["radiosity", "apply", "readings"] {
+        lumiwall()
+            .args(["bench", sub, "--help"])
+            .assert()
+            .success()
+            .stdout(contains("Usage: lumiwall bench"));
+    }
+    lumiwall()
+        .args(["bench", "nothing"])
+        .assert()
+        .code(2)
+        .stderr(contains("unrecognized subcommand"));
+}
