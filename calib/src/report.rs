@@ -290,7 +290,7 @@ fn tables_markdown(r: &ReportInputs<'_>) -> String {
             CHANNEL_NAMES[c], p[0], p[1]
         );
     }
-    let (ld, lc) = sol.limiting;
+    let (ld, lc) = sol.limiting.as_tuple();
     let limiting = sol
         .profiles
         .get(ld)

@@ -12,7 +12,10 @@
 
 // Errors carry the display, the reading and the device error for the technician and
 // occur at most once per run, so their size does not matter.
-#![allow(clippy::result_large_err)]
+#![allow(
+    clippy::result_large_err,
+    reason = "errors carry the display, the reading and the device error and occur at most once per run"
+)]
 
 use lumiwall_devices::{DisplayInfo, Xyz};
 use lumiwall_profiles::apply::{ApplyError, ApplyOptions, PreparedProfile};

@@ -175,7 +175,7 @@ fn kresse_tab6_common_gamut_and_white() {
         let ws = solve_white(meas, wt, 1.0, mode).unwrap();
         let w = ws.white_xyz_cd_m2;
         let xy = w.xy().unwrap();
-        let (d, c) = ws.limiting;
+        let (d, c) = ws.limiting.as_tuple();
         println!(
             "  {label} ours {:.2} cd/m² at {:.4}/{:.4} ({:+.1} % vs 77.86), limited by {} {}",
             w.y,

@@ -8,9 +8,10 @@
 use lumiwall_calib::CalibError;
 use lumiwall_calib::colorimetry::{cct_to_xy, delta_e2000_xyz};
 use lumiwall_calib::solve::{
-    DisplayMeasurement, SolveOptions, WallSolution, WhiteTarget, solve_wall,
+    DisplayMeasurement, Limiting, SolveOptions, SolveWarning, WallSolution, WhiteTarget, solve_wall,
 };
 use lumiwall_calib::tone::suggest_next_drive;
+use lumiwall_core::Channel;
 use lumiwall_devices::Xyz;
 use lumiwall_profiles::{BlackMode, DisplayKey, DisplayProfile, Eye, OutOfGamut};
 use nalgebra::{Matrix3, Vector3};
@@ -193,8 +194,8 @@ fn check_usage(sol: &WallSolution, headroom: f64) {
         (max - headroom).abs() < 1e-12,
         "max usage {max} vs headroom {headroom}"
     );
-    let (d, c) = sol.limiting;
-    assert!((sol.profiles[d].channel_usage[c] - headroom).abs() < 1e-12);
+    let Limiting { display, channel } = sol.limiting;
+    assert!((sol.profiles[display].channel_usage[channel.index()] - headroom).abs() < 1e-12);
 }
 
 fn max_delta_e(models: &[Model], sol: &WallSolution, mode: BlackMode) -> f64 {
@@ -244,7 +245,7 @@ fn profiles_invert_the_model_in_every_black_mode() {
         let w = sol.white_xyz_cd_m2;
         println!(
             "{mode:?} headroom {headroom}: white {:.2} cd/m², limited by display {} channel {}, max ΔE2000 over 64 colours × 3 displays = {de:.4}",
-            w.y, sol.limiting.0, sol.limiting.1
+            w.y, sol.limiting.display, sol.limiting.channel
         );
         assert!(de < 0.05, "{mode:?}: ΔE2000 {de}");
         let xy = w.xy().unwrap();
@@ -361,11 +362,11 @@ fn green_only_ten_percent_usable_works_and_is_reported() {
         sol.warnings
     );
     assert!(g > 0.05 && g < 0.12, "{g}");
-    assert!(
-        sol.warnings
-            .iter()
-            .any(|w| w.contains("display 1") && w.contains("green"))
-    );
+    let display_1 = meas[1].key.to_string();
+    assert!(sol.warnings.iter().any(|w| matches!(
+        w,
+        SolveWarning::LowChannelUsage { display, channel: Channel::Green, .. } if *display == display_1
+    )));
     check_usage(&sol, 1.0);
     assert!(max_delta_e(&models, &sol, BlackMode::Individual) < 0.05);
 }
@@ -537,11 +538,11 @@ fn white_targets_and_additivity() {
         .sqrt()
         / meas[0].white.unwrap().y;
     assert!((e - expected).abs() < 1e-12, "{e} vs {expected}");
-    assert!(
-        sol.warnings
-            .iter()
-            .any(|w| w.contains("additivity") && w.contains("display 0"))
-    );
+    let display_0 = meas[0].key.to_string();
+    assert!(sol.warnings.iter().any(|w| matches!(
+        w,
+        SolveWarning::Additivity { display, .. } if *display == display_0
+    )));
 }
 
 #[test]
@@ -582,8 +583,8 @@ fn heyewall_sized_wall_of_96_displays() {
         t0.elapsed().as_secs_f64(),
         sol.white_xyz_cd_m2.y,
         sol.common_black_xyz_cd_m2.y,
-        sol.limiting.0,
-        sol.limiting.1
+        sol.limiting.display,
+        sol.limiting.channel
     );
     assert_eq!(sol.profiles.len(), 96);
     check_usage(&sol, 0.9);

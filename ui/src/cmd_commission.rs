@@ -433,11 +433,11 @@ fn print_outcome(o: &CommissionOutcome, elapsed: Duration) {
         s.common_primaries_xy[2][0],
         s.common_primaries_xy[2][1]
     );
-    if let Some(p) = s.profiles.get(s.limiting.0) {
+    if let Some(p) = s.profiles.get(s.limiting.display) {
         println!(
             "limiting: {} {} channel",
             p.display,
-            ["red", "green", "blue"][s.limiting.1.min(2)]
+            s.limiting.channel.name()
         );
     }
     if let Some(c) = &o.meter_correction {
