@@ -5,6 +5,9 @@
 //!
 //! `cargo test -p lumiwall-calib --test solve -- --nocapture` prints the numbers.
 
+mod common;
+
+use common::Lcg;
 use lumiwall_calib::CalibError;
 use lumiwall_calib::colorimetry::{cct_to_xy, delta_e2000_xyz};
 use lumiwall_calib::solve::{
@@ -114,37 +117,44 @@ fn options(mode: BlackMode, headroom: f64) -> SolveOptions {
     }
 }
 
+/// Full-drive primaries `(x, y, Y cd/m²)` and black `(x, y, Y)` of one projector.
+type ProjectorXy = ([(f64, f64, f64); 3], (f64, f64, f64));
+
 /// Three different projectors: gamuts, luminances, gammas and blacks all differ.
+const WALL_XY: [ProjectorXy; 3] = [
+    (
+        [
+            (0.640, 0.330, 60.0),
+            (0.300, 0.600, 190.0),
+            (0.150, 0.060, 20.0),
+        ],
+        (0.30, 0.31, 0.40),
+    ),
+    (
+        [
+            (0.660, 0.320, 45.0),
+            (0.280, 0.640, 260.0),
+            (0.145, 0.052, 14.0),
+        ],
+        (0.27, 0.25, 0.55),
+    ),
+    (
+        [
+            (0.620, 0.345, 80.0),
+            (0.310, 0.590, 150.0),
+            (0.155, 0.070, 25.0),
+        ],
+        (0.33, 0.36, 0.25),
+    ),
+];
+
+/// The projectors of [`WALL_XY`] with these tone curves.
 fn wall(curves: [[Curve; 3]; 3]) -> Vec<Model> {
-    vec![
-        Model::from_xy(
-            [
-                (0.640, 0.330, 60.0),
-                (0.300, 0.600, 190.0),
-                (0.150, 0.060, 20.0),
-            ],
-            (0.30, 0.31, 0.40),
-            curves[0],
-        ),
-        Model::from_xy(
-            [
-                (0.660, 0.320, 45.0),
-                (0.280, 0.640, 260.0),
-                (0.145, 0.052, 14.0),
-            ],
-            (0.27, 0.25, 0.55),
-            curves[1],
-        ),
-        Model::from_xy(
-            [
-                (0.620, 0.345, 80.0),
-                (0.310, 0.590, 150.0),
-                (0.155, 0.070, 25.0),
-            ],
-            (0.33, 0.36, 0.25),
-            curves[2],
-        ),
-    ]
+    WALL_XY
+        .iter()
+        .zip(curves)
+        .map(|((prim, black), c)| Model::from_xy(*prim, *black, c))
+        .collect()
 }
 
 /// The post pass of profiles/src/profile.rs, written out here: lin = M·xyz + offset,
@@ -321,13 +331,8 @@ fn common_black_is_equal_on_all_displays_and_minimal() {
     };
     let c0 = Vector3::new(cb.x, cb.y, cb.z);
     assert!(feasible(c0 + Vector3::from_element(1e-9)));
-    let mut state: u64 = 7;
-    let mut rnd = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    };
+    let mut lcg = Lcg::new(7);
+    let mut rnd = || lcg.signed();
     let mut found_lower = 0;
     for _ in 0..20000 {
         let c = c0 + Vector3::new(rnd(), rnd(), rnd()) * 0.3;
@@ -549,13 +554,8 @@ fn white_targets_and_additivity() {
 fn heyewall_sized_wall_of_96_displays() {
     // 48 projectors × 2 eyes: per-display variations of primaries, blacks and gammas.
     let base = wall([[Curve::Power(2.2); 3]; 3]);
-    let mut state: u64 = 99;
-    let mut rnd = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    };
+    let mut lcg = Lcg::new(99);
+    let mut rnd = || lcg.signed();
     let mut models = Vec::new();
     for i in 0..96 {
         let mut m = base[i % 3].clone();
