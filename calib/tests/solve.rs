@@ -121,31 +121,11 @@ fn options(mode: BlackMode, headroom: f64) -> SolveOptions {
 type ProjectorXy = ([(f64, f64, f64); 3], (f64, f64, f64));
 
 /// Three different projectors: gamuts, luminances, gammas and blacks all differ.
+#[rustfmt::skip]
 const WALL_XY: [ProjectorXy; 3] = [
-    (
-        [
-            (0.640, 0.330, 60.0),
-            (0.300, 0.600, 190.0),
-            (0.150, 0.060, 20.0),
-        ],
-        (0.30, 0.31, 0.40),
-    ),
-    (
-        [
-            (0.660, 0.320, 45.0),
-            (0.280, 0.640, 260.0),
-            (0.145, 0.052, 14.0),
-        ],
-        (0.27, 0.25, 0.55),
-    ),
-    (
-        [
-            (0.620, 0.345, 80.0),
-            (0.310, 0.590, 150.0),
-            (0.155, 0.070, 25.0),
-        ],
-        (0.33, 0.36, 0.25),
-    ),
+    ([(0.640, 0.330, 60.0), (0.300, 0.600, 190.0), (0.150, 0.060, 20.0)], (0.30, 0.31, 0.40)),
+    ([(0.660, 0.320, 45.0), (0.280, 0.640, 260.0), (0.145, 0.052, 14.0)], (0.27, 0.25, 0.55)),
+    ([(0.620, 0.345, 80.0), (0.310, 0.590, 150.0), (0.155, 0.070, 25.0)], (0.33, 0.36, 0.25)),
 ];
 
 /// The projectors of [`WALL_XY`] with these tone curves.
@@ -154,6 +134,16 @@ fn wall(curves: [[Curve; 3]; 3]) -> Vec<Model> {
         .iter()
         .zip(curves)
         .map(|((prim, black), c)| Model::from_xy(*prim, *black, c))
+        .collect()
+}
+
+/// Every model measured with `ramp_samples` adaptive samples per channel, display
+/// index = position.
+fn measure_all(models: &[Model], ramp_samples: usize) -> Vec<DisplayMeasurement> {
+    models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| m.measure(i as u32, ramp_samples))
         .collect()
 }
 
@@ -238,11 +228,7 @@ fn profiles_invert_the_model_in_every_black_mode() {
         [Curve::Power(1.8), Curve::Power(2.5), Curve::Power(2.2)],
     ];
     let models = wall(curves);
-    let meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 5))
-        .collect();
+    let meas = measure_all(&models, 5);
     for (mode, headroom) in [
         (BlackMode::Individual, 1.0),
         (BlackMode::Common, 1.0),
@@ -273,11 +259,7 @@ fn s_curves_from_ten_adaptive_samples() {
         [Curve::S(7.5), Curve::Power(2.2), Curve::S(6.5)],
     ]);
     for n in [6, 8, 10, 14] {
-        let meas: Vec<DisplayMeasurement> = models
-            .iter()
-            .enumerate()
-            .map(|(i, m)| m.measure(i as u32, n))
-            .collect();
+        let meas = measure_all(&models, n);
         let sol = solve_wall(&meas, &options(BlackMode::Individual, 1.0)).unwrap();
         let de = max_delta_e(&models, &sol, BlackMode::Individual);
         println!(
@@ -293,11 +275,7 @@ fn s_curves_from_ten_adaptive_samples() {
 #[test]
 fn common_black_is_equal_on_all_displays_and_minimal() {
     let models = wall([[Curve::Power(2.2); 3]; 3]);
-    let meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 4))
-        .collect();
+    let meas = measure_all(&models, 4);
     let sol = solve_wall(&meas, &options(BlackMode::Common, 1.0)).unwrap();
     let cb = sol.common_black_xyz_cd_m2;
     let mut worst_lut = 0.0_f64;
@@ -354,11 +332,7 @@ fn green_only_ten_percent_usable_works_and_is_reported() {
     let mut models = wall([[Curve::Power(2.2); 3]; 3]);
     // Right-eye Infitec projector: green far too strong relative to the others.
     models[1].p[1] = models[1].p[1] * 6.0;
-    let meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 4))
-        .collect();
+    let meas = measure_all(&models, 4);
     let sol = solve_wall(&meas, &options(BlackMode::Individual, 1.0)).unwrap();
     let g = sol.profiles[1].channel_usage[1];
     println!(
@@ -384,11 +358,7 @@ fn black_above_the_white_is_a_typed_error_naming_the_display() {
         models[0].p[c] = models[0].p[c] * 0.025;
     }
     models[2].black = Xyz::from_xy_luminance(0.31, 0.33, 12.0);
-    let meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 4))
-        .collect();
+    let meas = measure_all(&models, 4);
     let err = solve_wall(&meas, &options(BlackMode::Individual, 1.0)).unwrap_err();
     let msg = err.to_string();
     println!("individual: {msg}");
@@ -429,11 +399,7 @@ fn collinear_primaries_are_an_error_naming_the_display() {
     let mut models = wall([[Curve::Power(2.2); 3]; 3]);
     // Display 2's blue sits on the line between its red and green.
     models[2].p[2] = (models[2].p[0] + models[2].p[1]) * 0.1;
-    let meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 4))
-        .collect();
+    let meas = measure_all(&models, 4);
     let err = solve_wall(&meas, &options(BlackMode::Individual, 1.0)).unwrap_err();
     println!("{err}");
     assert!(matches!(err, CalibError::DegeneratePrimaries { .. }));
@@ -443,11 +409,7 @@ fn collinear_primaries_are_an_error_naming_the_display() {
 #[test]
 fn noisy_non_monotone_ramp_gives_a_valid_profile() {
     let models = wall([[Curve::Power(2.2); 3]; 3]);
-    let mut meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 8))
-        .collect();
+    let mut meas = measure_all(&models, 8);
     // Swap two neighbouring readings of display 1's red ramp and add 3 % noise.
     let ramp = &mut meas[1].ramps[0];
     ramp.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -463,11 +425,7 @@ fn noisy_non_monotone_ramp_gives_a_valid_profile() {
 #[test]
 fn nan_and_negative_readings_are_errors() {
     let models = wall([[Curve::Power(2.2); 3]; 3]);
-    let base: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 4))
-        .collect();
+    let base = measure_all(&models, 4);
     let mut m = base.clone();
     m[1].ramps[2][1].1.y = f64::NAN;
     let err = solve_wall(&m, &options(BlackMode::Individual, 1.0)).unwrap_err();
@@ -501,11 +459,7 @@ fn nan_and_negative_readings_are_errors() {
 #[test]
 fn white_targets_and_additivity() {
     let models = wall([[Curve::Power(2.2); 3]; 3]);
-    let mut meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 4))
-        .collect();
+    let mut meas = measure_all(&models, 4);
     let mut o = options(BlackMode::Individual, 1.0);
     o.white = WhiteTarget::NativeOf(2);
     let sol = solve_wall(&meas, &o).unwrap();
@@ -568,11 +522,7 @@ fn heyewall_sized_wall_of_96_displays() {
         m.black = m.black * (1.0 + 0.5 * rnd());
         models.push(m);
     }
-    let meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 5))
-        .collect();
+    let meas = measure_all(&models, 5);
     let mut o = options(BlackMode::Common, 0.9);
     o.lut_entries = 1024;
     o.white = WhiteTarget::Xy([0.291, 0.300]);
