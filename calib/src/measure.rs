@@ -169,7 +169,7 @@ pub fn white_capacity(
 ) -> Option<(f64, [f64; 3])> {
     let m = drive_matrix(black, primaries)?;
     let w = Xyz::from_xy_luminance(white_xy[0], white_xy[1], 1.0);
-    let lin = m * nalgebra::Vector3::from(w.to_array());
+    let lin = m * w.to_vector();
     if lin.iter().any(|v| !v.is_finite() || *v <= 0.0) {
         return None;
     }
@@ -180,10 +180,8 @@ pub fn white_capacity(
 /// `P⁻¹`: XYZ above black to linear channel intensities, from the black-subtracted
 /// primaries; `None` when they are degenerate.
 fn drive_matrix(black: Xyz, primaries: &[Xyz; 3]) -> Option<nalgebra::Matrix3<f64>> {
-    let cols: Vec<nalgebra::Vector3<f64>> = primaries
-        .iter()
-        .map(|p| nalgebra::Vector3::from((*p - black).to_array()))
-        .collect();
+    let cols: Vec<nalgebra::Vector3<f64>> =
+        primaries.iter().map(|p| (*p - black).to_vector()).collect();
     nalgebra::Matrix3::from_columns(&cols).try_inverse()
 }
 
@@ -931,7 +929,7 @@ impl RampPlanner {
             .filter(|cb| cb.y > black.y)
             .and_then(|cb| {
                 let m = drive_matrix(black, &self.primaries)?;
-                let l = m * nalgebra::Vector3::from((cb - black).to_array());
+                let l = m * (cb - black).to_vector();
                 Some([l[0], l[1], l[2]])
             })
     }

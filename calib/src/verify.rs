@@ -445,10 +445,7 @@ pub fn default_targets(profiles: &[DisplayProfile], n: usize) -> Result<Vec<Targ
         }
     }
     let m = common_rgb_to_xyz(first).ok_or(VerifyError::Degenerate)?;
-    let to_xyz = |rgb: [f64; 3]| {
-        let v = m * Vector3::from(rgb);
-        Xyz::new(v[0], v[1], v[2])
-    };
+    let to_xyz = |rgb: [f64; 3]| Xyz::from(m * Vector3::from(rgb));
     let mut out = Vec::with_capacity(n);
     let push = |name: String, xyz: Xyz, out: &mut Vec<Target>| {
         if out.len() < n && showable(profiles, xyz) {
