@@ -539,3 +539,41 @@ fn heyewall_sized_wall_of_96_displays() {
     assert_eq!(sol.profiles.len(), 96);
     check_usage(&sol, 0.9);
 }
+
+#[test]
+fn solve_warnings_print_the_report_text() {
+    let low = SolveWarning::LowChannelUsage {
+        display: "d1".into(),
+        channel: Channel::Green,
+        usage: 0.1,
+        bit_depth: lumiwall_core::BitDepth::TEN,
+    };
+    assert_eq!(
+        low.to_string(),
+        "d1: green channel only 10 % used for the white; fewer than 102 of 1024 code values carry the image (consider lowering this channel in the projector's service menu, Kresse 3.3.9)"
+    );
+    let outside = SolveWarning::WhiteOutsideCommonGamut {
+        white_xy: lumiwall_core::Xy::new(0.3127, 0.329),
+    };
+    assert_eq!(
+        outside.to_string(),
+        "target white xy (0.3127, 0.3290) lies outside the common gamut triangle"
+    );
+    let black = SolveWarning::BlackOutsideOwnGamut {
+        display: "d0".into(),
+        intensities: [-0.001, 0.0, 0.002],
+    };
+    assert_eq!(
+        black.to_string(),
+        "d0: black lies outside its own gamut (channel intensities -0.0010, 0.0000, 0.0020)"
+    );
+    let additivity = SolveWarning::Additivity {
+        display: "d2".into(),
+        error: 0.1,
+        limit: 0.02,
+    };
+    assert_eq!(
+        additivity.to_string(),
+        "d2: additivity error 10.0 % (|W − (R+G+B−2·black)| / Y_W) exceeds 2.0 %; the matrix model will be off by about that much"
+    );
+}
