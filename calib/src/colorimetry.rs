@@ -8,7 +8,7 @@
 
 pub use lumiwall_core::lab::{Lab, delta_e2000, delta_e2000_xyz, lab_to_xyz, xyz_to_lab};
 use lumiwall_devices::Xyz;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Matrix3;
 
 use crate::CalibError;
 
@@ -79,8 +79,8 @@ pub fn bradford_matrix() -> Matrix3<f64> {
 pub fn bradford_adaptation_matrix(src_white: Xyz, dst_white: Xyz) -> Option<Matrix3<f64>> {
     let m = bradford_matrix();
     let m_inv = m.try_inverse()?;
-    let src = m * Vector3::new(src_white.x, src_white.y, src_white.z);
-    let dst = m * Vector3::new(dst_white.x, dst_white.y, dst_white.z);
+    let src = m * src_white.to_vector();
+    let dst = m * dst_white.to_vector();
     if src.iter().any(|v| *v == 0.0 || !v.is_finite()) {
         return None;
     }
@@ -92,10 +92,7 @@ pub fn bradford_adaptation_matrix(src_white: Xyz, dst_white: Xyz) -> Option<Matr
 /// [`bradford_adaptation_matrix`]). Returns NaN components for a degenerate white.
 pub fn bradford_adapt(xyz: Xyz, src_white: Xyz, dst_white: Xyz) -> Xyz {
     match bradford_adaptation_matrix(src_white, dst_white) {
-        Some(cat) => {
-            let v = cat * Vector3::new(xyz.x, xyz.y, xyz.z);
-            Xyz::new(v[0], v[1], v[2])
-        }
+        Some(cat) => Xyz::from(cat * xyz.to_vector()),
         None => Xyz::new(f64::NAN, f64::NAN, f64::NAN),
     }
 }

@@ -23,7 +23,10 @@
 
 // Errors carry the display, the reading and the device error for the technician and
 // occur at most once per run, so their size does not matter.
-#![allow(clippy::result_large_err)]
+#![allow(
+    clippy::result_large_err,
+    reason = "errors carry the display, the reading and the device error and occur at most once per run"
+)]
 
 use std::path::{Path, PathBuf};
 
@@ -39,7 +42,9 @@ use crate::measure::{
     luminance_only, measure_display, white_capacity,
 };
 use crate::report::{self, ReportInputs};
-use crate::solve::{DisplayMeasurement, SolveOptions, WallSolution, WhiteTarget, solve_wall};
+use crate::solve::{
+    DisplayMeasurement, SolveOptions, WallSolution, WhiteTarget, now_rfc3339, solve_wall_at,
+};
 
 /// Version of the run-folder format.
 pub const RUN_FORMAT_VERSION: u32 = 1;
@@ -371,7 +376,7 @@ pub fn finish(
             None => m.measurement.clone(),
         })
         .collect();
-    let solution = solve_wall(&inputs, &opts.solve)?;
+    let solution = solve_wall_at(&inputs, &opts.solve, &now_rfc3339())?;
     match &correction {
         Some(c) => write_atomic(&correction_path, &to_json(c))?,
         None => match std::fs::remove_file(&correction_path) {

@@ -8,6 +8,7 @@
 //! other display's RGB, gives the same result and is not needed here.
 
 use crate::CalibError;
+use lumiwall_core::Channel;
 
 /// Smallest xy triangle area (in xy units²) accepted as a real display gamut. sRGB has
 /// 0.112, a narrow-band Infitec eye about 0.1; a dead channel or three identical
@@ -86,14 +87,11 @@ fn clip_half_plane(poly: &[Xy], a: Xy, b: Xy) -> Vec<Xy> {
 }
 
 fn check_triangle(name: &str, tri: &[Xy; 3]) -> Result<(), CalibError> {
-    for (c, p) in tri.iter().enumerate() {
+    for (c, p) in Channel::ALL.iter().zip(tri) {
         for v in p {
             if !v.is_finite() {
                 return Err(CalibError::NonFinite {
-                    what: format!(
-                        "{name} {} primary chromaticity",
-                        ["red", "green", "blue"][c]
-                    ),
+                    what: format!("{name} {} primary chromaticity", c.name()),
                     value: *v,
                 });
             }

@@ -31,10 +31,14 @@
 
 // Errors carry the display, the reading and the device error for the technician and
 // occur at most once per run, so their size does not matter.
-#![allow(clippy::result_large_err)]
+#![allow(
+    clippy::result_large_err,
+    reason = "errors carry the display, the reading and the device error and occur at most once per run"
+)]
 
 pub mod meter_offset;
 
+use lumiwall_core::{BitDepth, Channel};
 use lumiwall_devices::{
     Colorimeter, DeviceError, DisplayId, DisplayInfo, MeterPositioner, PatternOutput, Xyz,
 };
@@ -43,8 +47,25 @@ use serde::{Deserialize, Serialize};
 
 use crate::solve::DisplayMeasurement;
 
-/// Names of the three channels, for messages.
-pub const CHANNEL_NAMES: [&str; 3] = ["red", "green", "blue"];
+/// Names of the three channels, for messages (kept for callers; prefer
+/// [`Channel::name`]).
+pub const CHANNEL_NAMES: [&str; 3] = [
+    Channel::Red.name(),
+    Channel::Green.name(),
+    Channel::Blue.name(),
+];
+
+/// Smallest expected channel usage the ramp placement plans for: below it the samples
+/// would all crowd into the first few codes.
+const MIN_EXPECTED_USAGE: f64 = 0.02;
+
+/// Range of the relative intensity a toe sample aims at: above zero (the drive must
+/// show something) and at most half the channel (the toe is where black matters).
+const TOE_INTENSITY_RANGE: (f64, f64) = (1e-5, 0.5);
+
+/// Half a code value in normalised drive: samples closer than this to an existing one
+/// would repeat the same code.
+const HALF_CODE: f64 = 0.5;
 
 /// What to do with readings below the meter's reliable luminance limit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -146,18 +167,22 @@ pub fn white_capacity(
     white_xy: [f64; 2],
     headroom: f64,
 ) -> Option<(f64, [f64; 3])> {
-    let cols: Vec<nalgebra::Vector3<f64>> = primaries
-        .iter()
-        .map(|p| nalgebra::Vector3::from((*p - black).to_array()))
-        .collect();
-    let m = nalgebra::Matrix3::from_columns(&cols).try_inverse()?;
+    let m = drive_matrix(black, primaries)?;
     let w = Xyz::from_xy_luminance(white_xy[0], white_xy[1], 1.0);
-    let lin = m * nalgebra::Vector3::from(w.to_array());
+    let lin = m * w.to_vector();
     if lin.iter().any(|v| !v.is_finite() || *v <= 0.0) {
         return None;
     }
     let y = headroom / lin.max();
     Some((y, [lin[0], lin[1], lin[2]]))
+}
+
+/// `P⁻¹`: XYZ above black to linear channel intensities, from the black-subtracted
+/// primaries; `None` when they are degenerate.
+fn drive_matrix(black: Xyz, primaries: &[Xyz; 3]) -> Option<nalgebra::Matrix3<f64>> {
+    let cols: Vec<nalgebra::Vector3<f64>> =
+        primaries.iter().map(|p| (*p - black).to_vector()).collect();
+    nalgebra::Matrix3::from_columns(&cols).try_inverse()
 }
 
 /// What a reading was of.
@@ -166,12 +191,12 @@ pub fn white_capacity(
 pub enum Patch {
     /// All channels at 0.
     Black,
-    /// One channel at full drive (0: red, 1: green, 2: blue).
-    Primary(usize),
+    /// One channel at full drive (serialised as its index 0: red, 1: green, 2: blue).
+    Primary(#[serde(with = "channel_index")] Channel),
     /// All channels at full drive.
     White,
-    /// One channel at the given drive.
-    Ramp(usize, f64),
+    /// One channel at the given drive (channel serialised as its index).
+    Ramp(#[serde(with = "channel_index")] Channel, f64),
     /// Any drive triple (verification patches).
     Drive([f64; 3]),
 }
@@ -194,17 +219,39 @@ impl std::fmt::Display for Patch {
         match *self {
             Patch::Black => f.write_str("black"),
             Patch::White => f.write_str("white"),
-            Patch::Primary(c) => write!(f, "full {}", CHANNEL_NAMES[c.min(2)]),
-            Patch::Ramp(c, d) => write!(f, "{} ramp at drive {d:.4}", CHANNEL_NAMES[c.min(2)]),
+            Patch::Primary(c) => write!(f, "full {}", c.name()),
+            Patch::Ramp(c, d) => write!(f, "{} ramp at drive {d:.4}", c.name()),
             Patch::Drive(d) => write!(f, "drive ({:.4}, {:.4}, {:.4})", d[0], d[1], d[2]),
         }
     }
 }
 
-fn unit(c: usize, d: f64) -> [f64; 3] {
+fn unit(c: Channel, d: f64) -> [f64; 3] {
     let mut v = [0.0; 3];
-    v[c.min(2)] = d;
+    v[c.index()] = d;
     v
+}
+
+/// Serde of a [`Channel`] as its index 0, 1, 2 (the measurement log's format).
+mod channel_index {
+    use lumiwall_core::Channel;
+    use serde::{Deserialize, Deserializer, Serializer, de::Error};
+
+    pub(super) fn serialize<S: Serializer>(c: &Channel, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_u64(c.index() as u64)
+    }
+
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Channel, D::Error> {
+        let index = usize::deserialize(d)?;
+        Channel::from_index(index).map_err(D::Error::custom)
+    }
+}
+
+/// Running sums of readings in xyY (x, y, Y), for averaging.
+fn add_xyy(sum: &mut [f64; 3], xy: [f64; 2], luminance: f64) {
+    sum[0] += xy[0];
+    sum[1] += xy[1];
+    sum[2] += luminance;
 }
 
 /// Progress events, for a progress bar.
@@ -575,10 +622,7 @@ impl<'r, 'a> Session<'r, 'a> {
         let mut ok = 0u32;
         let mut n = 1;
         let add = |x: Xyz, sum: &mut [f64; 3]| {
-            let c = x.xy().unwrap_or([1.0 / 3.0, 1.0 / 3.0]);
-            sum[0] += c[0];
-            sum[1] += c[1];
-            sum[2] += x.y;
+            add_xyy(sum, x.xy().unwrap_or([1.0 / 3.0, 1.0 / 3.0]), x.y);
         };
         if let Some(x) = first {
             add(x, &mut sum);
@@ -630,9 +674,7 @@ impl Session<'_, '_> {
                 .collect::<Result<Vec<_>, _>>()?,
         ) {
             if let (Some(x), Some(c)) = (x, x.and_then(|v| v.xy())) {
-                sum[0] += c[0];
-                sum[1] += c[1];
-                sum[2] += x.y;
+                add_xyy(&mut sum, c, x.y);
                 n += 1.0;
             }
         }
@@ -691,145 +733,14 @@ pub fn measure_display(
         format!("{} {}", i.model, i.serial)
     };
     let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
-
-    // Black: always averaged when dark (it usually is); a black the meter refuses as
-    // too dark even on repeats is below its floor and taken as 0.
-    let black = s.sample(Patch::Black, true, progress)?.unwrap_or_default();
-    let mut primaries = [Xyz::default(); 3];
-    let primary_repeats = opts.primary_repeats();
-    for (c, p) in primaries.iter_mut().enumerate() {
-        *p = s
-            .repeated(Patch::Primary(c), primary_repeats, progress)?
-            .unwrap_or_default();
-        if p.y <= black.y {
-            return Err(MeasureError::NoSignal {
-                display: key.to_string(),
-                channel: CHANNEL_NAMES[c],
-                y_cd_m2: p.y,
-                black_cd_m2: black.y,
-            });
-        }
-    }
+    let (black, primaries) = measure_black_and_primaries(&mut s, key, opts, progress)?;
     let white = if opts.measure_white {
         s.sample(Patch::White, true, progress)?
     } else {
         None
     };
-
-    // Adaptive ramps, one sample per channel in turn.
-    let mut ramps: [Vec<(f64, Xyz)>; 3] = Default::default();
-    let mut rel: [Vec<(f64, f64)>; 3] = std::array::from_fn(|_| vec![(0.0, 0.0), (1.0, 1.0)]);
-    // Expected usage of each channel for the wall white: ramp samples are placed as if
-    // that were the full range.
-    let usage: [f64; 3] = opts
-        .focus
-        .and_then(|f| {
-            let (own_y, per_cd) = white_capacity(black, &primaries, f.white_xy, f.headroom)?;
-            let y = f.white_y_cd_m2.map_or(own_y, |h| h.min(own_y));
-            Some(per_cd.map(|v| (v * y).clamp(0.02, 1.0)))
-        })
-        .unwrap_or([1.0; 3]);
-    // Toe samples (Common black mode) cost up to 3 low-light samples; they are taken
-    // once the adaptive ramps have given a first estimate of each curve.
-    let toe = opts.focus.is_some_and(|f| f.toe_samples);
-    let repeats_dark = match opts.low_light {
-        LowLight::Average { repeats } => repeats.max(1),
-        LowLight::Skip => 1,
-    };
-    let reserve = if toe { 3 * repeats_dark } else { 0 };
-    let step = |s: &mut Session<'_, '_>,
-                c: usize,
-                d: f64,
-                rel: &mut [Vec<(f64, f64)>; 3],
-                ramps: &mut [Vec<(f64, Xyz)>; 3],
-                progress: &mut dyn FnMut(Progress)|
-     -> Result<(), MeasureError> {
-        match s.sample(Patch::Ramp(c, d), false, progress)? {
-            Some(raw) => {
-                let xyz = luminance_only(raw, black, primaries[c]);
-                ramps[c].push((d, xyz));
-                let r = relative_intensity(xyz, black, primaries[c]);
-                insert_sorted(&mut rel[c], (d, r));
-            }
-            None => {
-                // Skipped as too dark: record the drive so it is not proposed again,
-                // with the intensity interpolated between its neighbours.
-                let r = interpolate(&rel[c], d);
-                insert_sorted(&mut rel[c], (d, r));
-            }
-        }
-        Ok(())
-    };
-    let lsb = 0.5 / code_max(info.bit_depth);
-    let adaptive = |s: &mut Session<'_, '_>,
-                    keep: u32,
-                    rel: &mut [Vec<(f64, f64)>; 3],
-                    ramps: &mut [Vec<(f64, Xyz)>; 3],
-                    progress: &mut dyn FnMut(Progress)|
-     -> Result<(), MeasureError> {
-        let mut done = [false; 3];
-        let mut c = 0usize;
-        while s.remaining() > keep && !done.iter().all(|d| *d) {
-            if !done[c] {
-                match next_drive(&rel[c], usage[c]) {
-                    None => done[c] = true,
-                    Some(d) => {
-                        let d = quantise(d, info.bit_depth);
-                        if rel[c].iter().any(|(x, _)| (x - d).abs() < lsb) {
-                            done[c] = true;
-                        } else {
-                            step(s, c, d, rel, ramps, progress)?;
-                        }
-                    }
-                }
-            }
-            c = (c + 1) % 3;
-        }
-        Ok(())
-    };
-    adaptive(&mut s, reserve, &mut rel, &mut ramps, progress)?;
-    if toe {
-        // Channel intensities this display must add to reach the common black, where
-        // an estimate exists and is above its own black.
-        let lift = opts
-            .focus
-            .and_then(|f| f.common_black)
-            .filter(|cb| cb.y > black.y)
-            .and_then(|cb| {
-                let cols: Vec<nalgebra::Vector3<f64>> = primaries
-                    .iter()
-                    .map(|p| nalgebra::Vector3::from((*p - black).to_array()))
-                    .collect();
-                let m = nalgebra::Matrix3::from_columns(&cols).try_inverse()?;
-                let l = m * nalgebra::Vector3::from((cb - black).to_array());
-                Some([l[0], l[1], l[2]])
-            });
-        for c in 0..3 {
-            let span = primaries[c].y - black.y;
-            if span <= 0.0 || s.remaining() == 0 {
-                continue;
-            }
-            let target = lift
-                .map(|l| l[c])
-                .filter(|l| *l > 0.0)
-                .unwrap_or(black.y / span)
-                .clamp(1e-5, 0.5);
-            let d = quantise(drive_at(&rel[c], target), info.bit_depth);
-            if d > 0.0 && !rel[c].iter().any(|(x, _)| (x - d).abs() < lsb) {
-                s.sample(Patch::Ramp(c, d), false, progress)?;
-                // `sample` logged it; feed it into the curve like any ramp sample.
-                if let Some(raw) = s.log.samples.last().and_then(|r| r.xyz) {
-                    let xyz = luminance_only(raw, black, primaries[c]);
-                    ramps[c].push((d, xyz));
-                    insert_sorted(
-                        &mut rel[c],
-                        (d, relative_intensity(xyz, black, primaries[c])),
-                    );
-                }
-            }
-        }
-        adaptive(&mut s, 0, &mut rel, &mut ramps, progress)?;
-    }
+    let mut ramps = RampPlanner::new(black, primaries, info.bit_depth, opts);
+    ramps.measure(&mut s, opts, progress)?;
     let readings = s.log.readings;
     let log = std::mem::take(&mut s.log);
     progress(Progress::DisplayDone {
@@ -843,7 +754,7 @@ pub fn measure_display(
             black,
             primaries,
             white,
-            ramps,
+            ramps: ramps.ramps,
             readings,
             instrument,
         },
@@ -851,14 +762,208 @@ pub fn measure_display(
     })
 }
 
-fn code_max(bit_depth: u32) -> f64 {
-    f64::from((1u32 << bit_depth.clamp(1, 16)) - 1)
+/// Black (always averaged when dark, as it usually is; a black the meter refuses as too
+/// dark even on repeats is below its floor and taken as 0) and the three full-drive
+/// primaries, each of which must be brighter than black.
+fn measure_black_and_primaries(
+    s: &mut Session<'_, '_>,
+    key: &DisplayKey,
+    opts: &MeasureOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(Xyz, [Xyz; 3]), MeasureError> {
+    let black = s.sample(Patch::Black, true, progress)?.unwrap_or_default();
+    let mut primaries = [Xyz::default(); 3];
+    let primary_repeats = opts.primary_repeats();
+    for c in Channel::ALL {
+        let p = s
+            .repeated(Patch::Primary(c), primary_repeats, progress)?
+            .unwrap_or_default();
+        primaries[c.index()] = p;
+        if p.y <= black.y {
+            return Err(MeasureError::NoSignal {
+                display: key.to_string(),
+                channel: c.name(),
+                y_cd_m2: p.y,
+                black_cd_m2: black.y,
+            });
+        }
+    }
+    Ok((black, primaries))
 }
 
-/// Rounds a drive to the display's code grid, so the sample is exactly what is shown.
-fn quantise(d: f64, bit_depth: u32) -> f64 {
-    let m = code_max(bit_depth);
-    (d.clamp(0.0, 1.0) * m).round() / m
+/// Adaptive placement of the ramp samples of one display, one sample per channel in
+/// turn, and the samples taken so far.
+struct RampPlanner {
+    black: Xyz,
+    primaries: [Xyz; 3],
+    /// Expected usage of each channel for the wall white: ramp samples are placed as if
+    /// that were the full range.
+    usage: [f64; 3],
+    depth: BitDepth,
+    /// Raw (luminance-only) samples per channel, in the order taken.
+    ramps: [Vec<(f64, Xyz)>; 3],
+    /// `(drive, relative intensity)` per channel, sorted by drive, with (0, 0) and (1, 1).
+    rel: [Vec<(f64, f64)>; 3],
+}
+
+impl RampPlanner {
+    fn new(black: Xyz, primaries: [Xyz; 3], bit_depth: u32, opts: &MeasureOptions) -> Self {
+        let usage = opts
+            .focus
+            .and_then(|f| {
+                let (own_y, per_cd) = white_capacity(black, &primaries, f.white_xy, f.headroom)?;
+                let y = f.white_y_cd_m2.map_or(own_y, |h| h.min(own_y));
+                Some(per_cd.map(|v| (v * y).clamp(MIN_EXPECTED_USAGE, 1.0)))
+            })
+            .unwrap_or([1.0; 3]);
+        Self {
+            black,
+            primaries,
+            usage,
+            depth: crate::solve::clamped_bit_depth(bit_depth),
+            ramps: Default::default(),
+            rel: std::array::from_fn(|_| vec![(0.0, 0.0), (1.0, 1.0)]),
+        }
+    }
+
+    /// Adaptive ramps, then (Common black mode) the toe samples and the rest of the
+    /// budget adaptively again.
+    fn measure(
+        &mut self,
+        s: &mut Session<'_, '_>,
+        opts: &MeasureOptions,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<(), MeasureError> {
+        // Toe samples (Common black mode) cost up to 3 low-light samples; they are
+        // taken once the adaptive ramps have given a first estimate of each curve.
+        let toe = opts.focus.is_some_and(|f| f.toe_samples);
+        let repeats_dark = match opts.low_light {
+            LowLight::Average { repeats } => repeats.max(1),
+            LowLight::Skip => 1,
+        };
+        let reserve = if toe { 3 * repeats_dark } else { 0 };
+        self.adaptive(s, reserve, progress)?;
+        if toe {
+            self.toe(s, opts, progress)?;
+            self.adaptive(s, 0, progress)?;
+        }
+        Ok(())
+    }
+
+    /// Half a code value of the display, in normalised drive.
+    fn half_code(&self) -> f64 {
+        HALF_CODE / self.depth.max_code_f64()
+    }
+
+    /// True when channel `c` already has a sample within half a code of `d`.
+    fn has_sample_near(&self, c: Channel, d: f64) -> bool {
+        let lsb = self.half_code();
+        self.rel[c.index()].iter().any(|(x, _)| (x - d).abs() < lsb)
+    }
+
+    /// Feeds a ramp reading into the curve estimate.
+    fn record(&mut self, c: Channel, d: f64, raw: Xyz) {
+        let i = c.index();
+        let xyz = luminance_only(raw, self.black, self.primaries[i]);
+        self.ramps[i].push((d, xyz));
+        let r = relative_intensity(xyz, self.black, self.primaries[i]);
+        insert_sorted(&mut self.rel[i], (d, r));
+    }
+
+    fn step(
+        &mut self,
+        s: &mut Session<'_, '_>,
+        c: Channel,
+        d: f64,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<(), MeasureError> {
+        match s.sample(Patch::Ramp(c, d), false, progress)? {
+            Some(raw) => self.record(c, d, raw),
+            None => {
+                // Skipped as too dark: record the drive so it is not proposed again,
+                // with the intensity interpolated between its neighbours.
+                let rel = &mut self.rel[c.index()];
+                let r = interpolate(rel, d);
+                insert_sorted(rel, (d, r));
+            }
+        }
+        Ok(())
+    }
+
+    /// One sample per channel in turn until `keep` readings are left or every channel
+    /// is good enough.
+    fn adaptive(
+        &mut self,
+        s: &mut Session<'_, '_>,
+        keep: u32,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<(), MeasureError> {
+        let mut done = [false; 3];
+        let mut k = 0usize;
+        while s.remaining() > keep && !done.iter().all(|d| *d) {
+            let c = Channel::ALL[k];
+            if !done[k] {
+                match next_drive(&self.rel[k], self.usage[k]) {
+                    None => done[k] = true,
+                    Some(d) => {
+                        let d = self.depth.quantise(d);
+                        if self.has_sample_near(c, d) {
+                            done[k] = true;
+                        } else {
+                            self.step(s, c, d, progress)?;
+                        }
+                    }
+                }
+            }
+            k = (k + 1) % 3;
+        }
+        Ok(())
+    }
+
+    /// Channel intensities this display must add to reach the common black, where an
+    /// estimate exists and is above its own black.
+    fn common_black_lift(&self, opts: &MeasureOptions) -> Option<[f64; 3]> {
+        let black = self.black;
+        opts.focus
+            .and_then(|f| f.common_black)
+            .filter(|cb| cb.y > black.y)
+            .and_then(|cb| {
+                let m = drive_matrix(black, &self.primaries)?;
+                let l = m * (cb - black).to_vector();
+                Some([l[0], l[1], l[2]])
+            })
+    }
+
+    /// One sample per channel in its toe, where it adds the common black's lift (or
+    /// about the display's own black luminance).
+    fn toe(
+        &mut self,
+        s: &mut Session<'_, '_>,
+        opts: &MeasureOptions,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<(), MeasureError> {
+        let lift = self.common_black_lift(opts);
+        for c in Channel::ALL {
+            let i = c.index();
+            let span = self.primaries[i].y - self.black.y;
+            if span <= 0.0 || s.remaining() == 0 {
+                continue;
+            }
+            let target = lift
+                .map(|l| l[i])
+                .filter(|l| *l > 0.0)
+                .unwrap_or(self.black.y / span)
+                .clamp(TOE_INTENSITY_RANGE.0, TOE_INTENSITY_RANGE.1);
+            let d = self.depth.quantise(drive_at(&self.rel[i], target));
+            if d > 0.0 && !self.has_sample_near(c, d) {
+                // A skipped toe sample leaves the curve as it is.
+                if let Some(raw) = s.sample(Patch::Ramp(c, d), false, progress)? {
+                    self.record(c, d, raw);
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Drive where the samples, interpolated linearly in drive and cube-root intensity,

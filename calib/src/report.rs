@@ -7,11 +7,12 @@
 
 use std::fmt::Write as _;
 
+use lumiwall_core::Channel;
 use lumiwall_devices::Xyz;
 use lumiwall_profiles::{DisplayProfile, Eye};
 
+use crate::measure::MeasuredDisplay;
 use crate::measure::meter_offset::MeterCorrection;
-use crate::measure::{CHANNEL_NAMES, MeasuredDisplay};
 use crate::solve::{SolveOptions, WallSolution};
 
 /// What the report is made of.
@@ -55,67 +56,82 @@ fn eye_colour(eye: Eye) -> &'static str {
     }
 }
 
-/// The xy chromaticity diagram as an SVG element.
-pub fn gamut_svg(r: &ReportInputs<'_>) -> String {
-    let (w, h) = (580.0, 600.0);
-    let (x0, y0, scale) = (50.0, 560.0, 640.0); // x: 0..0.8, y: 0..0.85
-    let px = |p: [f64; 2]| (x0 + p[0] * scale, y0 - p[1] * scale);
-    let mut s = String::new();
-    let _ = write!(
-        s,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif" font-size="12">"#
-    );
-    s.push_str(r#"<rect width="100%" height="100%" fill="white"/>"#);
-    // Axes and grid.
-    for i in 0..=8 {
-        let v = f64::from(i) * 0.1;
-        let (gx, _) = px([v, 0.0]);
-        let (_, gy) = px([0.0, v]);
-        let _ = write!(
-            s,
-            "<line x1=\"{gx:.1}\" y1=\"{:.1}\" x2=\"{gx:.1}\" y2=\"{y0:.1}\" stroke=\"#eee\"/>\
-             <text x=\"{gx:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{v:.1}</text>",
-            y0 - 0.85 * scale,
-            y0 + 16.0
-        );
-        let _ = write!(
-            s,
-            "<line x1=\"{x0:.1}\" y1=\"{gy:.1}\" x2=\"{:.1}\" y2=\"{gy:.1}\" stroke=\"#eee\"/>\
-             <text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{v:.1}</text>",
-            x0 + 0.8 * scale,
-            x0 - 6.0,
-            gy + 4.0
-        );
+/// Wavelengths (nm) labelled on the spectral locus.
+const LOCUS_LABELS_NM: [f64; 9] = [
+    460.0, 480.0, 500.0, 520.0, 540.0, 560.0, 580.0, 600.0, 620.0,
+];
+
+/// Placement of the xy diagram in the SVG: x 0..0.8, y 0..0.85.
+#[derive(Clone, Copy)]
+struct XyPlot {
+    x0: f64,
+    y0: f64,
+    scale: f64,
+}
+
+impl XyPlot {
+    /// SVG coordinates of a chromaticity.
+    fn px(self, p: [f64; 2]) -> (f64, f64) {
+        (self.x0 + p[0] * self.scale, self.y0 - p[1] * self.scale)
     }
-    let _ = write!(
-        s,
-        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">x</text><text x="14" y="{:.1}">y</text>"#,
-        x0 + 0.4 * scale,
-        y0 + 34.0,
-        y0 - 0.42 * scale
-    );
-    // Spectral locus, closed by the purple line.
-    let locus = cie1931_locus();
-    if !locus.is_empty() {
-        let pts: Vec<String> = locus
-            .iter()
-            .map(|(_, p)| {
-                let (a, b) = px(*p);
+
+    /// SVG `points` of a polyline through chromaticities.
+    fn points(self, pts: impl IntoIterator<Item = [f64; 2]>) -> String {
+        pts.into_iter()
+            .map(|p| {
+                let (a, b) = self.px(p);
                 format!("{a:.1},{b:.1}")
             })
-            .collect();
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+
+    /// Grid lines every 0.1 with their labels, and the axis names.
+    fn axes(self, s: &mut String) {
+        let (x0, y0, scale) = (self.x0, self.y0, self.scale);
+        for i in 0..=8 {
+            let v = f64::from(i) * 0.1;
+            let (gx, _) = self.px([v, 0.0]);
+            let (_, gy) = self.px([0.0, v]);
+            let _ = write!(
+                s,
+                "<line x1=\"{gx:.1}\" y1=\"{:.1}\" x2=\"{gx:.1}\" y2=\"{y0:.1}\" stroke=\"#eee\"/>\
+                 <text x=\"{gx:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{v:.1}</text>",
+                y0 - 0.85 * scale,
+                y0 + 16.0
+            );
+            let _ = write!(
+                s,
+                "<line x1=\"{x0:.1}\" y1=\"{gy:.1}\" x2=\"{:.1}\" y2=\"{gy:.1}\" stroke=\"#eee\"/>\
+                 <text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{v:.1}</text>",
+                x0 + 0.8 * scale,
+                x0 - 6.0,
+                gy + 4.0
+            );
+        }
+        let _ = write!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">x</text><text x="14" y="{:.1}">y</text>"#,
+            x0 + 0.4 * scale,
+            y0 + 34.0,
+            y0 - 0.42 * scale
+        );
+    }
+
+    /// Spectral locus, closed by the purple line, with wavelength labels.
+    fn spectral_locus(self, s: &mut String) {
+        let locus = cie1931_locus();
+        if locus.is_empty() {
+            return;
+        }
         let _ = write!(
             s,
             r##"<polygon points="{}" fill="none" stroke="#333" stroke-width="1.2"/>"##,
-            pts.join(" ")
+            self.points(locus.iter().map(|(_, p)| *p))
         );
         for (nm, p) in &locus {
-            if [
-                460.0, 480.0, 500.0, 520.0, 540.0, 560.0, 580.0, 600.0, 620.0,
-            ]
-            .contains(nm)
-            {
-                let (a, b) = px(*p);
+            if LOCUS_LABELS_NM.contains(nm) {
+                let (a, b) = self.px(*p);
                 let _ = write!(
                     s,
                     r##"<text x="{:.1}" y="{:.1}" fill="#777" font-size="10">{nm:.0}</text>"##,
@@ -125,44 +141,32 @@ pub fn gamut_svg(r: &ReportInputs<'_>) -> String {
             }
         }
     }
-    // Every display's gamut.
-    for p in &r.solution.profiles {
-        let pts: Vec<String> = (0..3)
-            .map(|c| {
-                let (a, b) = px(xy(sub_black(p, c)));
-                format!("{a:.1},{b:.1}")
-            })
-            .collect();
+
+    /// Every display's gamut, the common gamut and the white.
+    fn gamuts(self, s: &mut String, r: &ReportInputs<'_>) {
+        for p in &r.solution.profiles {
+            let _ = write!(
+                s,
+                r#"<polygon points="{}" fill="none" stroke="{}" stroke-opacity="0.45" stroke-width="0.8"/>"#,
+                self.points(Channel::ALL.map(|c| xy(sub_black(p, c.index())))),
+                eye_colour(p.display.eye)
+            );
+        }
         let _ = write!(
             s,
-            r#"<polygon points="{}" fill="none" stroke="{}" stroke-opacity="0.45" stroke-width="0.8"/>"#,
-            pts.join(" "),
-            eye_colour(p.display.eye)
+            r##"<polygon points="{}" fill="#3498db" fill-opacity="0.12" stroke="black" stroke-width="2"/>"##,
+            self.points(r.solution.common_primaries_xy)
+        );
+        let (a, b) = self.px(xy(r.solution.white_xyz_cd_m2));
+        let _ = write!(
+            s,
+            r#"<circle cx="{a:.1}" cy="{b:.1}" r="4" fill="white" stroke="black" stroke-width="1.5"/>"#
         );
     }
-    // Common gamut.
-    let pts: Vec<String> = r
-        .solution
-        .common_primaries_xy
-        .iter()
-        .map(|p| {
-            let (a, b) = px(*p);
-            format!("{a:.1},{b:.1}")
-        })
-        .collect();
-    let _ = write!(
-        s,
-        r##"<polygon points="{}" fill="#3498db" fill-opacity="0.12" stroke="black" stroke-width="2"/>"##,
-        pts.join(" ")
-    );
-    // White.
-    let wxy = xy(r.solution.white_xyz_cd_m2);
-    let (a, b) = px(wxy);
-    let _ = write!(
-        s,
-        r#"<circle cx="{a:.1}" cy="{b:.1}" r="4" fill="white" stroke="black" stroke-width="1.5"/>"#
-    );
-    // Legend.
+}
+
+/// The legend of the xy diagram, with the white's chromaticity.
+fn gamut_legend(s: &mut String, white_xy: [f64; 2]) {
     let legend = [
         ("#c0392b", "left-eye displays"),
         ("#1e8449", "right-eye displays"),
@@ -180,8 +184,28 @@ pub fn gamut_svg(r: &ReportInputs<'_>) -> String {
     let _ = write!(
         s,
         r#"<circle cx="343" cy="92" r="4" fill="white" stroke="black" stroke-width="1.5"/><text x="362" y="96">white x {:.4} y {:.4}</text>"#,
-        wxy[0], wxy[1]
+        white_xy[0], white_xy[1]
     );
+}
+
+/// The xy chromaticity diagram as an SVG element.
+pub fn gamut_svg(r: &ReportInputs<'_>) -> String {
+    let (w, h) = (580.0, 600.0);
+    let plot = XyPlot {
+        x0: 50.0,
+        y0: 560.0,
+        scale: 640.0,
+    };
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif" font-size="12">"#
+    );
+    s.push_str(r#"<rect width="100%" height="100%" fill="white"/>"#);
+    plot.axes(&mut s);
+    plot.spectral_locus(&mut s);
+    plot.gamuts(&mut s, r);
+    gamut_legend(&mut s, xy(r.solution.white_xyz_cd_m2));
     s.push_str("</svg>");
     s
 }
@@ -232,7 +256,7 @@ pub fn usage_svg(r: &ReportInputs<'_>) -> String {
                 y0 - u * hgt,
                 u * hgt,
                 p.display.file_stem(),
-                CHANNEL_NAMES[c],
+                Channel::ALL[c].name(),
                 p.channel_usage[c] * 100.0
             );
         }
@@ -264,8 +288,18 @@ fn fmt_xy(x: Xyz) -> String {
 
 /// Summary lines and tables in markdown (shared by both formats).
 fn tables_markdown(r: &ReportInputs<'_>) -> String {
-    let sol = r.solution;
     let mut s = String::new();
+    summary_table(&mut s, r);
+    warnings_list(&mut s, r.solution);
+    primaries_table(&mut s, r);
+    usage_table(&mut s, r);
+    s
+}
+
+/// The summary table: white, black, common primaries, limiting channel, readings and
+/// the meter correction.
+fn summary_table(s: &mut String, r: &ReportInputs<'_>) {
+    let sol = r.solution;
     let w = sol.white_xyz_cd_m2;
     let _ = writeln!(s, "| quantity | value |\n|---|---|");
     let _ = writeln!(s, "| displays | {} |", sol.profiles.len());
@@ -283,14 +317,16 @@ fn tables_markdown(r: &ReportInputs<'_>) -> String {
         fmt_xy(sol.common_black_xyz_cd_m2),
         sol.common_black_xyz_cd_m2.y
     );
-    for (c, p) in sol.common_primaries_xy.iter().enumerate() {
+    for (c, p) in Channel::ALL.iter().zip(&sol.common_primaries_xy) {
         let _ = writeln!(
             s,
             "| common {} primary | xy {:.4}, {:.4} |",
-            CHANNEL_NAMES[c], p[0], p[1]
+            c.name(),
+            p[0],
+            p[1]
         );
     }
-    let (ld, lc) = sol.limiting;
+    let ld = sol.limiting.display;
     let limiting = sol
         .profiles
         .get(ld)
@@ -299,7 +335,7 @@ fn tables_markdown(r: &ReportInputs<'_>) -> String {
     let _ = writeln!(
         s,
         "| limiting channel | {limiting} {} at headroom {:.0} % |",
-        CHANNEL_NAMES[lc.min(2)],
+        sol.limiting.channel.name(),
         r.solve.headroom * 100.0
     );
     let total: u32 = r.measured.iter().map(|m| m.measurement.readings).sum();
@@ -325,13 +361,21 @@ fn tables_markdown(r: &ReportInputs<'_>) -> String {
             c.additivity_after * 100.0
         );
     }
+}
+
+/// The solve's warnings as a list (nothing when there are none).
+fn warnings_list(s: &mut String, sol: &WallSolution) {
     if !sol.warnings.is_empty() {
         s.push_str("\n**Warnings**\n\n");
         for w in &sol.warnings {
             let _ = writeln!(s, "- {w}");
         }
     }
+}
 
+/// Per display: black-subtracted primaries, measured white and black.
+fn primaries_table(s: &mut String, r: &ReportInputs<'_>) {
+    let sol = r.solution;
     s.push_str("\n## Measured primaries (black subtracted), white and black\n\n");
     s.push_str(
         "| display | eye | R xy | R Y cd/m² | G xy | G Y cd/m² | B xy | B Y cd/m² | W xy (meas.) | W Y cd/m² | black xy | black Y cd/m² |\n\
@@ -360,7 +404,11 @@ fn tables_markdown(r: &ReportInputs<'_>) -> String {
             mm.black.y
         );
     }
+}
 
+/// Per display: channel usage, readings, ramp samples, low-light handling, additivity.
+fn usage_table(s: &mut String, r: &ReportInputs<'_>) {
+    let sol = r.solution;
     s.push_str("\n## Channel usage, readings and additivity\n\n");
     s.push_str(
         "| display | R usage % | G usage % | B usage % | readings | ramp samples R/G/B | low-light averaged | skipped | retries | additivity error % |\n\
@@ -390,7 +438,6 @@ fn tables_markdown(r: &ReportInputs<'_>) -> String {
             add
         );
     }
-    s
 }
 
 /// The report as markdown; the plots are referenced as `gamut.svg` and `usage.svg`

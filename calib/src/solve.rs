@@ -22,6 +22,9 @@
 //!    `common_black ≥ black_i` componentwise), rather than Kresse's sequential clipping,
 //!    which depends on display order and need not be minimal.
 
+use std::fmt;
+
+use lumiwall_core::{BitDepth, Channel, Headroom, Xy as Chromaticity};
 use lumiwall_devices::Xyz;
 use lumiwall_profiles::{
     BlackMode, DisplayKey, DisplayProfile, FORMAT_VERSION, MIN_LUT_ENTRIES, MeasurementInfo,
@@ -35,7 +38,13 @@ use crate::colorimetry::cct_to_xy;
 use crate::gamut::{MIN_TRIANGLE_AREA, Xy, common_gamut_named, signed_area};
 use crate::tone::fit_monotone_named;
 
-const CHANNELS: [&str; 3] = ["red", "green", "blue"];
+/// A channel used for less than this fraction of the headroom by the white gets a
+/// [`SolveWarning::LowChannelUsage`]: few code values are left for the image.
+const LOW_USAGE_FRACTION: f64 = 0.25;
+
+/// A display's own black counts as outside its gamut when a channel intensity of it is
+/// below `−BLACK_OUTSIDE_TOLERANCE` (rounding of the matrix inverse).
+const BLACK_OUTSIDE_TOLERANCE: f64 = 1e-9;
 
 /// Everything measured on one display (one projector, one eye) for the solve.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -103,6 +112,103 @@ impl Default for SolveOptions {
     }
 }
 
+/// The display and channel that limit the wall white: at exactly the headroom.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Limiting {
+    /// Index of the display in the measurement list.
+    pub display: usize,
+    /// Its channel at the headroom.
+    pub channel: Channel,
+}
+
+impl Limiting {
+    /// The old `(display index, channel 0..3)` form.
+    pub fn as_tuple(self) -> (usize, usize) {
+        (self.display, self.channel.index())
+    }
+}
+
+/// Something the technician should know about a solved wall.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum SolveWarning {
+    /// The target white is outside the common gamut triangle.
+    WhiteOutsideCommonGamut {
+        /// The target white chromaticity.
+        white_xy: Chromaticity,
+    },
+    /// A channel is used for little of its range by the white, so few code values carry
+    /// the image (Kresse 3.3.9).
+    LowChannelUsage {
+        /// Display name.
+        display: String,
+        /// The channel.
+        channel: Channel,
+        /// Linear channel intensity the white uses, 0..=1.
+        usage: f64,
+        /// The display's bits per channel.
+        bit_depth: BitDepth,
+    },
+    /// A display's black is outside its own gamut (negative channel intensities).
+    BlackOutsideOwnGamut {
+        /// Display name.
+        display: String,
+        /// Channel intensities of the black.
+        intensities: [f64; 3],
+    },
+    /// The additivity error exceeds [`SolveOptions::max_additivity_error`].
+    Additivity {
+        /// Display name.
+        display: String,
+        /// Relative additivity error |W − (R+G+B−2·black)| / Y_W.
+        error: f64,
+        /// The allowed error.
+        limit: f64,
+    },
+}
+
+impl fmt::Display for SolveWarning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SolveWarning::WhiteOutsideCommonGamut { white_xy } => write!(
+                f,
+                "target white xy ({:.4}, {:.4}) lies outside the common gamut triangle",
+                white_xy.x, white_xy.y
+            ),
+            SolveWarning::LowChannelUsage {
+                display,
+                channel,
+                usage,
+                bit_depth,
+            } => write!(
+                f,
+                "{display}: {} channel only {:.0} % used for the white; fewer than {:.0} of {} code values carry the image (consider lowering this channel in the projector's service menu, Kresse 3.3.9)",
+                channel.name(),
+                100.0 * usage,
+                usage * bit_depth.max_code_f64(),
+                bit_depth.max_code() + 1
+            ),
+            SolveWarning::BlackOutsideOwnGamut {
+                display,
+                intensities: own,
+            } => write!(
+                f,
+                "{display}: black lies outside its own gamut (channel intensities {:.4}, {:.4}, {:.4})",
+                own[0], own[1], own[2]
+            ),
+            SolveWarning::Additivity {
+                display,
+                error,
+                limit,
+            } => write!(
+                f,
+                "{display}: additivity error {:.1} % (|W − (R+G+B−2·black)| / Y_W) exceeds {:.1} %; the matrix model will be off by about that much",
+                100.0 * error,
+                100.0 * limit
+            ),
+        }
+    }
+}
+
 /// Result of the wall solve.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WallSolution {
@@ -115,10 +221,11 @@ pub struct WallSolution {
     /// The common black (least-luminance black every display can show), XYZ in cd/m².
     /// Computed in every mode; shown only in `Common` mode.
     pub common_black_xyz_cd_m2: Xyz,
-    /// `(display index, channel 0..3)` that is at exactly the headroom.
-    pub limiting: (usize, usize),
-    /// Things the technician should know (low channel usage, additivity, …).
-    pub warnings: Vec<String>,
+    /// The display and channel at exactly the headroom.
+    pub limiting: Limiting,
+    /// Things the technician should know (low channel usage, additivity, …); `Display`
+    /// gives the text for reports.
+    pub warnings: Vec<SolveWarning>,
 }
 
 /// Per-display quantities derived from the measurement.
@@ -149,12 +256,16 @@ fn check_xyz(what: &str, v: Xyz) -> Result<(), CalibError> {
     Ok(())
 }
 
-fn vec3(v: Xyz) -> Vector3<f64> {
-    Vector3::new(v.x, v.y, v.z)
-}
-
-fn xyz_of(v: &Vector3<f64>) -> Xyz {
-    Xyz::new(v[0], v[1], v[2])
+/// Checks the black and full-drive primary readings of a display.
+fn check_black_and_primaries(name: &str, m: &DisplayMeasurement) -> Result<(), CalibError> {
+    check_xyz(&format!("{name}: black reading"), m.black)?;
+    for c in Channel::ALL {
+        check_xyz(
+            &format!("{name}: {} full-drive reading", c.name()),
+            m.primaries[c.index()],
+        )?;
+    }
+    Ok(())
 }
 
 fn rows(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
@@ -169,16 +280,36 @@ fn arr(v: &Vector3<f64>) -> [f64; 3] {
     [v[0], v[1], v[2]]
 }
 
-fn validate_options(o: &SolveOptions) -> Result<(), CalibError> {
-    let bad = |option: &str, reason: String| CalibError::InvalidOption {
+/// The display's bit depth for code-value counts (clamped into 1..=16).
+pub(crate) fn clamped_bit_depth(bits: u32) -> BitDepth {
+    BitDepth::new(bits.clamp(1, BitDepth::MAX_BITS)).unwrap_or(BitDepth::EIGHT)
+}
+
+fn invalid_option(option: &str, reason: String) -> CalibError {
+    CalibError::InvalidOption {
         option: option.into(),
         reason,
-    };
-    if !(o.headroom > 0.0 && o.headroom <= 1.0) {
-        return Err(bad("headroom", format!("{} is not in (0, 1]", o.headroom)));
     }
+}
+
+/// Headroom as the vocabulary type; the error names the option.
+fn checked_headroom(headroom: f64) -> Result<Headroom, CalibError> {
+    Headroom::new(headroom)
+        .map_err(|_| invalid_option("headroom", format!("{headroom} is not in (0, 1]")))
+}
+
+/// Refuses an empty measurement list.
+fn require_measurements(measurements: &[DisplayMeasurement]) -> Result<(), CalibError> {
+    if measurements.is_empty() {
+        return Err(invalid_option("measurements", "no display measured".into()));
+    }
+    Ok(())
+}
+
+fn validate_options(o: &SolveOptions) -> Result<(), CalibError> {
+    checked_headroom(o.headroom)?;
     if o.lut_entries < MIN_LUT_ENTRIES {
-        return Err(bad(
+        return Err(invalid_option(
             "lut_entries",
             format!(
                 "{} is below the minimum of {MIN_LUT_ENTRIES}",
@@ -187,7 +318,7 @@ fn validate_options(o: &SolveOptions) -> Result<(), CalibError> {
         ));
     }
     if !(o.max_additivity_error >= 0.0 && o.max_additivity_error.is_finite()) {
-        return Err(bad(
+        return Err(invalid_option(
             "max_additivity_error",
             format!("{} is not a finite number ≥ 0", o.max_additivity_error),
         ));
@@ -197,64 +328,45 @@ fn validate_options(o: &SolveOptions) -> Result<(), CalibError> {
 
 fn prepare(m: &DisplayMeasurement, lut_entries: Option<usize>) -> Result<Prepared, CalibError> {
     let name = m.key.to_string();
-    check_xyz(&format!("{name}: black reading"), m.black)?;
-    for (c, p) in m.primaries.iter().enumerate() {
-        check_xyz(&format!("{name}: {} full-drive reading", CHANNELS[c]), *p)?;
-    }
+    check_black_and_primaries(&name, m)?;
     if let Some(w) = m.white {
         check_xyz(&format!("{name}: white full-drive reading"), w)?;
     }
-    let black = vec3(m.black);
-    let cols: Vec<Vector3<f64>> = m.primaries.iter().map(|p| vec3(*p) - black).collect();
-    for (c, col) in cols.iter().enumerate() {
+    let black = m.black.to_vector();
+    let cols: Vec<Vector3<f64>> = m.primaries.iter().map(|p| p.to_vector() - black).collect();
+    for c in Channel::ALL {
+        let col = cols[c.index()];
         if col[1].is_nan() || col[1] <= 0.0 || col.iter().sum::<f64>() <= 0.0 {
             return Err(CalibError::NoSignal {
-                what: format!("{name}: {} channel", CHANNELS[c]),
+                what: format!("{name}: {} channel", c.name()),
                 full_drive: col[1],
             });
         }
     }
-    let tri: Vec<Xy> = cols.iter().filter_map(|c| xyz_of(c).xy()).collect();
+    let tri: Vec<Xy> = cols.iter().filter_map(|c| Xyz::from(*c).xy()).collect();
     let area = if tri.len() == 3 {
         signed_area(tri[0], tri[1], tri[2]).abs()
     } else {
         0.0
     };
+    let degenerate = || CalibError::DegeneratePrimaries {
+        display: name.clone(),
+        area,
+        min_area: MIN_TRIANGLE_AREA,
+    };
     if area < MIN_TRIANGLE_AREA {
-        return Err(CalibError::DegeneratePrimaries {
-            display: name,
-            area,
-            min_area: MIN_TRIANGLE_AREA,
-        });
+        return Err(degenerate());
     }
     let p = Matrix3::from_columns(&cols);
-    let p_inv = p
-        .try_inverse()
-        .ok_or_else(|| CalibError::DegeneratePrimaries {
-            display: name.clone(),
-            area,
-            min_area: MIN_TRIANGLE_AREA,
-        })?;
-    let fit = |c: usize, entries: usize| -> Result<ToneCurve, CalibError> {
-        let what = format!("{name}: {} ramp", CHANNELS[c]);
-        let pc = cols[c];
-        let norm2 = pc.norm_squared();
-        let mut samples: Vec<(f64, f64)> = Vec::with_capacity(m.ramps[c].len() + 1);
-        for &(drive, xyz) in &m.ramps[c] {
-            check_xyz(&format!("{what} at drive {drive:.4}"), xyz)?;
-            samples.push((drive, (vec3(xyz) - black).dot(&pc) / norm2));
-        }
-        samples.push((1.0, 1.0));
-        fit_monotone_named(&samples, &what)?.to_tone_curve(entries)
-    };
+    let p_inv = p.try_inverse().ok_or_else(degenerate)?;
     let curves = match lut_entries {
-        Some(entries) => Some([fit(0, entries)?, fit(1, entries)?, fit(2, entries)?]),
+        Some(entries) => Some(fit_curves(m, &name, &cols, entries)?),
         None => None,
     };
     let additivity_error = m.white.and_then(|w| {
         let sum = cols[0] + cols[1] + cols[2] + black;
         let wy = w.y;
-        (wy > 0.0).then(|| (vec3(w) - sum).norm() / wy)
+        (wy > 0.0).then(|| (w.to_vector() - sum).norm() / wy)
     });
     Ok(Prepared {
         p,
@@ -263,6 +375,44 @@ fn prepare(m: &DisplayMeasurement, lut_entries: Option<usize>) -> Result<Prepare
         curves,
         additivity_error,
     })
+}
+
+/// Tone curves of the three channels from the ramps (step 2 of the module docs).
+fn fit_curves(
+    m: &DisplayMeasurement,
+    name: &str,
+    cols: &[Vector3<f64>],
+    entries: usize,
+) -> Result<[ToneCurve; 3], CalibError> {
+    let black = m.black.to_vector();
+    let fit = |c: Channel| -> Result<ToneCurve, CalibError> {
+        let what = format!("{name}: {} ramp", c.name());
+        let pc = cols[c.index()];
+        let norm2 = pc.norm_squared();
+        let ramp = &m.ramps[c.index()];
+        let mut samples: Vec<(f64, f64)> = Vec::with_capacity(ramp.len() + 1);
+        for &(drive, xyz) in ramp {
+            check_xyz(&format!("{what} at drive {drive:.4}"), xyz)?;
+            samples.push((drive, (xyz.to_vector() - black).dot(&pc) / norm2));
+        }
+        samples.push((1.0, 1.0));
+        fit_monotone_named(&samples, &what)?.to_tone_curve(entries)
+    };
+    Ok([
+        fit(Channel::Red)?,
+        fit(Channel::Green)?,
+        fit(Channel::Blue)?,
+    ])
+}
+
+fn prepare_all(
+    measurements: &[DisplayMeasurement],
+    lut_entries: Option<usize>,
+) -> Result<Vec<Prepared>, CalibError> {
+    measurements
+        .iter()
+        .map(|m| prepare(m, lut_entries))
+        .collect()
 }
 
 /// xy triangles `[R, G, B]` of the displays' black-subtracted primaries, named by key.
@@ -274,12 +424,13 @@ pub fn primaries_xy(
         .map(|m| {
             let name = m.key.to_string();
             let mut tri = [[0.0; 2]; 3];
-            for c in 0..3 {
-                tri[c] = (m.primaries[c] - m.black)
+            for c in Channel::ALL {
+                let i = c.index();
+                tri[i] = (m.primaries[i] - m.black)
                     .xy()
                     .ok_or_else(|| CalibError::NoSignal {
-                        what: format!("{name}: {} channel", CHANNELS[c]),
-                        full_drive: m.primaries[c].y - m.black.y,
+                        what: format!("{name}: {} channel", c.name()),
+                        full_drive: m.primaries[i].y - m.black.y,
                     })?;
             }
             Ok((name, tri))
@@ -288,48 +439,61 @@ pub fn primaries_xy(
 }
 
 /// Solves the wall: common gamut of the black-subtracted primaries, then
-/// [`solve_wall_in_gamut`].
+/// [`solve_wall_in_gamut`]. The profiles are stamped with the current time; use
+/// [`solve_wall_at`] to pass it.
 pub fn solve_wall(
     measurements: &[DisplayMeasurement],
     options: &SolveOptions,
 ) -> Result<WallSolution, CalibError> {
-    if measurements.is_empty() {
-        return Err(CalibError::InvalidOption {
-            option: "measurements".into(),
-            reason: "no display measured".into(),
-        });
-    }
+    solve_wall_at(measurements, options, &now_rfc3339())
+}
+
+/// [`solve_wall`] with the profiles' creation time `created_utc` (RFC 3339, e.g.
+/// [`now_rfc3339`]) given by the caller.
+pub fn solve_wall_at(
+    measurements: &[DisplayMeasurement],
+    options: &SolveOptions,
+    created_utc: &str,
+) -> Result<WallSolution, CalibError> {
+    require_measurements(measurements)?;
     for m in measurements {
-        let name = m.key.to_string();
-        check_xyz(&format!("{name}: black reading"), m.black)?;
-        for (c, p) in m.primaries.iter().enumerate() {
-            check_xyz(&format!("{name}: {} full-drive reading", CHANNELS[c]), *p)?;
-        }
+        check_black_and_primaries(&m.key.to_string(), m)?;
     }
     let gamut = common_gamut_named(&primaries_xy(measurements)?)?;
-    solve_wall_in_gamut(measurements, options, gamut)
+    solve_wall_in_gamut_at(measurements, options, gamut, created_utc)
 }
 
 /// Solves the wall for a given common gamut `[R, G, B]` xy (e.g. one computed from raw
 /// primaries, as reproduces Kresse's Tab. 6): white, luminance scale, black, matrices
-/// and tone curves.
+/// and tone curves. The profiles are stamped with the current time; use
+/// [`solve_wall_in_gamut_at`] to pass it.
 pub fn solve_wall_in_gamut(
     measurements: &[DisplayMeasurement],
     options: &SolveOptions,
     common_primaries_xy: [[f64; 2]; 3],
 ) -> Result<WallSolution, CalibError> {
+    solve_wall_in_gamut_at(measurements, options, common_primaries_xy, &now_rfc3339())
+}
+
+/// The wall-wide terms every profile shares.
+struct WallTerms<'a> {
+    white: Vector3<f64>,
+    common_black: Vector3<f64>,
+    common_primaries_xy: [[f64; 2]; 3],
+    created_utc: &'a str,
+}
+
+/// [`solve_wall_in_gamut`] with the profiles' creation time `created_utc` (RFC 3339)
+/// given by the caller.
+pub fn solve_wall_in_gamut_at(
+    measurements: &[DisplayMeasurement],
+    options: &SolveOptions,
+    common_primaries_xy: [[f64; 2]; 3],
+    created_utc: &str,
+) -> Result<WallSolution, CalibError> {
     validate_options(options)?;
-    if measurements.is_empty() {
-        return Err(CalibError::InvalidOption {
-            option: "measurements".into(),
-            reason: "no display measured".into(),
-        });
-    }
-    let prepared = measurements
-        .iter()
-        .map(|m| prepare(m, Some(options.lut_entries)))
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut warnings = Vec::new();
+    require_measurements(measurements)?;
+    let prepared = prepare_all(measurements, Some(options.lut_entries))?;
     let ws = white_from_prepared(
         &prepared,
         measurements,
@@ -337,103 +501,125 @@ pub fn solve_wall_in_gamut(
         options.headroom,
         options.black_mode,
     )?;
-    let cg = common_primaries_xy;
-    let white_xy = ws.white_xy;
-    let inside = (0..3).all(|e| {
-        signed_area(cg[e], cg[(e + 1) % 3], white_xy) * signed_area(cg[0], cg[1], cg[2]) >= 0.0
-    });
-    if !inside {
-        warnings.push(format!(
-            "target white xy ({:.4}, {:.4}) lies outside the common gamut triangle",
-            white_xy[0], white_xy[1]
-        ));
+    let mut warnings = Vec::new();
+    if !inside_triangle(common_primaries_xy, ws.white_xy) {
+        warnings.push(SolveWarning::WhiteOutsideCommonGamut {
+            white_xy: Chromaticity::from(ws.white_xy),
+        });
     }
-    let h = options.headroom;
-    let white = vec3(ws.white_xyz_cd_m2);
-    let common_black = vec3(ws.common_black_xyz_cd_m2);
-    let offsets: Vec<Vector3<f64>> = ws.drive_offsets.iter().map(|o| Vector3::from(*o)).collect();
-    let limiting = ws.limiting;
-
-    // Profiles.
-    let created_utc = now_rfc3339();
+    let wall = WallTerms {
+        white: ws.white_xyz_cd_m2.to_vector(),
+        common_black: ws.common_black_xyz_cd_m2.to_vector(),
+        common_primaries_xy,
+        created_utc,
+    };
     let mut profiles = Vec::with_capacity(measurements.len());
-    for (i, (m, p)) in measurements.iter().zip(&prepared).enumerate() {
-        let name = m.key.to_string();
-        let usage = p.p_inv * white + offsets[i];
-        for c in 0..3 {
-            if usage[c] < 0.25 * h {
-                warnings.push(format!(
-                    "{name}: {} channel only {:.0} % used for the white; fewer than {:.0} of {} code values carry the image (consider lowering this channel in the projector's service menu, Kresse 3.3.9)",
-                    CHANNELS[c],
-                    100.0 * usage[c],
-                    usage[c] * f64::from((1u32 << m.bit_depth.min(16)) - 1),
-                    (1u32 << m.bit_depth.min(16))
-                ));
-            }
-        }
-        let own = p.p_inv * p.black;
-        if own.iter().any(|v| *v < -1e-9) {
-            warnings.push(format!(
-                "{name}: black lies outside its own gamut (channel intensities {:.4}, {:.4}, {:.4})",
-                own[0], own[1], own[2]
-            ));
-        }
-        if let Some(e) = p.additivity_error
-            && e > options.max_additivity_error
-        {
-            warnings.push(format!(
-                "{name}: additivity error {:.1} % (|W − (R+G+B−2·black)| / Y_W) exceeds {:.1} %; the matrix model will be off by about that much",
-                100.0 * e,
-                100.0 * options.max_additivity_error
-            ));
-        }
-        let shown_black = match options.black_mode {
-            BlackMode::Common => common_black,
-            BlackMode::Ignore | BlackMode::Individual => p.black,
-        };
-        let prim = [
-            arr(&p.p.column(0).into_owned()),
-            arr(&p.p.column(1).into_owned()),
-            arr(&p.p.column(2).into_owned()),
-        ];
-        let profile = DisplayProfile {
-            format_version: FORMAT_VERSION,
-            display: m.key.clone(),
-            created_utc: created_utc.clone(),
-            primaries_xyz_cd_m2: prim,
-            black_xyz_cd_m2: arr(&p.black),
-            black_mode: options.black_mode,
-            shown_black_xyz_cd_m2: arr(&shown_black),
-            target_white_xyz_cd_m2: arr(&white),
-            common_primaries_xy,
-            xyz_to_drive: rows(&p.p_inv),
-            drive_offset: arr(&offsets[i]),
-            channel_usage: arr(&usage),
-            headroom: h,
-            curves: p.curves.clone().ok_or_else(|| CalibError::InvalidOption {
-                option: "curves".into(),
-                reason: "tone curves were not fitted".into(),
-            })?,
-            flat_field: None,
-            out_of_gamut: options.out_of_gamut,
-            bit_depth: m.bit_depth,
-            measurement: MeasurementInfo {
-                instrument: m.instrument.clone(),
-                readings: m.readings,
-                additivity_error: p.additivity_error,
-            },
-        };
-        profile.validate()?;
-        profiles.push(profile);
+    for ((m, p), offset) in measurements.iter().zip(&prepared).zip(&ws.drive_offsets) {
+        let offset = Vector3::from(*offset);
+        let usage = p.p_inv * wall.white + offset;
+        warnings.extend(display_warnings(m, p, &usage, options));
+        profiles.push(display_profile(m, p, options, &wall, &offset, &usage)?);
     }
     Ok(WallSolution {
         profiles,
         common_primaries_xy,
-        white_xyz_cd_m2: xyz_of(&white),
-        common_black_xyz_cd_m2: xyz_of(&common_black),
-        limiting,
+        white_xyz_cd_m2: ws.white_xyz_cd_m2,
+        common_black_xyz_cd_m2: ws.common_black_xyz_cd_m2,
+        limiting: ws.limiting,
         warnings,
     })
+}
+
+/// True when `point` is inside (or on) the triangle `tri`, either orientation.
+fn inside_triangle(tri: [[f64; 2]; 3], point: [f64; 2]) -> bool {
+    (0..3).all(|e| {
+        signed_area(tri[e], tri[(e + 1) % 3], point) * signed_area(tri[0], tri[1], tri[2]) >= 0.0
+    })
+}
+
+/// Low channel usage, black outside the display's own gamut and additivity warnings
+/// of one display.
+fn display_warnings(
+    m: &DisplayMeasurement,
+    p: &Prepared,
+    usage: &Vector3<f64>,
+    options: &SolveOptions,
+) -> Vec<SolveWarning> {
+    let name = m.key.to_string();
+    let mut warnings = Vec::new();
+    for channel in Channel::ALL {
+        let used = usage[channel.index()];
+        if used < LOW_USAGE_FRACTION * options.headroom {
+            warnings.push(SolveWarning::LowChannelUsage {
+                display: name.clone(),
+                channel,
+                usage: used,
+                bit_depth: clamped_bit_depth(m.bit_depth),
+            });
+        }
+    }
+    let own = p.p_inv * p.black;
+    if own.iter().any(|v| *v < -BLACK_OUTSIDE_TOLERANCE) {
+        warnings.push(SolveWarning::BlackOutsideOwnGamut {
+            display: name.clone(),
+            intensities: arr(&own),
+        });
+    }
+    if let Some(e) = p.additivity_error
+        && e > options.max_additivity_error
+    {
+        warnings.push(SolveWarning::Additivity {
+            display: name,
+            error: e,
+            limit: options.max_additivity_error,
+        });
+    }
+    warnings
+}
+
+/// The validated profile of one display.
+fn display_profile(
+    m: &DisplayMeasurement,
+    p: &Prepared,
+    options: &SolveOptions,
+    wall: &WallTerms<'_>,
+    offset: &Vector3<f64>,
+    usage: &Vector3<f64>,
+) -> Result<DisplayProfile, CalibError> {
+    let shown_black = match options.black_mode {
+        BlackMode::Common => wall.common_black,
+        BlackMode::Ignore | BlackMode::Individual => p.black,
+    };
+    let primaries = Channel::ALL.map(|c| arr(&p.p.column(c.index()).into_owned()));
+    let profile = DisplayProfile {
+        format_version: FORMAT_VERSION,
+        display: m.key.clone(),
+        created_utc: wall.created_utc.to_string(),
+        primaries_xyz_cd_m2: primaries,
+        black_xyz_cd_m2: arr(&p.black),
+        black_mode: options.black_mode,
+        shown_black_xyz_cd_m2: arr(&shown_black),
+        target_white_xyz_cd_m2: arr(&wall.white),
+        common_primaries_xy: wall.common_primaries_xy,
+        xyz_to_drive: rows(&p.p_inv),
+        drive_offset: arr(offset),
+        channel_usage: arr(usage),
+        headroom: options.headroom,
+        curves: p
+            .curves
+            .clone()
+            .ok_or_else(|| invalid_option("curves", "tone curves were not fitted".into()))?,
+        flat_field: None,
+        out_of_gamut: options.out_of_gamut,
+        bit_depth: m.bit_depth,
+        measurement: MeasurementInfo {
+            instrument: m.instrument.clone(),
+            readings: m.readings,
+            additivity_error: p.additivity_error,
+        },
+    };
+    profile.validate()?;
+    Ok(profile)
 }
 
 /// The wall's white and black, solved from primaries and blacks alone (no tone curves).
@@ -445,8 +631,8 @@ pub struct WhiteSolution {
     pub white_xyz_cd_m2: Xyz,
     /// The common black (least-luminance black every display can show), cd/m².
     pub common_black_xyz_cd_m2: Xyz,
-    /// `(display index, channel)` at exactly the headroom.
-    pub limiting: (usize, usize),
+    /// The display and channel at exactly the headroom.
+    pub limiting: Limiting,
     /// Per display: the black term added after the matrix (linear channel intensity).
     pub drive_offsets: Vec<[f64; 3]>,
     /// Per display: linear channel intensities driven for the white input.
@@ -463,22 +649,9 @@ pub fn solve_white(
     headroom: f64,
     black_mode: BlackMode,
 ) -> Result<WhiteSolution, CalibError> {
-    if !(headroom > 0.0 && headroom <= 1.0) {
-        return Err(CalibError::InvalidOption {
-            option: "headroom".into(),
-            reason: format!("{headroom} is not in (0, 1]"),
-        });
-    }
-    if measurements.is_empty() {
-        return Err(CalibError::InvalidOption {
-            option: "measurements".into(),
-            reason: "no display measured".into(),
-        });
-    }
-    let prepared = measurements
-        .iter()
-        .map(|m| prepare(m, None))
-        .collect::<Result<Vec<_>, _>>()?;
+    checked_headroom(headroom)?;
+    require_measurements(measurements)?;
+    let prepared = prepare_all(measurements, None)?;
     white_from_prepared(&prepared, measurements, white, headroom, black_mode)
 }
 
@@ -489,101 +662,20 @@ fn white_from_prepared(
     headroom: f64,
     black_mode: BlackMode,
 ) -> Result<WhiteSolution, CalibError> {
-    // Target white chromaticity.
-    let white_xy = match white {
-        WhiteTarget::Xy(xy) => xy,
-        WhiteTarget::Cct(k) => cct_to_xy(k)?,
-        WhiteTarget::NativeOf(i) => {
-            let p = prepared.get(i).ok_or_else(|| CalibError::InvalidOption {
-                option: "white".into(),
-                reason: format!(
-                    "native white of display index {i}, but only {} displays were measured",
-                    measurements.len()
-                ),
-            })?;
-            xyz_of(&(p.p * Vector3::new(1.0, 1.0, 1.0)))
-                .xy()
-                .ok_or_else(|| CalibError::InvalidOption {
-                    option: "white".into(),
-                    reason: format!("display index {i} has no native white"),
-                })?
-        }
-    };
-    if !(white_xy.iter().all(|v| v.is_finite()) && white_xy[1] > 0.0 && white_xy[0] > 0.0)
-        || white_xy[0] + white_xy[1] >= 1.0
-    {
-        return Err(CalibError::InvalidOption {
-            option: "white".into(),
-            reason: format!("xy {white_xy:?} is not a valid chromaticity"),
-        });
-    }
-    let w_unit = vec3(Xyz::from_xy_luminance(white_xy[0], white_xy[1], 1.0));
-
+    let white_xy = target_white_xy(prepared, measurements, white)?;
+    let w_unit = Xyz::from_xy_luminance(white_xy[0], white_xy[1], 1.0).to_vector();
     // Common black (computed always, used in Common mode).
     let common_black = common_black(prepared)?;
-
-    // Offsets per black mode, in channel space.
-    let offsets: Vec<Vector3<f64>> = prepared
-        .iter()
-        .map(|p| match black_mode {
-            BlackMode::Ignore => Vector3::zeros(),
-            BlackMode::Individual => -(p.p_inv * p.black),
-            BlackMode::Common => p.p_inv * (common_black - p.black),
-        })
-        .collect();
-
-    // Luminance scale.
-    let h = headroom;
-    let mut y_white = f64::INFINITY;
-    let mut limiting = (0, 0);
-    for (i, p) in prepared.iter().enumerate() {
-        let a = p.p_inv * w_unit;
-        let name = measurements[i].key.to_string();
-        for c in 0..3 {
-            if a[c].is_nan() || a[c] <= 0.0 {
-                return Err(CalibError::UnreachableWhite {
-                    display: name,
-                    reason: format!(
-                        "target white xy ({:.4}, {:.4}) is outside this display's gamut: its {} channel would need {:.4} (negative light)",
-                        white_xy[0], white_xy[1], CHANNELS[c], a[c]
-                    ),
-                });
-            }
-            let room = h - offsets[i][c];
-            if room <= 0.0 {
-                return Err(CalibError::UnreachableWhite {
-                    display: name,
-                    reason: format!(
-                        "the common black alone needs {:.3} of the {} channel, more than the headroom {h}; choose black mode individual or check the black readings",
-                        offsets[i][c], CHANNELS[c]
-                    ),
-                });
-            }
-            let y = room / a[c];
-            if y < y_white {
-                y_white = y;
-                limiting = (i, c);
-            }
-        }
-    }
-    // In Individual mode the white must also be bright enough that no channel goes
-    // negative once the display's own black is subtracted.
-    for (i, p) in prepared.iter().enumerate() {
-        let a = p.p_inv * w_unit;
-        for c in 0..3 {
-            let need = -offsets[i][c] / a[c];
-            if need > y_white {
-                let name = measurements[i].key.to_string();
-                return Err(CalibError::UnreachableWhite {
-                    display: name,
-                    reason: format!(
-                        "its black (Y {:.3} cd/m²) is above the wall's white: the white can be at most {:.3} cd/m² (limited by display index {} {}), but this display's {} channel needs a white of at least {:.3} cd/m² to stay above its own black; use black mode common or ignore, or fix this display's black",
-                        p.black[1], y_white, limiting.0, CHANNELS[limiting.1], CHANNELS[c], need
-                    ),
-                });
-            }
-        }
-    }
+    let offsets = black_offsets(prepared, black_mode, &common_black);
+    let scale = WhiteScale {
+        prepared,
+        measurements,
+        w_unit,
+        white_xy,
+        offsets: &offsets,
+    };
+    let (y_white, limiting) = scale.luminance(headroom)?;
+    scale.check_above_own_black(y_white, limiting)?;
     let white = w_unit * y_white;
     let channel_usage = prepared
         .iter()
@@ -592,12 +684,152 @@ fn white_from_prepared(
         .collect();
     Ok(WhiteSolution {
         white_xy,
-        white_xyz_cd_m2: xyz_of(&white),
-        common_black_xyz_cd_m2: xyz_of(&common_black),
+        white_xyz_cd_m2: Xyz::from(white),
+        common_black_xyz_cd_m2: Xyz::from(common_black),
         limiting,
         drive_offsets: offsets.iter().map(arr).collect(),
         channel_usage,
     })
+}
+
+/// Target white chromaticity (step 4 of the module docs), validated.
+fn target_white_xy(
+    prepared: &[Prepared],
+    measurements: &[DisplayMeasurement],
+    white: WhiteTarget,
+) -> Result<[f64; 2], CalibError> {
+    let white_xy = match white {
+        WhiteTarget::Xy(xy) => xy,
+        WhiteTarget::Cct(k) => cct_to_xy(k)?,
+        WhiteTarget::NativeOf(i) => {
+            let p = prepared.get(i).ok_or_else(|| {
+                invalid_option(
+                    "white",
+                    format!(
+                        "native white of display index {i}, but only {} displays were measured",
+                        measurements.len()
+                    ),
+                )
+            })?;
+            Xyz::from(p.p * Vector3::new(1.0, 1.0, 1.0))
+                .xy()
+                .ok_or_else(|| {
+                    invalid_option("white", format!("display index {i} has no native white"))
+                })?
+        }
+    };
+    if !Chromaticity::from(white_xy).is_valid() {
+        return Err(invalid_option(
+            "white",
+            format!("xy {white_xy:?} is not a valid chromaticity"),
+        ));
+    }
+    Ok(white_xy)
+}
+
+/// Offsets per black mode, in channel space (step 5 of the module docs).
+fn black_offsets(
+    prepared: &[Prepared],
+    black_mode: BlackMode,
+    common_black: &Vector3<f64>,
+) -> Vec<Vector3<f64>> {
+    prepared
+        .iter()
+        .map(|p| match black_mode {
+            BlackMode::Ignore => Vector3::zeros(),
+            BlackMode::Individual => -(p.p_inv * p.black),
+            BlackMode::Common => p.p_inv * (common_black - p.black),
+        })
+        .collect()
+}
+
+/// The luminance scale of the wall white: inputs shared by its two checks.
+struct WhiteScale<'a> {
+    prepared: &'a [Prepared],
+    measurements: &'a [DisplayMeasurement],
+    /// The target white at 1 cd/m².
+    w_unit: Vector3<f64>,
+    white_xy: [f64; 2],
+    offsets: &'a [Vector3<f64>],
+}
+
+impl WhiteScale<'_> {
+    /// Largest white luminance with every channel (plus its black offset) at most
+    /// `headroom`, and the channel that reaches it.
+    fn luminance(&self, headroom: f64) -> Result<(f64, Limiting), CalibError> {
+        let mut y_white = f64::INFINITY;
+        let mut limiting = Limiting {
+            display: 0,
+            channel: Channel::Red,
+        };
+        for (i, p) in self.prepared.iter().enumerate() {
+            let per_cd = p.p_inv * self.w_unit;
+            let name = self.measurements[i].key.to_string();
+            for c in Channel::ALL {
+                let need = per_cd[c.index()];
+                if need.is_nan() || need <= 0.0 {
+                    return Err(CalibError::UnreachableWhite {
+                        display: name,
+                        reason: format!(
+                            "target white xy ({:.4}, {:.4}) is outside this display's gamut: its {} channel would need {:.4} (negative light)",
+                            self.white_xy[0],
+                            self.white_xy[1],
+                            c.name(),
+                            need
+                        ),
+                    });
+                }
+                let offset = self.offsets[i][c.index()];
+                let room = headroom - offset;
+                if room <= 0.0 {
+                    return Err(CalibError::UnreachableWhite {
+                        display: name,
+                        reason: format!(
+                            "the common black alone needs {:.3} of the {} channel, more than the headroom {headroom}; choose black mode individual or check the black readings",
+                            offset,
+                            c.name()
+                        ),
+                    });
+                }
+                let y = room / need;
+                if y < y_white {
+                    y_white = y;
+                    limiting = Limiting {
+                        display: i,
+                        channel: c,
+                    };
+                }
+            }
+        }
+        Ok((y_white, limiting))
+    }
+
+    /// In Individual mode the white must also be bright enough that no channel goes
+    /// negative once the display's own black is subtracted.
+    fn check_above_own_black(&self, y_white: f64, limiting: Limiting) -> Result<(), CalibError> {
+        for (i, p) in self.prepared.iter().enumerate() {
+            let per_cd = p.p_inv * self.w_unit;
+            for c in Channel::ALL {
+                let need = -self.offsets[i][c.index()] / per_cd[c.index()];
+                if need > y_white {
+                    let name = self.measurements[i].key.to_string();
+                    return Err(CalibError::UnreachableWhite {
+                        display: name,
+                        reason: format!(
+                            "its black (Y {:.3} cd/m²) is above the wall's white: the white can be at most {:.3} cd/m² (limited by display index {} {}), but this display's {} channel needs a white of at least {:.3} cd/m² to stay above its own black; use black mode common or ignore, or fix this display's black",
+                            p.black[1],
+                            y_white,
+                            limiting.display,
+                            limiting.channel.name(),
+                            c.name(),
+                            need
+                        ),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Least-luminance XYZ `c` with `P_i⁻¹·(c − black_i) ≥ 0` on every display: a linear
@@ -681,8 +913,9 @@ fn solve_lp_vertices(cons: &[(Vector3<f64>, f64)], scale: f64) -> Option<Vector3
     best
 }
 
-/// Current time as RFC 3339 UTC (`2026-11-22T23:05:00Z`).
-fn now_rfc3339() -> String {
+/// Current time as RFC 3339 UTC (`2026-11-22T23:05:00Z`): the creation time to pass to
+/// [`solve_wall_at`].
+pub fn now_rfc3339() -> String {
     let secs = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_secs())

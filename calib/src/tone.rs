@@ -203,39 +203,8 @@ fn pchip_slopes(x: &[f64], y: &[f64]) -> Vec<f64> {
 /// Fits the monotone curve through `samples` `(drive 0..=1, relative intensity)`; see
 /// the module docs for the method. `what` names the ramp in errors.
 pub fn fit_monotone_named(samples: &[(f64, f64)], what: &str) -> Result<MonotoneCurve, CalibError> {
-    for &(d, i) in samples {
-        if !d.is_finite() {
-            return Err(CalibError::NonFinite {
-                what: format!("{what}: drive"),
-                value: d,
-            });
-        }
-        if !i.is_finite() {
-            return Err(CalibError::NonFinite {
-                what: format!("{what}: intensity at drive {d:.4}"),
-                value: i,
-            });
-        }
-        if !(0.0..=1.0).contains(&d) {
-            return Err(CalibError::InvalidOption {
-                option: format!("{what}: drive"),
-                reason: format!("{d} is outside 0..=1"),
-            });
-        }
-    }
-    let mut sorted: Vec<(f64, f64)> = samples.to_vec();
-    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // Average samples at the same drive.
-    let mut merged: Vec<(f64, f64, f64)> = Vec::with_capacity(sorted.len());
-    for (d, i) in sorted {
-        match merged.last_mut() {
-            Some(last) if (d - last.0).abs() <= SAME_DRIVE => {
-                last.1 = (last.1 * last.2 + i) / (last.2 + 1.0);
-                last.2 += 1.0;
-            }
-            _ => merged.push((d, i, 1.0)),
-        }
-    }
+    check_samples(samples, what)?;
+    let merged = merge_same_drive(samples);
     let full = merged
         .iter()
         .find(|m| m.0 >= 1.0 - SAME_DRIVE)
@@ -264,8 +233,65 @@ pub fn fit_monotone_named(samples: &[(f64, f64)], what: &str) -> Result<Monotone
     pts.push((0.0, 0.0, ANCHOR_WEIGHT));
     pts.extend(interior.iter().map(|m| (m.0, m.1 / full, m.2)));
     pts.push((1.0, 1.0, ANCHOR_WEIGHT));
-    let blocks = pava(&pts);
-    // Knots: pinned ends, pooled interior blocks strictly inside (0, 1).
+    let (drives, vals) = knots(&pava(&pts));
+    // Isotonic output is non-decreasing; clamping keeps it so.
+    let gamma = estimate_gamma(&drives, &vals);
+    let u: Vec<f64> = vals.iter().map(|v| v.powf(1.0 / gamma)).collect();
+    let slopes = pchip_slopes(&drives, &u);
+    Ok(MonotoneCurve {
+        drives,
+        u,
+        slopes,
+        gamma,
+    })
+}
+
+/// Refuses non-finite samples and drives outside 0..=1, naming the ramp `what`.
+fn check_samples(samples: &[(f64, f64)], what: &str) -> Result<(), CalibError> {
+    for &(d, i) in samples {
+        if !d.is_finite() {
+            return Err(CalibError::NonFinite {
+                what: format!("{what}: drive"),
+                value: d,
+            });
+        }
+        if !i.is_finite() {
+            return Err(CalibError::NonFinite {
+                what: format!("{what}: intensity at drive {d:.4}"),
+                value: i,
+            });
+        }
+        if !(0.0..=1.0).contains(&d) {
+            return Err(CalibError::InvalidOption {
+                option: format!("{what}: drive"),
+                reason: format!("{d} is outside 0..=1"),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Samples sorted by drive, those at the same drive averaged: `(drive, intensity,
+/// count)`.
+fn merge_same_drive(samples: &[(f64, f64)]) -> Vec<(f64, f64, f64)> {
+    let mut sorted: Vec<(f64, f64)> = samples.to_vec();
+    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut merged: Vec<(f64, f64, f64)> = Vec::with_capacity(sorted.len());
+    for (d, i) in sorted {
+        match merged.last_mut() {
+            Some(last) if (d - last.0).abs() <= SAME_DRIVE => {
+                last.1 = (last.1 * last.2 + i) / (last.2 + 1.0);
+                last.2 += 1.0;
+            }
+            _ => merged.push((d, i, 1.0)),
+        }
+    }
+    merged
+}
+
+/// Knots of the curve from the pooled blocks: pinned ends (0, 0) and (1, 1), and the
+/// pooled interior blocks strictly inside (0, 1), values clamped to 0..=1.
+fn knots(blocks: &[(f64, f64, f64)]) -> (Vec<f64>, Vec<f64>) {
     let mut drives = vec![0.0];
     let mut vals = vec![0.0];
     for (k, b) in blocks.iter().enumerate() {
@@ -277,16 +303,7 @@ pub fn fit_monotone_named(samples: &[(f64, f64)], what: &str) -> Result<Monotone
     }
     drives.push(1.0);
     vals.push(1.0);
-    // Isotonic output is non-decreasing; clamping keeps it so.
-    let gamma = estimate_gamma(&drives, &vals);
-    let u: Vec<f64> = vals.iter().map(|v| v.powf(1.0 / gamma)).collect();
-    let slopes = pchip_slopes(&drives, &u);
-    Ok(MonotoneCurve {
-        drives,
-        u,
-        slopes,
-        gamma,
-    })
+    (drives, vals)
 }
 
 /// Least-squares log–log slope through (1, 1) of the interior knots with usable values.

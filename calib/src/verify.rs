@@ -12,7 +12,10 @@
 
 // Errors carry the display, the reading and the device error for the technician and
 // occur at most once per run, so their size does not matter.
-#![allow(clippy::result_large_err)]
+#![allow(
+    clippy::result_large_err,
+    reason = "errors carry the display, the reading and the device error and occur at most once per run"
+)]
 
 use lumiwall_devices::{DisplayInfo, Xyz};
 use lumiwall_profiles::apply::{ApplyError, ApplyOptions, PreparedProfile};
@@ -442,10 +445,7 @@ pub fn default_targets(profiles: &[DisplayProfile], n: usize) -> Result<Vec<Targ
         }
     }
     let m = common_rgb_to_xyz(first).ok_or(VerifyError::Degenerate)?;
-    let to_xyz = |rgb: [f64; 3]| {
-        let v = m * Vector3::from(rgb);
-        Xyz::new(v[0], v[1], v[2])
-    };
+    let to_xyz = |rgb: [f64; 3]| Xyz::from(m * Vector3::from(rgb));
     let mut out = Vec::with_capacity(n);
     let push = |name: String, xyz: Xyz, out: &mut Vec<Target>| {
         if out.len() < n && showable(profiles, xyz) {
@@ -505,6 +505,67 @@ fn delta_l_percent(expected: Xyz, measured: Xyz) -> f64 {
     }
 }
 
+/// One display being verified: its profile, prepared for the post pass.
+struct DisplayUnderTest<'p> {
+    profile: &'p DisplayProfile,
+    prepared: PreparedProfile,
+    spot_uv: [f64; 2],
+    /// The white ΔE2000 is relative to: the profile's target white as shown.
+    reference_white: Xyz,
+}
+
+impl DisplayUnderTest<'_> {
+    /// Shows `target` through the profile, reads it and compares with what the
+    /// display should show.
+    fn read_target(
+        &self,
+        s: &mut Session<'_, '_>,
+        target: &Target,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<PatchResult, VerifyError> {
+        let drive = drive_for(&self.prepared, target.xyz, self.spot_uv);
+        let measured = s
+            .sample(Patch::Drive(drive), true, progress)?
+            .unwrap_or_default();
+        let expected = expected_shown(self.profile, target.xyz);
+        Ok(PatchResult {
+            display: self.profile.display.clone(),
+            target: target.name.clone(),
+            drive,
+            expected,
+            measured,
+            delta_l_percent: delta_l_percent(expected, measured),
+            delta_xy: delta_xy(expected, measured),
+            delta_e2000: delta_e2000_xyz(expected, measured, self.reference_white),
+        })
+    }
+
+    /// Reads the black (input 0) `repeats` times, averaged, against the common black.
+    fn read_black(
+        &self,
+        s: &mut Session<'_, '_>,
+        repeats: u32,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<BlackResult, VerifyError> {
+        let drive = drive_for(&self.prepared, Xyz::default(), self.spot_uv);
+        let patch = Patch::Drive(drive);
+        let mut sum = Xyz::default();
+        let n = repeats.max(1);
+        for _ in 0..n {
+            sum = sum + s.sample(patch, true, progress)?.unwrap_or_default();
+        }
+        let measured = sum * (1.0 / f64::from(n));
+        let expected = Xyz::from_array(self.profile.shown_black_xyz_cd_m2);
+        Ok(BlackResult {
+            display: self.profile.display.clone(),
+            expected,
+            measured,
+            delta_l_percent: delta_l_percent(expected, measured),
+            delta_xy: delta_xy(expected, measured),
+        })
+    }
+}
+
 /// Verifies every display: shows each target through its profile, reads it and
 /// compares. `displays` and `profiles` are matched by display index.
 pub fn verify_wall(
@@ -537,45 +598,22 @@ pub fn verify_wall(
             .find(|p| p.display.display == info.id.0 && p.display.eye == info.eye)
             .ok_or_else(|| VerifyError::MissingProfile(info.name.clone()))?;
         let key = &profile.display;
-        let prepared = PreparedProfile::new(profile, &ApplyOptions::default())?;
-        let reference_white =
-            expected_shown(profile, Xyz::from_array(profile.target_white_xyz_cd_m2));
+        let display = DisplayUnderTest {
+            profile,
+            prepared: PreparedProfile::new(profile, &ApplyOptions::default())?,
+            spot_uv: opts.spot_uv,
+            reference_white: expected_shown(
+                profile,
+                Xyz::from_array(profile.target_white_xyz_cd_m2),
+            ),
+        };
         let mut s = Session::start(rig, key, info.id, opts.spot_uv, &mopts)?;
         let start = patches.len();
         for t in targets {
-            let drive = drive_for(&prepared, t.xyz, opts.spot_uv);
-            let measured = s
-                .sample(Patch::Drive(drive), true, progress)?
-                .unwrap_or_default();
-            let expected = expected_shown(profile, t.xyz);
-            patches.push(PatchResult {
-                display: key.clone(),
-                target: t.name.clone(),
-                drive,
-                expected,
-                measured,
-                delta_l_percent: delta_l_percent(expected, measured),
-                delta_xy: delta_xy(expected, measured),
-                delta_e2000: delta_e2000_xyz(expected, measured, reference_white),
-            });
+            patches.push(display.read_target(&mut s, t, progress)?);
         }
         if profile.black_mode == BlackMode::Common {
-            let drive = drive_for(&prepared, Xyz::default(), opts.spot_uv);
-            let patch = Patch::Drive(drive);
-            let mut sum = Xyz::default();
-            let n = opts.black_repeats.max(1);
-            for _ in 0..n {
-                sum = sum + s.sample(patch, true, progress)?.unwrap_or_default();
-            }
-            let measured = sum * (1.0 / f64::from(n));
-            let expected = Xyz::from_array(profile.shown_black_xyz_cd_m2);
-            black.push(BlackResult {
-                display: key.clone(),
-                expected,
-                measured,
-                delta_l_percent: delta_l_percent(expected, measured),
-                delta_xy: delta_xy(expected, measured),
-            });
+            black.push(display.read_black(&mut s, opts.black_repeats, progress)?);
         }
         readings += s.log.readings;
         per_display.push((key.clone(), Summary::of(&patches[start..])));

@@ -263,3 +263,16 @@ fn too_small_budget_is_refused() {
     ));
     assert_eq!(bench.reading, 0);
 }
+
+#[test]
+fn patch_channels_are_logged_as_indices() {
+    use lumiwall_calib::measure::Patch;
+    use lumiwall_core::Channel;
+    let ramp = Patch::Ramp(Channel::Blue, 0.5);
+    let json = serde_json::to_string(&ramp).unwrap();
+    assert_eq!(json, r#"{"ramp":[2,0.5]}"#);
+    assert_eq!(serde_json::from_str::<Patch>(&json).unwrap(), ramp);
+    let primary = serde_json::to_string(&Patch::Primary(Channel::Green)).unwrap();
+    assert_eq!(primary, r#"{"primary":1}"#);
+    assert!(serde_json::from_str::<Patch>(r#"{"primary":3}"#).is_err());
+}

@@ -5,12 +5,16 @@
 //!
 //! `cargo test -p lumiwall-calib --test solve -- --nocapture` prints the numbers.
 
+mod common;
+
+use common::Lcg;
 use lumiwall_calib::CalibError;
 use lumiwall_calib::colorimetry::{cct_to_xy, delta_e2000_xyz};
 use lumiwall_calib::solve::{
-    DisplayMeasurement, SolveOptions, WallSolution, WhiteTarget, solve_wall,
+    DisplayMeasurement, Limiting, SolveOptions, SolveWarning, WallSolution, WhiteTarget, solve_wall,
 };
 use lumiwall_calib::tone::suggest_next_drive;
+use lumiwall_core::Channel;
 use lumiwall_devices::Xyz;
 use lumiwall_profiles::{BlackMode, DisplayKey, DisplayProfile, Eye, OutOfGamut};
 use nalgebra::{Matrix3, Vector3};
@@ -113,37 +117,34 @@ fn options(mode: BlackMode, headroom: f64) -> SolveOptions {
     }
 }
 
+/// Full-drive primaries `(x, y, Y cd/m²)` and black `(x, y, Y)` of one projector.
+type ProjectorXy = ([(f64, f64, f64); 3], (f64, f64, f64));
+
 /// Three different projectors: gamuts, luminances, gammas and blacks all differ.
+#[rustfmt::skip]
+const WALL_XY: [ProjectorXy; 3] = [
+    ([(0.640, 0.330, 60.0), (0.300, 0.600, 190.0), (0.150, 0.060, 20.0)], (0.30, 0.31, 0.40)),
+    ([(0.660, 0.320, 45.0), (0.280, 0.640, 260.0), (0.145, 0.052, 14.0)], (0.27, 0.25, 0.55)),
+    ([(0.620, 0.345, 80.0), (0.310, 0.590, 150.0), (0.155, 0.070, 25.0)], (0.33, 0.36, 0.25)),
+];
+
+/// The projectors of [`WALL_XY`] with these tone curves.
 fn wall(curves: [[Curve; 3]; 3]) -> Vec<Model> {
-    vec![
-        Model::from_xy(
-            [
-                (0.640, 0.330, 60.0),
-                (0.300, 0.600, 190.0),
-                (0.150, 0.060, 20.0),
-            ],
-            (0.30, 0.31, 0.40),
-            curves[0],
-        ),
-        Model::from_xy(
-            [
-                (0.660, 0.320, 45.0),
-                (0.280, 0.640, 260.0),
-                (0.145, 0.052, 14.0),
-            ],
-            (0.27, 0.25, 0.55),
-            curves[1],
-        ),
-        Model::from_xy(
-            [
-                (0.620, 0.345, 80.0),
-                (0.310, 0.590, 150.0),
-                (0.155, 0.070, 25.0),
-            ],
-            (0.33, 0.36, 0.25),
-            curves[2],
-        ),
-    ]
+    WALL_XY
+        .iter()
+        .zip(curves)
+        .map(|((prim, black), c)| Model::from_xy(*prim, *black, c))
+        .collect()
+}
+
+/// Every model measured with `ramp_samples` adaptive samples per channel, display
+/// index = position.
+fn measure_all(models: &[Model], ramp_samples: usize) -> Vec<DisplayMeasurement> {
+    models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| m.measure(i as u32, ramp_samples))
+        .collect()
 }
 
 /// The post pass of profiles/src/profile.rs, written out here: lin = M·xyz + offset,
@@ -193,8 +194,8 @@ fn check_usage(sol: &WallSolution, headroom: f64) {
         (max - headroom).abs() < 1e-12,
         "max usage {max} vs headroom {headroom}"
     );
-    let (d, c) = sol.limiting;
-    assert!((sol.profiles[d].channel_usage[c] - headroom).abs() < 1e-12);
+    let Limiting { display, channel } = sol.limiting;
+    assert!((sol.profiles[display].channel_usage[channel.index()] - headroom).abs() < 1e-12);
 }
 
 fn max_delta_e(models: &[Model], sol: &WallSolution, mode: BlackMode) -> f64 {
@@ -227,11 +228,7 @@ fn profiles_invert_the_model_in_every_black_mode() {
         [Curve::Power(1.8), Curve::Power(2.5), Curve::Power(2.2)],
     ];
     let models = wall(curves);
-    let meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 5))
-        .collect();
+    let meas = measure_all(&models, 5);
     for (mode, headroom) in [
         (BlackMode::Individual, 1.0),
         (BlackMode::Common, 1.0),
@@ -244,7 +241,7 @@ fn profiles_invert_the_model_in_every_black_mode() {
         let w = sol.white_xyz_cd_m2;
         println!(
             "{mode:?} headroom {headroom}: white {:.2} cd/m², limited by display {} channel {}, max ΔE2000 over 64 colours × 3 displays = {de:.4}",
-            w.y, sol.limiting.0, sol.limiting.1
+            w.y, sol.limiting.display, sol.limiting.channel
         );
         assert!(de < 0.05, "{mode:?}: ΔE2000 {de}");
         let xy = w.xy().unwrap();
@@ -262,11 +259,7 @@ fn s_curves_from_ten_adaptive_samples() {
         [Curve::S(7.5), Curve::Power(2.2), Curve::S(6.5)],
     ]);
     for n in [6, 8, 10, 14] {
-        let meas: Vec<DisplayMeasurement> = models
-            .iter()
-            .enumerate()
-            .map(|(i, m)| m.measure(i as u32, n))
-            .collect();
+        let meas = measure_all(&models, n);
         let sol = solve_wall(&meas, &options(BlackMode::Individual, 1.0)).unwrap();
         let de = max_delta_e(&models, &sol, BlackMode::Individual);
         println!(
@@ -282,11 +275,7 @@ fn s_curves_from_ten_adaptive_samples() {
 #[test]
 fn common_black_is_equal_on_all_displays_and_minimal() {
     let models = wall([[Curve::Power(2.2); 3]; 3]);
-    let meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 4))
-        .collect();
+    let meas = measure_all(&models, 4);
     let sol = solve_wall(&meas, &options(BlackMode::Common, 1.0)).unwrap();
     let cb = sol.common_black_xyz_cd_m2;
     let mut worst_lut = 0.0_f64;
@@ -320,13 +309,8 @@ fn common_black_is_equal_on_all_displays_and_minimal() {
     };
     let c0 = Vector3::new(cb.x, cb.y, cb.z);
     assert!(feasible(c0 + Vector3::from_element(1e-9)));
-    let mut state: u64 = 7;
-    let mut rnd = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    };
+    let mut lcg = Lcg::new(7);
+    let mut rnd = || lcg.signed();
     let mut found_lower = 0;
     for _ in 0..20000 {
         let c = c0 + Vector3::new(rnd(), rnd(), rnd()) * 0.3;
@@ -348,11 +332,7 @@ fn green_only_ten_percent_usable_works_and_is_reported() {
     let mut models = wall([[Curve::Power(2.2); 3]; 3]);
     // Right-eye Infitec projector: green far too strong relative to the others.
     models[1].p[1] = models[1].p[1] * 6.0;
-    let meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 4))
-        .collect();
+    let meas = measure_all(&models, 4);
     let sol = solve_wall(&meas, &options(BlackMode::Individual, 1.0)).unwrap();
     let g = sol.profiles[1].channel_usage[1];
     println!(
@@ -361,11 +341,11 @@ fn green_only_ten_percent_usable_works_and_is_reported() {
         sol.warnings
     );
     assert!(g > 0.05 && g < 0.12, "{g}");
-    assert!(
-        sol.warnings
-            .iter()
-            .any(|w| w.contains("display 1") && w.contains("green"))
-    );
+    let display_1 = meas[1].key.to_string();
+    assert!(sol.warnings.iter().any(|w| matches!(
+        w,
+        SolveWarning::LowChannelUsage { display, channel: Channel::Green, .. } if *display == display_1
+    )));
     check_usage(&sol, 1.0);
     assert!(max_delta_e(&models, &sol, BlackMode::Individual) < 0.05);
 }
@@ -378,11 +358,7 @@ fn black_above_the_white_is_a_typed_error_naming_the_display() {
         models[0].p[c] = models[0].p[c] * 0.025;
     }
     models[2].black = Xyz::from_xy_luminance(0.31, 0.33, 12.0);
-    let meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 4))
-        .collect();
+    let meas = measure_all(&models, 4);
     let err = solve_wall(&meas, &options(BlackMode::Individual, 1.0)).unwrap_err();
     let msg = err.to_string();
     println!("individual: {msg}");
@@ -423,11 +399,7 @@ fn collinear_primaries_are_an_error_naming_the_display() {
     let mut models = wall([[Curve::Power(2.2); 3]; 3]);
     // Display 2's blue sits on the line between its red and green.
     models[2].p[2] = (models[2].p[0] + models[2].p[1]) * 0.1;
-    let meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 4))
-        .collect();
+    let meas = measure_all(&models, 4);
     let err = solve_wall(&meas, &options(BlackMode::Individual, 1.0)).unwrap_err();
     println!("{err}");
     assert!(matches!(err, CalibError::DegeneratePrimaries { .. }));
@@ -437,11 +409,7 @@ fn collinear_primaries_are_an_error_naming_the_display() {
 #[test]
 fn noisy_non_monotone_ramp_gives_a_valid_profile() {
     let models = wall([[Curve::Power(2.2); 3]; 3]);
-    let mut meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 8))
-        .collect();
+    let mut meas = measure_all(&models, 8);
     // Swap two neighbouring readings of display 1's red ramp and add 3 % noise.
     let ramp = &mut meas[1].ramps[0];
     ramp.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -457,11 +425,7 @@ fn noisy_non_monotone_ramp_gives_a_valid_profile() {
 #[test]
 fn nan_and_negative_readings_are_errors() {
     let models = wall([[Curve::Power(2.2); 3]; 3]);
-    let base: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 4))
-        .collect();
+    let base = measure_all(&models, 4);
     let mut m = base.clone();
     m[1].ramps[2][1].1.y = f64::NAN;
     let err = solve_wall(&m, &options(BlackMode::Individual, 1.0)).unwrap_err();
@@ -495,11 +459,7 @@ fn nan_and_negative_readings_are_errors() {
 #[test]
 fn white_targets_and_additivity() {
     let models = wall([[Curve::Power(2.2); 3]; 3]);
-    let mut meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 4))
-        .collect();
+    let mut meas = measure_all(&models, 4);
     let mut o = options(BlackMode::Individual, 1.0);
     o.white = WhiteTarget::NativeOf(2);
     let sol = solve_wall(&meas, &o).unwrap();
@@ -537,24 +497,19 @@ fn white_targets_and_additivity() {
         .sqrt()
         / meas[0].white.unwrap().y;
     assert!((e - expected).abs() < 1e-12, "{e} vs {expected}");
-    assert!(
-        sol.warnings
-            .iter()
-            .any(|w| w.contains("additivity") && w.contains("display 0"))
-    );
+    let display_0 = meas[0].key.to_string();
+    assert!(sol.warnings.iter().any(|w| matches!(
+        w,
+        SolveWarning::Additivity { display, .. } if *display == display_0
+    )));
 }
 
 #[test]
 fn heyewall_sized_wall_of_96_displays() {
     // 48 projectors × 2 eyes: per-display variations of primaries, blacks and gammas.
     let base = wall([[Curve::Power(2.2); 3]; 3]);
-    let mut state: u64 = 99;
-    let mut rnd = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    };
+    let mut lcg = Lcg::new(99);
+    let mut rnd = || lcg.signed();
     let mut models = Vec::new();
     for i in 0..96 {
         let mut m = base[i % 3].clone();
@@ -567,11 +522,7 @@ fn heyewall_sized_wall_of_96_displays() {
         m.black = m.black * (1.0 + 0.5 * rnd());
         models.push(m);
     }
-    let meas: Vec<DisplayMeasurement> = models
-        .iter()
-        .enumerate()
-        .map(|(i, m)| m.measure(i as u32, 5))
-        .collect();
+    let meas = measure_all(&models, 5);
     let mut o = options(BlackMode::Common, 0.9);
     o.lut_entries = 1024;
     o.white = WhiteTarget::Xy([0.291, 0.300]);
@@ -582,9 +533,47 @@ fn heyewall_sized_wall_of_96_displays() {
         t0.elapsed().as_secs_f64(),
         sol.white_xyz_cd_m2.y,
         sol.common_black_xyz_cd_m2.y,
-        sol.limiting.0,
-        sol.limiting.1
+        sol.limiting.display,
+        sol.limiting.channel
     );
     assert_eq!(sol.profiles.len(), 96);
     check_usage(&sol, 0.9);
+}
+
+#[test]
+fn solve_warnings_print_the_report_text() {
+    let low = SolveWarning::LowChannelUsage {
+        display: "d1".into(),
+        channel: Channel::Green,
+        usage: 0.1,
+        bit_depth: lumiwall_core::BitDepth::TEN,
+    };
+    assert_eq!(
+        low.to_string(),
+        "d1: green channel only 10 % used for the white; fewer than 102 of 1024 code values carry the image (consider lowering this channel in the projector's service menu, Kresse 3.3.9)"
+    );
+    let outside = SolveWarning::WhiteOutsideCommonGamut {
+        white_xy: lumiwall_core::Xy::new(0.3127, 0.329),
+    };
+    assert_eq!(
+        outside.to_string(),
+        "target white xy (0.3127, 0.3290) lies outside the common gamut triangle"
+    );
+    let black = SolveWarning::BlackOutsideOwnGamut {
+        display: "d0".into(),
+        intensities: [-0.001, 0.0, 0.002],
+    };
+    assert_eq!(
+        black.to_string(),
+        "d0: black lies outside its own gamut (channel intensities -0.0010, 0.0000, 0.0020)"
+    );
+    let additivity = SolveWarning::Additivity {
+        display: "d2".into(),
+        error: 0.1,
+        limit: 0.02,
+    };
+    assert_eq!(
+        additivity.to_string(),
+        "d2: additivity error 10.0 % (|W − (R+G+B−2·black)| / Y_W) exceeds 2.0 %; the matrix model will be off by about that much"
+    );
 }

@@ -4,6 +4,9 @@
 //!
 //! `cargo test -p lumiwall-calib --test tone -- --nocapture` prints the errors reached.
 
+mod common;
+
+use common::Lcg;
 use lumiwall_calib::CalibError;
 use lumiwall_calib::tone::{fit_monotone_named, fit_tone_curve, suggest_next_drive};
 use lumiwall_profiles::ToneCurve;
@@ -104,13 +107,8 @@ fn s_curve_from_adaptive_samples() {
 fn noisy_non_monotone_ramp_gives_monotone_curve() {
     // Deterministic ±4 % multiplicative noise plus ±0.004 absolute noise (meter floor),
     // from a fixed LCG; neighbours near black come out of order.
-    let mut state: u64 = 0x2545_f491_4f6c_dd1d;
-    let mut rnd = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    };
+    let mut lcg = Lcg::new(0x2545_f491_4f6c_dd1d);
+    let mut rnd = || lcg.signed();
     let truth = |d: f64| d.powf(2.3);
     let mut samples = Vec::new();
     for k in 0..=30 {

@@ -17,7 +17,7 @@ use lumiwall_calib::commission::{CommissionOptions, CommissionOutcome};
 use lumiwall_calib::measure::{LowLight, MeasureOptions, Progress};
 use lumiwall_calib::solve::{SolveOptions, WhiteTarget};
 use lumiwall_calib::station::{MeterChoice, Noise, Station, StationOptions};
-use lumiwall_core::{Channel, Headroom};
+use lumiwall_core::Headroom;
 use lumiwall_devices::DisplayInfo;
 use lumiwall_devices::serial::FaultPlan;
 use lumiwall_profiles::{BlackMode, MIN_LUT_ENTRIES, OutOfGamut, ProfileSet};
@@ -291,9 +291,12 @@ fn print_outcome(o: &CommissionOutcome, elapsed: Duration) {
     print_readings(o, elapsed);
     print_white_and_gamut(o);
     let s = &o.solution;
-    if let Some(p) = s.profiles.get(s.limiting.0) {
-        let channel = Channel::from_index(s.limiting.1.min(2)).unwrap_or(Channel::Blue);
-        println!("limiting: {} {} channel", p.display, channel.name());
+    if let Some(p) = s.profiles.get(s.limiting.display) {
+        println!(
+            "limiting: {} {} channel",
+            p.display,
+            s.limiting.channel.name()
+        );
     }
     if let Some(c) = &o.meter_correction {
         println!(

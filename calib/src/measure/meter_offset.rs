@@ -162,16 +162,7 @@ impl MeterCorrection {
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(|a, b| a.total_cmp(b));
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
+    crate::verify::median(&mut v)
 }
 
 /// Wall-level estimate: the component-wise median of the per-display estimates of
@@ -229,9 +220,9 @@ impl Colorimeter for CorrectedMeter<'_> {
 mod tests {
     use super::*;
 
-    /// A noisy saturated blue (Z 5 % high) is pulled back by an exact white.
-    #[test]
-    fn fusion_fixes_a_noisy_saturated_primary() {
+    /// An exactly additive display: black, R, G, B (a saturated Infitec-like blue) and
+    /// `W = R + G + B − 2·K`.
+    fn additive_display() -> (Xyz, [Xyz; 3], Xyz) {
         let k = Xyz::new(0.3, 0.3, 0.5);
         let p = [
             Xyz::new(110.0, 55.0, 0.8),
@@ -239,6 +230,13 @@ mod tests {
             Xyz::new(46.0, 6.0, 246.0),
         ];
         let w = p[0] + p[1] + p[2] - k * 2.0;
+        (k, p, w)
+    }
+
+    /// A noisy saturated blue (Z 5 % high) is pulled back by an exact white.
+    #[test]
+    fn fusion_fixes_a_noisy_saturated_primary() {
+        let (k, p, w) = additive_display();
         let mut noisy = p;
         noisy[2] = Xyz::new(46.0 * 1.05, 6.0, 246.0 * 1.05);
         let fused = fuse_with_white(k, &noisy, w, 3.0, 1e4).expect("fused");
@@ -249,17 +247,12 @@ mod tests {
         assert!(fuse_with_white(k, &p, w * 1.3, 3.0, 25.0).is_none());
     }
 
-    /// Readings of an additive display through a meter with a known xy offset: the
-    /// estimate recovers the offset.
+    /// Readings of an additive display through a meter with a known offset in x and y:
+    /// the estimate recovers the y part (to 2e-5) and leaves x at 0, which is linear in
+    /// XYZ, so the corrected readings are additive again.
     #[test]
-    fn recovers_a_known_offset() {
-        let k = Xyz::new(0.3, 0.3, 0.5);
-        let p = [
-            Xyz::new(110.0, 55.0, 0.8),
-            Xyz::new(8.0, 47.0, 4.5),
-            Xyz::new(46.0, 6.0, 246.0),
-        ];
-        let w = p[0] + p[1] + p[2] - k * 2.0;
+    fn recovers_the_y_part_of_a_known_offset_and_restores_additivity() {
+        let (k, p, w) = additive_display();
         let off = [0.003, -0.0035];
         let read = |v: Xyz| correct(v, [-off[0], -off[1]]);
         let (d, before, after) = estimate_offset(read(k), &p.map(read), read(w)).expect("estimate");
@@ -273,13 +266,7 @@ mod tests {
 
     #[test]
     fn additive_readings_give_zero_offset() {
-        let k = Xyz::new(0.3, 0.3, 0.5);
-        let p = [
-            Xyz::new(110.0, 55.0, 0.8),
-            Xyz::new(8.0, 47.0, 4.5),
-            Xyz::new(46.0, 6.0, 246.0),
-        ];
-        let w = p[0] + p[1] + p[2] - k * 2.0;
+        let (k, p, w) = additive_display();
         let (d, _, after) = estimate_offset(k, &p, w).expect("estimate");
         assert!(d[0].abs() < 1e-9 && d[1].abs() < 1e-9 && after < 1e-9);
     }
