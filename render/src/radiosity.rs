@@ -34,6 +34,7 @@ pub use reference::solve_dense_reference;
 pub use solution::{Patch, Solution, SolveStats};
 pub use visibility::{BvhOccluders, NoOccluders, SceneOccluders, Visibility};
 
+use std::sync::atomic::AtomicU64;
 use std::time::Instant;
 
 use crate::scene::Scene;
@@ -58,6 +59,17 @@ pub enum RadiosityError {
         /// What failed.
         message: String,
     },
+}
+
+/// Visibility work of a solve, counted from parallel workers.
+#[derive(Debug, Default)]
+pub(crate) struct RayCounters {
+    /// Shadow rays cast.
+    pub(crate) rays: AtomicU64,
+    /// Pairs classified possibly occluded (shadow rays needed).
+    pub(crate) tested: AtomicU64,
+    /// Pairs classified fully visible (no shadow rays).
+    pub(crate) skipped: AtomicU64,
 }
 
 /// When a solve started and when its time limit runs out.

@@ -36,12 +36,12 @@ pub use sweep::Basis;
 use super::curve::{CurvePoint, ErrorCurve, StopReason, StopRule};
 use super::solution::{Patch, Solution, SolveStats};
 use super::visibility::Visibility;
-use super::{RadiosityError, SolveClock};
+use super::{RadiosityError, RayCounters, SolveClock};
 use emitters::Emitter;
 use nodes::{Hierarchy, Node};
 use sampling::NS;
 use sweep::State;
-use transfer::{CLink, Counters, Ctx, Overlap, PLink, eval_clink};
+use transfer::{CLink, Ctx, Overlap, PLink, eval_clink};
 
 /// Options of the hierarchical solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -128,7 +128,7 @@ pub fn solve_hierarchical(
         emitters: &emitters,
         vis,
         far: 4.0 * (hi - lo).norm() + 1.0,
-        counters: Counters::default(),
+        counters: RayCounters::default(),
     };
     let mut solver = Solver::new(&ctx, hierarchy, opts, clock);
     let stop = solver.run()?;

@@ -10,6 +10,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::scene::{Scene, V3, polygon_area_m2, polygon_normal};
 
+pub(crate) use super::RayCounters;
 use super::curve::{CurvePoint, ErrorCurve, StopReason, StopRule};
 use super::form_factor::point_to_polygon;
 use super::quadrature;
@@ -160,17 +161,6 @@ pub(crate) fn scene_extent(scene: &Scene) -> f64 {
         }
     }
     (hi - lo).norm()
-}
-
-/// Visibility work of a uniform-mesh solve, counted from parallel workers.
-#[derive(Debug, Default)]
-pub(crate) struct RayCounters {
-    /// Shadow rays cast.
-    pub(crate) rays: AtomicU64,
-    /// Element pairs classified possibly occluded (shadow rays needed).
-    pub(crate) tested: AtomicU64,
-    /// Element pairs classified fully visible (no shadow rays).
-    pub(crate) skipped: AtomicU64,
 }
 
 /// Reflectance and emitted exitance (π·L, lm/m²) of every element of a uniform mesh.

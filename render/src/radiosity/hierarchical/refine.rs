@@ -76,7 +76,7 @@ fn receiver_variation(corners: usize, ks: &[f64; NS], basis: Basis) -> f64 {
 /// included: Kresse's F_min weighted by the visible part), a peak between the samples
 /// (the analytic maximum), and the visibility sampling. The same mean (L1) deviations
 /// the estimate reports.
-fn receiver_error(l: &PLink, corners: usize, scale: f64, sig_hi: f64, basis: Basis) -> f64 {
+fn receiver_error(l: &PLink, corners: usize, scale: f64, strength_max: f64, basis: Basis) -> f64 {
     let ks: [f64; NS] = l.ks.map(|v| scale * f64::from(v));
     let k = scale * f64::from(l.k);
     // A shadow edge across the receiver (the samples' visibility differs) is no
@@ -90,7 +90,7 @@ fn receiver_error(l: &PLink, corners: usize, scale: f64, sig_hi: f64, basis: Bas
         Basis::Auto => constant.min(linear_error(corners, &ks, constant)),
     };
     let peak = (scale * f64::from(l.kmax) - ks.iter().fold(0.0, |a: f64, &b| a.max(b))).max(0.0);
-    (shape + 0.25 * peak + k * f64::from(l.rel_vis)) * sig_hi
+    (shape + 0.25 * peak + k * f64::from(l.rel_vis)) * strength_max
 }
 
 #[allow(
@@ -111,27 +111,27 @@ fn decide_plink(
         return Some(Split::Sender);
     }
     let pa = &h.patches[r];
-    let wa = error_weight(st.rho[pa.polygon as usize][1]) * pa.area;
+    let weighted_area = error_weight(st.rho[pa.polygon as usize][1]) * pa.area;
     // Kresse's ΔE = ρA(F_max·B_max − F_min·B_min), taken apart into its receiver
     // part (the form factor's variation) and its sender part (the radiosity's)
     let t = st.sender(h, ctx.emitters, l.src, &pa.centre);
     let (k, scale) = l.corrected(&t.shift);
-    let de_recv = wa * receiver_error(l, pa.nv.min(4), scale, t.hi, lim.basis);
-    let de_send = wa * k * (t.spread + t.sig[1] * t.rel);
-    if de_recv + de_send <= eps {
+    let receiver_error_lm = weighted_area * receiver_error(l, pa.nv.min(4), scale, t.hi, lim.basis);
+    let sender_error_lm = weighted_area * k * (t.spread + t.sig[1] * t.rel);
+    if receiver_error_lm + sender_error_lm <= eps {
         return None;
     }
-    let can_s = splittable(h, l.src, lim);
-    if can_s && de_send >= de_recv {
+    let sender_splittable = splittable(h, l.src, lim);
+    if sender_splittable && sender_error_lm >= receiver_error_lm {
         return Some(Split::Sender);
     }
-    if flat && de_send <= 0.5 * eps {
+    if flat && sender_error_lm <= 0.5 * eps {
         // the variations of the receiver's links cancel
         return None;
     }
     if splittable(h, Node::patch(r), lim) {
         Some(Split::Receiver)
-    } else if can_s {
+    } else if sender_splittable {
         Some(Split::Sender)
     } else {
         None
@@ -147,14 +147,16 @@ fn decide_clink(
     eps: f64,
     lim: &Limits,
 ) -> Option<Split> {
-    let can_s = splittable(h, l.src, lim);
+    let sender_splittable = splittable(h, l.src, lim);
     match l.overlap {
         Overlap::Near => {
-            return Some(if can_s && area(h, l.src) > h.clusters[r].area {
-                Split::Sender
-            } else {
-                Split::Receiver
-            });
+            return Some(
+                if sender_splittable && area(h, l.src) > h.clusters[r].area {
+                    Split::Sender
+                } else {
+                    Split::Receiver
+                },
+            );
         }
         Overlap::Plane => return Some(Split::Receiver),
         Overlap::None => {}
@@ -181,7 +183,7 @@ fn decide_clink(
         return None;
     }
     let rel_send = v * rel_send;
-    Some(if can_s && rel_send > rel_recv {
+    Some(if sender_splittable && rel_send > rel_recv {
         Split::Sender
     } else {
         Split::Receiver

@@ -49,10 +49,10 @@ impl Samples {
             let gl = quadrature::gauss_legendre_01(3);
             let mut total = 0.0;
             let mut k = 0;
-            for &(s, ws) in gl {
+            for &(s, weight_s) in gl {
                 for &(t, wt) in gl {
                     pts[k] = quadrature::map_unit_square(verts, s, t);
-                    w[k] = ws * wt * quad_jacobian(verts, s, t);
+                    w[k] = weight_s * wt * quad_jacobian(verts, s, t);
                     total += w[k];
                     k += 1;
                 }

@@ -402,19 +402,19 @@ impl State {
         let mut out = [0.0; 6];
         for (r, links) in plinks.iter().enumerate() {
             let pa = &h.patches[r];
-            let wa = error_weight(self.rho[pa.polygon as usize][1]) * pa.area;
+            let weighted_area = error_weight(self.rho[pa.polygon as usize][1]) * pa.area;
             for l in links {
                 let t = self.sender(h, emitters, l.src, &pa.centre);
                 let (k, _) = l.corrected(&t.shift);
                 match l.src.kind() {
-                    Kind::Patch(_) => out[0] += wa * k * t.spread,
+                    Kind::Patch(_) => out[0] += weighted_area * k * t.spread,
                     Kind::Cluster(_) => {
-                        out[1] += wa * k * t.spread;
-                        out[2] += wa * k * t.sig[1] * t.rel;
+                        out[1] += weighted_area * k * t.spread;
+                        out[2] += weighted_area * k * t.sig[1] * t.rel;
                     }
                     Kind::Emitter(_) => {}
                 }
-                out[3] += wa * k * t.sig[1] * f64::from(l.rel_vis);
+                out[3] += weighted_area * k * t.sig[1] * f64::from(l.rel_vis);
             }
         }
         for (r, _) in clinks.iter().enumerate() {

@@ -5,10 +5,11 @@
 //! only for pairs it cannot declare fully visible (2.7), and "fully visible" inherited
 //! by every sub-link without a new test.
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::Ordering;
 
 use crate::scene::{Scene, V3};
 
+use super::super::RayCounters;
 use super::super::form_factor::point_to_polygon;
 use super::super::quadrature;
 use super::super::visibility::{Visibility, point_in_convex};
@@ -19,14 +20,6 @@ use super::sampling::{NS, Samples};
 /// Random points per cluster end for the shadow rays of a cluster link.
 const CLUSTER_RAYS: usize = 4;
 
-/// Work counters of a solve.
-#[derive(Debug, Default)]
-pub(super) struct Counters {
-    pub rays: AtomicU64,
-    pub tested: AtomicU64,
-    pub skipped: AtomicU64,
-}
-
 /// What link evaluation needs besides the hierarchy.
 pub(super) struct Ctx<'a> {
     pub scene: &'a Scene,
@@ -34,7 +27,7 @@ pub(super) struct Ctx<'a> {
     pub vis: &'a dyn Visibility,
     /// A length beyond the scene, for rays towards distant sources.
     pub far: f64,
-    pub counters: Counters,
+    pub counters: RayCounters,
 }
 
 /// A link whose receiver is a patch element. The irradiance it brings is `k·σ` with σ
