@@ -445,45 +445,32 @@ impl<'a, 'c> Solver<'a, 'c> {
 
     /// The solution: the leaves and the statistics.
     fn finish(self, stop: StopReason) -> Solution {
-        let Self {
-            ctx,
-            opts,
-            clock,
-            h,
-            st,
-            plinks,
-            clinks,
-            eps,
-            curve,
-            iterations,
-            extrapolations,
-            linear_leaves,
-            ..
-        } = self;
+        let h = &self.h;
         let patches: Vec<Patch> = (0..h.patches.len())
             .filter(|&p| h.patches[p].is_leaf())
-            .map(|p| output_patch(&h, &st, p, opts.basis, eps))
+            .map(|p| output_patch(h, &self.st, p, self.opts.basis, self.eps))
             .collect();
-        let by_polygon = Solution::index(&patches, ctx.scene.polygons.len());
+        let by_polygon = Solution::index(&patches, self.ctx.scene.polygons.len());
+        let counters = &self.ctx.counters;
         let stats = SolveStats {
             patches: patches.len(),
             elements: h.patches.len() + h.clusters.len(),
-            links: link_count(&plinks, &clinks),
-            iterations,
-            shadow_rays: ctx.counters.rays.load(Ordering::Relaxed),
-            visibility_skipped: ctx.counters.skipped.load(Ordering::Relaxed),
-            visibility_tested: ctx.counters.tested.load(Ordering::Relaxed),
-            memory_bytes: memory_estimate(&h, &plinks, &clinks),
-            time_s: clock.elapsed_s(),
-            extrapolations,
+            links: link_count(&self.plinks, &self.clinks),
+            iterations: self.iterations,
+            shadow_rays: counters.rays.load(Ordering::Relaxed),
+            visibility_skipped: counters.skipped.load(Ordering::Relaxed),
+            visibility_tested: counters.tested.load(Ordering::Relaxed),
+            memory_bytes: memory_estimate(h, &self.plinks, &self.clinks),
+            time_s: self.clock.elapsed_s(),
+            extrapolations: self.extrapolations,
             clusters: h.clusters.len(),
-            cluster_links: clinks.iter().map(Vec::len).sum(),
-            linear_patches: linear_leaves,
+            cluster_links: self.clinks.iter().map(Vec::len).sum(),
+            linear_patches: self.linear_leaves,
         };
         Solution {
             patches,
             by_polygon,
-            curve,
+            curve: self.curve,
             stop,
             stats,
         }
