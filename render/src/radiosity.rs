@@ -34,6 +34,9 @@ pub use reference::solve_dense_reference;
 pub use solution::{Patch, Solution, SolveStats};
 pub use visibility::{BvhOccluders, NoOccluders, SceneOccluders, Visibility};
 
+use std::sync::atomic::AtomicU64;
+use std::time::Instant;
+
 use crate::scene::Scene;
 
 /// Why a radiosity solve failed.
@@ -56,6 +59,48 @@ pub enum RadiosityError {
         /// What failed.
         message: String,
     },
+}
+
+/// Visibility work of a solve, counted from parallel workers.
+#[derive(Debug, Default)]
+pub(crate) struct RayCounters {
+    /// Shadow rays cast.
+    pub(crate) rays: AtomicU64,
+    /// Pairs classified possibly occluded (shadow rays needed).
+    pub(crate) tested: AtomicU64,
+    /// Pairs classified fully visible (no shadow rays).
+    pub(crate) skipped: AtomicU64,
+}
+
+/// When a solve started and when its time limit runs out.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct SolveClock {
+    /// The start of the solve.
+    pub(crate) start: Instant,
+    /// Start plus the stop rule's time limit, if any.
+    pub(crate) deadline: Option<Instant>,
+}
+
+impl SolveClock {
+    /// Starts the clock and validates the scene and the target error.
+    pub(crate) fn start(scene: &Scene, stop: &StopRule) -> Result<Self, RadiosityError> {
+        let start = Instant::now();
+        validate(scene, stop.target_error)?;
+        Ok(Self {
+            start,
+            deadline: stop.time_limit.map(|t| start + t),
+        })
+    }
+
+    /// Seconds since the start.
+    pub(crate) fn elapsed_s(&self) -> f64 {
+        self.start.elapsed().as_secs_f64()
+    }
+
+    /// Whether the time limit has passed.
+    pub(crate) fn past_deadline(&self) -> bool {
+        self.deadline.is_some_and(|d| Instant::now() > d)
+    }
 }
 
 pub(crate) fn validate(scene: &Scene, target: f64) -> Result<(), RadiosityError> {

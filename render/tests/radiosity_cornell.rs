@@ -2,16 +2,17 @@
 //! both solvers and compared with a dense brute-force reference on a uniform mesh. The
 //! full error-vs-time table is `lumiwall bench radiosity`; this is the fast CI version.
 
+mod radiosity_support;
+
 use std::path::PathBuf;
-use std::time::Duration;
 
 use lumiwall_render::radiosity::{
-    HierarchicalOptions, ProgressiveOptions, SceneOccluders, StopRule, solve_dense_reference,
-    solve_hierarchical, solve_progressive,
+    ProgressiveOptions, SceneOccluders, Solution, solve_dense_reference, solve_progressive,
 };
-use lumiwall_render::scene::load_scene;
+use lumiwall_render::scene::{Scene, load_scene};
+use radiosity_support::{solve_hierarchical_with, stop_rule};
 
-fn cornell() -> lumiwall_render::scene::Scene {
+fn cornell() -> Scene {
     let p =
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/scenes/cornell/cornell.toml");
     load_scene(&p).unwrap().0
@@ -22,20 +23,8 @@ fn both_solvers_agree_with_the_dense_reference() {
     let scene = cornell();
     let occ = SceneOccluders::new(&scene);
     let reference = solve_dense_reference(&scene, &occ, 0.07, 5000).unwrap();
-    let stop = |target| StopRule {
-        target_error: target,
-        time_limit: Some(Duration::from_secs(60)),
-        max_iterations: usize::MAX,
-    };
-    let hr = solve_hierarchical(
-        &scene,
-        &occ,
-        &HierarchicalOptions {
-            stop: stop(0.1),
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let stop = |target| stop_rule(target, 60, usize::MAX);
+    let hr = solve_hierarchical_with(&scene, &occ, stop(0.1));
     let pr = solve_progressive(
         &scene,
         &occ,
@@ -57,10 +46,12 @@ fn both_solvers_agree_with_the_dense_reference() {
         pr.stats.time_s
     );
     assert!(e_hr < 0.1, "hierarchical error {e_hr}");
-    assert!(e_pr < 0.1, "progressive error {e_pr}");
-    // the reported estimate is of the right size (not a bound off by orders of magnitude)
+    // the progressive solve meets its 2 % on the coarser mesh (measured 6.0 % against
+    // the reference, the mesh's discretisation error)
+    assert!(e_pr < 0.08, "progressive error {e_pr}");
+    // the reported estimate is of the right size (measured 1.35 × the true error)
     assert!(
-        est_hr > 0.3 * e_hr && est_hr < 3.0 * e_hr,
+        est_hr > 0.5 * e_hr && est_hr < 2.0 * e_hr,
         "estimate {est_hr} vs true {e_hr}"
     );
     // occluders exist: some links needed rays, many were classified fully visible
@@ -69,20 +60,45 @@ fn both_solvers_agree_with_the_dense_reference() {
     for p in hr.patches.iter().chain(&reference.patches) {
         assert!(p.exitance_xyz.iter().all(|v| v.is_finite() && *v >= 0.0));
     }
+    for solution in [&hr, &reference] {
+        let (light, rest) = brightest_light_and_rest(&scene, solution);
+        assert!(
+            light > rest,
+            "dimmest light patch {light} vs brightest other {rest}"
+        );
+    }
     // the red wall reflects more X than Z, the green wall more Y than X
-    let wall_mean = |name: &str, c: usize| {
-        let polys: Vec<usize> = (0..scene.polygons.len())
-            .filter(|&i| scene.polygons[i].object == name)
-            .collect();
-        let (mut s, mut a) = (0.0, 0.0);
-        for p in hr.patches.iter().filter(|p| polys.contains(&p.polygon)) {
-            s += p.exitance_xyz[c] * p.area_m2;
-            a += p.area_m2;
-        }
-        s / a
-    };
+    let wall_mean = |name: &str, c: usize| object_mean_exitance(&scene, &hr, name, c);
     assert!(wall_mean("red_wall", 0) > 2.0 * wall_mean("red_wall", 2));
     assert!(wall_mean("green_wall", 1) > wall_mean("green_wall", 0));
+}
+
+/// Area-weighted mean exitance in channel `c` over the patches of object `name`.
+fn object_mean_exitance(scene: &Scene, solution: &Solution, name: &str, c: usize) -> f64 {
+    let (mut s, mut a) = (0.0, 0.0);
+    for p in solution
+        .patches
+        .iter()
+        .filter(|p| scene.polygons[p.polygon].object == name)
+    {
+        s += p.exitance_xyz[c] * p.area_m2;
+        a += p.area_m2;
+    }
+    s / a
+}
+
+/// The dimmest patch (Y exitance) of the light and the brightest of everything else.
+fn brightest_light_and_rest(scene: &Scene, solution: &Solution) -> (f64, f64) {
+    let (mut light, mut rest) = (f64::INFINITY, 0.0_f64);
+    for p in &solution.patches {
+        let y = p.exitance_xyz[1];
+        if scene.polygons[p.polygon].object == "light" {
+            light = light.min(y);
+        } else {
+            rest = rest.max(y);
+        }
+    }
+    (light, rest)
 }
 
 #[test]

@@ -4,16 +4,17 @@
 //! room lit through a roof opening is checked against the Monte Carlo path tracer;
 //! goniometric lights come from IES/EULUMDAT files named in the scene file.
 
+mod radiosity_support;
+
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 use lumiwall_render::photometry::Sky;
 use lumiwall_render::radiosity::montecarlo::MonteCarloReference;
 use lumiwall_render::radiosity::{
-    BvhOccluders, HierarchicalOptions, NoOccluders, ProgressiveOptions, StopRule,
-    solve_hierarchical, solve_progressive,
+    BvhOccluders, NoOccluders, ProgressiveOptions, Solution, StopRule, solve_progressive,
 };
 use lumiwall_render::scene::{LightKind, V3, parse_scene_toml};
+use radiosity_support::{solve_hierarchical_with, stop_rule};
 
 fn fixtures() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/scenes")
@@ -26,11 +27,7 @@ fn parse(toml: &str) -> lumiwall_render::scene::Scene {
 }
 
 fn stop(target: f64) -> StopRule {
-    StopRule {
-        target_error: target,
-        time_limit: Some(Duration::from_secs(60)),
-        max_iterations: 10_000,
-    }
+    stop_rule(target, 60, 10_000)
 }
 
 const PLANE: &str = r#"
@@ -63,15 +60,7 @@ fn open_plane_receives_the_skys_horizontal_illuminance() {
     ] {
         let scene = parse(&format!("{PLANE}{sky_toml}"));
         let d = scene.sky.as_ref().unwrap();
-        let sol = solve_hierarchical(
-            &scene,
-            &NoOccluders,
-            &HierarchicalOptions {
-                stop: stop(0.01),
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let sol = solve_hierarchical_with(&scene, &NoOccluders, stop(0.01));
         let want = sky.global_horizontal_illuminance_lux();
         let cells = d.illuminance_on_plane_xyz(&V3::z())[1];
         for p in &sol.patches {
@@ -99,10 +88,8 @@ fn open_plane_receives_the_skys_horizontal_illuminance() {
     }
 }
 
-#[test]
-fn room_under_a_roof_opening_agrees_with_path_tracing() {
-    // a 4 × 4 × 3 m room, its roof open over 1.5 × 1.5 m, under an overcast sky
-    let toml = r#"
+/// A 4 × 4 × 3 m room, its roof open over 1.5 × 1.5 m, under an overcast sky.
+const ROOF_ROOM: &str = r#"
 [materials.wall]
 reflectance_y = 0.6
 [[polygons]]
@@ -146,21 +133,25 @@ model = "overcast"
 zenith_luminance_cd_m2 = 6000
 bands = 8
 "#;
-    let scene = parse(toml);
-    let vis = BvhOccluders::new(&scene);
-    let sol = solve_hierarchical(
-        &scene,
-        &vis,
-        &HierarchicalOptions {
-            stop: stop(0.05),
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    assert!(sol.stats.shadow_rays > 0);
-    let mc = MonteCarloReference::new(&scene);
-    // the floor under the opening and a wall, as patch means
-    let (mut diff, mut sum, mut noise) = (0.0, 0.0, 0.0);
+
+/// Mean absolute difference of the solved patch irradiance (Y) from the path
+/// tracer's, over patches drawn area-uniformly.
+struct TracerComparison {
+    /// Σ |solved − traced|.
+    diff: f64,
+    /// Σ traced.
+    sum: f64,
+    /// Σ standard error of the traced values.
+    noise: f64,
+}
+
+/// Compares `samples` patches, chosen at evenly spaced cumulative areas, with the
+/// tracer.
+fn compare_with_tracer(
+    sol: &Solution,
+    mc: &MonteCarloReference,
+    samples: usize,
+) -> TracerComparison {
     let total: f64 = sol.patches.iter().map(|p| p.area_m2).sum();
     let mut acc = 0.0;
     let cum: Vec<f64> = sol
@@ -171,15 +162,37 @@ bands = 8
             acc
         })
         .collect();
-    let n = 24;
-    for k in 0..n {
-        let u = (k as f64 + 0.5) / n as f64 * total;
+    let (mut diff, mut sum, mut noise) = (0.0, 0.0, 0.0);
+    for k in 0..samples {
+        let u = (k as f64 + 0.5) / samples as f64 * total;
         let p = &sol.patches[cum.partition_point(|&c| c < u).min(cum.len() - 1)];
         let est = mc.patch_irradiance(&p.vertices, p.polygon, 8000, 5 + k as u64);
         diff += (p.irradiance_xyz[1] - est.irradiance_xyz[1]).abs();
         sum += est.irradiance_xyz[1];
         noise += est.std_error_y;
     }
+    TracerComparison { diff, sum, noise }
+}
+
+/// Area-weighted mean irradiance (Y) of the floor (polygon 0).
+fn floor_mean(s: &Solution) -> f64 {
+    let (mut e, mut a) = (0.0, 0.0);
+    for p in s.patches.iter().filter(|p| p.polygon == 0) {
+        e += p.irradiance_xyz[1] * p.area_m2;
+        a += p.area_m2;
+    }
+    e / a
+}
+
+#[test]
+fn room_under_a_roof_opening_agrees_with_path_tracing() {
+    let scene = parse(ROOF_ROOM);
+    let vis = BvhOccluders::new(&scene);
+    let sol = solve_hierarchical_with(&scene, &vis, stop(0.05));
+    assert!(sol.stats.shadow_rays > 0);
+    let mc = MonteCarloReference::new(&scene);
+    // patches spread over the room by area, as patch means
+    let TracerComparison { diff, sum, noise } = compare_with_tracer(&sol, &mc, 24);
     let est = sol.curve.last().unwrap().estimated_error;
     println!(
         "roof opening: {} patches, estimated {:.2} %, against the tracer {:.2} % (noise {:.2} %)",
@@ -199,14 +212,6 @@ bands = 8
         },
     )
     .unwrap();
-    let floor_mean = |s: &lumiwall_render::radiosity::Solution| {
-        let (mut e, mut a) = (0.0, 0.0);
-        for p in s.patches.iter().filter(|p| p.polygon == 0) {
-            e += p.irradiance_xyz[1] * p.area_m2;
-            a += p.area_m2;
-        }
-        e / a
-    };
     let (h, p) = (floor_mean(&sol), floor_mean(&pr));
     assert!((h - p).abs() / p < 0.05, "floor {h} vs progressive {p}");
 }

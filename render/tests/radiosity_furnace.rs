@@ -1,12 +1,15 @@
 //! Furnace: a closed box with uniform emission E and reflectance ρ has the exact
 //! radiosity B = E / (1 − ρ) everywhere (geometric series of the closed environment).
 
-use std::time::{Duration, Instant};
+mod radiosity_support;
+
+use std::time::Instant;
 
 use lumiwall_render::radiosity::{
-    HierarchicalOptions, NoOccluders, SceneOccluders, StopRule, solve_hierarchical,
+    HierarchicalOptions, NoOccluders, SceneOccluders, solve_hierarchical,
 };
 use lumiwall_render::scene::{Material, Polygon, Scene, V3};
+use radiosity_support::stop_rule;
 
 /// Six inward-facing quads of an axis-aligned box.
 pub fn box_quads(size: [f64; 3]) -> Vec<Vec<V3>> {
@@ -91,11 +94,7 @@ fn furnace_converges_to_geometric_series_for_stiff_reflectances() {
         let scene = furnace(rho, l);
         let occ = SceneOccluders::new(&scene);
         let opts = HierarchicalOptions {
-            stop: StopRule {
-                target_error: 1e-3,
-                time_limit: Some(Duration::from_secs(30)),
-                max_iterations: 20_000,
-            },
+            stop: stop_rule(1e-3, 30, 20_000),
             ..HierarchicalOptions::default()
         };
         let t = Instant::now();
@@ -132,11 +131,7 @@ fn furnace_converges_to_geometric_series_for_stiff_reflectances() {
 fn furnace_without_acceleration_is_slower_but_agrees() {
     let scene = furnace(0.9, 1.0);
     let mk = |accelerate| HierarchicalOptions {
-        stop: StopRule {
-            target_error: 1e-3,
-            time_limit: Some(Duration::from_secs(30)),
-            max_iterations: 20_000,
-        },
+        stop: stop_rule(1e-3, 30, 20_000),
         accelerate,
         ..HierarchicalOptions::default()
     };

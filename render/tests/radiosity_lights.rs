@@ -3,14 +3,13 @@
 //! from the solid angle of the patch for the isotropic light; point values at the patch
 //! centres for both).
 
-use std::sync::Arc;
-use std::time::Duration;
-
-use lumiwall_render::radiosity::{HierarchicalOptions, NoOccluders, StopRule, solve_hierarchical};
 mod radiosity_support;
 
+use std::sync::Arc;
+
+use lumiwall_render::radiosity::{HierarchicalOptions, NoOccluders, solve_hierarchical};
 use lumiwall_render::scene::{Light, LightKind, Scene, V3};
-use radiosity_support::plane_under;
+use radiosity_support::{plane_under, stop_rule};
 
 /// The plane is black: only direct light.
 fn plane_with(light: Light) -> Scene {
@@ -35,11 +34,7 @@ const POINTS: [[f64; 2]; 5] = [
 
 fn opts() -> HierarchicalOptions {
     HierarchicalOptions {
-        stop: StopRule {
-            target_error: 0.002,
-            time_limit: Some(Duration::from_secs(60)),
-            max_iterations: 100,
-        },
+        stop: stop_rule(0.002, 60, 100),
         min_area_m2: 1e-5,
         ..HierarchicalOptions::default()
     }

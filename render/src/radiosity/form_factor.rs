@@ -91,7 +91,10 @@ fn average(
         .sum()
 }
 
-#[allow(clippy::too_many_arguments)]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the two polygons and their quadrature are the natural inputs"
+)]
 fn adaptive(
     recv: &[V3],
     rn: &V3,

@@ -15,7 +15,10 @@
 //! representation where a constant one meets the bound ([`Basis::Auto`]).
 
 // per-channel XYZ arithmetic reads clearest with channel indices
-#![allow(clippy::needless_range_loop)]
+#![allow(
+    clippy::needless_range_loop,
+    reason = "per-channel XYZ arithmetic reads clearest with channel indices"
+)]
 
 mod emitters;
 mod nodes;
@@ -24,21 +27,21 @@ mod sampling;
 mod sweep;
 mod transfer;
 
-use std::time::Instant;
+use std::sync::atomic::Ordering;
 
 use crate::scene::{Scene, V3};
 
 pub use sweep::Basis;
 
-use super::RadiosityError;
 use super::curve::{CurvePoint, ErrorCurve, StopReason, StopRule};
 use super::solution::{Patch, Solution, SolveStats};
 use super::visibility::Visibility;
+use super::{RadiosityError, RayCounters, SolveClock};
 use emitters::Emitter;
 use nodes::{Hierarchy, Node};
 use sampling::NS;
 use sweep::State;
-use transfer::{CLink, Counters, Ctx, Overlap, PLink, eval_clink};
+use transfer::{CLink, Ctx, Overlap, PLink, eval_clink};
 
 /// Options of the hierarchical solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -68,6 +71,37 @@ impl Default for HierarchicalOptions {
     }
 }
 
+/// Initial tolerance ε relative to target error × reflectable flux (lm).
+const INITIAL_TOLERANCE: f64 = 0.05;
+/// Fraction of the daylight's normal illuminance taken to reach the surfaces (a box
+/// of random orientation faces a distant source with a quarter of its area).
+const DAYLIGHT_EXPOSURE: f64 = 0.25;
+/// Ceiling of the extrapolation's geometric series: (1 − q) never below this.
+const MIN_CONTRACTION_GAP: f64 = 1e-12;
+/// The convergence ratio counts as steady when two successive ones differ by at most
+/// this fraction of (1 − q): then the Jacobi error is extrapolated (Lyusternik).
+const STEADY_RATIO: f64 = 0.01;
+/// Refine again once the solve error is below this fraction of the target (or of the
+/// discretisation error when that is smaller).
+const SOLVE_AHEAD: f64 = 0.25;
+/// Discretisation errors below this fraction of the target count as the target.
+const DISC_FLOOR: f64 = 0.1;
+/// Refinements in a row that change nothing before the solve gives up on refining.
+const MAX_IDLE_REFINES: usize = 4;
+/// Aim of one ε step: this fraction of the ratio (target/error)³.
+const EPS_STEP_AIM: f64 = 0.9;
+/// Smallest factor of one ε step (at most a factor 4 at a time).
+const EPS_STEP_MIN: f64 = 0.25;
+/// Largest factor of one ε step (ε shrinks by at least 20 %).
+const EPS_STEP_MAX: f64 = 0.8;
+/// Share of the scene's total area below which no element is split by default.
+const MIN_AREA_SHARE: f64 = 1e-4;
+/// The median polygon's area over this (two quadtree levels) bounds the default
+/// smallest element area from above.
+const MEDIAN_SUBDIVISION: f64 = 16.0;
+/// Guards divisions by sums that may be zero.
+const TINY: f64 = 1e-300;
+
 /// Solves a scene by hierarchical radiosity with clustering. `vis` answers visibility
 /// ([`super::BvhOccluders`] for large scenes, [`super::NoOccluders`] when the caller
 /// knows nothing can block).
@@ -76,18 +110,16 @@ pub fn solve_hierarchical(
     vis: &dyn Visibility,
     opts: &HierarchicalOptions,
 ) -> Result<Solution, RadiosityError> {
-    let start = Instant::now();
-    let deadline = opts.stop.time_limit.map(|t| start + t);
-    super::validate(scene, opts.stop.target_error)?;
+    let clock = SolveClock::start(scene, &opts.stop)?;
     if !(opts.min_area_m2 >= 0.0 && opts.min_area_m2.is_finite()) {
         return Err(RadiosityError::BadOption(format!(
             "smallest element area {} m² must be ≥ 0",
             opts.min_area_m2
         )));
     }
-    let mut h = Hierarchy::build(scene);
+    let hierarchy = Hierarchy::build(scene);
     let emitters = Emitter::all(scene);
-    let (lo, hi) = h
+    let (lo, hi) = hierarchy
         .clusters
         .first()
         .map_or((V3::zeros(), V3::zeros()), |c| (c.lo, c.hi));
@@ -96,28 +128,368 @@ pub fn solve_hierarchical(
         emitters: &emitters,
         vis,
         far: 4.0 * (hi - lo).norm() + 1.0,
-        counters: Counters::default(),
+        counters: RayCounters::default(),
     };
-    let total_area: f64 = h.patches.iter().map(|p| p.area).sum();
-    let min_area = if opts.min_area_m2 > 0.0 {
-        opts.min_area_m2
-    } else {
-        // two quadtree levels below the median polygon in finely meshed scenes
-        let mut areas: Vec<f64> = h.patches.iter().map(|p| p.area).collect();
-        let mid = areas.len() / 2;
-        let median = *areas.select_nth_unstable_by(mid, f64::total_cmp).1;
-        (1e-4 * total_area).min(median / 16.0)
-    };
-    let lim = refine::Limits {
-        min_area,
-        max_level: opts.max_level,
-        basis: opts.basis,
-    };
-    let mut st = State::new(scene, &h);
-    let mut plinks: Vec<Vec<PLink>> = vec![Vec::new(); h.patches.len()];
+    let mut solver = Solver::new(&ctx, hierarchy, opts, clock);
+    let stop = solver.run()?;
+    Ok(solver.finish(stop))
+}
+
+/// The state of a hierarchical solve between sweeps.
+struct Solver<'a, 'c> {
+    ctx: &'a Ctx<'c>,
+    opts: &'a HierarchicalOptions,
+    clock: SolveClock,
+    h: Hierarchy,
+    st: State,
+    plinks: Vec<Vec<PLink>>,
+    clinks: Vec<Vec<CLink>>,
+    lim: refine::Limits,
+    /// Refinement tolerance ε (lm).
+    eps: f64,
+    curve: ErrorCurve,
+    iterations: usize,
+    extrapolations: usize,
+    /// Convergence ratios of the sweeps since the last refinement or extrapolation.
+    ratio_history: Vec<f64>,
+    /// Area-weighted absolute change (Y) of the previous sweep.
+    previous_change: f64,
+    idle_refines: usize,
+    linear_leaves: usize,
+}
+
+/// The change a sweep made to the leaves.
+struct SweepChange {
+    /// New exitance per leaf patch.
+    leaves: Vec<(u32, [f64; 3])>,
+    /// Its difference to the previous exitance.
+    delta: Vec<[f64; 3]>,
+    /// Area-weighted absolute change (Y).
+    change: f64,
+    /// Relative change (the residual).
+    residual: f64,
+}
+
+/// The error estimate after a sweep.
+struct SweepError {
+    solve: f64,
+    discretization: f64,
+}
+
+impl<'a, 'c> Solver<'a, 'c> {
+    /// Sets up the state, the root links and the first tolerance.
+    fn new(
+        ctx: &'a Ctx<'c>,
+        h: Hierarchy,
+        opts: &'a HierarchicalOptions,
+        clock: SolveClock,
+    ) -> Self {
+        let total_area: f64 = h.patches.iter().map(|p| p.area).sum();
+        let min_area = if opts.min_area_m2 > 0.0 {
+            opts.min_area_m2
+        } else {
+            default_min_area(&h, total_area)
+        };
+        let lim = refine::Limits {
+            min_area,
+            max_level: opts.max_level,
+            basis: opts.basis,
+        };
+        let st = State::new(ctx.scene, &h);
+        let plinks: Vec<Vec<PLink>> = vec![Vec::new(); h.patches.len()];
+        let clinks = root_links(ctx, &h);
+        let eps = initial_tolerance(ctx.scene, &h, &st, total_area, opts.stop.target_error);
+        Self {
+            ctx,
+            opts,
+            clock,
+            h,
+            st,
+            plinks,
+            clinks,
+            lim,
+            eps,
+            curve: ErrorCurve::default(),
+            iterations: 0,
+            extrapolations: 0,
+            ratio_history: Vec::new(),
+            previous_change: f64::NAN,
+            idle_refines: 0,
+            linear_leaves: 0,
+        }
+    }
+
+    /// Alternates refinement and sweeps until a stop rule applies.
+    fn run(&mut self) -> Result<StopReason, RadiosityError> {
+        let target = self.opts.stop.target_error;
+        let mut needs_refine = true;
+        loop {
+            if needs_refine {
+                self.refine();
+                needs_refine = false;
+            }
+            let error = self.sweep()?;
+            if let Some(stop) = self.stop_reason(&error) {
+                return Ok(stop);
+            }
+            if error.solve
+                <= SOLVE_AHEAD * target.min(error.discretization.max(DISC_FLOOR * target))
+            {
+                if self.idle_refines >= MAX_IDLE_REFINES {
+                    return Ok(StopReason::RefinementExhausted);
+                }
+                self.tighten(error.discretization);
+                needs_refine = true;
+            }
+        }
+    }
+
+    /// Refines at the current ε and restarts the convergence history.
+    fn refine(&mut self) {
+        let params = refine::RefineParams {
+            ctx: self.ctx,
+            eps: self.eps,
+            lim: self.lim,
+            deadline: self.clock.deadline,
+        };
+        let changed = refine::refine(
+            &params,
+            &mut self.h,
+            &mut self.st,
+            &mut self.plinks,
+            &mut self.clinks,
+        );
+        self.st
+            .bake_cluster_direct(self.ctx.scene, &self.h, self.ctx.emitters, &self.clinks);
+        self.idle_refines = if changed == 0 {
+            self.idle_refines + 1
+        } else {
+            0
+        };
+        self.ratio_history.clear();
+        self.previous_change = f64::NAN;
+    }
+
+    /// One Jacobi sweep (gather, push, extrapolation, pull) and its error estimate.
+    fn sweep(&mut self) -> Result<SweepError, RadiosityError> {
+        self.st
+            .gather(&self.h, self.ctx.emitters, &self.plinks, &self.clinks);
+        let change = self.apply_push();
+        self.iterations += 1;
+        if !change.residual.is_finite() {
+            return Err(RadiosityError::Diverged(format!(
+                "residual became {} after {} sweeps",
+                change.residual, self.iterations
+            )));
+        }
+        let solve = self.solve_error(&change);
+        self.extrapolate(&change);
+        self.st.pull(&self.h);
+        let discretization = self.discretization_error(&change.leaves, solve);
+        self.curve.points.push(CurvePoint {
+            time_s: self.clock.elapsed_s(),
+            iteration: self.iterations,
+            estimated_error: solve + discretization,
+            solve_error: solve,
+            discretization_error: discretization,
+            patches: change.leaves.len(),
+            links: link_count(&self.plinks, &self.clinks),
+        });
+        Ok(SweepError {
+            solve,
+            discretization,
+        })
+    }
+
+    /// Pushes the gathered irradiance down to the leaves and stores their new
+    /// exitance.
+    fn apply_push(&mut self) -> SweepChange {
+        let leaves = self.st.push(&self.h);
+        let mut change = 0.0;
+        let mut total = 0.0;
+        let mut delta: Vec<[f64; 3]> = Vec::with_capacity(leaves.len());
+        for (p, b) in &leaves {
+            let p = *p as usize;
+            let a = self.h.patches[p].area;
+            let d: [f64; 3] = std::array::from_fn(|c| b[c] - self.st.b[p][c]);
+            change += a * d[1].abs();
+            total += a * b[1].abs();
+            delta.push(d);
+            self.st.b[p] = *b;
+        }
+        let residual = if total > 0.0 { change / total } else { 0.0 };
+        SweepChange {
+            leaves,
+            delta,
+            change,
+            residual,
+        }
+    }
+
+    /// The solve error from the residual and the convergence ratio (the reflectance
+    /// bound until two sweeps give a ratio); records the ratio.
+    fn solve_error(&mut self, change: &SweepChange) -> f64 {
+        let ratio = if self.previous_change.is_finite() && self.previous_change > 0.0 {
+            change.change / self.previous_change
+        } else {
+            f64::NAN
+        };
+        self.previous_change = change.change;
+        let rho_max = self.st.rho.iter().map(|r| r[1]).fold(0.0, f64::max);
+        let ratio_estimate = if ratio.is_finite() && ratio < 1.0 {
+            ratio.max(0.0)
+        } else {
+            rho_max
+        };
+        if ratio.is_finite() {
+            self.ratio_history.push(ratio);
+        }
+        change.residual * ratio_estimate / (1.0 - ratio_estimate).max(MIN_CONTRACTION_GAP)
+    }
+
+    /// Geometric-series extrapolation of the sweep's change once the convergence
+    /// ratio is steady.
+    fn extrapolate(&mut self, change: &SweepChange) {
+        let history = &self.ratio_history;
+        if !self.opts.accelerate || history.len() < 2 {
+            return;
+        }
+        let (q1, q2) = (history[history.len() - 2], history[history.len() - 1]);
+        if !(q2 < 1.0 && q2 > 0.0 && (q2 - q1).abs() <= STEADY_RATIO * (1.0 - q2)) {
+            return;
+        }
+        let gain = q2 / (1.0 - q2);
+        for ((p, _), d) in change.leaves.iter().zip(&change.delta) {
+            let p = *p as usize;
+            let e = self.st.emit[self.h.patches[p].polygon as usize];
+            for c in 0..3 {
+                self.st.b[p][c] = (self.st.b[p][c] + gain * d[c]).max(e[c]);
+            }
+        }
+        self.extrapolations += 1;
+        self.ratio_history.clear();
+        self.previous_change = f64::NAN;
+    }
+
+    /// Relative discretisation error over the leaves; counts the linear ones.
+    fn discretization_error(&mut self, leaves: &[(u32, [f64; 3])], solve_err: f64) -> f64 {
+        let (mut error_sum, mut norm_sum, mut shape_sum) = (0.0, 0.0, 0.0);
+        self.linear_leaves = 0;
+        for (p, _) in leaves {
+            let p = *p as usize;
+            let le = self.st.leaf_error(&self.h, p, self.opts.basis, self.eps);
+            let a = self.h.patches[p].area;
+            error_sum += a * le.error;
+            shape_sum += a * le.shape;
+            norm_sum += a * le.norm;
+            self.linear_leaves += usize::from(le.linear);
+        }
+        let disc = if norm_sum > 0.0 {
+            error_sum / norm_sum
+        } else {
+            0.0
+        };
+        self.trace_breakdown(shape_sum, norm_sum);
+        tracing::debug!(
+            iterations = self.iterations,
+            solve_err,
+            disc,
+            shape = shape_sum / norm_sum.max(TINY),
+            eps = self.eps,
+            patches = leaves.len(),
+            "sweep"
+        );
+        disc
+    }
+
+    /// Traces where the discretisation error comes from.
+    fn trace_breakdown(&self, shape_sum: f64, norm_sum: f64) {
+        if !tracing::enabled!(tracing::Level::TRACE) {
+            return;
+        }
+        let b = self
+            .st
+            .error_breakdown(&self.h, self.ctx.emitters, &self.plinks, &self.clinks);
+        let n = norm_sum.max(TINY);
+        tracing::trace!(
+            shape = shape_sum / n,
+            patch_spread = b[0] / n,
+            cluster_bounds = b[1] / n,
+            cluster_extent = b[2] / n,
+            visibility = b[3] / n,
+            cluster_receivers = b[4] / n,
+            "error breakdown (relative)"
+        );
+    }
+
+    /// Why the solve stops after this sweep, if it does.
+    fn stop_reason(&self, error: &SweepError) -> Option<StopReason> {
+        if error.solve + error.discretization <= self.opts.stop.target_error {
+            Some(StopReason::Converged)
+        } else if self.clock.past_deadline() {
+            Some(StopReason::TimeLimit)
+        } else if self.iterations >= self.opts.stop.max_iterations {
+            Some(StopReason::IterationLimit)
+        } else {
+            None
+        }
+    }
+
+    /// Shrinks ε towards the target: the error falls about as ε^(1/3) (measured on
+    /// the scale scenes), so aim a little below the target in one step, at most a
+    /// factor 4.
+    fn tighten(&mut self, discretization: f64) {
+        let r = self.opts.stop.target_error / discretization.max(TINY);
+        self.eps *= (EPS_STEP_AIM * r * r * r).clamp(EPS_STEP_MIN, EPS_STEP_MAX);
+    }
+
+    /// The solution: the leaves and the statistics.
+    fn finish(self, stop: StopReason) -> Solution {
+        let h = &self.h;
+        let patches: Vec<Patch> = (0..h.patches.len())
+            .filter(|&p| h.patches[p].is_leaf())
+            .map(|p| output_patch(h, &self.st, p, self.opts.basis, self.eps))
+            .collect();
+        let by_polygon = Solution::index(&patches, self.ctx.scene.polygons.len());
+        let counters = &self.ctx.counters;
+        let stats = SolveStats {
+            patches: patches.len(),
+            elements: h.patches.len() + h.clusters.len(),
+            links: link_count(&self.plinks, &self.clinks),
+            iterations: self.iterations,
+            shadow_rays: counters.rays.load(Ordering::Relaxed),
+            visibility_skipped: counters.skipped.load(Ordering::Relaxed),
+            visibility_tested: counters.tested.load(Ordering::Relaxed),
+            memory_bytes: memory_estimate(h, &self.plinks, &self.clinks),
+            time_s: self.clock.elapsed_s(),
+            extrapolations: self.extrapolations,
+            clusters: h.clusters.len(),
+            cluster_links: self.clinks.iter().map(Vec::len).sum(),
+            linear_patches: self.linear_leaves,
+        };
+        Solution {
+            patches,
+            by_polygon,
+            curve: self.curve,
+            stop,
+            stats,
+        }
+    }
+}
+
+/// Default smallest element area: 1e-4 of the total area, or two quadtree levels
+/// below the median polygon in finely meshed scenes.
+fn default_min_area(h: &Hierarchy, total_area: f64) -> f64 {
+    let mut areas: Vec<f64> = h.patches.iter().map(|p| p.area).collect();
+    let mid = areas.len() / 2;
+    let median = *areas.select_nth_unstable_by(mid, f64::total_cmp).1;
+    (MIN_AREA_SHARE * total_area).min(median / MEDIAN_SUBDIVISION)
+}
+
+/// The root's self-link (Sillion 1995) and every emitter to the root.
+fn root_links(ctx: &Ctx, h: &Hierarchy) -> Vec<Vec<CLink>> {
     let mut clinks: Vec<Vec<CLink>> = vec![Vec::new(); h.clusters.len()];
     if !h.clusters.is_empty() {
-        // the root's self-link (Sillion 1995) and every emitter to the root
         clinks[0].push(CLink {
             src: Node::cluster(0),
             d: 0.0,
@@ -127,212 +499,44 @@ pub fn solve_hierarchical(
             rel_vis: 0.0,
             overlap: Overlap::Near,
         });
-        for e in 0..emitters.len() {
-            if let Some(l) = eval_clink(&ctx, &h, 0, Node::emitter(e)) {
+        for e in 0..ctx.emitters.len() {
+            if let Some(l) = eval_clink(ctx, h, 0, Node::emitter(e)) {
                 clinks[0].push(l);
             }
         }
     }
-    // tolerance scale (lm): the flux the surfaces can reflect
+    clinks
+}
+
+/// First tolerance ε (lm): a share of the target error of the flux the surfaces can
+/// reflect.
+fn initial_tolerance(
+    scene: &Scene,
+    h: &Hierarchy,
+    st: &State,
+    total_area: f64,
+    target: f64,
+) -> f64 {
     let rho_mean = h
         .patches
         .iter()
         .map(|p| p.area * st.rho[p.polygon as usize][1].max(nodes::DARK))
         .sum::<f64>()
-        / total_area.max(1e-300);
+        / total_area.max(TINY);
     let daylight: f64 = scene.sky.as_ref().map_or(0.0, |d| {
-        d.sources().map(|s| s.normal_illuminance_lux).sum::<f64>() * 0.25 * total_area
+        d.sources().map(|s| s.normal_illuminance_lux).sum::<f64>() * DAYLIGHT_EXPOSURE * total_area
     });
     let flux = scene.emitted_flux_xyz_lm()[1] + daylight;
-    let target = opts.stop.target_error;
-    let mut eps = target * rho_mean * flux * 0.05;
+    target * rho_mean * flux * INITIAL_TOLERANCE
+}
 
-    let mut curve = ErrorCurve::default();
-    let mut iterations = 0usize;
-    let mut extrapolations = 0usize;
-    let mut q_hist: Vec<f64> = Vec::new();
-    let mut res_prev = f64::NAN;
-    let mut idle_refines = 0usize;
-    let mut needs_refine = true;
-    let mut linear_leaves;
-    let stop;
-    loop {
-        if needs_refine {
-            let changed = refine::refine(
-                &ctx,
-                &mut h,
-                &mut st,
-                &mut plinks,
-                &mut clinks,
-                eps,
-                &lim,
-                deadline,
-            );
-            st.bake_cluster_direct(scene, &h, &emitters, &clinks);
-            idle_refines = if changed == 0 { idle_refines + 1 } else { 0 };
-            q_hist.clear();
-            res_prev = f64::NAN;
-            needs_refine = false;
-        }
-        st.gather(&h, &emitters, &plinks, &clinks);
-        let new = st.push(&h);
-        let mut num = 0.0;
-        let mut den = 0.0;
-        let mut delta: Vec<[f64; 3]> = Vec::with_capacity(new.len());
-        for (p, b) in &new {
-            let p = *p as usize;
-            let a = h.patches[p].area;
-            let d: [f64; 3] = std::array::from_fn(|c| b[c] - st.b[p][c]);
-            num += a * d[1].abs();
-            den += a * b[1].abs();
-            delta.push(d);
-            st.b[p] = *b;
-        }
-        iterations += 1;
-        let res = if den > 0.0 { num / den } else { 0.0 };
-        if !res.is_finite() {
-            return Err(RadiosityError::Diverged(format!(
-                "residual became {res} after {iterations} sweeps"
-            )));
-        }
-        let q = if res_prev.is_finite() && res_prev > 0.0 {
-            num / res_prev
-        } else {
-            f64::NAN
-        };
-        res_prev = num;
-        let rho_max = st.rho.iter().map(|r| r[1]).fold(0.0, f64::max);
-        let q_est = if q.is_finite() && q < 1.0 {
-            q.max(0.0)
-        } else {
-            rho_max
-        };
-        let solve_err = res * q_est / (1.0 - q_est).max(1e-12);
-        if q.is_finite() {
-            q_hist.push(q);
-        }
-        if opts.accelerate && q_hist.len() >= 2 {
-            let (q1, q2) = (q_hist[q_hist.len() - 2], q_hist[q_hist.len() - 1]);
-            if q2 < 1.0 && q2 > 0.0 && (q2 - q1).abs() <= 0.01 * (1.0 - q2) {
-                let g = q2 / (1.0 - q2);
-                for ((p, _), d) in new.iter().zip(&delta) {
-                    let p = *p as usize;
-                    let e = st.emit[h.patches[p].polygon as usize];
-                    for c in 0..3 {
-                        st.b[p][c] = (st.b[p][c] + g * d[c]).max(e[c]);
-                    }
-                }
-                extrapolations += 1;
-                q_hist.clear();
-                res_prev = f64::NAN;
-            }
-        }
-        st.pull(&h);
-
-        // discretisation error over the leaves
-        let (mut esum, mut nsum, mut ssum) = (0.0, 0.0, 0.0);
-        linear_leaves = 0;
-        for (p, _) in &new {
-            let p = *p as usize;
-            let le = st.leaf_error(&h, p, opts.basis, eps);
-            let a = h.patches[p].area;
-            esum += a * le.error;
-            ssum += a * le.shape;
-            nsum += a * le.norm;
-            linear_leaves += usize::from(le.linear);
-        }
-        let disc = if nsum > 0.0 { esum / nsum } else { 0.0 };
-        if tracing::enabled!(tracing::Level::TRACE) {
-            let b = st.error_breakdown(&h, &emitters, &plinks, &clinks);
-            let n = nsum.max(1e-300);
-            tracing::trace!(
-                shape = ssum / n,
-                patch_spread = b[0] / n,
-                cluster_bounds = b[1] / n,
-                cluster_extent = b[2] / n,
-                visibility = b[3] / n,
-                cluster_receivers = b[4] / n,
-                "error breakdown (relative)"
-            );
-        }
-        curve.points.push(CurvePoint {
-            time_s: start.elapsed().as_secs_f64(),
-            iteration: iterations,
-            estimated_error: solve_err + disc,
-            solve_error: solve_err,
-            discretization_error: disc,
-            patches: new.len(),
-            links: link_count(&plinks, &clinks),
-        });
-        tracing::debug!(
-            iterations,
-            solve_err,
-            disc,
-            shape = ssum / nsum.max(1e-300),
-            eps,
-            patches = new.len(),
-            "sweep"
-        );
-        if solve_err + disc <= target {
-            stop = StopReason::Converged;
-            break;
-        }
-        if deadline.is_some_and(|d| Instant::now() > d) {
-            stop = StopReason::TimeLimit;
-            break;
-        }
-        if iterations >= opts.stop.max_iterations {
-            stop = StopReason::IterationLimit;
-            break;
-        }
-        if solve_err <= 0.25 * target.min(disc.max(0.1 * target)) {
-            if idle_refines >= 4 {
-                stop = StopReason::RefinementExhausted;
-                break;
-            }
-            // the error falls about as ε^(1/3) (measured on the scale scenes): aim
-            // a little below the target in one step, at most a factor 4
-            let r = target / disc.max(1e-300);
-            eps *= (0.9 * r * r * r).clamp(0.25, 0.8);
-            needs_refine = true;
-        }
-    }
-    let leaves: Vec<usize> = (0..h.patches.len())
-        .filter(|&p| h.patches[p].is_leaf())
-        .collect();
-    let patches: Vec<Patch> = leaves
-        .iter()
-        .map(|&p| output_patch(&h, &st, p, opts.basis, eps))
-        .collect();
-    let by_polygon = Solution::index(&patches, scene.polygons.len());
-    let n_links = link_count(&plinks, &clinks);
-    let memory = h.patches.len()
+/// Approximate memory held by the hierarchy and its links, in bytes.
+fn memory_estimate(h: &Hierarchy, plinks: &[Vec<PLink>], clinks: &[Vec<CLink>]) -> usize {
+    h.patches.len()
         * (std::mem::size_of::<nodes::Patch>() + 2 * std::mem::size_of::<sweep::Irr>() + 40)
         + h.clusters.len() * (std::mem::size_of::<nodes::Cluster>() + 300)
         + plinks.iter().map(|l| l.capacity()).sum::<usize>() * std::mem::size_of::<PLink>()
-        + clinks.iter().map(|l| l.capacity()).sum::<usize>() * std::mem::size_of::<CLink>();
-    let stats = SolveStats {
-        patches: patches.len(),
-        elements: h.patches.len() + h.clusters.len(),
-        links: n_links,
-        iterations,
-        shadow_rays: ctx.counters.rays.into_inner(),
-        visibility_skipped: ctx.counters.skipped.into_inner(),
-        visibility_tested: ctx.counters.tested.into_inner(),
-        memory_bytes: memory,
-        time_s: start.elapsed().as_secs_f64(),
-        extrapolations,
-        clusters: h.clusters.len(),
-        cluster_links: clinks.iter().map(Vec::len).sum(),
-        linear_patches: linear_leaves,
-    };
-    Ok(Solution {
-        patches,
-        by_polygon,
-        curve,
-        stop,
-        stats,
-    })
+        + clinks.iter().map(|l| l.capacity()).sum::<usize>() * std::mem::size_of::<CLink>()
 }
 
 fn link_count(p: &[Vec<PLink>], c: &[Vec<CLink>]) -> usize {

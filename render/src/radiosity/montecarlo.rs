@@ -6,7 +6,10 @@
 //! scene: its own BVH, no form factors, no links.
 
 // per-channel XYZ arithmetic reads clearest with channel indices
-#![allow(clippy::needless_range_loop)]
+#![allow(
+    clippy::needless_range_loop,
+    reason = "per-channel XYZ arithmetic reads clearest with channel indices"
+)]
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -87,100 +87,154 @@ pub fn write_ply(sol: &Solution, path: &Path) -> Result<(), RadiosityError> {
     std::fs::write(path, s).map_err(|e| out_err(path, e))
 }
 
-/// Rasterises the solution seen from `camera`: XYZ luminance per pixel (cd/m²), row
-/// major from the top-left; background 0.
-pub fn render_image(sol: &Solution, camera: &Camera) -> Vec<[f32; 3]> {
-    let (w, h) = (camera.width_px as usize, camera.height_px as usize);
-    let fwd = (camera.look_at - camera.position).normalize();
-    let right = fwd.cross(&camera.up).normalize();
-    let up = right.cross(&fwd);
-    let f = 0.5 * h as f64 / (0.5 * camera.vfov_deg.to_radians()).tan();
-    let near = 1e-4;
-    let project = |p: &V3| -> Option<(f64, f64, f64)> {
-        let d = p - camera.position;
-        let z = d.dot(&fwd);
-        if z < near {
+/// Points closer to the camera than this (m along the view axis) are not projected.
+const NEAR_PLANE_M: f64 = 1e-4;
+/// Triangles with a smaller doubled screen area (px²) are skipped as degenerate.
+const MIN_SCREEN_AREA: f64 = 1e-12;
+/// Barycentric slack that keeps pixels on shared triangle edges.
+const EDGE_SLACK: f64 = 1e-9;
+
+/// A projected vertex: pixel x, pixel y, depth along the view axis.
+type Projected = (f64, f64, f64);
+
+/// A pinhole camera's projection to pixels.
+struct Pinhole<'a> {
+    camera: &'a Camera,
+    forward: V3,
+    right: V3,
+    up: V3,
+    /// Focal length in pixels.
+    focal_px: f64,
+    width: usize,
+    height: usize,
+}
+
+impl<'a> Pinhole<'a> {
+    fn new(camera: &'a Camera) -> Self {
+        let (width, height) = (camera.width_px as usize, camera.height_px as usize);
+        let forward = (camera.look_at - camera.position).normalize();
+        let right = forward.cross(&camera.up).normalize();
+        let up = right.cross(&forward);
+        let focal_px = 0.5 * height as f64 / (0.5 * camera.vfov_deg.to_radians()).tan();
+        Self {
+            camera,
+            forward,
+            right,
+            up,
+            focal_px,
+            width,
+            height,
+        }
+    }
+
+    /// The pixel position and depth of `p`, `None` behind the near plane.
+    fn project(&self, p: &V3) -> Option<Projected> {
+        let d = p - self.camera.position;
+        let z = d.dot(&self.forward);
+        if z < NEAR_PLANE_M {
             return None;
         }
         Some((
-            0.5 * w as f64 + f * d.dot(&right) / z,
-            0.5 * h as f64 - f * d.dot(&up) / z,
+            0.5 * self.width as f64 + self.focal_px * d.dot(&self.right) / z,
+            0.5 * self.height as f64 - self.focal_px * d.dot(&self.up) / z,
             z,
         ))
-    };
+    }
+}
+
+/// An image with a depth buffer.
+struct Raster {
+    width: usize,
+    height: usize,
+    img: Vec<[f32; 3]>,
+    zbuf: Vec<f64>,
+}
+
+/// Pixel indices covered by the coordinates `c` (floor of the least to ceiling of
+/// the largest), clipped to `0..limit`.
+fn pixel_span(c: [f64; 3], limit: usize) -> std::ops::Range<usize> {
+    let lo = c
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min)
+        .floor()
+        .max(0.0) as usize;
+    let hi = c
+        .iter()
+        .copied()
+        .fold(f64::NEG_INFINITY, f64::max)
+        .ceil()
+        .min(limit as f64) as usize;
+    lo..hi
+}
+
+impl Raster {
+    fn new(width: usize, height: usize) -> Self {
+        Self {
+            width,
+            height,
+            img: vec![[0f32; 3]; width * height],
+            zbuf: vec![f64::INFINITY; width * height],
+        }
+    }
+
+    /// Fills a triangle, interpolating `val` perspective-correctly, nearest wins.
+    fn fill_triangle(&mut self, tri: [Projected; 3], val: [[f64; 3]; 3]) {
+        let xs = pixel_span(tri.map(|v| v.0), self.width);
+        let ys = pixel_span(tri.map(|v| v.1), self.height);
+        let area = (tri[1].0 - tri[0].0) * (tri[2].1 - tri[0].1)
+            - (tri[2].0 - tri[0].0) * (tri[1].1 - tri[0].1);
+        if area.abs() < MIN_SCREEN_AREA {
+            return;
+        }
+        for y in ys {
+            for x in xs.clone() {
+                let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+                let e = |a: Projected, b: Projected| {
+                    (b.0 - a.0) * (py - a.1) - (px - a.0) * (b.1 - a.1)
+                };
+                let b0 = e(tri[1], tri[2]) / area;
+                let b1 = e(tri[2], tri[0]) / area;
+                let b2 = e(tri[0], tri[1]) / area;
+                if b0 < -EDGE_SLACK || b1 < -EDGE_SLACK || b2 < -EDGE_SLACK {
+                    continue;
+                }
+                // perspective-correct interpolation
+                let iz = b0 / tri[0].2 + b1 / tri[1].2 + b2 / tri[2].2;
+                let z = 1.0 / iz;
+                let i = y * self.width + x;
+                if z >= self.zbuf[i] {
+                    continue;
+                }
+                self.zbuf[i] = z;
+                self.img[i] = std::array::from_fn(|k| {
+                    (z * (b0 * val[0][k] / tri[0].2
+                        + b1 * val[1][k] / tri[1].2
+                        + b2 * val[2][k] / tri[2].2)) as f32
+                });
+            }
+        }
+    }
+}
+
+/// Rasterises the solution seen from `camera`: XYZ luminance per pixel (cd/m²), row
+/// major from the top-left; background 0.
+pub fn render_image(sol: &Solution, camera: &Camera) -> Vec<[f32; 3]> {
+    let pinhole = Pinhole::new(camera);
     let lum = vertex_luminance(sol);
-    let mut img = vec![[0f32; 3]; w * h];
-    let mut zbuf = vec![f64::INFINITY; w * h];
+    let mut raster = Raster::new(pinhole.width, pinhole.height);
     for (p, l) in sol.patches.iter().zip(&lum) {
         // back-facing patches are not seen (one-sided surfaces)
         if p.normal.dot(&(camera.position - p.vertices[0])) <= 0.0 {
             continue;
         }
-        let proj: Option<Vec<(f64, f64, f64)>> = p.vertices.iter().map(project).collect();
+        let proj: Option<Vec<Projected>> = p.vertices.iter().map(|v| pinhole.project(v)).collect();
         let Some(proj) = proj else { continue };
         for t in 1..proj.len() - 1 {
-            let tri = [proj[0], proj[t], proj[t + 1]];
-            let val = [l[0], l[t], l[t + 1]];
-            let minx = tri
-                .iter()
-                .map(|v| v.0)
-                .fold(f64::INFINITY, f64::min)
-                .floor()
-                .max(0.0) as usize;
-            let maxx = tri
-                .iter()
-                .map(|v| v.0)
-                .fold(f64::NEG_INFINITY, f64::max)
-                .ceil()
-                .min(w as f64) as usize;
-            let miny = tri
-                .iter()
-                .map(|v| v.1)
-                .fold(f64::INFINITY, f64::min)
-                .floor()
-                .max(0.0) as usize;
-            let maxy = tri
-                .iter()
-                .map(|v| v.1)
-                .fold(f64::NEG_INFINITY, f64::max)
-                .ceil()
-                .min(h as f64) as usize;
-            let area = (tri[1].0 - tri[0].0) * (tri[2].1 - tri[0].1)
-                - (tri[2].0 - tri[0].0) * (tri[1].1 - tri[0].1);
-            if area.abs() < 1e-12 {
-                continue;
-            }
-            for y in miny..maxy {
-                for x in minx..maxx {
-                    let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
-                    let e = |a: (f64, f64, f64), b: (f64, f64, f64)| {
-                        (b.0 - a.0) * (py - a.1) - (px - a.0) * (b.1 - a.1)
-                    };
-                    let b0 = e(tri[1], tri[2]) / area;
-                    let b1 = e(tri[2], tri[0]) / area;
-                    let b2 = e(tri[0], tri[1]) / area;
-                    if b0 < -1e-9 || b1 < -1e-9 || b2 < -1e-9 {
-                        continue;
-                    }
-                    // perspective-correct interpolation
-                    let iz = b0 / tri[0].2 + b1 / tri[1].2 + b2 / tri[2].2;
-                    let z = 1.0 / iz;
-                    let i = y * w + x;
-                    if z >= zbuf[i] {
-                        continue;
-                    }
-                    zbuf[i] = z;
-                    let c: [f32; 3] = std::array::from_fn(|k| {
-                        (z * (b0 * val[0][k] / tri[0].2
-                            + b1 * val[1][k] / tri[1].2
-                            + b2 * val[2][k] / tri[2].2)) as f32
-                    });
-                    img[i] = c;
-                }
-            }
+            raster.fill_triangle([proj[0], proj[t], proj[t + 1]], [l[0], l[t], l[t + 1]]);
         }
     }
-    img
+    raster.img
 }
 
 /// Writes an XYZ float OpenEXR (channels X, Y, Z; cd/m²).
@@ -280,6 +334,163 @@ fn line(img: &mut image::RgbImage, a: (f64, f64), b: (f64, f64), col: [u8; 3]) {
     }
 }
 
+/// Plot size in pixels.
+const PLOT_SIZE: (u32, u32) = (800, 500);
+/// Plot margins in pixels: left, right, top, bottom.
+const PLOT_MARGINS: (f64, f64, f64, f64) = (90.0, 40.0, 30.0, 60.0);
+const GREY: [u8; 3] = [200, 200, 200];
+const BLACK: [u8; 3] = [0, 0, 0];
+/// Colour of the dashed target line.
+const TARGET_GREEN: [u8; 3] = [0, 150, 0];
+/// Pixel scale of the label font.
+const LABEL_SCALE: i64 = 2;
+
+/// The axes of the error/time plot: time linear from 0, error in whole decades.
+struct PlotFrame {
+    width: f64,
+    height: f64,
+    left: f64,
+    right: f64,
+    top: f64,
+    bottom: f64,
+    /// Longest time on the axis (s).
+    tmax: f64,
+    /// Lowest and highest decade (log10 of the error).
+    decades: (f64, f64),
+}
+
+impl PlotFrame {
+    /// Axes that hold every finite positive point of `curves` and the target.
+    fn fit(curves: &[(&ErrorCurve, [u8; 3])], target: Option<f64>) -> Self {
+        let pts: Vec<(f64, f64)> = curves
+            .iter()
+            .flat_map(|(c, _)| c.points.iter().map(|p| (p.time_s, p.estimated_error)))
+            .filter(|(_, e)| *e > 0.0 && e.is_finite())
+            .collect();
+        let tmax = pts.iter().map(|p| p.0).fold(1e-3, f64::max);
+        let emin = pts
+            .iter()
+            .map(|p| p.1)
+            .fold(target.unwrap_or(1.0), f64::min)
+            .max(1e-8);
+        let emax = pts.iter().map(|p| p.1).fold(emin * 10.0, f64::max);
+        let (left, right, top, bottom) = PLOT_MARGINS;
+        Self {
+            width: f64::from(PLOT_SIZE.0),
+            height: f64::from(PLOT_SIZE.1),
+            left,
+            right,
+            top,
+            bottom,
+            tmax,
+            decades: (emin.log10().floor(), emax.log10().ceil()),
+        }
+    }
+
+    /// Pixel x of time `t`.
+    fn x(&self, t: f64) -> f64 {
+        self.left + (self.width - self.left - self.right) * t / self.tmax
+    }
+
+    /// Pixel y of error `e`.
+    fn y(&self, e: f64) -> f64 {
+        let (d0, d1) = self.decades;
+        self.top
+            + (self.height - self.top - self.bottom) * (d1 - e.max(1e-300).log10())
+                / (d1 - d0).max(1.0)
+    }
+
+    /// Horizontal grid lines at the decades, labelled in %.
+    fn draw_error_grid(&self, img: &mut image::RgbImage) {
+        let (d0, d1) = self.decades;
+        let mut d = d0;
+        while d <= d1 + 1e-9 {
+            let y = self.y(10f64.powf(d));
+            line(img, (self.left, y), (self.width - self.right, y), GREY);
+            let pct = 100.0 * 10f64.powf(d);
+            let label = if pct >= 1.0 {
+                format!("{pct:.0}%")
+            } else {
+                // 0.1%, 0.01%, … with as many decimals as the decade needs
+                let decimals = (-pct.log10()).ceil().max(1.0) as usize;
+                format!("{pct:.decimals$}%")
+            };
+            text(img, 5, y as i64 - 5, &label, LABEL_SCALE, BLACK);
+            d += 1.0;
+        }
+    }
+
+    /// Vertical grid lines at quarters of the time axis, labelled in s.
+    fn draw_time_grid(&self, img: &mut image::RgbImage) {
+        for k in 0..=4 {
+            let tt = self.tmax * k as f64 / 4.0;
+            let x = self.x(tt);
+            line(img, (x, self.top), (x, self.height - self.bottom), GREY);
+            let label = format!("{tt:.2}s");
+            // the last label ends at the axis end instead of running off the image
+            let shift = if k == 4 {
+                12 * label.len() as i64 - 12
+            } else {
+                10
+            };
+            let y = self.height as i64 - self.bottom as i64 + 10;
+            text(img, x as i64 - shift, y, &label, LABEL_SCALE, BLACK);
+        }
+    }
+
+    /// Axis lines and titles.
+    fn draw_axes(&self, img: &mut image::RgbImage) {
+        let (w, h) = (self.width, self.height);
+        text(img, 5, 5, "estimated error (log)", LABEL_SCALE, BLACK);
+        text(
+            img,
+            (w as i64) / 2 - 84,
+            h as i64 - 22,
+            "wall time (s)",
+            LABEL_SCALE,
+            BLACK,
+        );
+        line(
+            img,
+            (self.left, self.top),
+            (self.left, h - self.bottom),
+            BLACK,
+        );
+        line(
+            img,
+            (self.left, h - self.bottom),
+            (w - self.right, h - self.bottom),
+            BLACK,
+        );
+    }
+
+    /// A dashed line at the target error.
+    fn draw_target(&self, img: &mut image::RgbImage, target: f64) {
+        let y = self.y(target);
+        let mut x = self.left;
+        while x < self.width - self.right {
+            line(img, (x, y), (x + 6.0, y), TARGET_GREEN);
+            x += 12.0;
+        }
+    }
+
+    /// One curve: each estimate holds until the next report, so steps, not slopes.
+    fn draw_curve(&self, img: &mut image::RgbImage, curve: &ErrorCurve, col: [u8; 3]) {
+        let mut prev: Option<(f64, f64)> = None;
+        for p in &curve.points {
+            if !(p.estimated_error > 0.0 && p.estimated_error.is_finite()) {
+                continue;
+            }
+            let q = (self.x(p.time_s), self.y(p.estimated_error));
+            if let Some(a) = prev {
+                line(img, a, (q.0, a.1), col);
+                line(img, (q.0, a.1), q, col);
+            }
+            prev = Some(q);
+        }
+    }
+}
+
 /// Plots estimated relative error (log scale, labelled in %) against wall time in s
 /// for one or more curves (each with its colour) and writes a PNG.
 pub fn plot_curves_png(
@@ -287,99 +498,17 @@ pub fn plot_curves_png(
     target: Option<f64>,
     path: &Path,
 ) -> Result<(), RadiosityError> {
-    let (w, h) = (800u32, 500u32);
-    let (l, r, t, b) = (90.0, 40.0, 30.0, 60.0);
-    let mut img = image::RgbImage::from_pixel(w, h, image::Rgb([255, 255, 255]));
-    let pts: Vec<(f64, f64)> = curves
-        .iter()
-        .flat_map(|(c, _)| c.points.iter().map(|p| (p.time_s, p.estimated_error)))
-        .filter(|(_, e)| *e > 0.0 && e.is_finite())
-        .collect();
-    let tmax = pts.iter().map(|p| p.0).fold(1e-3, f64::max);
-    let emin = pts
-        .iter()
-        .map(|p| p.1)
-        .fold(target.unwrap_or(1.0), f64::min)
-        .max(1e-8);
-    let emax = pts.iter().map(|p| p.1).fold(emin * 10.0, f64::max);
-    let (d0, d1) = (emin.log10().floor(), emax.log10().ceil());
-    let sx = |tt: f64| l + (w as f64 - l - r) * tt / tmax;
-    let sy = |e: f64| t + (h as f64 - t - b) * (d1 - e.max(1e-300).log10()) / (d1 - d0).max(1.0);
-    let grey = [200, 200, 200];
-    let black = [0, 0, 0];
-    let mut d = d0;
-    while d <= d1 + 1e-9 {
-        let y = sy(10f64.powf(d));
-        line(&mut img, (l, y), (w as f64 - r, y), grey);
-        let pct = 100.0 * 10f64.powf(d);
-        let label = if pct >= 1.0 {
-            format!("{pct:.0}%")
-        } else {
-            // 0.1%, 0.01%, … with as many decimals as the decade needs
-            let decimals = (-pct.log10()).ceil().max(1.0) as usize;
-            format!("{pct:.decimals$}%")
-        };
-        text(&mut img, 5, y as i64 - 5, &label, 2, black);
-        d += 1.0;
-    }
-    for k in 0..=4 {
-        let tt = tmax * k as f64 / 4.0;
-        let x = sx(tt);
-        line(&mut img, (x, t), (x, h as f64 - b), grey);
-        let label = format!("{tt:.2}s");
-        // the last label ends at the axis end instead of running off the image
-        let shift = if k == 4 {
-            12 * label.len() as i64 - 12
-        } else {
-            10
-        };
-        text(
-            &mut img,
-            x as i64 - shift,
-            h as i64 - b as i64 + 10,
-            &label,
-            2,
-            black,
-        );
-    }
-    text(&mut img, 5, 5, "estimated error (log)", 2, black);
-    text(
-        &mut img,
-        (w as i64) / 2 - 84,
-        h as i64 - 22,
-        "wall time (s)",
-        2,
-        black,
-    );
-    line(&mut img, (l, t), (l, h as f64 - b), black);
-    line(
-        &mut img,
-        (l, h as f64 - b),
-        (w as f64 - r, h as f64 - b),
-        black,
-    );
+    let mut img =
+        image::RgbImage::from_pixel(PLOT_SIZE.0, PLOT_SIZE.1, image::Rgb([255, 255, 255]));
+    let frame = PlotFrame::fit(curves, target);
+    frame.draw_error_grid(&mut img);
+    frame.draw_time_grid(&mut img);
+    frame.draw_axes(&mut img);
     if let Some(tg) = target {
-        let y = sy(tg);
-        let mut x = l;
-        while x < w as f64 - r {
-            line(&mut img, (x, y), (x + 6.0, y), [0, 150, 0]);
-            x += 12.0;
-        }
+        frame.draw_target(&mut img, tg);
     }
     for (c, col) in curves {
-        let mut prev: Option<(f64, f64)> = None;
-        for p in &c.points {
-            if !(p.estimated_error > 0.0 && p.estimated_error.is_finite()) {
-                continue;
-            }
-            let q = (sx(p.time_s), sy(p.estimated_error));
-            if let Some(a) = prev {
-                // each estimate holds until the next report: steps, not slopes
-                line(&mut img, a, (q.0, a.1), *col);
-                line(&mut img, (q.0, a.1), q, *col);
-            }
-            prev = Some(q);
-        }
+        frame.draw_curve(&mut img, c, *col);
     }
     img.save(path).map_err(|e| out_err(path, e))
 }

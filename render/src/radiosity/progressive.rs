@@ -5,19 +5,18 @@
 //! classification says an occluder may intervene). The error estimate is the unshot
 //! flux, amplified by the mean reflectance's geometric series, relative to the total.
 
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::Instant;
-
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::scene::{Scene, V3, polygon_area_m2, polygon_normal};
 
-use super::RadiosityError;
+pub(crate) use super::RayCounters;
 use super::curve::{CurvePoint, ErrorCurve, StopReason, StopRule};
 use super::form_factor::point_to_polygon;
 use super::quadrature;
 use super::solution::{Patch, Solution, SolveStats};
 use super::visibility::Visibility;
+use super::{RadiosityError, SolveClock};
 
 /// Options of the progressive solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -164,6 +163,39 @@ pub(crate) fn scene_extent(scene: &Scene) -> f64 {
     (hi - lo).norm()
 }
 
+/// Reflectance and emitted exitance (π·L, lm/m²) of every element of a uniform mesh.
+pub(crate) struct MeshMaterials {
+    /// Reflectance per element (XYZ).
+    pub(crate) rho: Vec<[f64; 3]>,
+    /// Emitted exitance per element (XYZ lm/m²).
+    pub(crate) emit: Vec<[f64; 3]>,
+}
+
+impl MeshMaterials {
+    /// Looks up the material of each element's polygon.
+    pub(crate) fn of(scene: &Scene, mesh: &[MeshElem]) -> Self {
+        let rho = mesh
+            .iter()
+            .map(|e| scene.material_of(e.polygon).reflectance_xyz)
+            .collect();
+        let emit = mesh
+            .iter()
+            .map(|e| {
+                scene
+                    .material_of(e.polygon)
+                    .emission_cd_m2
+                    .map(|l| std::f64::consts::PI * l)
+            })
+            .collect();
+        Self { rho, emit }
+    }
+
+    /// Exitance of element `i` under irradiance `irradiance`: E + ρ·H per channel.
+    pub(crate) fn exitance(&self, i: usize, irradiance: &[f64; 3]) -> [f64; 3] {
+        std::array::from_fn(|c| self.emit[i][c] + self.rho[i][c] * irradiance[c])
+    }
+}
+
 /// Form factor from receiver `r` to source `s` (area average over r's Gauss points,
 /// shadow rays from each point to s's centre and Gauss points when classified
 /// possibly occluded).
@@ -171,18 +203,16 @@ pub(crate) fn mesh_ff(
     vis: &dyn Visibility,
     r: &MeshElem,
     s: &MeshElem,
-    rays: &AtomicU64,
-    tested: &AtomicU64,
-    skipped: &AtomicU64,
+    counters: &RayCounters,
 ) -> f64 {
     if !facing(r, s) {
         return 0.0;
     }
     let candidate = vis.may_occlude(&r.verts, r.polygon, &s.verts, s.polygon);
     if candidate {
-        tested.fetch_add(1, Ordering::Relaxed);
+        counters.tested.fetch_add(1, Ordering::Relaxed);
     } else {
-        skipped.fetch_add(1, Ordering::Relaxed);
+        counters.skipped.fetch_add(1, Ordering::Relaxed);
     }
     let mut f = 0.0;
     for (x, w) in &r.points {
@@ -197,7 +227,9 @@ pub(crate) fn mesh_ff(
                     seen += 1;
                 }
             }
-            rays.fetch_add(s.points.len() as u64, Ordering::Relaxed);
+            counters
+                .rays
+                .fetch_add(s.points.len() as u64, Ordering::Relaxed);
             seen as f64 / s.points.len() as f64
         } else {
             1.0
@@ -222,144 +254,231 @@ pub(crate) fn patches_from_mesh(mesh: &[MeshElem], b: &[[f64; 3]], h: &[[f64; 3]
         .collect()
 }
 
+/// Smallest interval between two curve reports of the progressive solver, in seconds.
+const REPORT_INTERVAL_S: f64 = 0.05;
+/// The first shots are all reported, so that short solves still draw a curve.
+const ALWAYS_REPORTED_SHOTS: usize = 10;
+/// Keeps the geometric series 1/(1 − ρ̄) finite for (nearly) white scenes.
+const MIN_ABSORPTION: f64 = 1e-9;
+
 /// Solves a scene by progressive refinement (shooting) on a uniform mesh.
 pub fn solve_progressive(
     scene: &Scene,
     vis: &dyn Visibility,
     opts: &ProgressiveOptions,
 ) -> Result<Solution, RadiosityError> {
-    let start = Instant::now();
-    super::validate(scene, opts.stop.target_error)?;
+    let clock = SolveClock::start(scene, &opts.stop)?;
     if !(opts.max_edge_m.is_finite() && opts.max_edge_m > 0.0) {
         return Err(RadiosityError::BadOption(format!(
             "max edge {} m must be positive",
             opts.max_edge_m
         )));
     }
-    let deadline = opts.stop.time_limit.map(|t| start + t);
-    let mesh = uniform_mesh(scene, opts.max_edge_m);
-    let n = mesh.len();
-    let rho: Vec<[f64; 3]> = mesh
-        .iter()
-        .map(|e| scene.material_of(e.polygon).reflectance_xyz)
-        .collect();
-    let emit: Vec<[f64; 3]> = mesh
-        .iter()
-        .map(|e| {
-            scene
-                .material_of(e.polygon)
-                .emission_cd_m2
-                .map(|l| std::f64::consts::PI * l)
-        })
-        .collect();
-    let (rays, tested, skipped) = (AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0));
-    let mut h = direct_light(scene, vis, &mesh, &rays);
-    let mut b: Vec<[f64; 3]> = (0..n)
-        .map(|i| std::array::from_fn(|c| emit[i][c] + rho[i][c] * h[i][c]))
-        .collect();
-    let mut unshot = b.clone();
-    let total_area: f64 = mesh.iter().map(|e| e.area).sum();
-    let rho_mean = mesh
-        .iter()
-        .zip(&rho)
-        .map(|(e, r)| e.area * r[1])
-        .sum::<f64>()
-        / total_area;
-    let mut curve = ErrorCurve::default();
-    let mut shots = 0usize;
-    let mut ff_evals = 0usize;
-    let mut last_report = f64::NEG_INFINITY;
-    let stop;
-    loop {
-        let flux_total: f64 = mesh.iter().zip(&b).map(|(e, b)| e.area * b[1]).sum();
-        let (j, flux_unshot_max) = mesh
+    let mut solver = Shooter::new(scene, vis, opts.max_edge_m, clock);
+    let stop = solver.run(&opts.stop)?;
+    Ok(solver.finish(scene, stop))
+}
+
+/// The state of a progressive solve: the mesh, its radiosities and what is left to
+/// shoot.
+struct Shooter<'a> {
+    vis: &'a dyn Visibility,
+    clock: SolveClock,
+    mesh: Vec<MeshElem>,
+    materials: MeshMaterials,
+    counters: RayCounters,
+    /// Irradiance per element (XYZ lux).
+    irradiance: Vec<[f64; 3]>,
+    /// Exitance per element (XYZ lm/m²).
+    exitance: Vec<[f64; 3]>,
+    /// Exitance received but not yet shot.
+    unshot: Vec<[f64; 3]>,
+    /// Area-weighted mean reflectance (Y).
+    rho_mean: f64,
+    curve: ErrorCurve,
+    shots: usize,
+    form_factor_evals: usize,
+    last_report_s: f64,
+}
+
+/// The unshot flux before a shot.
+struct UnshotFlux {
+    /// Element with the largest unshot flux (the next shooter).
+    largest: usize,
+    /// Its unshot flux (Y lm).
+    largest_flux: f64,
+    /// Unshot flux over all elements (Y lm).
+    total: f64,
+    /// Estimated relative error of the solve.
+    error: f64,
+}
+
+impl<'a> Shooter<'a> {
+    /// Meshes the scene and lights it directly.
+    fn new(scene: &Scene, vis: &'a dyn Visibility, max_edge_m: f64, clock: SolveClock) -> Self {
+        let mesh = uniform_mesh(scene, max_edge_m);
+        let materials = MeshMaterials::of(scene, &mesh);
+        let counters = RayCounters::default();
+        let irradiance = direct_light(scene, vis, &mesh, &counters.rays);
+        let exitance: Vec<[f64; 3]> = (0..mesh.len())
+            .map(|i| materials.exitance(i, &irradiance[i]))
+            .collect();
+        let unshot = exitance.clone();
+        let total_area: f64 = mesh.iter().map(|e| e.area).sum();
+        let rho_mean = mesh
             .iter()
-            .zip(&unshot)
+            .zip(&materials.rho)
+            .map(|(e, r)| e.area * r[1])
+            .sum::<f64>()
+            / total_area;
+        Self {
+            vis,
+            clock,
+            mesh,
+            materials,
+            counters,
+            irradiance,
+            exitance,
+            unshot,
+            rho_mean,
+            curve: ErrorCurve::default(),
+            shots: 0,
+            form_factor_evals: 0,
+            last_report_s: f64::NEG_INFINITY,
+        }
+    }
+
+    /// Shoots until the stop rule says stop.
+    fn run(&mut self, rule: &StopRule) -> Result<StopReason, RadiosityError> {
+        loop {
+            let unshot = self.unshot_flux();
+            let done = unshot.error <= rule.target_error;
+            let timeout = self.clock.past_deadline();
+            let capped = self.shots >= rule.max_iterations;
+            self.report(unshot.error, done || timeout || capped);
+            if !unshot.error.is_finite() {
+                return Err(RadiosityError::Diverged(format!(
+                    "unshot flux became {}",
+                    unshot.total
+                )));
+            }
+            if done || unshot.largest_flux <= 0.0 {
+                return Ok(StopReason::Converged);
+            }
+            if timeout {
+                return Ok(StopReason::TimeLimit);
+            }
+            if capped {
+                return Ok(StopReason::IterationLimit);
+            }
+            self.shoot(unshot.largest);
+        }
+    }
+
+    /// The unshot flux and the error it leaves.
+    fn unshot_flux(&self) -> UnshotFlux {
+        let mesh = &self.mesh;
+        let flux_total: f64 = mesh
+            .iter()
+            .zip(&self.exitance)
+            .map(|(e, b)| e.area * b[1])
+            .sum();
+        let (largest, largest_flux) = mesh
+            .iter()
+            .zip(&self.unshot)
             .enumerate()
             .map(|(i, (e, u))| (i, e.area * u[1]))
             .fold((0, f64::NEG_INFINITY), |a, x| if x.1 > a.1 { x } else { a });
-        let flux_unshot: f64 = mesh.iter().zip(&unshot).map(|(e, u)| e.area * u[1]).sum();
-        let err = if flux_total > 0.0 {
-            flux_unshot * rho_mean / (1.0 - rho_mean).max(1e-9) / flux_total
+        let total: f64 = mesh
+            .iter()
+            .zip(&self.unshot)
+            .map(|(e, u)| e.area * u[1])
+            .sum();
+        let error = if flux_total > 0.0 {
+            total * self.rho_mean / (1.0 - self.rho_mean).max(MIN_ABSORPTION) / flux_total
         } else {
             0.0
         };
-        let now = start.elapsed().as_secs_f64();
-        let done = err <= opts.stop.target_error;
-        let timeout = deadline.is_some_and(|d| Instant::now() > d);
-        let capped = shots >= opts.stop.max_iterations;
-        if done || timeout || capped || now - last_report > 0.05 || shots < 10 {
-            last_report = now;
-            curve.points.push(CurvePoint {
+        UnshotFlux {
+            largest,
+            largest_flux,
+            total,
+            error,
+        }
+    }
+
+    /// Adds a curve point for the last shot when it is due (or `last`).
+    fn report(&mut self, error: f64, last: bool) {
+        let now = self.clock.elapsed_s();
+        if last
+            || now - self.last_report_s > REPORT_INTERVAL_S
+            || self.shots < ALWAYS_REPORTED_SHOTS
+        {
+            self.last_report_s = now;
+            self.curve.points.push(CurvePoint {
                 time_s: now,
-                iteration: shots,
-                estimated_error: err,
-                solve_error: err,
+                iteration: self.shots,
+                estimated_error: error,
+                solve_error: error,
                 discretization_error: 0.0,
-                patches: n,
-                links: ff_evals,
+                patches: self.mesh.len(),
+                links: self.form_factor_evals,
             });
         }
-        if !err.is_finite() {
-            return Err(RadiosityError::Diverged(format!(
-                "unshot flux became {flux_unshot}"
-            )));
-        }
-        if done || flux_unshot_max <= 0.0 {
-            stop = StopReason::Converged;
-            break;
-        }
-        if timeout {
-            stop = StopReason::TimeLimit;
-            break;
-        }
-        if capped {
-            stop = StopReason::IterationLimit;
-            break;
-        }
-        let shooter = &mesh[j];
-        let db = unshot[j];
-        unshot[j] = [0.0; 3];
-        let gains: Vec<f64> = mesh
+    }
+
+    /// Shoots the unshot exitance of element `shooter` to every element.
+    fn shoot(&mut self, shooter: usize) {
+        let source = &self.mesh[shooter];
+        let shot = self.unshot[shooter];
+        self.unshot[shooter] = [0.0; 3];
+        let (vis, counters) = (self.vis, &self.counters);
+        let gains: Vec<f64> = self
+            .mesh
             .par_iter()
-            .map(|r| mesh_ff(vis, r, shooter, &rays, &tested, &skipped))
+            .map(|r| mesh_ff(vis, r, source, counters))
             .collect();
-        ff_evals += n;
-        for i in 0..n {
-            let f = gains[i];
+        self.form_factor_evals += self.mesh.len();
+        let rho = &self.materials.rho;
+        for (i, &f) in gains.iter().enumerate() {
             if f <= 0.0 {
                 continue;
             }
             for c in 0..3 {
-                let dh = f * db[c];
-                h[i][c] += dh;
-                b[i][c] += rho[i][c] * dh;
-                unshot[i][c] += rho[i][c] * dh;
+                let gained = f * shot[c];
+                self.irradiance[i][c] += gained;
+                self.exitance[i][c] += rho[i][c] * gained;
+                self.unshot[i][c] += rho[i][c] * gained;
             }
         }
-        shots += 1;
+        self.shots += 1;
     }
-    let patches = patches_from_mesh(&mesh, &b, &h);
-    let by_polygon = super::Solution::index(&patches, scene.polygons.len());
-    let stats = SolveStats {
-        patches: n,
-        elements: n,
-        links: ff_evals,
-        iterations: shots,
-        shadow_rays: rays.load(Ordering::Relaxed),
-        visibility_skipped: skipped.load(Ordering::Relaxed),
-        visibility_tested: tested.load(Ordering::Relaxed),
-        memory_bytes: n
-            * (std::mem::size_of::<MeshElem>() + 8 * std::mem::size_of::<V3>() + 5 * 24),
-        time_s: start.elapsed().as_secs_f64(),
-        extrapolations: 0,
-        ..SolveStats::default()
-    };
-    Ok(Solution {
-        patches,
-        by_polygon,
-        curve,
-        stop,
-        stats,
-    })
+
+    /// The solution with its statistics.
+    fn finish(self, scene: &Scene, stop: StopReason) -> Solution {
+        let n = self.mesh.len();
+        let patches = patches_from_mesh(&self.mesh, &self.exitance, &self.irradiance);
+        let by_polygon = super::Solution::index(&patches, scene.polygons.len());
+        let stats = SolveStats {
+            patches: n,
+            elements: n,
+            links: self.form_factor_evals,
+            iterations: self.shots,
+            shadow_rays: self.counters.rays.into_inner(),
+            visibility_skipped: self.counters.skipped.into_inner(),
+            visibility_tested: self.counters.tested.into_inner(),
+            memory_bytes: n
+                * (std::mem::size_of::<MeshElem>() + 8 * std::mem::size_of::<V3>() + 5 * 24),
+            time_s: self.clock.elapsed_s(),
+            extrapolations: 0,
+            ..SolveStats::default()
+        };
+        Solution {
+            patches,
+            by_polygon,
+            curve: self.curve,
+            stop,
+            stats,
+        }
+    }
 }

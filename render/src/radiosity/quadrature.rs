@@ -80,9 +80,9 @@ pub fn points(v: &[V3], n: usize, out: &mut Vec<(V3, f64)>) {
     if v.len() == 3 || v.len() == 4 {
         let gl = gauss_legendre_01(n);
         let mut total = 0.0;
-        for &(s, ws) in gl {
+        for &(s, weight_s) in gl {
             for &(t, wt) in gl {
-                let w = ws * wt * jacobian(v, s, t);
+                let w = weight_s * wt * jacobian(v, s, t);
                 total += w;
                 out.push((map_unit_square(v, s, t), w));
             }

@@ -3,17 +3,25 @@
 //! that may be occluded) and Gauss–Seidel to a residual of 1e-9. Quadratic in memory
 //! and time: for acceptance comparisons on small scenes only.
 
-use std::sync::atomic::AtomicU64;
 use std::time::Instant;
 
 use rayon::prelude::*;
 
 use super::RadiosityError;
 use super::curve::{CurvePoint, ErrorCurve, StopReason};
-use super::progressive::{direct_light, mesh_ff, patches_from_mesh, uniform_mesh};
+use super::progressive::{
+    MeshElem, MeshMaterials, RayCounters, direct_light, mesh_ff, patches_from_mesh, uniform_mesh,
+};
 use super::solution::{Solution, SolveStats};
 use super::visibility::Visibility;
 use crate::scene::Scene;
+
+/// Gauss–Seidel stops when the relative change of a sweep falls below this.
+const CONVERGED_CHANGE: f64 = 1e-9;
+/// Gauss–Seidel gives up after this many sweeps.
+const MAX_SWEEPS: usize = 100_000;
+/// Validation target passed for the reference, which has no target error of its own.
+const NOMINAL_TARGET: f64 = 0.5;
 
 /// Solves `scene` densely on a uniform mesh with edges ≤ `max_edge_m`. Refuses meshes
 /// above `max_elements` (the matrix needs 8·n² bytes).
@@ -24,7 +32,7 @@ pub fn solve_dense_reference(
     max_elements: usize,
 ) -> Result<Solution, RadiosityError> {
     let start = Instant::now();
-    super::validate(scene, 0.5)?;
+    super::validate(scene, NOMINAL_TARGET)?;
     let mesh = uniform_mesh(scene, max_edge_m);
     let n = mesh.len();
     if n > max_elements {
@@ -32,57 +40,24 @@ pub fn solve_dense_reference(
             "reference mesh has {n} elements, more than the allowed {max_elements}; use a larger max edge"
         )));
     }
-    let (rays, tested, skipped) = (AtomicU64::new(0), AtomicU64::new(0), AtomicU64::new(0));
-    let h_direct = direct_light(scene, vis, &mesh, &rays);
-    let rows: Vec<Vec<(u32, f64)>> = mesh
-        .par_iter()
-        .map(|r| {
-            mesh.iter()
-                .enumerate()
-                .filter_map(|(j, s)| {
-                    let f = mesh_ff(vis, r, s, &rays, &tested, &skipped);
-                    (f > 0.0).then_some((j as u32, f))
-                })
-                .collect()
-        })
-        .collect();
-    let rho: Vec<[f64; 3]> = mesh
-        .iter()
-        .map(|e| scene.material_of(e.polygon).reflectance_xyz)
-        .collect();
-    let emit: Vec<[f64; 3]> = mesh
-        .iter()
-        .map(|e| {
-            scene
-                .material_of(e.polygon)
-                .emission_cd_m2
-                .map(|l| std::f64::consts::PI * l)
-        })
-        .collect();
-    let mut b: Vec<[f64; 3]> = (0..n)
-        .map(|i| std::array::from_fn(|c| emit[i][c] + rho[i][c] * h_direct[i][c]))
-        .collect();
-    let mut h = h_direct.clone();
+    let counters = RayCounters::default();
+    let direct = direct_light(scene, vis, &mesh, &counters.rays);
+    let rows = form_factor_rows(vis, &mesh, &counters);
+    let materials = MeshMaterials::of(scene, &mesh);
+    let mut gs = GaussSeidel {
+        mesh: &mesh,
+        rows: &rows,
+        materials: &materials,
+        direct: &direct,
+        exitance: (0..n).map(|i| materials.exitance(i, &direct[i])).collect(),
+        irradiance: direct.clone(),
+    };
+    let links = rows.iter().map(Vec::len).sum();
     let mut curve = ErrorCurve::default();
     let mut sweeps = 0;
     loop {
-        let mut change = 0.0;
-        let mut total = 0.0;
-        for i in 0..n {
-            let mut hi = h_direct[i];
-            for &(j, f) in &rows[i] {
-                for c in 0..3 {
-                    hi[c] += f * b[j as usize][c];
-                }
-            }
-            let new: [f64; 3] = std::array::from_fn(|c| emit[i][c] + rho[i][c] * hi[c]);
-            change += mesh[i].area * (new[1] - b[i][1]).abs();
-            total += mesh[i].area * new[1];
-            b[i] = new;
-            h[i] = hi;
-        }
+        let rel = gs.sweep();
         sweeps += 1;
-        let rel = if total > 0.0 { change / total } else { 0.0 };
         curve.points.push(CurvePoint {
             time_s: start.elapsed().as_secs_f64(),
             iteration: sweeps,
@@ -90,18 +65,17 @@ pub fn solve_dense_reference(
             solve_error: rel,
             discretization_error: 0.0,
             patches: n,
-            links: rows.iter().map(Vec::len).sum(),
+            links,
         });
         if !rel.is_finite() {
             return Err(RadiosityError::Diverged("reference Gauss–Seidel".into()));
         }
-        if rel < 1e-9 || sweeps >= 100_000 {
+        if rel < CONVERGED_CHANGE || sweeps >= MAX_SWEEPS {
             break;
         }
     }
-    let patches = patches_from_mesh(&mesh, &b, &h);
+    let patches = patches_from_mesh(&mesh, &gs.exitance, &gs.irradiance);
     let by_polygon = Solution::index(&patches, scene.polygons.len());
-    let links = rows.iter().map(Vec::len).sum();
     Ok(Solution {
         patches,
         by_polygon,
@@ -112,13 +86,64 @@ pub fn solve_dense_reference(
             elements: n,
             links,
             iterations: sweeps,
-            shadow_rays: rays.into_inner(),
-            visibility_skipped: skipped.into_inner(),
-            visibility_tested: tested.into_inner(),
+            shadow_rays: counters.rays.into_inner(),
+            visibility_skipped: counters.skipped.into_inner(),
+            visibility_tested: counters.tested.into_inner(),
             memory_bytes: links * 12 + n * 200,
             time_s: start.elapsed().as_secs_f64(),
             extrapolations: 0,
             ..SolveStats::default()
         },
     })
+}
+
+/// The dense form-factor matrix, one sparse row (source, factor) per receiver.
+fn form_factor_rows(
+    vis: &dyn Visibility,
+    mesh: &[MeshElem],
+    counters: &RayCounters,
+) -> Vec<Vec<(u32, f64)>> {
+    mesh.par_iter()
+        .map(|r| {
+            mesh.iter()
+                .enumerate()
+                .filter_map(|(j, s)| {
+                    let f = mesh_ff(vis, r, s, counters);
+                    (f > 0.0).then_some((j as u32, f))
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Gauss–Seidel iteration of B = E + ρ·(H_direct + F·B).
+struct GaussSeidel<'a> {
+    mesh: &'a [MeshElem],
+    rows: &'a [Vec<(u32, f64)>],
+    materials: &'a MeshMaterials,
+    direct: &'a [[f64; 3]],
+    exitance: Vec<[f64; 3]>,
+    irradiance: Vec<[f64; 3]>,
+}
+
+impl GaussSeidel<'_> {
+    /// One sweep in place; returns the area-weighted relative change of Y.
+    fn sweep(&mut self) -> f64 {
+        let mut change = 0.0;
+        let mut total = 0.0;
+        for i in 0..self.mesh.len() {
+            let mut gathered = self.direct[i];
+            for &(j, f) in &self.rows[i] {
+                for (g, b) in gathered.iter_mut().zip(&self.exitance[j as usize]) {
+                    *g += f * b;
+                }
+            }
+            let new = self.materials.exitance(i, &gathered);
+            change += self.mesh[i].area * (new[1] - self.exitance[i][1]).abs();
+            total += self.mesh[i].area * new[1];
+            self.exitance[i] = new;
+            self.irradiance[i] = gathered;
+        }
+        if total > 0.0 { change / total } else { 0.0 }
+    }
 }

@@ -84,6 +84,16 @@ impl SceneOccluders {
     }
 }
 
+/// Whether two axis-aligned boxes (lo, hi) overlap (touching counts).
+fn boxes_overlap(a: (&V3, &V3), b: (&V3, &V3)) -> bool {
+    !(a.1.x < b.0.x
+        || a.0.x > b.1.x
+        || a.1.y < b.0.y
+        || a.0.y > b.1.y
+        || a.1.z < b.0.z
+        || a.0.z > b.1.z)
+}
+
 impl Visibility for SceneOccluders {
     fn may_occlude(&self, a: &[V3], a_poly: usize, b: &[V3], b_poly: usize) -> bool {
         let (alo, ahi) = bbox(a);
@@ -96,13 +106,7 @@ impl Visibility for SceneOccluders {
             if i == a_poly || i == b_poly {
                 continue;
             }
-            if o.hi.x < lo.x
-                || o.lo.x > hi.x
-                || o.hi.y < lo.y
-                || o.lo.y > hi.y
-                || o.hi.z < lo.z
-                || o.lo.z > hi.z
-            {
+            if !boxes_overlap((&o.lo, &o.hi), (&lo, &hi)) {
                 continue;
             }
             // occluder entirely behind (or on) the plane of a or of b
@@ -130,13 +134,7 @@ impl Visibility for SceneOccluders {
             if i == skip[0] || i == skip[1] {
                 continue;
             }
-            if o.hi.x < lo.x
-                || o.lo.x > hi.x
-                || o.hi.y < lo.y
-                || o.lo.y > hi.y
-                || o.hi.z < lo.z
-                || o.lo.z > hi.z
-            {
+            if !boxes_overlap((&o.lo, &o.hi), (&lo, &hi)) {
                 continue;
             }
             let denom = o.normal.dot(&d);

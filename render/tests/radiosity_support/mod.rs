@@ -1,10 +1,44 @@
-//! Scenes shared by the radiosity tests.
+//! Scenes and solver settings shared by the radiosity tests.
 
+#![allow(dead_code, reason = "each test binary uses a subset of the helpers")]
+
+use std::time::Duration;
+
+use lumiwall_render::radiosity::{
+    HierarchicalOptions, Solution, StopRule, Visibility, solve_hierarchical,
+};
 use lumiwall_render::scene::{Light, Material, Polygon, Scene, V3};
+
+/// A stop rule: relative error `target`, at most `time_limit_s` seconds and
+/// `max_iterations` sweeps or shots.
+pub(crate) fn stop_rule(target: f64, time_limit_s: u64, max_iterations: usize) -> StopRule {
+    StopRule {
+        target_error: target,
+        time_limit: Some(Duration::from_secs(time_limit_s)),
+        max_iterations,
+    }
+}
+
+/// Solves `scene` hierarchically with default options but the stop rule `stop`.
+pub(crate) fn solve_hierarchical_with(
+    scene: &Scene,
+    vis: &dyn Visibility,
+    stop: StopRule,
+) -> Solution {
+    solve_hierarchical(
+        scene,
+        vis,
+        &HierarchicalOptions {
+            stop,
+            ..Default::default()
+        },
+    )
+    .unwrap()
+}
 
 /// A 4 × 4 m plane at z = 0 (facing +z, reflectance `rho` in every channel) under
 /// one light, nothing else.
-pub fn plane_under(light: Light, rho: f64) -> Scene {
+pub(crate) fn plane_under(light: Light, rho: f64) -> Scene {
     Scene {
         polygons: vec![Polygon {
             vertices: vec![

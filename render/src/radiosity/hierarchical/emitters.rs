@@ -29,7 +29,7 @@ const CONE_SAMPLES: usize = 12;
 
 impl Emitter {
     /// Every light and daylight source of a scene.
-    pub fn all(scene: &Scene) -> Vec<Emitter> {
+    pub(crate) fn all(scene: &Scene) -> Vec<Emitter> {
         let mut out: Vec<Emitter> = scene
             .lights
             .iter()
@@ -55,7 +55,7 @@ impl Emitter {
     }
 
     /// Colour (XYZ per unit Y).
-    pub fn color(&self) -> [f64; 3] {
+    pub(crate) fn color(&self) -> [f64; 3] {
         match self {
             Emitter::Point { color, .. } | Emitter::Directional { color, .. } => *color,
         }
@@ -63,7 +63,7 @@ impl Emitter {
 
     /// Illuminance (Y, lux per unit colour) at `x` on a surface with unit normal `n`,
     /// unoccluded.
-    pub fn irradiance(&self, scene: &Scene, x: &V3, n: &V3) -> f64 {
+    pub(crate) fn irradiance(&self, scene: &Scene, x: &V3, n: &V3) -> f64 {
         let (e, u) = self.normal_irradiance(scene, x);
         e * n.dot(&u).max(0.0)
     }
@@ -72,7 +72,7 @@ impl Emitter {
     /// `n`, area `area`), unoccluded: the flux I·Ω into the solid angle Ω the polygon
     /// subtends at a point light, over its area (exact for an isotropic light, the
     /// intensity taken towards the centroid otherwise); a distant source is even.
-    pub fn mean_irradiance(&self, scene: &Scene, verts: &[V3], n: &V3, area: f64) -> f64 {
+    pub(crate) fn mean_irradiance(&self, scene: &Scene, verts: &[V3], n: &V3, area: f64) -> f64 {
         match self {
             Emitter::Point {
                 light, position, ..
@@ -98,7 +98,7 @@ impl Emitter {
 
     /// Normal illuminance (lux per unit colour) at `x` and the unit direction from `x`
     /// towards the source.
-    pub fn normal_irradiance(&self, scene: &Scene, x: &V3) -> (f64, V3) {
+    pub(crate) fn normal_irradiance(&self, scene: &Scene, x: &V3) -> (f64, V3) {
         match self {
             Emitter::Point {
                 light, position, ..
@@ -121,7 +121,7 @@ impl Emitter {
 
     /// Upper bound of the normal illuminance anywhere in the sphere (`c`, `r`);
     /// infinite when the sphere holds a point light.
-    pub fn max_normal_irradiance(&self, scene: &Scene, c: &V3, r: f64) -> f64 {
+    pub(crate) fn max_normal_irradiance(&self, scene: &Scene, c: &V3, r: f64) -> f64 {
         match self {
             Emitter::Point {
                 light, position, ..
@@ -140,7 +140,7 @@ impl Emitter {
 
     /// Far end of a shadow ray from `x` towards the source (`far`: a length beyond the
     /// scene).
-    pub fn ray_end(&self, x: &V3, far: f64) -> V3 {
+    pub(crate) fn ray_end(&self, x: &V3, far: f64) -> V3 {
         match self {
             Emitter::Point { position, .. } => *position,
             Emitter::Directional { direction, .. } => x + direction * far,
@@ -149,7 +149,7 @@ impl Emitter {
 
     /// The sender end of a shaft towards the points `recv`: the light's position, or
     /// the receiver moved far towards a distant source.
-    pub fn shaft_end(&self, recv: &[V3], far: f64) -> Vec<V3> {
+    pub(crate) fn shaft_end(&self, recv: &[V3], far: f64) -> Vec<V3> {
         match self {
             Emitter::Point { position, .. } => vec![*position],
             Emitter::Directional { direction, .. } => {
@@ -159,7 +159,7 @@ impl Emitter {
     }
 
     /// Position of a point light (for the analytic maximum of Kresse 2.6.1).
-    pub fn position(&self) -> Option<V3> {
+    pub(crate) fn position(&self) -> Option<V3> {
         match self {
             Emitter::Point { position, .. } => Some(*position),
             Emitter::Directional { .. } => None,

@@ -39,16 +39,16 @@ pub(super) enum Kind {
 }
 
 impl Node {
-    pub fn patch(i: usize) -> Self {
+    pub(crate) fn patch(i: usize) -> Self {
         Self(i as u32)
     }
-    pub fn cluster(i: usize) -> Self {
+    pub(crate) fn cluster(i: usize) -> Self {
         Self((1 << TAG_SHIFT) | i as u32)
     }
-    pub fn emitter(i: usize) -> Self {
+    pub(crate) fn emitter(i: usize) -> Self {
         Self((2 << TAG_SHIFT) | i as u32)
     }
-    pub fn kind(self) -> Kind {
+    pub(crate) fn kind(self) -> Kind {
         let i = (self.0 & INDEX_MASK) as usize;
         match self.0 >> TAG_SHIFT {
             0 => Kind::Patch(i),
@@ -137,16 +137,16 @@ impl Patch {
     }
 
     /// The corner vertices.
-    pub fn verts(&self) -> &[V3] {
+    pub(crate) fn verts(&self) -> &[V3] {
         &self.verts[..self.nv]
     }
 
-    pub fn is_leaf(&self) -> bool {
+    pub(crate) fn is_leaf(&self) -> bool {
         self.first_child == NONE
     }
 
     /// A point of the patch for three uniform numbers in [0, 1) (uniform by area).
-    pub fn point_at(&self, r0: f64, r1: f64, r2: f64) -> V3 {
+    pub(crate) fn point_at(&self, r0: f64, r1: f64, r2: f64) -> V3 {
         crate::radiosity::quadrature::uniform_point(self.verts(), r0, r1, r2)
     }
 }
@@ -177,7 +177,7 @@ struct Item {
 
 impl Hierarchy {
     /// Builds the cluster tree over every polygon of `scene` (root cluster 0).
-    pub fn build(scene: &Scene) -> Self {
+    pub(crate) fn build(scene: &Scene) -> Self {
         let n = scene.polygons.len();
         let mut patches: Vec<Patch> = scene
             .polygons
@@ -210,110 +210,48 @@ impl Hierarchy {
     fn finish_clusters(&mut self, scene: &Scene) {
         // clusters are created parent before children: reverse order is bottom-up
         for c in (0..self.clusters.len()).rev() {
-            let mut area = 0.0;
-            let mut lo = V3::repeat(f64::INFINITY);
-            let mut hi = V3::repeat(f64::NEG_INFINITY);
-            let mut axis = V3::zeros();
-            let mut rho_max: f64 = 0.0;
-            let mut w_max: f64 = 0.0;
-            let mut poly_radius_max: f64 = 0.0;
-            let mut moment = V3::zeros();
-            let mut child_reps: Vec<((V3, V3), f64)> = Vec::new();
+            let mut sums = ClusterSums::new();
             for k in 0..self.clusters[c].n_children {
                 match self.clusters[c].children[k].kind() {
-                    Kind::Patch(p) => {
-                        let pa = &self.patches[p];
-                        area += pa.area;
-                        moment += pa.centre * pa.area;
-                        for v in pa.verts() {
-                            lo = lo.inf(v);
-                            hi = hi.sup(v);
-                        }
-                        axis += pa.normal * pa.area;
-                        let rho = scene.material_of(pa.polygon as usize).reflectance_xyz[1];
-                        rho_max = rho_max.max(rho);
-                        w_max = w_max.max(error_weight(rho));
-                        poly_radius_max = poly_radius_max.max(pa.radius);
-                        child_reps.push(((pa.centre, pa.normal), pa.area));
-                    }
-                    Kind::Cluster(k2) => {
-                        let ch = &self.clusters[k2];
-                        area += ch.area;
-                        moment += ch.centre * ch.area;
-                        lo = lo.inf(&ch.lo);
-                        hi = hi.sup(&ch.hi);
-                        axis += ch.cone_axis * ch.area;
-                        rho_max = rho_max.max(ch.rho_max);
-                        w_max = w_max.max(ch.w_max);
-                        poly_radius_max = poly_radius_max.max(ch.poly_radius_max);
-                        // samples of the child become candidates for this cluster's
-                        for s in &ch.samples[..ch.n_samples] {
-                            child_reps.push((*s, ch.area / ch.n_samples as f64));
-                        }
-                    }
+                    Kind::Patch(p) => sums.add_patch(&self.patches[p], scene),
+                    Kind::Cluster(k2) => sums.add_cluster(&self.clusters[k2]),
                     Kind::Emitter(_) => {}
                 }
             }
-            // up to four samples spread over the children
-            child_reps.sort_by(|a, b| b.1.total_cmp(&a.1));
-            let mut samples = [(V3::zeros(), V3::z()); 4];
-            let mut n_samples = 0;
-            for r in child_reps.iter().take(4) {
-                samples[n_samples] = r.0;
-                n_samples += 1;
-            }
-            // the area centroid: a uniformly bright cluster's light leaves from there
-            let centre = if area > 0.0 {
-                moment / area
-            } else {
-                (lo + hi) * 0.5
-            };
-            let len = axis.norm();
-            let cone_axis = if len > 1e-12 * area.max(1e-300) {
-                axis / len
-            } else {
-                V3::z()
-            };
             let first_share = match self.clusters[c].children[0].kind() {
                 Kind::Patch(p) => self.patches[p].area,
                 Kind::Cluster(k) => self.clusters[k].area,
                 Kind::Emitter(_) => 0.0,
-            } / area.max(1e-300);
-            let cl = &mut self.clusters[c];
-            cl.lo = lo;
-            cl.hi = hi;
-            cl.centre = centre;
-            cl.area = area;
-            cl.cone_axis = cone_axis;
-            cl.rho_max = rho_max;
-            cl.w_max = w_max;
-            cl.first_share = first_share;
-            cl.poly_radius_max = poly_radius_max;
-            cl.samples = samples;
-            cl.n_samples = n_samples;
+            } / sums.area.max(1e-300);
+            sums.store(&mut self.clusters[c]);
+            self.clusters[c].first_share = first_share;
         }
-        // normal cone half angles (the widest content normal from the axis) and the
-        // bounding radius about the centroid
         for c in 0..self.clusters.len() {
-            let axis = self.clusters[c].cone_axis;
-            let centre = self.clusters[c].centre;
-            let mut cos_min: f64 = 1.0;
-            let mut radius: f64 = 0.0;
-            self.for_each_root_patch(c, &mut |p: &Patch| {
-                cos_min = cos_min.min(p.normal.dot(&axis));
-                for v in p.verts() {
-                    radius = radius.max((v - centre).norm());
-                }
-            });
-            self.clusters[c].radius = radius;
-            let cos_min = cos_min.clamp(-1.0, 1.0);
-            self.clusters[c].cone_cos = cos_min;
-            self.clusters[c].cone_sin = (1.0 - cos_min * cos_min).max(0.0).sqrt();
+            self.finish_cone_and_radius(c);
         }
     }
 
+    /// Normal cone half angle (the widest content normal from the axis) and the
+    /// bounding radius about the centroid of cluster `c`.
+    fn finish_cone_and_radius(&mut self, c: usize) {
+        let axis = self.clusters[c].cone_axis;
+        let centre = self.clusters[c].centre;
+        let mut cos_min: f64 = 1.0;
+        let mut radius: f64 = 0.0;
+        self.for_each_root_patch(c, &mut |p: &Patch| {
+            cos_min = cos_min.min(p.normal.dot(&axis));
+            for v in p.verts() {
+                radius = radius.max((v - centre).norm());
+            }
+        });
+        self.clusters[c].radius = radius;
+        let cos_min = cos_min.clamp(-1.0, 1.0);
+        self.clusters[c].cone_cos = cos_min;
+        self.clusters[c].cone_sin = (1.0 - cos_min * cos_min).max(0.0).sqrt();
+    }
+
     /// Calls `f` for every root patch inside cluster `c`.
-    pub fn for_each_root_patch(&self, c: usize, f: &mut impl FnMut(&Patch)) {
+    pub(crate) fn for_each_root_patch(&self, c: usize, f: &mut impl FnMut(&Patch)) {
         let mut stack = vec![c];
         while let Some(c) = stack.pop() {
             let cl = &self.clusters[c];
@@ -329,7 +267,7 @@ impl Hierarchy {
 
     /// Splits leaf patch `p` into four children (no-op for an inner patch). Returns
     /// the index of the first child.
-    pub fn split_patch(&mut self, p: usize) -> u32 {
+    pub(crate) fn split_patch(&mut self, p: usize) -> u32 {
         if !self.patches[p].is_leaf() {
             return self.patches[p].first_child;
         }
@@ -345,7 +283,7 @@ impl Hierarchy {
     }
 
     /// Children of a node (empty for leaf patches and emitters).
-    pub fn children(&self, n: Node) -> ([Node; 4], usize) {
+    pub(crate) fn children(&self, n: Node) -> ([Node; 4], usize) {
         let mut out = [Node(0); 4];
         match n.kind() {
             Kind::Patch(p) => {
@@ -373,13 +311,13 @@ impl Hierarchy {
     /// clusters use fresh points per link (Kresse 2.7: rays spread at random over
     /// sender and receiver), so that sampling errors average out over the links
     /// instead of repeating in each.
-    pub fn random_points(&self, c: usize, n: usize, seed: u64) -> Vec<(V3, V3)> {
+    pub(crate) fn random_points(&self, c: usize, n: usize, seed: u64) -> Vec<(V3, V3)> {
         self.random_points_where(c, n, n, seed, |_| true)
     }
 
     /// Like [`Hierarchy::random_points`], keeping only points whose normal passes
     /// `keep`, until `n` are kept or `tries` were drawn.
-    pub fn random_points_where(
+    pub(crate) fn random_points_where(
         &self,
         c: usize,
         n: usize,
@@ -420,7 +358,7 @@ impl Hierarchy {
     }
 
     /// Bounding sphere (centre, radius) and area of a node.
-    pub fn sphere(&self, n: Node) -> (V3, f64, f64) {
+    pub(crate) fn sphere(&self, n: Node) -> (V3, f64, f64) {
         match n.kind() {
             Kind::Patch(p) => {
                 let pa = &self.patches[p];
@@ -570,4 +508,101 @@ fn sah_split(items: &mut [Item]) -> usize {
         }
     }
     i.clamp(1, items.len() - 1)
+}
+
+/// What a cluster sums over its children in the bottom-up pass.
+struct ClusterSums {
+    area: f64,
+    lo: V3,
+    hi: V3,
+    /// Area-weighted sum of the normals.
+    axis: V3,
+    rho_max: f64,
+    w_max: f64,
+    poly_radius_max: f64,
+    /// Area-weighted sum of the centres.
+    moment: V3,
+    /// Candidate samples (point, normal) with the area they stand for.
+    child_reps: Vec<((V3, V3), f64)>,
+}
+
+impl ClusterSums {
+    fn new() -> Self {
+        Self {
+            area: 0.0,
+            lo: V3::repeat(f64::INFINITY),
+            hi: V3::repeat(f64::NEG_INFINITY),
+            axis: V3::zeros(),
+            rho_max: 0.0,
+            w_max: 0.0,
+            poly_radius_max: 0.0,
+            moment: V3::zeros(),
+            child_reps: Vec::new(),
+        }
+    }
+
+    fn add_patch(&mut self, pa: &Patch, scene: &Scene) {
+        self.area += pa.area;
+        self.moment += pa.centre * pa.area;
+        for v in pa.verts() {
+            self.lo = self.lo.inf(v);
+            self.hi = self.hi.sup(v);
+        }
+        self.axis += pa.normal * pa.area;
+        let rho = scene.material_of(pa.polygon as usize).reflectance_xyz[1];
+        self.rho_max = self.rho_max.max(rho);
+        self.w_max = self.w_max.max(error_weight(rho));
+        self.poly_radius_max = self.poly_radius_max.max(pa.radius);
+        self.child_reps.push(((pa.centre, pa.normal), pa.area));
+    }
+
+    fn add_cluster(&mut self, ch: &Cluster) {
+        self.area += ch.area;
+        self.moment += ch.centre * ch.area;
+        self.lo = self.lo.inf(&ch.lo);
+        self.hi = self.hi.sup(&ch.hi);
+        self.axis += ch.cone_axis * ch.area;
+        self.rho_max = self.rho_max.max(ch.rho_max);
+        self.w_max = self.w_max.max(ch.w_max);
+        self.poly_radius_max = self.poly_radius_max.max(ch.poly_radius_max);
+        // samples of the child become candidates for this cluster's
+        for s in &ch.samples[..ch.n_samples] {
+            self.child_reps.push((*s, ch.area / ch.n_samples as f64));
+        }
+    }
+
+    /// Writes the sums into the cluster: bounds, area centroid, cone axis, the
+    /// reflectance bounds and up to four samples spread over the children.
+    fn store(mut self, cl: &mut Cluster) {
+        self.child_reps.sort_by(|a, b| b.1.total_cmp(&a.1));
+        let mut samples = [(V3::zeros(), V3::z()); 4];
+        let mut n_samples = 0;
+        for r in self.child_reps.iter().take(4) {
+            samples[n_samples] = r.0;
+            n_samples += 1;
+        }
+        let area = self.area;
+        // the area centroid: a uniformly bright cluster's light leaves from there
+        let centre = if area > 0.0 {
+            self.moment / area
+        } else {
+            (self.lo + self.hi) * 0.5
+        };
+        let len = self.axis.norm();
+        let cone_axis = if len > 1e-12 * area.max(1e-300) {
+            self.axis / len
+        } else {
+            V3::z()
+        };
+        cl.lo = self.lo;
+        cl.hi = self.hi;
+        cl.centre = centre;
+        cl.area = area;
+        cl.cone_axis = cone_axis;
+        cl.rho_max = self.rho_max;
+        cl.w_max = self.w_max;
+        cl.poly_radius_max = self.poly_radius_max;
+        cl.samples = samples;
+        cl.n_samples = n_samples;
+    }
 }

@@ -76,7 +76,7 @@ fn receiver_variation(corners: usize, ks: &[f64; NS], basis: Basis) -> f64 {
 /// included: Kresse's F_min weighted by the visible part), a peak between the samples
 /// (the analytic maximum), and the visibility sampling. The same mean (L1) deviations
 /// the estimate reports.
-fn receiver_error(l: &PLink, corners: usize, scale: f64, sig_hi: f64, basis: Basis) -> f64 {
+fn receiver_error(l: &PLink, corners: usize, scale: f64, strength_max: f64, basis: Basis) -> f64 {
     let ks: [f64; NS] = l.ks.map(|v| scale * f64::from(v));
     let k = scale * f64::from(l.k);
     // A shadow edge across the receiver (the samples' visibility differs) is no
@@ -90,10 +90,13 @@ fn receiver_error(l: &PLink, corners: usize, scale: f64, sig_hi: f64, basis: Bas
         Basis::Auto => constant.min(linear_error(corners, &ks, constant)),
     };
     let peak = (scale * f64::from(l.kmax) - ks.iter().fold(0.0, |a: f64, &b| a.max(b))).max(0.0);
-    (shape + 0.25 * peak + k * f64::from(l.rel_vis)) * sig_hi
+    (shape + 0.25 * peak + k * f64::from(l.rel_vis)) * strength_max
 }
 
-#[allow(clippy::too_many_arguments)]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the receiver, its link and the round's tolerance and flatness decide together"
+)]
 fn decide_plink(
     h: &Hierarchy,
     st: &State,
@@ -108,27 +111,27 @@ fn decide_plink(
         return Some(Split::Sender);
     }
     let pa = &h.patches[r];
-    let wa = error_weight(st.rho[pa.polygon as usize][1]) * pa.area;
+    let weighted_area = error_weight(st.rho[pa.polygon as usize][1]) * pa.area;
     // Kresse's ΔE = ρA(F_max·B_max − F_min·B_min), taken apart into its receiver
     // part (the form factor's variation) and its sender part (the radiosity's)
     let t = st.sender(h, ctx.emitters, l.src, &pa.centre);
     let (k, scale) = l.corrected(&t.shift);
-    let de_recv = wa * receiver_error(l, pa.nv.min(4), scale, t.hi, lim.basis);
-    let de_send = wa * k * (t.spread + t.sig[1] * t.rel);
-    if de_recv + de_send <= eps {
+    let receiver_error_lm = weighted_area * receiver_error(l, pa.nv.min(4), scale, t.hi, lim.basis);
+    let sender_error_lm = weighted_area * k * (t.spread + t.sig[1] * t.rel);
+    if receiver_error_lm + sender_error_lm <= eps {
         return None;
     }
-    let can_s = splittable(h, l.src, lim);
-    if can_s && de_send >= de_recv {
+    let sender_splittable = splittable(h, l.src, lim);
+    if sender_splittable && sender_error_lm >= receiver_error_lm {
         return Some(Split::Sender);
     }
-    if flat && de_send <= 0.5 * eps {
+    if flat && sender_error_lm <= 0.5 * eps {
         // the variations of the receiver's links cancel
         return None;
     }
     if splittable(h, Node::patch(r), lim) {
         Some(Split::Receiver)
-    } else if can_s {
+    } else if sender_splittable {
         Some(Split::Sender)
     } else {
         None
@@ -144,14 +147,16 @@ fn decide_clink(
     eps: f64,
     lim: &Limits,
 ) -> Option<Split> {
-    let can_s = splittable(h, l.src, lim);
+    let sender_splittable = splittable(h, l.src, lim);
     match l.overlap {
         Overlap::Near => {
-            return Some(if can_s && area(h, l.src) > h.clusters[r].area {
-                Split::Sender
-            } else {
-                Split::Receiver
-            });
+            return Some(
+                if sender_splittable && area(h, l.src) > h.clusters[r].area {
+                    Split::Sender
+                } else {
+                    Split::Receiver
+                },
+            );
         }
         Overlap::Plane => return Some(Split::Receiver),
         Overlap::None => {}
@@ -178,7 +183,7 @@ fn decide_clink(
         return None;
     }
     let rel_send = v * rel_send;
-    Some(if can_s && rel_send > rel_recv {
+    Some(if sender_splittable && rel_send > rel_recv {
         Split::Sender
     } else {
         Split::Receiver
@@ -229,78 +234,123 @@ enum NewLink {
     C(usize, CLink),
 }
 
+/// Refinement rounds before giving up on a fixed point (each round splits at least
+/// one element, so this only bounds pathological cases).
+const MAX_ROUNDS: usize = 200;
+
+/// What one refinement holds fixed.
+pub(super) struct RefineParams<'a, 'c> {
+    /// Link evaluation.
+    pub ctx: &'a Ctx<'c>,
+    /// The tolerance ε (lm).
+    pub eps: f64,
+    /// Limits of the patch quadtrees.
+    pub lim: Limits,
+    /// When to stop refining.
+    pub deadline: Option<Instant>,
+}
+
+/// Split decisions of one round: per receiver, (index of the link, what to split).
+type Decisions = Vec<(usize, Vec<(usize, Split)>)>;
+
+/// One round's decisions for patch and cluster receivers.
+struct RoundDecisions {
+    patch: Decisions,
+    cluster: Decisions,
+}
+
 /// Refines at tolerance `eps` (lm) until no link asks for a split or the deadline
 /// passes. Returns the number of links replaced.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn refine(
-    ctx: &Ctx,
+    params: &RefineParams,
     h: &mut Hierarchy,
     st: &mut State,
     plinks: &mut Vec<Vec<PLink>>,
     clinks: &mut [Vec<CLink>],
-    eps: f64,
-    lim: &Limits,
-    deadline: Option<Instant>,
 ) -> usize {
     let mut changed = 0usize;
     // receivers whose links may decide differently than in the last round: all at
     // first, then those that gained or lost links or had decisions deferred (nothing
     // else changes within one refinement: the strengths stay until the next sweep)
-    let mut dirty_p = vec![true; plinks.len()];
-    let mut dirty_c = vec![true; clinks.len()];
-    for _round in 0..200 {
-        if deadline.is_some_and(|d| Instant::now() > d) {
+    let mut dirty = Dirty {
+        patch: vec![true; plinks.len()],
+        cluster: vec![true; clinks.len()],
+    };
+    for _round in 0..MAX_ROUNDS {
+        if params.deadline.is_some_and(|d| Instant::now() > d) {
             break;
         }
         // 1. decide
-        let hh = &*h;
-        let sst = &*st;
-        let pdec: Vec<(usize, Vec<(usize, Split)>)> = plinks
-            .par_iter()
-            .enumerate()
-            .filter(|(r, ls)| dirty_p[*r] && !ls.is_empty())
-            .filter_map(|(r, ls)| {
-                let flat = links_flat(hh, sst, ctx, r, ls, eps, lim.basis);
-                let d: Vec<(usize, Split)> = ls
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(i, l)| {
-                        decide_plink(hh, sst, ctx, r, l, eps, lim, flat).map(|s| (i, s))
-                    })
-                    .collect();
-                (!d.is_empty()).then_some((r, d))
-            })
-            .collect();
-        let cdec: Vec<(usize, Vec<(usize, Split)>)> = clinks
-            .par_iter()
-            .enumerate()
-            .filter(|(r, ls)| dirty_c[*r] && !ls.is_empty())
-            .filter_map(|(r, ls)| {
-                let d: Vec<(usize, Split)> = ls
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(i, l)| decide_clink(hh, sst, ctx, r, l, eps, lim).map(|s| (i, s)))
-                    .collect();
-                (!d.is_empty()).then_some((r, d))
-            })
-            .collect();
-        if pdec.is_empty() && cdec.is_empty() {
+        let decisions = decide_all(params, h, st, plinks, clinks, &dirty);
+        if decisions.patch.is_empty() && decisions.cluster.is_empty() {
             break;
         }
-        // top-down: while clusters still hand links down (cluster receivers, cluster
-        // senders of patches), the patches' own link sets are incomplete and their
-        // receiver tests would judge partial sums; those wait for later rounds
+        let decisions = dirty.defer_bottom_up(decisions, plinks);
+        // 2. split the patches that must be (clusters have their children already)
+        split_elements(h, &decisions, plinks, clinks);
+        changed += decisions.patch.iter().map(|(_, d)| d.len()).sum::<usize>()
+            + decisions
+                .cluster
+                .iter()
+                .map(|(_, d)| d.len())
+                .sum::<usize>();
+        st.grow(h);
+        plinks.resize(h.patches.len(), Vec::new());
+        // 3. the replacement links
+        let jobs = replacement_jobs(h, &decisions, plinks, clinks);
+        // the old links go
+        drop_decided(plinks, &decisions.patch);
+        drop_decided(clinks, &decisions.cluster);
+        let made: Vec<NewLink> = jobs
+            .par_iter()
+            .filter_map(|&(recv, src, vis)| make_link(params.ctx, h, recv, src, vis))
+            .collect();
+        dirty.patch.resize(plinks.len(), true);
+        for m in made {
+            match m {
+                NewLink::P(r, l) => {
+                    plinks[r].push(l);
+                    dirty.patch[r] = true;
+                }
+                NewLink::C(r, l) => {
+                    clinks[r].push(l);
+                    dirty.cluster[r] = true;
+                }
+            }
+        }
+    }
+    changed
+}
+
+/// Receivers whose links must be decided again in the next round.
+struct Dirty {
+    patch: Vec<bool>,
+    cluster: Vec<bool>,
+}
+
+impl Dirty {
+    /// Top-down: while clusters still hand links down (cluster receivers, cluster
+    /// senders of patches), the patches' own link sets are incomplete and their
+    /// receiver tests would judge partial sums; those wait for later rounds. Marks
+    /// every receiver with a decision (or a deferred one) dirty, the rest clean.
+    fn defer_bottom_up(
+        &mut self,
+        decisions: RoundDecisions,
+        plinks: &[Vec<PLink>],
+    ) -> RoundDecisions {
+        let RoundDecisions { patch, cluster } = decisions;
         let from_cluster = |r: usize, i: usize, s: Split| {
             s == Split::Sender && matches!(plinks[r][i].src.kind(), Kind::Cluster(_))
         };
-        let top_down = !cdec.is_empty()
-            || pdec
+        let top_down = !cluster.is_empty()
+            || patch
                 .iter()
                 .any(|(r, d)| d.iter().any(|&(i, s)| from_cluster(*r, i, s)));
-        dirty_p.iter_mut().for_each(|d| *d = false);
-        dirty_c.iter_mut().for_each(|d| *d = false);
-        let pdec: Vec<(usize, Vec<(usize, Split)>)> = if top_down {
-            pdec.into_iter()
+        self.patch.iter_mut().for_each(|d| *d = false);
+        self.cluster.iter_mut().for_each(|d| *d = false);
+        let patch: Decisions = if top_down {
+            patch
+                .into_iter()
                 .filter_map(|(r, d)| {
                     let all = d.len();
                     let d: Vec<(usize, Split)> = d
@@ -308,125 +358,152 @@ pub(super) fn refine(
                         .filter(|&(i, s)| from_cluster(r, i, s))
                         .collect();
                     if d.len() < all {
-                        dirty_p[r] = true; // deferred
+                        self.patch[r] = true; // deferred
                     }
                     (!d.is_empty()).then_some((r, d))
                 })
                 .collect()
         } else {
-            pdec
+            patch
         };
-        for (r, _) in &pdec {
-            dirty_p[*r] = true;
+        for (r, _) in &patch {
+            self.patch[*r] = true;
         }
-        for (r, _) in &cdec {
-            dirty_c[*r] = true;
+        for (r, _) in &cluster {
+            self.cluster[*r] = true;
         }
-        // 2. split the patches that must be (clusters have their children already)
-        let mut to_split: Vec<usize> = Vec::new();
-        for (r, d) in &pdec {
-            for (i, s) in d {
-                match s {
-                    Split::Receiver => to_split.push(*r),
-                    Split::Sender => {
-                        if let Kind::Patch(p) = plinks[*r][*i].src.kind() {
-                            to_split.push(p);
-                        }
-                    }
-                }
-            }
-        }
-        for (r, d) in &cdec {
-            for (i, s) in d {
-                if *s == Split::Sender
-                    && let Kind::Patch(p) = clinks[*r][*i].src.kind()
-                {
-                    to_split.push(p);
-                }
-            }
-        }
-        to_split.sort_unstable();
-        to_split.dedup();
-        for &p in &to_split {
-            if h.patches[p].is_leaf() {
-                h.split_patch(p);
-            }
-        }
-        changed += pdec.iter().map(|(_, d)| d.len()).sum::<usize>()
-            + cdec.iter().map(|(_, d)| d.len()).sum::<usize>();
-        st.grow(h);
-        plinks.resize(h.patches.len(), Vec::new());
-        // 3. the replacement links
-        let mut jobs: Vec<(Node, Node, bool)> = Vec::new();
-        let mut push_jobs =
-            |recv: Node, src: Node, visible: bool, split: Split, h: &Hierarchy| match split {
-                Split::Receiver => {
-                    let (kids, n) = h.children(recv);
-                    for &c in &kids[..n] {
-                        jobs.push((c, src, visible));
-                    }
-                }
+        RoundDecisions { patch, cluster }
+    }
+}
+
+/// Decides every link of the dirty receivers, in parallel.
+fn decide_all(
+    params: &RefineParams,
+    h: &Hierarchy,
+    st: &State,
+    plinks: &[Vec<PLink>],
+    clinks: &[Vec<CLink>],
+    dirty: &Dirty,
+) -> RoundDecisions {
+    let (ctx, eps, lim) = (params.ctx, params.eps, &params.lim);
+    let patch: Decisions = plinks
+        .par_iter()
+        .enumerate()
+        .filter(|(r, ls)| dirty.patch[*r] && !ls.is_empty())
+        .filter_map(|(r, ls)| {
+            let flat = links_flat(h, st, ctx, r, ls, eps, lim.basis);
+            let d: Vec<(usize, Split)> = ls
+                .iter()
+                .enumerate()
+                .filter_map(|(i, l)| decide_plink(h, st, ctx, r, l, eps, lim, flat).map(|s| (i, s)))
+                .collect();
+            (!d.is_empty()).then_some((r, d))
+        })
+        .collect();
+    let cluster: Decisions = clinks
+        .par_iter()
+        .enumerate()
+        .filter(|(r, ls)| dirty.cluster[*r] && !ls.is_empty())
+        .filter_map(|(r, ls)| {
+            let d: Vec<(usize, Split)> = ls
+                .iter()
+                .enumerate()
+                .filter_map(|(i, l)| decide_clink(h, st, ctx, r, l, eps, lim).map(|s| (i, s)))
+                .collect();
+            (!d.is_empty()).then_some((r, d))
+        })
+        .collect();
+    RoundDecisions { patch, cluster }
+}
+
+/// Splits the leaf patches the decisions name (receivers and patch senders).
+fn split_elements(
+    h: &mut Hierarchy,
+    decisions: &RoundDecisions,
+    plinks: &[Vec<PLink>],
+    clinks: &[Vec<CLink>],
+) {
+    let mut to_split: Vec<usize> = Vec::new();
+    for (r, d) in &decisions.patch {
+        for (i, s) in d {
+            match s {
+                Split::Receiver => to_split.push(*r),
                 Split::Sender => {
-                    let (kids, n) = h.children(src);
-                    let keep = visible && matches!(src.kind(), Kind::Patch(_));
-                    for &c in &kids[..n] {
-                        jobs.push((recv, c, keep));
+                    if let Kind::Patch(p) = plinks[*r][*i].src.kind() {
+                        to_split.push(p);
                     }
-                }
-            };
-        for (r, d) in &pdec {
-            for (i, s) in d {
-                let l = &plinks[*r][*i];
-                push_jobs(Node::patch(*r), l.src, l.visible, *s, h);
-            }
-        }
-        for (r, d) in &cdec {
-            for (i, s) in d {
-                let l = &clinks[*r][*i];
-                push_jobs(Node::cluster(*r), l.src, false, *s, h);
-            }
-        }
-        // the old links go
-        for (r, d) in &pdec {
-            let mut drop = vec![false; plinks[*r].len()];
-            for (i, _) in d {
-                drop[*i] = true;
-            }
-            let mut k = 0;
-            plinks[*r].retain(|_| {
-                k += 1;
-                !drop[k - 1]
-            });
-        }
-        for (r, d) in &cdec {
-            let mut drop = vec![false; clinks[*r].len()];
-            for (i, _) in d {
-                drop[*i] = true;
-            }
-            let mut k = 0;
-            clinks[*r].retain(|_| {
-                k += 1;
-                !drop[k - 1]
-            });
-        }
-        let hh = &*h;
-        let made: Vec<NewLink> = jobs
-            .par_iter()
-            .filter_map(|&(recv, src, vis)| make_link(ctx, hh, recv, src, vis))
-            .collect();
-        dirty_p.resize(plinks.len(), true);
-        for m in made {
-            match m {
-                NewLink::P(r, l) => {
-                    plinks[r].push(l);
-                    dirty_p[r] = true;
-                }
-                NewLink::C(r, l) => {
-                    clinks[r].push(l);
-                    dirty_c[r] = true;
                 }
             }
         }
     }
-    changed
+    for (r, d) in &decisions.cluster {
+        for (i, s) in d {
+            if *s == Split::Sender
+                && let Kind::Patch(p) = clinks[*r][*i].src.kind()
+            {
+                to_split.push(p);
+            }
+        }
+    }
+    to_split.sort_unstable();
+    to_split.dedup();
+    for &p in &to_split {
+        if h.patches[p].is_leaf() {
+            h.split_patch(p);
+        }
+    }
+}
+
+/// The links (receiver, sender, inherited full visibility) that replace the decided
+/// ones: from the receiver's children or to the sender's.
+fn replacement_jobs(
+    h: &Hierarchy,
+    decisions: &RoundDecisions,
+    plinks: &[Vec<PLink>],
+    clinks: &[Vec<CLink>],
+) -> Vec<(Node, Node, bool)> {
+    let mut jobs: Vec<(Node, Node, bool)> = Vec::new();
+    let mut push_jobs = |recv: Node, src: Node, visible: bool, split: Split| match split {
+        Split::Receiver => {
+            let (kids, n) = h.children(recv);
+            for &c in &kids[..n] {
+                jobs.push((c, src, visible));
+            }
+        }
+        Split::Sender => {
+            let (kids, n) = h.children(src);
+            let keep = visible && matches!(src.kind(), Kind::Patch(_));
+            for &c in &kids[..n] {
+                jobs.push((recv, c, keep));
+            }
+        }
+    };
+    for (r, d) in &decisions.patch {
+        for (i, s) in d {
+            let l = &plinks[*r][*i];
+            push_jobs(Node::patch(*r), l.src, l.visible, *s);
+        }
+    }
+    for (r, d) in &decisions.cluster {
+        for (i, s) in d {
+            let l = &clinks[*r][*i];
+            push_jobs(Node::cluster(*r), l.src, false, *s);
+        }
+    }
+    jobs
+}
+
+/// Removes the decided links from their receivers, keeping the others in order.
+fn drop_decided<L>(links: &mut [Vec<L>], decisions: &Decisions) {
+    for (r, d) in decisions {
+        let mut drop = vec![false; links[*r].len()];
+        for (i, _) in d {
+            drop[*i] = true;
+        }
+        let mut k = 0;
+        links[*r].retain(|_| {
+            k += 1;
+            !drop[k - 1]
+        });
+    }
 }

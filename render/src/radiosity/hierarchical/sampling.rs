@@ -42,17 +42,17 @@ const RADON_WB: f64 = 0.132_394_152_788_506_2; // (155 + √15)/1200
 
 impl Samples {
     /// Samples of a triangle or quad.
-    pub fn of(verts: &[V3]) -> Self {
+    pub(crate) fn of(verts: &[V3]) -> Self {
         let mut pts = [V3::zeros(); 9];
         let mut w = [0.0; 9];
         if verts.len() == 4 {
             let gl = quadrature::gauss_legendre_01(3);
             let mut total = 0.0;
             let mut k = 0;
-            for &(s, ws) in gl {
+            for &(s, weight_s) in gl {
                 for &(t, wt) in gl {
                     pts[k] = quadrature::map_unit_square(verts, s, t);
-                    w[k] = ws * wt * quad_jacobian(verts, s, t);
+                    w[k] = weight_s * wt * quad_jacobian(verts, s, t);
                     total += w[k];
                     k += 1;
                 }
@@ -98,7 +98,7 @@ impl Samples {
 
     /// Shape sample `k` (a corner sample for k < corners, the centre for k = 4).
     #[cfg(test)]
-    pub fn shape_point(&self, k: usize) -> V3 {
+    pub(crate) fn shape_point(&self, k: usize) -> V3 {
         self.pts[self.shape[k]]
     }
 }
@@ -477,20 +477,38 @@ mod tests {
         num / den
     }
 
+    /// Relative tolerance of the constant basis's sampled error measure against a
+    /// dense integration (it estimates a mean absolute deviation from nine samples;
+    /// measured at most 2.8 % on the three shapes below).
+    const CONSTANT_ERROR_TOLERANCE: f64 = 0.05;
+    /// The same for the linear basis (measured at most 5.6 %).
+    const LINEAR_ERROR_TOLERANCE: f64 = 0.08;
+
     fn check(verts: &[V3]) {
+        check_affine_at_vertices(verts);
+        check_push_to_children(verts);
+        check_error_measures(verts);
+        check_weights_and_shape_samples(verts);
+    }
+
+    /// The affine channel is reproduced at the vertices.
+    fn check_affine_at_vertices(verts: &[V3]) {
+        let vals = samples(&Samples::of(verts));
+        for (v, got) in verts.iter().zip(at_vertices(verts.len(), &vals)) {
+            assert!((got[2] - quadratic(v)[2]).abs() < 1e-12, "{got:?}");
+        }
+    }
+
+    /// The quadratic fit is exact: pushed samples equal the function's own, and the
+    /// child's mean follows from the parent's mean and the shift.
+    fn check_push_to_children(verts: &[V3]) {
         let s = Samples::of(verts);
         let corners = verts.len();
         let vals = samples(&s);
-        // the affine channel is reproduced at the vertices
-        for (v, got) in verts.iter().zip(at_vertices(corners, &vals)) {
-            assert!((got[2] - quadratic(v)[2]).abs() < 1e-12, "{got:?}");
-        }
-        // the quadratic fit is exact: pushed samples equal the function's own
         let kids = quadrature::split4(verts);
         for (k, kv) in kids.iter().enumerate() {
             let want = samples(&Samples::of(kv));
             let pushed = push_to_child(corners, k, &vals);
-            // the child's mean from the parent's mean and the shift
             let ks = Samples::of(kv);
             let shift = mean_shift(corners, k, &vals);
             for c in 0..3 {
@@ -517,7 +535,14 @@ mod tests {
                 }
             }
         }
-        // the error measures match a dense integration of the represented functions
+    }
+
+    /// The error measures match a dense integration of the represented functions
+    /// within [`CONSTANT_ERROR_TOLERANCE`] and [`LINEAR_ERROR_TOLERANCE`].
+    fn check_error_measures(verts: &[V3]) {
+        let s = Samples::of(verts);
+        let corners = verts.len();
+        let vals = samples(&s);
         let vertex = at_vertices(corners, &vals);
         for c in 0..3 {
             let ys: [f64; NS] = std::array::from_fn(|j| vals[j][c]);
@@ -529,7 +554,7 @@ mod tests {
             let want_const = dense_error(verts, c, |_| mean);
             let got_const = shape_error(corners, &ys, false);
             assert!(
-                (got_const - want_const).abs() <= 0.1 * want_const + 1e-12,
+                (got_const - want_const).abs() <= CONSTANT_ERROR_TOLERANCE * want_const + 1e-12,
                 "constant, channel {c}: {got_const} vs {want_const}"
             );
             let patch = crate::radiosity::Patch {
@@ -546,13 +571,17 @@ mod tests {
             let want_lin = dense_error(verts, c, |x| patch.exitance_at(x)[c]);
             let got_lin = shape_error(corners, &ys, true);
             assert!(
-                (got_lin - want_lin).abs() <= 0.1 * want_lin + 1e-9,
+                (got_lin - want_lin).abs() <= LINEAR_ERROR_TOLERANCE * want_lin + 1e-9,
                 "linear, channel {c}: {got_lin} vs {want_lin}"
             );
         }
-        // weights average
+    }
+
+    /// The weights average, and every quadrature point is a shape sample
+    /// (visibility relies on it).
+    fn check_weights_and_shape_samples(verts: &[V3]) {
+        let s = Samples::of(verts);
         assert!((s.w[..s.n].iter().sum::<f64>() - 1.0).abs() < 1e-12);
-        // every quadrature point is a shape sample (visibility relies on it)
         let mut seen = [false; 9];
         for &i in &s.shape {
             seen[i] = true;
@@ -561,7 +590,7 @@ mod tests {
     }
 
     #[test]
-    fn representations_and_their_errors_are_exact_for_quadratics() {
+    fn representations_are_exact_for_quadratics_and_error_measures_match_dense_integration() {
         // a square, a parallelogram (bilinear map affine) and a triangle
         check(&[
             V3::new(0.0, 0.0, 0.0),

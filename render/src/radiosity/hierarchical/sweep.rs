@@ -185,7 +185,7 @@ pub(super) struct State {
 }
 
 impl State {
-    pub fn new(scene: &Scene, h: &Hierarchy) -> Self {
+    pub(crate) fn new(scene: &Scene, h: &Hierarchy) -> Self {
         let rho: Vec<[f64; 3]> = scene
             .polygons
             .iter()
@@ -229,7 +229,7 @@ impl State {
     }
 
     /// Registers patches created by splits (they start with their parent's values).
-    pub fn grow(&mut self, h: &Hierarchy) {
+    pub(crate) fn grow(&mut self, h: &Hierarchy) {
         for p in self.b.len()..h.patches.len() {
             let parent = h.patches[p].parent as usize;
             self.b.push(self.b[parent]);
@@ -246,7 +246,7 @@ impl State {
     }
 
     /// Sender strength (XYZ) and Y bounds of `src` as seen from a receiver at `to`.
-    pub fn strength(
+    pub(crate) fn strength(
         &self,
         h: &Hierarchy,
         emitters: &[Emitter],
@@ -258,7 +258,13 @@ impl State {
     }
 
     /// What a sender brings to a receiver at `to`, with its sender-side errors.
-    pub fn sender(&self, h: &Hierarchy, emitters: &[Emitter], src: Node, to: &V3) -> SenderTerms {
+    pub(crate) fn sender(
+        &self,
+        h: &Hierarchy,
+        emitters: &[Emitter],
+        src: Node,
+        to: &V3,
+    ) -> SenderTerms {
         match src.kind() {
             Kind::Patch(s) => {
                 let sp = &h.patches[s];
@@ -310,7 +316,7 @@ impl State {
     }
 
     /// Gathers over every link (parallel over receivers).
-    pub fn gather(
+    pub(crate) fn gather(
         &mut self,
         h: &Hierarchy,
         emitters: &[Emitter],
@@ -386,7 +392,7 @@ impl State {
     /// Diagnostics: Σ A·w·error of the patches' own links by kind (patch-sender
     /// spread, cluster-sender bound width, cluster extent, visibility) and of the
     /// cluster receivers' surface links (half the area facing), and their light.
-    pub fn error_breakdown(
+    pub(crate) fn error_breakdown(
         &self,
         h: &Hierarchy,
         emitters: &[Emitter],
@@ -396,19 +402,19 @@ impl State {
         let mut out = [0.0; 6];
         for (r, links) in plinks.iter().enumerate() {
             let pa = &h.patches[r];
-            let wa = error_weight(self.rho[pa.polygon as usize][1]) * pa.area;
+            let weighted_area = error_weight(self.rho[pa.polygon as usize][1]) * pa.area;
             for l in links {
                 let t = self.sender(h, emitters, l.src, &pa.centre);
                 let (k, _) = l.corrected(&t.shift);
                 match l.src.kind() {
-                    Kind::Patch(_) => out[0] += wa * k * t.spread,
+                    Kind::Patch(_) => out[0] += weighted_area * k * t.spread,
                     Kind::Cluster(_) => {
-                        out[1] += wa * k * t.spread;
-                        out[2] += wa * k * t.sig[1] * t.rel;
+                        out[1] += weighted_area * k * t.spread;
+                        out[2] += weighted_area * k * t.sig[1] * t.rel;
                     }
                     Kind::Emitter(_) => {}
                 }
-                out[3] += wa * k * t.sig[1] * f64::from(l.rel_vis);
+                out[3] += weighted_area * k * t.sig[1] * f64::from(l.rel_vis);
             }
         }
         for (r, _) in clinks.iter().enumerate() {
@@ -424,7 +430,7 @@ impl State {
     /// Evaluates, for every root polygon, the light of the emitters linked to its
     /// clusters: the emitter's own intensity, distance and cosine at the polygon's
     /// centroid, times the link's visible fraction.
-    pub fn bake_cluster_direct(
+    pub(crate) fn bake_cluster_direct(
         &mut self,
         scene: &Scene,
         h: &Hierarchy,
@@ -472,7 +478,7 @@ impl State {
 
     /// Pushes irradiance down and computes the new leaf radiosities; returns, for
     /// the leaves, (patch, new mean exitance) without storing them.
-    pub fn push(&mut self, h: &Hierarchy) -> Vec<(u32, [f64; 3])> {
+    pub(crate) fn push(&mut self, h: &Hierarchy) -> Vec<(u32, [f64; 3])> {
         let mut leaves = Vec::new();
         for level in 0..self.levels.len() {
             let me = &*self;
@@ -546,7 +552,7 @@ impl State {
     }
 
     /// Pulls means and extrema up the quadtrees and the cluster tree.
-    pub fn pull(&mut self, h: &Hierarchy) {
+    pub(crate) fn pull(&mut self, h: &Hierarchy) {
         for level in (0..self.levels.len()).rev() {
             let me = &*self;
             let vals: Vec<([f64; 3], f64, f64)> = me.levels[level]
@@ -637,7 +643,13 @@ impl State {
     /// Estimated error of a leaf: the shape error of its irradiance under the chosen
     /// representation plus its links' errors, weighted into exitance (lm/m², Y), and
     /// the value it is relative to. Also whether the linear representation is used.
-    pub fn leaf_error(&self, h: &Hierarchy, p: usize, basis: Basis, eps_area: f64) -> LeafError {
+    pub(crate) fn leaf_error(
+        &self,
+        h: &Hierarchy,
+        p: usize,
+        basis: Basis,
+        eps_area: f64,
+    ) -> LeafError {
         let pa = &h.patches[p];
         let poly = pa.polygon as usize;
         let rho = self.rho[poly][1];

@@ -5,10 +5,11 @@
 //! only for pairs it cannot declare fully visible (2.7), and "fully visible" inherited
 //! by every sub-link without a new test.
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::Ordering;
 
 use crate::scene::{Scene, V3};
 
+use super::super::RayCounters;
 use super::super::form_factor::point_to_polygon;
 use super::super::quadrature;
 use super::super::visibility::{Visibility, point_in_convex};
@@ -19,14 +20,6 @@ use super::sampling::{NS, Samples};
 /// Random points per cluster end for the shadow rays of a cluster link.
 const CLUSTER_RAYS: usize = 4;
 
-/// Work counters of a solve.
-#[derive(Debug, Default)]
-pub(super) struct Counters {
-    pub rays: AtomicU64,
-    pub tested: AtomicU64,
-    pub skipped: AtomicU64,
-}
-
 /// What link evaluation needs besides the hierarchy.
 pub(super) struct Ctx<'a> {
     pub scene: &'a Scene,
@@ -34,7 +27,7 @@ pub(super) struct Ctx<'a> {
     pub vis: &'a dyn Visibility,
     /// A length beyond the scene, for rays towards distant sources.
     pub far: f64,
-    pub counters: Counters,
+    pub counters: RayCounters,
 }
 
 /// A link whose receiver is a patch element. The irradiance it brings is `k·σ` with σ
@@ -103,7 +96,7 @@ impl PLink {
     /// The coefficient for a sender whose light now leaves `shift` away from where
     /// the link was evaluated (first order, clamped at zero), and the factor that
     /// scales the shape samples alike.
-    pub fn corrected(&self, shift: &V3) -> (f64, f64) {
+    pub(crate) fn corrected(&self, shift: &V3) -> (f64, f64) {
         let k = f64::from(self.k);
         if *shift == V3::zeros() || k <= 0.0 {
             return (k, 1.0);
@@ -299,6 +292,28 @@ fn finish_plink(
     })
 }
 
+/// Clearance factor: a cluster sender whose bounding sphere (times this) reaches a
+/// receiver point overlaps the receiver.
+const CLUSTER_CLEARANCE: f64 = 1.05;
+
+/// The receiving patch of a link being evaluated.
+struct PatchReceiver<'a> {
+    /// Index of the patch.
+    index: usize,
+    patch: &'a Patch,
+    samples: Samples,
+}
+
+impl PatchReceiver<'_> {
+    /// Coefficients all zero, visibility all one.
+    fn blank_values() -> PointValues {
+        PointValues {
+            f: [0.0; 9],
+            v: [1.0; 9],
+        }
+    }
+}
+
 /// A link to the patch `r` from `src`; `visible` when the parent link was classified
 /// fully visible. `None` when nothing can be transferred.
 pub(super) fn eval_plink(
@@ -308,239 +323,348 @@ pub(super) fn eval_plink(
     src: Node,
     visible: bool,
 ) -> Option<PLink> {
-    let rp = &h.patches[r];
-    let smp = Samples::of(rp.verts());
-    let mut pv = PointValues {
-        f: [0.0; 9],
-        v: [1.0; 9],
+    let patch = &h.patches[r];
+    let recv = PatchReceiver {
+        index: r,
+        patch,
+        samples: Samples::of(patch.verts()),
     };
     match src.kind() {
-        Kind::Patch(s) => {
-            let sp = &h.patches[s];
-            if sp.polygon == rp.polygon || !faces(rp, sp) {
-                return None;
-            }
-            let visible = visible
-                || ctx.classify(
-                    rp.verts(),
-                    rp.polygon as usize,
-                    sp.verts(),
-                    sp.polygon as usize,
-                );
-            let targets = if visible {
-                Vec::new()
-            } else {
-                patch_targets(sp)
-            };
-            let skip = [rp.polygon as usize, sp.polygon as usize];
-            for i in 0..smp.n {
-                let x = smp.pts[i];
-                pv.f[i] = point_to_polygon(&x, &rp.normal, sp.verts(), &sp.normal);
-            }
-            if !visible {
-                area_visibility(ctx, &smp, &mut pv, &targets, skip);
-            }
-            let extra = ff_max_point(rp, &sp.centre, &sp.normal).map_or(0.0, |x| {
-                point_to_polygon(&x, &rp.normal, sp.verts(), &sp.normal)
-            });
-            finish_plink(src, &smp, &pv, extra, visible, V3::zeros())
+        Kind::Patch(s) => plink_from_patch(ctx, &recv, &h.patches[s], src, visible),
+        Kind::Cluster(c) => plink_from_cluster(ctx, h, &recv, c, src),
+        Kind::Emitter(e) => plink_from_emitter(ctx, &recv, &ctx.emitters[e], src, visible),
+    }
+}
+
+/// A patch-to-patch link: exact point-to-polygon factors, shadow rays to the
+/// sender's Gauss points unless classified fully visible.
+fn plink_from_patch(
+    ctx: &Ctx,
+    recv: &PatchReceiver,
+    sp: &Patch,
+    src: Node,
+    visible: bool,
+) -> Option<PLink> {
+    let (rp, smp) = (recv.patch, &recv.samples);
+    if sp.polygon == rp.polygon || !faces(rp, sp) {
+        return None;
+    }
+    let visible = visible
+        || ctx.classify(
+            rp.verts(),
+            rp.polygon as usize,
+            sp.verts(),
+            sp.polygon as usize,
+        );
+    let mut pv = PatchReceiver::blank_values();
+    for i in 0..smp.n {
+        let x = smp.pts[i];
+        pv.f[i] = point_to_polygon(&x, &rp.normal, sp.verts(), &sp.normal);
+    }
+    if !visible {
+        let skip = [rp.polygon as usize, sp.polygon as usize];
+        area_visibility(ctx, smp, &mut pv, &patch_targets(sp), skip);
+    }
+    let extra = ff_max_point(rp, &sp.centre, &sp.normal).map_or(0.0, |x| {
+        point_to_polygon(&x, &rp.normal, sp.verts(), &sp.normal)
+    });
+    finish_plink(src, smp, &pv, extra, visible, V3::zeros())
+}
+
+/// A cluster-to-patch link: the cluster as a small sphere at its centre, rays to
+/// random points of its contents, and the coefficient's gradient in the sender
+/// position. An overlap link when the cluster reaches the receiver.
+fn plink_from_cluster(
+    ctx: &Ctx,
+    h: &Hierarchy,
+    recv: &PatchReceiver,
+    c: usize,
+    src: Node,
+) -> Option<PLink> {
+    let (rp, smp) = (recv.patch, &recv.samples);
+    let cl = &h.clusters[c];
+    let dmin = (0..smp.n)
+        .map(|i| (cl.centre - smp.pts[i]).norm())
+        .fold(f64::INFINITY, f64::min);
+    if dmin <= cl.radius * CLUSTER_CLEARANCE {
+        return Some(PLink {
+            src,
+            k: 0.0,
+            ks: [0.0; NS],
+            kmax: f32::INFINITY,
+            grad: [0.0; 3],
+            rel_vis: 0.0,
+            visible: false,
+            overlap: true,
+        });
+    }
+    // the contents are inside the shaft: rays to random points of the cluster
+    // (those facing the point: a ray to the far side of a solid would be
+    // blocked by the sender itself)
+    let targets = h.random_points(c, CLUSTER_RAYS, link_seed(Node::patch(recv.index), src));
+    let mut pv = PatchReceiver::blank_values();
+    let mut grad = V3::zeros();
+    for i in 0..smp.n {
+        let x = smp.pts[i];
+        let d = cl.centre - x;
+        let d2 = d.norm_squared();
+        let dl = d2.sqrt();
+        let nd = rp.normal.dot(&d);
+        let ec = effective_cos(nd / dl, (cl.radius / dl).powi(2));
+        if ec > 0.0 {
+            // cos θ / d² = n·d / |d|³ (with the sender's extent at the horizon),
+            // and its gradient in the sender position
+            pv.f[i] = ec / d2;
+            let seen: Vec<V3> = targets
+                .iter()
+                .filter(|(t, n)| n.dot(&(x - t)) > 0.0 && rp.normal.dot(&(t - x)) > 0.0)
+                .map(|(t, _)| *t)
+                .collect();
+            pv.v[i] = ctx.fraction(&x, &seen, [rp.polygon as usize, usize::MAX]);
+            let g = rp.normal / (d2 * dl) - d * (3.0 * nd / (d2 * d2 * dl));
+            grad += g * (smp.w[i] * pv.v[i]);
         }
-        Kind::Cluster(c) => {
-            let cl = &h.clusters[c];
-            let dmin = (0..smp.n)
-                .map(|i| (cl.centre - smp.pts[i]).norm())
-                .fold(f64::INFINITY, f64::min);
-            if dmin <= cl.radius * 1.05 {
-                return Some(PLink {
-                    src,
-                    k: 0.0,
-                    ks: [0.0; NS],
-                    kmax: f32::INFINITY,
-                    grad: [0.0; 3],
-                    rel_vis: 0.0,
-                    visible: false,
-                    overlap: true,
-                });
-            }
-            // the contents are inside the shaft: rays to random points of the cluster
-            // (those facing the point: a ray to the far side of a solid would be
-            // blocked by the sender itself)
-            let targets = h.random_points(c, CLUSTER_RAYS, link_seed(Node::patch(r), src));
-            let mut grad = V3::zeros();
-            for i in 0..smp.n {
-                let x = smp.pts[i];
-                let d = cl.centre - x;
-                let d2 = d.norm_squared();
-                let dl = d2.sqrt();
-                let nd = rp.normal.dot(&d);
-                let ec = effective_cos(nd / dl, (cl.radius / dl).powi(2));
-                if ec > 0.0 {
-                    // cos θ / d² = n·d / |d|³ (with the sender's extent at the horizon),
-                    // and its gradient in the sender position
-                    pv.f[i] = ec / d2;
-                    let seen: Vec<V3> = targets
-                        .iter()
-                        .filter(|(t, n)| n.dot(&(x - t)) > 0.0 && rp.normal.dot(&(t - x)) > 0.0)
-                        .map(|(t, _)| *t)
-                        .collect();
-                    pv.v[i] = ctx.fraction(&x, &seen, [rp.polygon as usize, usize::MAX]);
-                    let g = rp.normal / (d2 * dl) - d * (3.0 * nd / (d2 * d2 * dl));
-                    grad += g * (smp.w[i] * pv.v[i]);
-                }
-            }
-            finish_plink(src, &smp, &pv, 0.0, false, grad)
+    }
+    finish_plink(src, smp, &pv, 0.0, false, grad)
+}
+
+/// An emitter-to-patch link: the emitter's irradiance at the receiver's points, one
+/// ray each unless classified fully visible; the mean carries the energy when fully
+/// visible.
+fn plink_from_emitter(
+    ctx: &Ctx,
+    recv: &PatchReceiver,
+    em: &Emitter,
+    src: Node,
+    visible: bool,
+) -> Option<PLink> {
+    let (rp, smp) = (recv.patch, &recv.samples);
+    let visible = visible
+        || ctx.classify(
+            rp.verts(),
+            rp.polygon as usize,
+            &em.shaft_end(rp.verts(), ctx.far),
+            usize::MAX,
+        );
+    let skip = [rp.polygon as usize, usize::MAX];
+    let mut pv = PatchReceiver::blank_values();
+    for i in 0..smp.n {
+        let x = smp.pts[i];
+        pv.f[i] = em.irradiance(ctx.scene, &x, &rp.normal);
+        if pv.f[i] > 0.0 && !visible {
+            pv.v[i] = ctx.fraction(&x, &[em.ray_end(&x, ctx.far)], skip);
         }
-        Kind::Emitter(e) => {
-            let em = &ctx.emitters[e];
-            let visible = visible
-                || ctx.classify(
-                    rp.verts(),
-                    rp.polygon as usize,
-                    &em.shaft_end(rp.verts(), ctx.far),
-                    usize::MAX,
-                );
-            let skip = [rp.polygon as usize, usize::MAX];
-            for i in 0..smp.n {
-                let x = smp.pts[i];
-                pv.f[i] = em.irradiance(ctx.scene, &x, &rp.normal);
-                if pv.f[i] > 0.0 && !visible {
-                    pv.v[i] = ctx.fraction(&x, &[em.ray_end(&x, ctx.far)], skip);
-                }
-            }
-            // the foot of the perpendicular: the peak of cos θ / d² for a point light
-            let extra = em.position().map_or(0.0, |lp| {
-                let hgt = rp.normal.dot(&(lp - rp.verts[0]));
-                if hgt <= 0.0 {
-                    return 0.0;
-                }
-                let foot = closest_on_polygon(rp, &(lp - rp.normal * hgt));
-                em.irradiance(ctx.scene, &foot, &rp.normal)
-            });
-            let mut l = finish_plink(src, &smp, &pv, extra, visible, V3::zeros())?;
-            if visible {
-                // the mean carries the energy: the flux into the patch's solid angle
-                l.k = em.mean_irradiance(ctx.scene, rp.verts(), &rp.normal, rp.area) as f32;
-            }
-            Some(l)
+    }
+    // the foot of the perpendicular: the peak of cos θ / d² for a point light
+    let extra = em.position().map_or(0.0, |lp| {
+        let height = rp.normal.dot(&(lp - rp.verts[0]));
+        if height <= 0.0 {
+            return 0.0;
         }
+        let foot = closest_on_polygon(rp, &(lp - rp.normal * height));
+        em.irradiance(ctx.scene, &foot, &rp.normal)
+    });
+    let mut l = finish_plink(src, smp, &pv, extra, visible, V3::zeros())?;
+    if visible {
+        // the mean carries the energy: the flux into the patch's solid angle
+        l.k = em.mean_irradiance(ctx.scene, rp.verts(), &rp.normal, rp.area) as f32;
+    }
+    Some(l)
+}
+
+/// What evaluating a cluster link found.
+enum ClusterEval {
+    /// Nothing can be transferred.
+    Nothing,
+    /// The pair is too close for a link at this level.
+    Overlap(Overlap),
+    /// A far-field transfer.
+    Transfer(ClusterTransfer),
+}
+
+/// The terms of a far-field cluster link.
+struct ClusterTransfer {
+    /// Distance from the receiver's centre to the sender.
+    distance: f64,
+    /// Normal-irradiance coefficient at the centre, unoccluded.
+    k: f64,
+    /// Relative uncertainty from the sender's extent.
+    rel_src: f64,
+    visibility: PairVisibility,
+}
+
+/// The receiving cluster of a link being evaluated.
+struct ClusterReceiver<'a> {
+    /// Index of the cluster.
+    index: usize,
+    centre: V3,
+    radius: f64,
+    lo: V3,
+    hi: V3,
+    h: &'a Hierarchy,
+    /// Seed of the link's random points.
+    seed: u64,
+}
+
+impl ClusterReceiver<'_> {
+    /// Random points of the receiver facing direction `u`, for rays.
+    fn facing(&self, u: &V3) -> Vec<(V3, V3)> {
+        facing_points(self.h, self.index, u, self.seed)
     }
 }
 
 /// A link to the cluster `r` from `src`. `None` when nothing can be transferred.
 pub(super) fn eval_clink(ctx: &Ctx, h: &Hierarchy, r: usize, src: Node) -> Option<CLink> {
     let rc = &h.clusters[r];
-    let (cr, rr) = (rc.centre, rc.radius);
-    let overlap = |src, why| CLink {
-        src,
-        d: 0.0,
-        k: 0.0,
-        v: 0.0,
-        rel_src: 0.0,
-        rel_vis: 0.0,
-        overlap: why,
+    let recv = ClusterReceiver {
+        index: r,
+        centre: rc.centre,
+        radius: rc.radius,
+        lo: rc.lo,
+        hi: rc.hi,
+        h,
+        seed: link_seed(Node::cluster(r), src),
     };
-    // random points of the receiver facing direction u, for rays
-    let seed = link_seed(Node::cluster(r), src);
-    let facing = |u: &V3| facing_points(h, r, u, seed);
-    let (d, k0, rel_src, pv) = match src.kind() {
-        Kind::Patch(s) => {
-            let sp = &h.patches[s];
-            // the sender's plane through the receiver's box: only part of it is lit
-            let corners = box_corners(&rc.lo, &rc.hi);
-            let front = corners
-                .iter()
-                .filter(|c| sp.normal.dot(&(*c - sp.verts[0])) > 0.0)
-                .count();
-            if front == 0 {
-                return None;
-            }
-            if front < 8 {
-                return Some(overlap(src, Overlap::Plane));
-            }
-            let dv = sp.centre - cr;
-            let d = dv.norm();
-            if d <= rr + sp.radius {
-                return Some(overlap(src, Overlap::Near));
-            }
-            let u = dv / d;
-            let k0 = point_to_polygon(&cr, &u, sp.verts(), &sp.normal);
-            if k0 <= 0.0 {
-                return None;
-            }
-            let pts = facing(&u);
-            let targets: Vec<(V3, V3)> = patch_targets(sp)
-                .into_iter()
-                .map(|t| (t, sp.normal))
-                .collect();
-            let pv = sample_visibility(ctx, &pts, &targets, sp.polygon as usize);
-            // far field from the centre: the first-order terms of a uniform patch cancel
-            (d, k0, 2.0 * (sp.radius / d).powi(2), pv)
-        }
-        Kind::Cluster(s) => {
-            let sc = &h.clusters[s];
-            let dv = sc.centre - cr;
-            let d = dv.norm();
-            if d <= rr + sc.radius {
-                return Some(overlap(src, Overlap::Near));
-            }
-            let u = dv / d;
-            let pts = facing(&u);
-            let targets = facing_points(h, s, &(-u), seed ^ 0x5555);
-            let pv = sample_visibility(ctx, &pts, &targets, usize::MAX);
-            // light leaves from the flux centroid (used in the sweep): second order
-            (d, 1.0 / (d * d), 2.0 * (sc.radius / d).powi(2), pv)
-        }
-        Kind::Emitter(e) => {
-            let em = &ctx.emitters[e];
-            let kmax = em.max_normal_irradiance(ctx.scene, &cr, rr);
-            if !kmax.is_finite() {
-                return Some(overlap(src, Overlap::Near));
-            }
-            if kmax <= 0.0 {
-                return None;
-            }
-            let (en, u) = em.normal_irradiance(ctx.scene, &cr);
-            let pts = facing(&u);
-            let pv = if pts.is_empty() {
-                PairVisibility {
-                    v: 1.0,
-                    spread: 0.0,
-                    pairs: 0,
-                }
-            } else {
-                ctx.counters
-                    .rays
-                    .fetch_add(pts.len() as u64, Ordering::Relaxed);
-                ctx.counters.tested.fetch_add(1, Ordering::Relaxed);
-                let seen = pts
-                    .iter()
-                    .filter(|(p, _)| {
-                        !ctx.vis
-                            .occluded(p, &em.ray_end(p, ctx.far), [usize::MAX; 2])
-                    })
-                    .count();
-                let v = seen as f64 / pts.len() as f64;
-                // one ray per point: each point is lit or not
-                PairVisibility {
-                    v,
-                    spread: 2.0 * v * (1.0 - v),
-                    pairs: pts.len(),
-                }
-            };
-            let d = em.position().map_or(f64::INFINITY, |p| (p - cr).norm());
-            // each polygon gets the light's own intensity towards it: exact geometry
-            (d, en.max(0.5 * kmax), 0.0, pv)
-        }
+    let eval = match src.kind() {
+        Kind::Patch(s) => clink_from_patch(ctx, &recv, &h.patches[s]),
+        Kind::Cluster(s) => clink_from_cluster(ctx, &recv, s),
+        Kind::Emitter(e) => clink_from_emitter(ctx, &recv, &ctx.emitters[e]),
     };
-    Some(CLink {
-        src,
-        d: d as f32,
-        k: k0 as f32,
-        v: pv.v as f32,
-        rel_src: rel_src as f32,
-        rel_vis: pv.uncertainty() as f32,
-        overlap: Overlap::None,
+    match eval {
+        ClusterEval::Nothing => None,
+        ClusterEval::Overlap(why) => Some(CLink {
+            src,
+            d: 0.0,
+            k: 0.0,
+            v: 0.0,
+            rel_src: 0.0,
+            rel_vis: 0.0,
+            overlap: why,
+        }),
+        ClusterEval::Transfer(t) => Some(CLink {
+            src,
+            d: t.distance as f32,
+            k: t.k as f32,
+            v: t.visibility.v as f32,
+            rel_src: t.rel_src as f32,
+            rel_vis: t.visibility.uncertainty() as f32,
+            overlap: Overlap::None,
+        }),
+    }
+}
+
+/// A patch sender of a cluster: the sender's form factor to the receiver's centre.
+fn clink_from_patch(ctx: &Ctx, recv: &ClusterReceiver, sp: &Patch) -> ClusterEval {
+    // the sender's plane through the receiver's box: only part of it is lit
+    let corners = box_corners(&recv.lo, &recv.hi);
+    let front = corners
+        .iter()
+        .filter(|c| sp.normal.dot(&(*c - sp.verts[0])) > 0.0)
+        .count();
+    if front == 0 {
+        return ClusterEval::Nothing;
+    }
+    if front < 8 {
+        return ClusterEval::Overlap(Overlap::Plane);
+    }
+    let dv = sp.centre - recv.centre;
+    let d = dv.norm();
+    if d <= recv.radius + sp.radius {
+        return ClusterEval::Overlap(Overlap::Near);
+    }
+    let u = dv / d;
+    let k0 = point_to_polygon(&recv.centre, &u, sp.verts(), &sp.normal);
+    if k0 <= 0.0 {
+        return ClusterEval::Nothing;
+    }
+    let pts = recv.facing(&u);
+    let targets: Vec<(V3, V3)> = patch_targets(sp)
+        .into_iter()
+        .map(|t| (t, sp.normal))
+        .collect();
+    let visibility = sample_visibility(ctx, &pts, &targets, sp.polygon as usize);
+    // far field from the centre: the first-order terms of a uniform patch cancel
+    ClusterEval::Transfer(ClusterTransfer {
+        distance: d,
+        k: k0,
+        rel_src: 2.0 * (sp.radius / d).powi(2),
+        visibility,
     })
+}
+
+/// A cluster sender of a cluster: 1/d² between the centres.
+fn clink_from_cluster(ctx: &Ctx, recv: &ClusterReceiver, s: usize) -> ClusterEval {
+    let sc = &recv.h.clusters[s];
+    let dv = sc.centre - recv.centre;
+    let d = dv.norm();
+    if d <= recv.radius + sc.radius {
+        return ClusterEval::Overlap(Overlap::Near);
+    }
+    let u = dv / d;
+    let pts = recv.facing(&u);
+    let targets = facing_points(recv.h, s, &(-u), recv.seed ^ 0x5555);
+    let visibility = sample_visibility(ctx, &pts, &targets, usize::MAX);
+    // light leaves from the flux centroid (used in the sweep): second order
+    ClusterEval::Transfer(ClusterTransfer {
+        distance: d,
+        k: 1.0 / (d * d),
+        rel_src: 2.0 * (sc.radius / d).powi(2),
+        visibility,
+    })
+}
+
+/// An emitter lighting a cluster: its normal irradiance at the centre, one ray per
+/// receiver point.
+fn clink_from_emitter(ctx: &Ctx, recv: &ClusterReceiver, em: &Emitter) -> ClusterEval {
+    let kmax = em.max_normal_irradiance(ctx.scene, &recv.centre, recv.radius);
+    if !kmax.is_finite() {
+        return ClusterEval::Overlap(Overlap::Near);
+    }
+    if kmax <= 0.0 {
+        return ClusterEval::Nothing;
+    }
+    let (en, u) = em.normal_irradiance(ctx.scene, &recv.centre);
+    let pts = recv.facing(&u);
+    let visibility = emitter_visibility(ctx, em, &pts);
+    let d = em
+        .position()
+        .map_or(f64::INFINITY, |p| (p - recv.centre).norm());
+    // each polygon gets the light's own intensity towards it: exact geometry
+    ClusterEval::Transfer(ClusterTransfer {
+        distance: d,
+        k: en.max(0.5 * kmax),
+        rel_src: 0.0,
+        visibility,
+    })
+}
+
+/// Visibility of an emitter from receiver points, one ray per point.
+fn emitter_visibility(ctx: &Ctx, em: &Emitter, pts: &[(V3, V3)]) -> PairVisibility {
+    if pts.is_empty() {
+        return PairVisibility {
+            v: 1.0,
+            spread: 0.0,
+            pairs: 0,
+        };
+    }
+    ctx.counters
+        .rays
+        .fetch_add(pts.len() as u64, Ordering::Relaxed);
+    ctx.counters.tested.fetch_add(1, Ordering::Relaxed);
+    let seen = pts
+        .iter()
+        .filter(|(p, _)| {
+            !ctx.vis
+                .occluded(p, &em.ray_end(p, ctx.far), [usize::MAX; 2])
+        })
+        .count();
+    let v = seen as f64 / pts.len() as f64;
+    // one ray per point: each point is lit or not
+    PairVisibility {
+        v,
+        spread: 2.0 * v * (1.0 - v),
+        pairs: pts.len(),
+    }
 }
 
 /// Up to [`CLUSTER_RAYS`] random points of cluster `c` on surfaces facing `u`.
