@@ -1,7 +1,7 @@
 //! Unit tests of the scalar post pass against analytic references.
 #![allow(clippy::needless_range_loop)]
 
-use super::model::{AnalyticDisplay, ModelProfileSpec, ToneShape};
+use super::model::{AnalyticDisplay, ModelProfileSpec, ToneShape, xyz_of};
 use super::*;
 use crate::{BlackMode, DisplayKey, Eye, FlatField};
 
@@ -17,14 +17,13 @@ fn key() -> DisplayKey {
 
 /// Primaries of Kresse's Infitec common gamut (Tab. 5), white ≈ 77.86 cd/m².
 fn display(gamma: f64) -> AnalyticDisplay {
-    let prim = |x: f64, y: f64, lum: f64| [x / y * lum, lum, (1.0 - x - y) / y * lum];
     AnalyticDisplay {
         primaries_xyz_cd_m2: [
-            prim(0.625, 0.370, 20.0),
-            prim(0.286, 0.613, 52.0),
-            prim(0.140, 0.045, 6.0),
+            xyz_of(0.625, 0.370, 20.0),
+            xyz_of(0.286, 0.613, 52.0),
+            xyz_of(0.140, 0.045, 6.0),
         ],
-        black_xyz_cd_m2: prim(0.30, 0.32, 0.4),
+        black_xyz_cd_m2: xyz_of(0.30, 0.32, 0.4),
         tone: [ToneShape { gamma, s_mix: 0.0 }; 3],
     }
 }
@@ -39,7 +38,7 @@ fn display_no_black(gamma: f64) -> AnalyticDisplay {
 
 fn spec(mode: BlackMode, oog: OutOfGamut, flat: Option<FlatField>) -> ModelProfileSpec {
     let d = display(1.0);
-    let w = [0, 1, 2].map(|i| (0..3).map(|c| d.primaries_xyz_cd_m2[c][i]).sum::<f64>() * 0.9);
+    let w = d.full_white_xyz().map(|v| v * 0.9);
     ModelProfileSpec {
         display: key(),
         black_mode: mode,

@@ -1,39 +1,16 @@
 //! Shared fixtures of the post-pass tests: analytic displays and test frames.
 #![allow(dead_code)]
 
-use lumiwall_profiles::apply::model::{AnalyticDisplay, ModelProfileSpec, ToneShape};
+use lumiwall_profiles::apply::model::{AnalyticDisplay, ModelProfileSpec};
 use lumiwall_profiles::{BlackMode, DisplayKey, DisplayProfile, Eye, FlatField, OutOfGamut};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-pub fn xyz_of(x: f64, y: f64, lum: f64) -> [f64; 3] {
-    [x / y * lum, lum, (1.0 - x - y) / y * lum]
-}
+pub use lumiwall_profiles::apply::model::xyz_of;
 
 /// A projector with Kresse's Infitec common-gamut primaries (Tab. 5) and S-shaped curves.
 pub fn infitec_display() -> AnalyticDisplay {
-    AnalyticDisplay {
-        primaries_xyz_cd_m2: [
-            xyz_of(0.625, 0.370, 21.0),
-            xyz_of(0.286, 0.613, 55.0),
-            xyz_of(0.140, 0.045, 6.5),
-        ],
-        black_xyz_cd_m2: xyz_of(0.29, 0.31, 0.35),
-        tone: [
-            ToneShape {
-                gamma: 2.1,
-                s_mix: 0.3,
-            },
-            ToneShape {
-                gamma: 2.3,
-                s_mix: 0.4,
-            },
-            ToneShape {
-                gamma: 1.9,
-                s_mix: 0.2,
-            },
-        ],
-    }
+    AnalyticDisplay::infitec_example()
 }
 
 /// 64×32 vignetting texture (Kresse's size): gains in (0.55, 1], per channel shifted.
@@ -76,9 +53,7 @@ pub fn profile(
     flat: Option<FlatField>,
     bit_depth: u32,
 ) -> DisplayProfile {
-    let full: [f64; 3] =
-        [0, 1, 2].map(|i| (0..3).map(|c| d.primaries_xyz_cd_m2[c][i]).sum::<f64>());
-    let white = full.map(|v| v * 0.9);
+    let white = d.full_white_xyz().map(|v| v * 0.9);
     d.profile(&ModelProfileSpec {
         display: key(0, Eye::Mono),
         black_mode: mode,
