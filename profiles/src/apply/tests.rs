@@ -1,9 +1,12 @@
 //! Unit tests of the scalar post pass against analytic references.
-#![allow(clippy::needless_range_loop)]
+#![allow(
+    clippy::needless_range_loop,
+    reason = "pixel and channel indices address several arrays at once"
+)]
 
 use super::model::{AnalyticDisplay, ModelProfileSpec, ToneShape, xyz_of};
 use super::*;
-use crate::{BlackMode, DisplayKey, Eye, FlatField};
+use crate::{BlackMode, DisplayKey, DisplayProfile, Eye, FlatField};
 
 fn key() -> DisplayKey {
     DisplayKey {
@@ -51,6 +54,13 @@ fn spec(mode: BlackMode, oog: OutOfGamut, flat: Option<FlatField>) -> ModelProfi
     }
 }
 
+/// The profile of `d` for `spec` and its prepared form with default options.
+fn prepared(d: &AnalyticDisplay, spec: ModelProfileSpec) -> (DisplayProfile, PreparedProfile) {
+    let prof = d.profile(&spec).unwrap();
+    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    (prof, pp)
+}
+
 fn xy_of(v: [f64; 3]) -> [f64; 2] {
     let s = v[0] + v[1] + v[2];
     [v[0] / s, v[1] / s]
@@ -59,10 +69,7 @@ fn xy_of(v: [f64; 3]) -> [f64; 2] {
 #[test]
 fn linear_display_gives_the_matrix_drive() {
     let d = display_no_black(1.0);
-    let prof = d
-        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, None))
-        .unwrap();
-    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let (_, pp) = prepared(&d, spec(BlackMode::Ignore, OutOfGamut::Clip, None));
     // Drive (0.2, 0.5, 0.7) ↔ XYZ = P · drive (independent: primaries sum).
     let want = [0.2, 0.5, 0.7];
     let xyz = mat3::mul_vec(&d.primaries_matrix(), &want).map(|v| v as f32);
@@ -80,10 +87,7 @@ fn linear_display_gives_the_matrix_drive() {
 #[test]
 fn same_arithmetic_as_tone_curve_drive_for() {
     let d = display(2.2);
-    let prof = d
-        .profile(&spec(BlackMode::Individual, OutOfGamut::Clip, None))
-        .unwrap();
-    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let (prof, pp) = prepared(&d, spec(BlackMode::Individual, OutOfGamut::Clip, None));
     for i in 0..=1000 {
         let a = i as f32 / 1000.0;
         for c in 0..3 {
@@ -96,8 +100,7 @@ fn same_arithmetic_as_tone_curve_drive_for() {
 fn in_gamut_colours_round_trip_through_the_model() {
     for mode in [BlackMode::Ignore, BlackMode::Individual, BlackMode::Common] {
         let d = display(2.2);
-        let prof = d.profile(&spec(mode, OutOfGamut::Clip, None)).unwrap();
-        let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+        let (_, pp) = prepared(&d, spec(mode, OutOfGamut::Clip, None));
         for k in 1..50 {
             let lin = [k as f64 / 50.0, ((k * 7) % 50) as f64 / 50.0 + 0.01, 0.3];
             let xyz: [f64; 3] = mat3::mul_vec(&d.primaries_matrix(), &lin);
@@ -129,10 +132,7 @@ fn in_gamut_colours_round_trip_through_the_model() {
 #[test]
 fn out_of_gamut_moves_toward_white_at_constant_luminance() {
     let d = display_no_black(1.0);
-    let prof = d
-        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, None))
-        .unwrap();
-    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let (prof, pp) = prepared(&d, spec(BlackMode::Ignore, OutOfGamut::Clip, None));
     // Spectral-locus cyan (x .08, y .5) at 10 cd/m²: outside the triangle.
     let (x, y, lum) = (0.08, 0.5, 10.0);
     let xyz = [x / y * lum, lum, (1.0 - x - y) / y * lum];
@@ -154,10 +154,7 @@ fn out_of_gamut_moves_toward_white_at_constant_luminance() {
 #[test]
 fn over_range_keeps_chromaticity_and_hits_full_drive() {
     let d = display_no_black(1.0);
-    let prof = d
-        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, None))
-        .unwrap();
-    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let (_, pp) = prepared(&d, spec(BlackMode::Ignore, OutOfGamut::Clip, None));
     for lum in [100.0f64, 1e3, 1e6, 1e20, 3e38] {
         let xyz = [0.31 / 0.33 * lum, lum, 0.36 / 0.33 * lum];
         let out = pp.apply(xyz.map(|v| v as f32), [0.5, 0.5]);
@@ -176,10 +173,7 @@ fn over_range_keeps_chromaticity_and_hits_full_drive() {
 #[test]
 fn invalid_negative_and_zero_inputs() {
     let d = display(2.2);
-    let prof = d
-        .profile(&spec(BlackMode::Individual, OutOfGamut::Clip, None))
-        .unwrap();
-    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let (prof, pp) = prepared(&d, spec(BlackMode::Individual, OutOfGamut::Clip, None));
     for bad in [
         [f32::NAN, 1.0, 1.0],
         [1.0, f32::INFINITY, 1.0],
@@ -260,10 +254,7 @@ fn flat_field_divides_bilinearly() {
         gain: vec![[1.0; 3], [0.5; 3], [0.8; 3], [0.4; 3]],
     };
     let d = display_no_black(1.0);
-    let prof = d
-        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, Some(ff)))
-        .unwrap();
-    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let (_, pp) = prepared(&d, spec(BlackMode::Ignore, OutOfGamut::Clip, Some(ff)));
     // Texel centres at 0.25 / 0.75; centre of the display = average of the four gains.
     let g = pp.gain_at([0.5, 0.5]);
     assert!((g[0] - 0.675).abs() < 1e-6);
@@ -348,10 +339,7 @@ fn unusable_profiles_are_typed_errors() {
 #[test]
 fn colours_on_the_gamut_boundary_are_not_marked() {
     let d = display_no_black(2.2);
-    let prof = d
-        .profile(&spec(BlackMode::Ignore, OutOfGamut::FalseColour, None))
-        .unwrap();
-    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let (_, pp) = prepared(&d, spec(BlackMode::Ignore, OutOfGamut::FalseColour, None));
     // Edges and corners of the gamut: one or two channels exactly 0, or exactly 1.
     for lin in [
         [0.0, 0.4, 0.7],

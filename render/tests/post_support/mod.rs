@@ -1,20 +1,23 @@
 //! Shared fixtures of the post-pass tests: analytic displays and test frames.
-#![allow(dead_code)]
+#![allow(
+    dead_code,
+    reason = "each test binary uses a different subset of the fixtures"
+)]
 
 use lumiwall_profiles::apply::model::{AnalyticDisplay, ModelProfileSpec};
 use lumiwall_profiles::{BlackMode, DisplayKey, DisplayProfile, Eye, FlatField, OutOfGamut};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-pub use lumiwall_profiles::apply::model::xyz_of;
+pub(crate) use lumiwall_profiles::apply::model::xyz_of;
 
 /// A projector with Kresse's Infitec common-gamut primaries (Tab. 5) and S-shaped curves.
-pub fn infitec_display() -> AnalyticDisplay {
+pub(crate) fn infitec_display() -> AnalyticDisplay {
     AnalyticDisplay::infitec_example()
 }
 
 /// 64×32 vignetting texture (Kresse's size): gains in (0.55, 1], per channel shifted.
-pub fn vignette() -> FlatField {
+pub(crate) fn vignette() -> FlatField {
     let (w, h) = (64u32, 32u32);
     let mut gain = Vec::new();
     for y in 0..h {
@@ -36,7 +39,7 @@ pub fn vignette() -> FlatField {
     }
 }
 
-pub fn key(display: u32, eye: Eye) -> DisplayKey {
+pub(crate) fn key(display: u32, eye: Eye) -> DisplayKey {
     DisplayKey {
         wall: "test-wall".into(),
         display,
@@ -47,7 +50,7 @@ pub fn key(display: u32, eye: Eye) -> DisplayKey {
 }
 
 /// Target white: 90 % of the display's full white at D65-ish 0.3127/0.3290 scaled to fit.
-pub fn profile(
+pub(crate) fn profile(
     d: &AnalyticDisplay,
     mode: BlackMode,
     flat: Option<FlatField>,
@@ -69,7 +72,7 @@ pub fn profile(
 
 /// `n` XYZ values (cd/m²) mixing in-gamut colours, out-of-gamut chromaticities,
 /// negative components, huge (to 1e6 cd/m²), zero, tiny, NaN and ±Inf inputs.
-pub fn wild_xyz(n: usize, d: &AnalyticDisplay, seed: u64) -> Vec<[f32; 3]> {
+pub(crate) fn wild_xyz(n: usize, d: &AnalyticDisplay, seed: u64) -> Vec<[f32; 3]> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let p = d.primaries_xyz_cd_m2;
     (0..n)
