@@ -4,7 +4,7 @@
     reason = "pixel and channel indices address several arrays at once"
 )]
 
-use super::model::{AnalyticDisplay, ModelProfileSpec, ToneShape, xyz_of};
+use super::model::{AnalyticDisplay, ModelProfileSpec, ToneShape, infitec_primaries, xyz_of};
 use super::*;
 use crate::{BlackMode, DisplayKey, DisplayProfile, Eye, FlatField};
 
@@ -21,11 +21,7 @@ fn key() -> DisplayKey {
 /// Primaries of Kresse's Infitec common gamut (Tab. 5), white ≈ 77.86 cd/m².
 fn display(gamma: f64) -> AnalyticDisplay {
     AnalyticDisplay {
-        primaries_xyz_cd_m2: [
-            xyz_of(0.625, 0.370, 20.0),
-            xyz_of(0.286, 0.613, 52.0),
-            xyz_of(0.140, 0.045, 6.0),
-        ],
+        primaries_xyz_cd_m2: infitec_primaries([20.0, 52.0, 6.0]),
         black_xyz_cd_m2: xyz_of(0.30, 0.32, 0.4),
         tone: [ToneShape { gamma, s_mix: 0.0 }; 3],
     }
