@@ -156,12 +156,6 @@ pub fn check_values(
             }
         }
     }
-    let at = |i: usize| {
-        (
-            (i % width.max(1) as usize) as u32,
-            (i / width.max(1) as usize) as u32,
-        )
-    };
     if opts.sanitize {
         for v in pixels.iter_mut().flatten() {
             if !v.is_finite() || *v < 0.0 {
@@ -170,27 +164,32 @@ pub fn check_values(
         }
         return Ok(());
     }
-    if let Some(i) = first_bad {
-        let (x, y) = at(i);
-        return Err(PostError::BadValues {
+    let bad_values = |i: usize, count: u64, what: &'static str, flag: &'static str| {
+        let w = width.max(1) as usize;
+        PostError::BadValues {
             path: path.to_path_buf(),
-            count: report.non_finite,
-            what: "NaN or infinite",
-            first_x: x,
-            first_y: y,
-            flag: "--sanitize",
-        });
+            count,
+            what,
+            first_x: (i % w) as u32,
+            first_y: (i / w) as u32,
+            flag,
+        }
+    };
+    if let Some(i) = first_bad {
+        return Err(bad_values(
+            i,
+            report.non_finite,
+            "NaN or infinite",
+            "--sanitize",
+        ));
     }
     if let (Some(i), false) = (first_neg, opts.allow_negative) {
-        let (x, y) = at(i);
-        return Err(PostError::BadValues {
-            path: path.to_path_buf(),
-            count: report.negative,
-            what: "negative",
-            first_x: x,
-            first_y: y,
-            flag: "--allow-negative (or --sanitize)",
-        });
+        return Err(bad_values(
+            i,
+            report.negative,
+            "negative",
+            "--allow-negative (or --sanitize)",
+        ));
     }
     Ok(())
 }
