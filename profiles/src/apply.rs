@@ -395,109 +395,149 @@ impl PreparedProfile {
         if !(x.is_finite() && y.is_finite() && z.is_finite()) {
             return self.invalid();
         }
-        let mut flags = PixelFlags::NONE;
-        let mut xyz = xyz_cd_m2;
-        let big = x.abs().max(y.abs()).max(z.abs());
-        if big > MAX_INPUT_CD_M2 {
-            let k = MAX_INPUT_CD_M2 / big;
-            xyz = [x * k, y * k, z * k];
+        let xyz = limit_input(xyz_cd_m2);
+        let m = self.linear(xyz, gain);
+        let a = self.with_offset(m);
+        let fast =
+            a[0] >= 0.0 && a[1] >= 0.0 && a[2] >= 0.0 && a[0] <= 1.0 && a[1] <= 1.0 && a[2] <= 1.0;
+        if fast {
+            return PixelOut {
+                drive: self.drives(a),
+                flags: PixelFlags::NONE,
+            };
         }
+        self.outside(xyz, gain, m, a)
+    }
+
+    /// `M·xyz / gain`: linear drives before the black offset.
+    #[inline(always)]
+    fn linear(&self, xyz: [f32; 3], gain: Option<[f32; 3]>) -> [f32; 3] {
         let mm = &self.matrix;
-        let mut m = [
+        let m = [
             mm[0][0] * xyz[0] + mm[0][1] * xyz[1] + mm[0][2] * xyz[2],
             mm[1][0] * xyz[0] + mm[1][1] * xyz[1] + mm[1][2] * xyz[2],
             mm[2][0] * xyz[0] + mm[2][1] * xyz[1] + mm[2][2] * xyz[2],
         ];
-        if let Some(g) = gain {
-            m = [m[0] / g[0], m[1] / g[1], m[2] / g[2]];
+        match gain {
+            Some(g) => divide_gain(m, g),
+            None => m,
         }
+    }
+
+    #[inline(always)]
+    fn with_offset(&self, m: [f32; 3]) -> [f32; 3] {
         let off = self.offset;
-        let mut a = [m[0] + off[0], m[1] + off[1], m[2] + off[2]];
-        let fast =
-            a[0] >= 0.0 && a[1] >= 0.0 && a[2] >= 0.0 && a[0] <= 1.0 && a[1] <= 1.0 && a[2] <= 1.0;
-        if !fast {
-            // Gamut: toward the target white at constant luminance.
-            let tol = GAMUT_TOLERANCE;
-            if a[0] < -tol || a[1] < -tol || a[2] < -tol {
-                let lum = xyz[1];
-                if lum > 0.0 {
-                    let mut mw = [
-                        lum * self.white_dir[0],
-                        lum * self.white_dir[1],
-                        lum * self.white_dir[2],
-                    ];
-                    if let Some(g) = gain {
-                        mw = [mw[0] / g[0], mw[1] / g[1], mw[2] / g[2]];
-                    }
-                    let mut t = 0.0f32;
-                    for c in 0..3 {
-                        let aw = mw[c] + off[c];
-                        if a[c] < -tol {
-                            if aw >= 0.0 {
-                                // a_c(t) = a_c + t (aw − a_c) = 0.
-                                t = t.max(-a[c] / (aw - a[c]));
-                            } else {
-                                flags |= PixelFlags::BELOW_BLACK;
-                            }
-                        }
-                    }
-                    if t > 0.0 {
-                        flags |= PixelFlags::OUT_OF_GAMUT;
-                        let t = t.min(1.0);
-                        m = [
-                            m[0] + t * (mw[0] - m[0]),
-                            m[1] + t * (mw[1] - m[1]),
-                            m[2] + t * (mw[2] - m[2]),
-                        ];
-                    }
-                } else {
-                    // No positive luminance: nothing to show but black.
-                    if xyz != [0.0; 3] {
-                        flags |= PixelFlags::OUT_OF_GAMUT;
-                    }
-                    if off.iter().any(|o| *o < 0.0) {
-                        flags |= PixelFlags::BELOW_BLACK;
-                    }
-                    m = [0.0; 3];
-                }
-                a = [m[0] + off[0], m[1] + off[1], m[2] + off[2]];
+        [m[0] + off[0], m[1] + off[1], m[2] + off[2]]
+    }
+
+    /// A pixel whose drives `a` (linear part `m`) are not all in 0..=1: gamut mapping,
+    /// range scaling, clamping and, in false-colour mode, the markers.
+    #[inline]
+    fn outside(
+        &self,
+        xyz: [f32; 3],
+        gain: Option<[f32; 3]>,
+        mut m: [f32; 3],
+        mut a: [f32; 3],
+    ) -> PixelOut {
+        let mut flags = PixelFlags::NONE;
+        if a.iter().any(|v| *v < -GAMUT_TOLERANCE) {
+            m = self.toward_white(xyz, gain, m, a, &mut flags);
+            a = self.with_offset(m);
+        }
+        if a.iter().any(|v| *v > 1.0 + GAMUT_TOLERANCE) {
+            flags |= PixelFlags::OVER_RANGE;
+            a = self.scale_into_range(m, a);
+        }
+        let a = a.map(|v| v.clamp(0.0, 1.0));
+        if self.out_of_gamut == OutOfGamut::FalseColour {
+            if flags.contains(PixelFlags::OUT_OF_GAMUT) {
+                return PixelOut {
+                    drive: MARKER_OUT_OF_GAMUT,
+                    flags,
+                };
             }
-            // Range: scale at constant chromaticity until every channel ≤ 1.
-            if a[0] > 1.0 + tol || a[1] > 1.0 + tol || a[2] > 1.0 + tol {
-                flags |= PixelFlags::OVER_RANGE;
-                let mut s = 1.0f32;
-                for c in 0..3 {
-                    if a[c] > 1.0 {
-                        let sc = if m[c] > 0.0 {
-                            ((1.0 - off[c]) / m[c]).max(0.0)
-                        } else {
-                            0.0
-                        };
-                        s = s.min(sc);
-                    }
-                }
-                a = [s * m[0] + off[0], s * m[1] + off[1], s * m[2] + off[2]];
-            }
-            a = a.map(|v| v.clamp(0.0, 1.0));
-            if self.out_of_gamut == OutOfGamut::FalseColour {
-                if flags.contains(PixelFlags::OUT_OF_GAMUT) {
-                    return PixelOut {
-                        drive: MARKER_OUT_OF_GAMUT,
-                        flags,
-                    };
-                }
-                if flags.contains(PixelFlags::OVER_RANGE) {
-                    return PixelOut {
-                        drive: MARKER_OVER_RANGE,
-                        flags,
-                    };
-                }
+            if flags.contains(PixelFlags::OVER_RANGE) {
+                return PixelOut {
+                    drive: MARKER_OVER_RANGE,
+                    flags,
+                };
             }
         }
         PixelOut {
             drive: self.drives(a),
             flags,
         }
+    }
+
+    /// Gamut mapping: the linear drives moved toward the target white at constant
+    /// luminance until no channel is below 0 (black without positive luminance).
+    #[inline]
+    fn toward_white(
+        &self,
+        xyz: [f32; 3],
+        gain: Option<[f32; 3]>,
+        m: [f32; 3],
+        a: [f32; 3],
+        flags: &mut PixelFlags,
+    ) -> [f32; 3] {
+        let off = self.offset;
+        let lum = xyz[1];
+        if lum <= 0.0 {
+            // No positive luminance: nothing to show but black.
+            if xyz != [0.0; 3] {
+                *flags |= PixelFlags::OUT_OF_GAMUT;
+            }
+            if off.iter().any(|o| *o < 0.0) {
+                *flags |= PixelFlags::BELOW_BLACK;
+            }
+            return [0.0; 3];
+        }
+        let wd = self.white_dir;
+        let mut mw = [lum * wd[0], lum * wd[1], lum * wd[2]];
+        if let Some(g) = gain {
+            mw = divide_gain(mw, g);
+        }
+        let mut t = 0.0f32;
+        for c in 0..3 {
+            let aw = mw[c] + off[c];
+            if a[c] < -GAMUT_TOLERANCE {
+                if aw >= 0.0 {
+                    // a_c(t) = a_c + t (aw − a_c) = 0.
+                    t = t.max(-a[c] / (aw - a[c]));
+                } else {
+                    *flags |= PixelFlags::BELOW_BLACK;
+                }
+            }
+        }
+        if t <= 0.0 {
+            return m;
+        }
+        *flags |= PixelFlags::OUT_OF_GAMUT;
+        let t = t.min(1.0);
+        [
+            m[0] + t * (mw[0] - m[0]),
+            m[1] + t * (mw[1] - m[1]),
+            m[2] + t * (mw[2] - m[2]),
+        ]
+    }
+
+    /// Range: the drives scaled at constant chromaticity until every channel ≤ 1.
+    #[inline]
+    fn scale_into_range(&self, m: [f32; 3], a: [f32; 3]) -> [f32; 3] {
+        let off = self.offset;
+        let mut s = 1.0f32;
+        for c in 0..3 {
+            if a[c] > 1.0 {
+                let sc = if m[c] > 0.0 {
+                    ((1.0 - off[c]) / m[c]).max(0.0)
+                } else {
+                    0.0
+                };
+                s = s.min(sc);
+            }
+        }
+        [s * m[0] + off[0], s * m[1] + off[1], s * m[2] + off[2]]
     }
 
     /// Code values for one pixel at integer position `(px, py)` of the output (the
@@ -516,6 +556,26 @@ impl PreparedProfile {
             quantise(drive[2], max, thr),
         ]
     }
+}
+
+/// Input scaled down (at constant chromaticity) so that no component's magnitude
+/// exceeds [`MAX_INPUT_CD_M2`].
+#[inline(always)]
+fn limit_input(xyz: [f32; 3]) -> [f32; 3] {
+    let [x, y, z] = xyz;
+    let big = x.abs().max(y.abs()).max(z.abs());
+    if big > MAX_INPUT_CD_M2 {
+        let k = MAX_INPUT_CD_M2 / big;
+        [x * k, y * k, z * k]
+    } else {
+        xyz
+    }
+}
+
+/// `v / g` per channel.
+#[inline(always)]
+fn divide_gain(v: [f32; 3], g: [f32; 3]) -> [f32; 3] {
+    [v[0] / g[0], v[1] / g[1], v[2] / g[2]]
 }
 
 /// The post pass for one pixel, straight from a profile (prepares it first; for many

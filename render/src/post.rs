@@ -5,7 +5,8 @@
 //! rayon (the reference), [`gpu`] as a wgpu compute shader (feature `gpu`). One profile
 //! per display and eye: a mono wall has one profile per display and does no per-eye
 //! work; a profile without a flat-field texture does no texture fetch. [`io`] reads EXR
-//! and sRGB PNG input and writes PNG output.
+//! and sRGB PNG input and writes PNG output; [`wall`] cuts a wall's frame into its
+//! displays' tiles and routes each eye's frame.
 
 pub mod cpu;
 #[cfg(target_arch = "x86_64")]
@@ -15,9 +16,10 @@ pub mod frame;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod io;
+pub mod wall;
 
 pub use cpu::{apply_cpu, apply_cpu_into};
 pub use error::PostError;
 pub use frame::{CodeImage, FlagCounts, XyzFrame};
 #[cfg(feature = "gpu")]
-pub use gpu::GpuPost;
+pub use gpu::{GpuPost, GpuProfile};

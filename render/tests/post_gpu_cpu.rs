@@ -5,7 +5,10 @@
 //! The GPU part needs an adapter (Mesa lavapipe in CI: `mesa-vulkan-drivers`). Without
 //! one it is skipped with a message, unless `LUMIWALL_REQUIRE_GPU=1`, which makes a
 //! missing adapter a failure.
-#![allow(clippy::needless_range_loop)]
+#![allow(
+    clippy::needless_range_loop,
+    reason = "pixel and channel indices address several arrays at once"
+)]
 
 mod post_support;
 

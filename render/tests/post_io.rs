@@ -1,6 +1,9 @@
 //! Image I/O of the post pass: EXR conventions and refusals, PNG code packing, sRGB
 //! input, tiles.
-#![allow(clippy::needless_range_loop)]
+#![allow(
+    clippy::needless_range_loop,
+    reason = "pixel and channel indices address several arrays at once"
+)]
 
 use lumiwall_profiles::apply::decode_srgb;
 use lumiwall_profiles::apply::srgb::SRGB_PRIMARIES_XY;
@@ -26,6 +29,22 @@ fn frame() -> XyzFrame {
     XyzFrame::new(4, 3, pixels).unwrap()
 }
 
+/// Writes an uncompressed 2×2 OpenEXR file with the given channels.
+fn write_2x2_exr(
+    path: &std::path::Path,
+    channels: Vec<exr::prelude::AnyChannel<exr::prelude::FlatSamples>>,
+) {
+    use exr::prelude::*;
+    let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::from_vec(channels);
+    let layer = Layer::new(
+        (2, 2),
+        LayerAttributes::default(),
+        Encoding::UNCOMPRESSED,
+        AnyChannels::sort(list),
+    );
+    Image::from_layer(layer).write().to_file(path).unwrap();
+}
+
 #[test]
 fn exr_xyz_and_rgb_named_channels_read_back_exactly() {
     let dir = tempfile::tempdir().unwrap();
@@ -44,15 +63,7 @@ fn exr_luminance_only_is_shown_in_the_white_chromaticity() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("y.exr");
     let y: Vec<f32> = vec![0.0, 10.0, 80.0, 160.0];
-    let list: SmallVec<[AnyChannel<FlatSamples>; 4]> =
-        SmallVec::from_vec(vec![AnyChannel::new("Y", FlatSamples::F32(y.clone()))]);
-    let layer = Layer::new(
-        (2, 2),
-        LayerAttributes::default(),
-        Encoding::UNCOMPRESSED,
-        AnyChannels::sort(list),
-    );
-    Image::from_layer(layer).write().to_file(&p).unwrap();
+    write_2x2_exr(&p, vec![AnyChannel::new("Y", FlatSamples::F32(y.clone()))]);
     let (f, report) = read_exr(&p, &opts()).unwrap();
     assert!(report.luminance_only);
     for (px, lum) in f.pixels.iter().zip(&y) {
@@ -137,17 +148,13 @@ fn missing_or_unusable_exr_is_a_clear_error() {
     ));
     use exr::prelude::*;
     let p = dir.path().join("a.exr");
-    let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::from_vec(vec![
-        AnyChannel::new("A", FlatSamples::F32(vec![1.0; 4])),
-        AnyChannel::new("Y", FlatSamples::F32(vec![1.0; 4])),
-    ]);
-    let layer = Layer::new(
-        (2, 2),
-        LayerAttributes::default(),
-        Encoding::UNCOMPRESSED,
-        AnyChannels::sort(list),
+    write_2x2_exr(
+        &p,
+        vec![
+            AnyChannel::new("A", FlatSamples::F32(vec![1.0; 4])),
+            AnyChannel::new("Y", FlatSamples::F32(vec![1.0; 4])),
+        ],
     );
-    Image::from_layer(layer).write().to_file(&p).unwrap();
     let e = read_exr(&p, &opts()).unwrap_err();
     assert!(
         matches!(e, PostError::Channels { .. }) && e.to_string().contains("A, Y"),

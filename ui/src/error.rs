@@ -139,3 +139,22 @@ impl From<std::io::Error> for CliError {
         Self::failure(e.to_string())
     }
 }
+
+// --- Conversions for `lumiwall apply` (post pass) ----------------------------------
+
+impl From<lumiwall_render::post::PostError> for CliError {
+    /// GPU failures are failures (exit 1); everything else is bad input (exit 2).
+    fn from(e: lumiwall_render::post::PostError) -> Self {
+        match e {
+            lumiwall_render::post::PostError::Gpu(_) => CliError::failure(e.to_string()),
+            _ => CliError::input(e.to_string()),
+        }
+    }
+}
+
+impl From<lumiwall_profiles::apply::ApplyError> for CliError {
+    /// A profile the post pass cannot use is bad input (exit 2).
+    fn from(e: lumiwall_profiles::apply::ApplyError) -> Self {
+        CliError::input(e.to_string())
+    }
+}

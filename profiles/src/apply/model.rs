@@ -72,7 +72,53 @@ fn xy(v: &[f64; 3]) -> [f64; 2] {
     }
 }
 
+/// XYZ (cd/m²) of chromaticity `(x, y)` at luminance `lum`: `(x/y·L, L, (1−x−y)/y·L)`.
+/// (The analytic fixtures' exact arithmetic; `y` must be positive.)
+pub fn xyz_of(x: f64, y: f64, lum: f64) -> [f64; 3] {
+    [x / y * lum, lum, (1.0 - x - y) / y * lum]
+}
+
+/// XYZ (cd/m²) of Kresse's Infitec common-gamut primaries (Tab. 5: R 0.625/0.370,
+/// G 0.286/0.613, B 0.140/0.045) at the luminances of R, G and B.
+pub fn infitec_primaries(luminance_cd_m2: [f64; 3]) -> [[f64; 3]; 3] {
+    let [r, g, b] = luminance_cd_m2;
+    [
+        xyz_of(0.625, 0.370, r),
+        xyz_of(0.286, 0.613, g),
+        xyz_of(0.140, 0.045, b),
+    ]
+}
+
 impl AnalyticDisplay {
+    /// The example display of the tests and `lumiwall bench apply`: a projector with
+    /// Kresse's Infitec common-gamut primaries (Tab. 5), a bluish-grey black and
+    /// S-shaped tone curves of different gammas per channel.
+    pub fn infitec_example() -> Self {
+        AnalyticDisplay {
+            primaries_xyz_cd_m2: infitec_primaries([21.0, 55.0, 6.5]),
+            black_xyz_cd_m2: xyz_of(0.29, 0.31, 0.35),
+            tone: [
+                ToneShape {
+                    gamma: 2.1,
+                    s_mix: 0.3,
+                },
+                ToneShape {
+                    gamma: 2.3,
+                    s_mix: 0.4,
+                },
+                ToneShape {
+                    gamma: 1.9,
+                    s_mix: 0.2,
+                },
+            ],
+        }
+    }
+
+    /// XYZ (cd/m²) of all three primaries at full drive, black excluded.
+    pub fn full_white_xyz(&self) -> [f64; 3] {
+        [0, 1, 2].map(|i| (0..3).map(|c| self.primaries_xyz_cd_m2[c][i]).sum::<f64>())
+    }
+
     /// Row-major primaries matrix `P` (columns R, G, B): linear drive → XYZ cd/m².
     pub fn primaries_matrix(&self) -> [[f64; 3]; 3] {
         mat3::from_columns(&self.primaries_xyz_cd_m2)

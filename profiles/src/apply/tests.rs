@@ -1,9 +1,12 @@
 //! Unit tests of the scalar post pass against analytic references.
-#![allow(clippy::needless_range_loop)]
+#![allow(
+    clippy::needless_range_loop,
+    reason = "pixel and channel indices address several arrays at once"
+)]
 
-use super::model::{AnalyticDisplay, ModelProfileSpec, ToneShape};
+use super::model::{AnalyticDisplay, ModelProfileSpec, ToneShape, infitec_primaries, xyz_of};
 use super::*;
-use crate::{BlackMode, DisplayKey, Eye, FlatField};
+use crate::{BlackMode, DisplayKey, DisplayProfile, Eye, FlatField};
 
 fn key() -> DisplayKey {
     DisplayKey {
@@ -17,14 +20,9 @@ fn key() -> DisplayKey {
 
 /// Primaries of Kresse's Infitec common gamut (Tab. 5), white ≈ 77.86 cd/m².
 fn display(gamma: f64) -> AnalyticDisplay {
-    let prim = |x: f64, y: f64, lum: f64| [x / y * lum, lum, (1.0 - x - y) / y * lum];
     AnalyticDisplay {
-        primaries_xyz_cd_m2: [
-            prim(0.625, 0.370, 20.0),
-            prim(0.286, 0.613, 52.0),
-            prim(0.140, 0.045, 6.0),
-        ],
-        black_xyz_cd_m2: prim(0.30, 0.32, 0.4),
+        primaries_xyz_cd_m2: infitec_primaries([20.0, 52.0, 6.0]),
+        black_xyz_cd_m2: xyz_of(0.30, 0.32, 0.4),
         tone: [ToneShape { gamma, s_mix: 0.0 }; 3],
     }
 }
@@ -39,7 +37,7 @@ fn display_no_black(gamma: f64) -> AnalyticDisplay {
 
 fn spec(mode: BlackMode, oog: OutOfGamut, flat: Option<FlatField>) -> ModelProfileSpec {
     let d = display(1.0);
-    let w = [0, 1, 2].map(|i| (0..3).map(|c| d.primaries_xyz_cd_m2[c][i]).sum::<f64>() * 0.9);
+    let w = d.full_white_xyz().map(|v| v * 0.9);
     ModelProfileSpec {
         display: key(),
         black_mode: mode,
@@ -52,6 +50,13 @@ fn spec(mode: BlackMode, oog: OutOfGamut, flat: Option<FlatField>) -> ModelProfi
     }
 }
 
+/// The profile of `d` for `spec` and its prepared form with default options.
+fn prepared(d: &AnalyticDisplay, spec: ModelProfileSpec) -> (DisplayProfile, PreparedProfile) {
+    let prof = d.profile(&spec).unwrap();
+    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    (prof, pp)
+}
+
 fn xy_of(v: [f64; 3]) -> [f64; 2] {
     let s = v[0] + v[1] + v[2];
     [v[0] / s, v[1] / s]
@@ -60,10 +65,7 @@ fn xy_of(v: [f64; 3]) -> [f64; 2] {
 #[test]
 fn linear_display_gives_the_matrix_drive() {
     let d = display_no_black(1.0);
-    let prof = d
-        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, None))
-        .unwrap();
-    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let (_, pp) = prepared(&d, spec(BlackMode::Ignore, OutOfGamut::Clip, None));
     // Drive (0.2, 0.5, 0.7) ↔ XYZ = P · drive (independent: primaries sum).
     let want = [0.2, 0.5, 0.7];
     let xyz = mat3::mul_vec(&d.primaries_matrix(), &want).map(|v| v as f32);
@@ -81,10 +83,7 @@ fn linear_display_gives_the_matrix_drive() {
 #[test]
 fn same_arithmetic_as_tone_curve_drive_for() {
     let d = display(2.2);
-    let prof = d
-        .profile(&spec(BlackMode::Individual, OutOfGamut::Clip, None))
-        .unwrap();
-    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let (prof, pp) = prepared(&d, spec(BlackMode::Individual, OutOfGamut::Clip, None));
     for i in 0..=1000 {
         let a = i as f32 / 1000.0;
         for c in 0..3 {
@@ -97,8 +96,7 @@ fn same_arithmetic_as_tone_curve_drive_for() {
 fn in_gamut_colours_round_trip_through_the_model() {
     for mode in [BlackMode::Ignore, BlackMode::Individual, BlackMode::Common] {
         let d = display(2.2);
-        let prof = d.profile(&spec(mode, OutOfGamut::Clip, None)).unwrap();
-        let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+        let (_, pp) = prepared(&d, spec(mode, OutOfGamut::Clip, None));
         for k in 1..50 {
             let lin = [k as f64 / 50.0, ((k * 7) % 50) as f64 / 50.0 + 0.01, 0.3];
             let xyz: [f64; 3] = mat3::mul_vec(&d.primaries_matrix(), &lin);
@@ -130,10 +128,7 @@ fn in_gamut_colours_round_trip_through_the_model() {
 #[test]
 fn out_of_gamut_moves_toward_white_at_constant_luminance() {
     let d = display_no_black(1.0);
-    let prof = d
-        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, None))
-        .unwrap();
-    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let (prof, pp) = prepared(&d, spec(BlackMode::Ignore, OutOfGamut::Clip, None));
     // Spectral-locus cyan (x .08, y .5) at 10 cd/m²: outside the triangle.
     let (x, y, lum) = (0.08, 0.5, 10.0);
     let xyz = [x / y * lum, lum, (1.0 - x - y) / y * lum];
@@ -155,10 +150,7 @@ fn out_of_gamut_moves_toward_white_at_constant_luminance() {
 #[test]
 fn over_range_keeps_chromaticity_and_hits_full_drive() {
     let d = display_no_black(1.0);
-    let prof = d
-        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, None))
-        .unwrap();
-    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let (_, pp) = prepared(&d, spec(BlackMode::Ignore, OutOfGamut::Clip, None));
     for lum in [100.0f64, 1e3, 1e6, 1e20, 3e38] {
         let xyz = [0.31 / 0.33 * lum, lum, 0.36 / 0.33 * lum];
         let out = pp.apply(xyz.map(|v| v as f32), [0.5, 0.5]);
@@ -177,10 +169,7 @@ fn over_range_keeps_chromaticity_and_hits_full_drive() {
 #[test]
 fn invalid_negative_and_zero_inputs() {
     let d = display(2.2);
-    let prof = d
-        .profile(&spec(BlackMode::Individual, OutOfGamut::Clip, None))
-        .unwrap();
-    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let (prof, pp) = prepared(&d, spec(BlackMode::Individual, OutOfGamut::Clip, None));
     for bad in [
         [f32::NAN, 1.0, 1.0],
         [1.0, f32::INFINITY, 1.0],
@@ -261,10 +250,7 @@ fn flat_field_divides_bilinearly() {
         gain: vec![[1.0; 3], [0.5; 3], [0.8; 3], [0.4; 3]],
     };
     let d = display_no_black(1.0);
-    let prof = d
-        .profile(&spec(BlackMode::Ignore, OutOfGamut::Clip, Some(ff)))
-        .unwrap();
-    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let (_, pp) = prepared(&d, spec(BlackMode::Ignore, OutOfGamut::Clip, Some(ff)));
     // Texel centres at 0.25 / 0.75; centre of the display = average of the four gains.
     let g = pp.gain_at([0.5, 0.5]);
     assert!((g[0] - 0.675).abs() < 1e-6);
@@ -349,10 +335,7 @@ fn unusable_profiles_are_typed_errors() {
 #[test]
 fn colours_on_the_gamut_boundary_are_not_marked() {
     let d = display_no_black(2.2);
-    let prof = d
-        .profile(&spec(BlackMode::Ignore, OutOfGamut::FalseColour, None))
-        .unwrap();
-    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let (_, pp) = prepared(&d, spec(BlackMode::Ignore, OutOfGamut::FalseColour, None));
     // Edges and corners of the gamut: one or two channels exactly 0, or exactly 1.
     for lin in [
         [0.0, 0.4, 0.7],

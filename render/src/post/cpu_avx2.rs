@@ -8,10 +8,10 @@ use std::arch::x86_64::*;
 
 use lumiwall_profiles::OutOfGamut;
 use lumiwall_profiles::apply::{
-    GAMUT_TOLERANCE, MAX_INPUT_CD_M2, PixelFlags, PreparedProfile, dither_threshold,
+    GAMUT_TOLERANCE, MAX_INPUT_CD_M2, PixelFlags, PreparedLut, PreparedProfile, dither_threshold,
 };
 
-use super::cpu::{Columns, pixel_gains, portable_block};
+use super::cpu::{BlockOut, RowContext, pixel_gains, portable_block};
 
 /// Pixels per step.
 const LANES: usize = 8;
@@ -48,6 +48,146 @@ unsafe fn load_xyz(p: &[[f32; 3]]) -> [__m256; 3] {
     }
 }
 
+/// Lanes whose X, Y and Z are all finite and at most [`MAX_INPUT_CD_M2`] in magnitude.
+///
+/// # Safety
+/// AVX2 must be available.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn input_ok([x, y, z]: [__m256; 3]) -> __m256 {
+    let sign = _mm256_set1_ps(-0.0);
+    let lim = _mm256_set1_ps(MAX_INPUT_CD_M2);
+    // |v| ≤ limit is false for NaN and ±Inf as well
+    _mm256_and_ps(
+        _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_andnot_ps(sign, x), lim),
+            _mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_andnot_ps(sign, y), lim),
+        ),
+        _mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_andnot_ps(sign, z), lim),
+    )
+}
+
+/// Eight pixels' linear drives: `mv = M·xyz / gain`, `a = mv + offset`, and the lanes
+/// with a channel below the gamut tolerance (`gamut`) or above 1 + tolerance (`over`).
+struct Linear8 {
+    mv: [__m256; 3],
+    a: [__m256; 3],
+    gamut: __m256,
+    over: __m256,
+}
+
+/// [`Linear8`] of the pixels `[x, y, z]`.
+///
+/// # Safety
+/// AVX2 must be available.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn linear8(
+    pp: &PreparedProfile,
+    [x, y, z]: [__m256; 3],
+    gain: Option<&[[f32; LANES]; 3]>,
+) -> Linear8 {
+    let m = pp.matrix;
+    let zero = _mm256_setzero_ps();
+    let tol = _mm256_set1_ps(GAMUT_TOLERANCE);
+    let lo = _mm256_sub_ps(zero, tol);
+    let hi = _mm256_add_ps(_mm256_set1_ps(1.0), tol);
+    let mut out = Linear8 {
+        mv: [zero; 3],
+        a: [zero; 3],
+        gamut: zero,
+        over: zero,
+    };
+    for c in 0..3 {
+        let mut v = _mm256_add_ps(
+            _mm256_add_ps(
+                _mm256_mul_ps(_mm256_set1_ps(m[c][0]), x),
+                _mm256_mul_ps(_mm256_set1_ps(m[c][1]), y),
+            ),
+            _mm256_mul_ps(_mm256_set1_ps(m[c][2]), z),
+        );
+        if let Some(g) = gain {
+            // SAFETY: `g[c]` holds 8 floats; unaligned load.
+            v = _mm256_div_ps(v, unsafe { _mm256_loadu_ps(g[c].as_ptr()) });
+        }
+        out.mv[c] = v;
+        out.a[c] = _mm256_add_ps(v, _mm256_set1_ps(pp.offset[c]));
+        out.gamut = _mm256_or_ps(out.gamut, _mm256_cmp_ps::<_CMP_LT_OQ>(out.a[c], lo));
+        out.over = _mm256_or_ps(out.over, _mm256_cmp_ps::<_CMP_GT_OQ>(out.a[c], hi));
+    }
+    out
+}
+
+/// Scales the `over` lanes of `lin.a` down as the reference does: at constant
+/// chromaticity until every channel is ≤ 1.
+///
+/// # Safety
+/// AVX2 must be available.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn scale_over_range(pp: &PreparedProfile, lin: &mut Linear8) {
+    let zero = _mm256_setzero_ps();
+    let one = _mm256_set1_ps(1.0);
+    let mut s = one;
+    for c in 0..3 {
+        let off = _mm256_set1_ps(pp.offset[c]);
+        let sc = _mm256_and_ps(
+            _mm256_max_ps(_mm256_div_ps(_mm256_sub_ps(one, off), lin.mv[c]), zero),
+            _mm256_cmp_ps::<_CMP_GT_OQ>(lin.mv[c], zero),
+        );
+        let above = _mm256_cmp_ps::<_CMP_GT_OQ>(lin.a[c], one);
+        s = _mm256_blendv_ps(s, _mm256_min_ps(s, sc), above);
+    }
+    for c in 0..3 {
+        let off = _mm256_set1_ps(pp.offset[c]);
+        let scaled = _mm256_add_ps(_mm256_mul_ps(s, lin.mv[c]), off);
+        lin.a[c] = _mm256_blendv_ps(lin.a[c], scaled, lin.over);
+    }
+}
+
+/// Codes of one channel of eight pixels: LUT segment, interpolation, quantisation
+/// with thresholds `th` to `0..=max_code`.
+///
+/// # Safety
+/// AVX2 must be available; the LUT has segments.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn lut_codes(lut: &PreparedLut, a: __m256, th: __m256, max_code: u32) -> __m256i {
+    let zero = _mm256_setzero_ps();
+    let one = _mm256_set1_ps(1.0);
+    let pairs = lut.pairs();
+    let last = _mm256_set1_epi32(pairs.len() as i32 - 1);
+    // min/max return the second operand for NaN: t stays in 0..=len−1
+    let t = _mm256_mul_ps(
+        _mm256_max_ps(_mm256_min_ps(a, one), zero),
+        _mm256_set1_ps(lut.scale),
+    );
+    let i = _mm256_max_epi32(
+        _mm256_min_epi32(_mm256_cvttps_epi32(t), last),
+        _mm256_setzero_si256(),
+    );
+    let frac = _mm256_sub_ps(t, _mm256_cvtepi32_ps(i));
+    // the eight [base, slope] pairs by plain 64-bit loads (faster than
+    // gathers here), then split
+    let mut ix = [0i32; LANES];
+    // SAFETY: `ix` holds 32 bytes; unaligned store.
+    unsafe { _mm256_storeu_si256(ix.as_mut_ptr() as *mut __m256i, i) };
+    let ptr = pairs.as_ptr() as *const i64;
+    // SAFETY: every index is clamped to 0..=last above.
+    let ld = |k: usize| unsafe { *ptr.add(ix[k] as usize) };
+    let lo = _mm256_castsi256_ps(_mm256_set_epi64x(ld(5), ld(4), ld(1), ld(0)));
+    let hi = _mm256_castsi256_ps(_mm256_set_epi64x(ld(7), ld(6), ld(3), ld(2)));
+    // lo = pairs 0 1 | 4 5, hi = pairs 2 3 | 6 7: the shuffles give lanes 0..7
+    let base = _mm256_shuffle_ps::<0b10_00_10_00>(lo, hi);
+    let slope = _mm256_shuffle_ps::<0b11_01_11_01>(lo, hi);
+    let d = _mm256_add_ps(base, _mm256_mul_ps(slope, frac));
+    let v = _mm256_add_ps(_mm256_mul_ps(d, _mm256_set1_ps(max_code as f32)), th);
+    _mm256_min_epi32(
+        _mm256_max_epi32(_mm256_cvttps_epi32(v), _mm256_setzero_si256()),
+        _mm256_set1_epi32(max_code as i32),
+    )
+}
+
 /// Codes of eight pixels (`out[c][j]`), the mask of lanes that need the scalar
 /// reference and the mask of lanes scaled down for being over range (bit j set).
 /// Lanes whose only problem is range (finite, no channel below the gamut tolerance,
@@ -65,113 +205,30 @@ unsafe fn fast8(
     thr: &[f32; LANES],
     out: &mut [[u16; 3]],
 ) -> (u32, u32) {
-    // SAFETY: the caller guarantees AVX2 and the sizes; gathers index within the LUT
-    // (indices are clamped to 0..=last below).
+    // SAFETY: the caller guarantees AVX2 and the sizes; the helpers' conditions hold.
     unsafe {
-        let [x, y, z] = load_xyz(xyz);
-        let sign = _mm256_set1_ps(-0.0);
-        let lim = _mm256_set1_ps(MAX_INPUT_CD_M2);
-        // |v| ≤ limit is false for NaN and ±Inf as well
-        let ok = _mm256_and_ps(
-            _mm256_and_ps(
-                _mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_andnot_ps(sign, x), lim),
-                _mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_andnot_ps(sign, y), lim),
-            ),
-            _mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_andnot_ps(sign, z), lim),
-        );
-        let m = pp.matrix;
-        let zero = _mm256_setzero_ps();
-        let one = _mm256_set1_ps(1.0);
-        let tol = _mm256_set1_ps(GAMUT_TOLERANCE);
-        let lo = _mm256_sub_ps(zero, tol);
-        let hi = _mm256_add_ps(one, tol);
-        let mut gamut = _mm256_setzero_ps();
-        let mut over = _mm256_setzero_ps();
-        let mut mv = [zero; 3];
-        let mut a = [zero; 3];
-        for c in 0..3 {
-            let mut v = _mm256_add_ps(
-                _mm256_add_ps(
-                    _mm256_mul_ps(_mm256_set1_ps(m[c][0]), x),
-                    _mm256_mul_ps(_mm256_set1_ps(m[c][1]), y),
-                ),
-                _mm256_mul_ps(_mm256_set1_ps(m[c][2]), z),
-            );
-            if let Some(g) = gain {
-                v = _mm256_div_ps(v, _mm256_loadu_ps(g[c].as_ptr()));
-            }
-            mv[c] = v;
-            a[c] = _mm256_add_ps(v, _mm256_set1_ps(pp.offset[c]));
-            gamut = _mm256_or_ps(gamut, _mm256_cmp_ps::<_CMP_LT_OQ>(a[c], lo));
-            over = _mm256_or_ps(over, _mm256_cmp_ps::<_CMP_GT_OQ>(a[c], hi));
-        }
+        let xyz = load_xyz(xyz);
+        let ok = input_ok(xyz);
+        let mut lin = linear8(pp, xyz, gain);
         // lanes for the reference: invalid or huge input, a gamut clip, or a marker
         let mut scalar = _mm256_or_ps(
             _mm256_xor_ps(ok, _mm256_castsi256_ps(_mm256_set1_epi32(-1))),
-            gamut,
+            lin.gamut,
         );
         if pp.out_of_gamut == OutOfGamut::FalseColour {
-            scalar = _mm256_or_ps(scalar, over);
+            scalar = _mm256_or_ps(scalar, lin.over);
         }
         let slow = _mm256_movemask_ps(scalar) as u32;
         if slow == 0xff {
             return (slow, 0);
         }
-        let over_mask = _mm256_movemask_ps(over) as u32 & !slow;
+        let over_mask = _mm256_movemask_ps(lin.over) as u32 & !slow;
         if over_mask != 0 {
-            let mut s = one;
-            for c in 0..3 {
-                let off = _mm256_set1_ps(pp.offset[c]);
-                let sc = _mm256_and_ps(
-                    _mm256_max_ps(_mm256_div_ps(_mm256_sub_ps(one, off), mv[c]), zero),
-                    _mm256_cmp_ps::<_CMP_GT_OQ>(mv[c], zero),
-                );
-                let above = _mm256_cmp_ps::<_CMP_GT_OQ>(a[c], one);
-                s = _mm256_blendv_ps(s, _mm256_min_ps(s, sc), above);
-            }
-            for c in 0..3 {
-                let off = _mm256_set1_ps(pp.offset[c]);
-                let scaled = _mm256_add_ps(_mm256_mul_ps(s, mv[c]), off);
-                a[c] = _mm256_blendv_ps(a[c], scaled, over);
-            }
+            scale_over_range(pp, &mut lin);
         }
-        let maxf = _mm256_set1_ps(pp.max_code() as f32);
-        let maxi = _mm256_set1_epi32(pp.max_code() as i32);
         let th = _mm256_loadu_ps(thr.as_ptr());
-        let mut codes = [_mm256_setzero_si256(); 3];
-        for c in 0..3 {
-            let lut = &pp.luts[c];
-            let pairs = lut.pairs();
-            let last = _mm256_set1_epi32(pairs.len() as i32 - 1);
-            // min/max return the second operand for NaN: t stays in 0..=len−1
-            let t = _mm256_mul_ps(
-                _mm256_max_ps(_mm256_min_ps(a[c], one), zero),
-                _mm256_set1_ps(lut.scale),
-            );
-            let i = _mm256_max_epi32(
-                _mm256_min_epi32(_mm256_cvttps_epi32(t), last),
-                _mm256_setzero_si256(),
-            );
-            let frac = _mm256_sub_ps(t, _mm256_cvtepi32_ps(i));
-            // the eight [base, slope] pairs by plain 64-bit loads (faster than
-            // gathers here), then split
-            let mut ix = [0i32; LANES];
-            _mm256_storeu_si256(ix.as_mut_ptr() as *mut __m256i, i);
-            let ptr = pairs.as_ptr() as *const i64;
-            let ld = |k: usize| *ptr.add(ix[k] as usize);
-            let lo = _mm256_castsi256_ps(_mm256_set_epi64x(ld(5), ld(4), ld(1), ld(0)));
-            let hi = _mm256_castsi256_ps(_mm256_set_epi64x(ld(7), ld(6), ld(3), ld(2)));
-            // lo = pairs 0 1 | 4 5, hi = pairs 2 3 | 6 7: the shuffles give lanes 0..7
-            let base = _mm256_shuffle_ps::<0b10_00_10_00>(lo, hi);
-            let slope = _mm256_shuffle_ps::<0b11_01_11_01>(lo, hi);
-            let d = _mm256_add_ps(base, _mm256_mul_ps(slope, frac));
-            let v = _mm256_add_ps(_mm256_mul_ps(d, maxf), th);
-            let code = _mm256_min_epi32(
-                _mm256_max_epi32(_mm256_cvttps_epi32(v), _mm256_setzero_si256()),
-                maxi,
-            );
-            codes[c] = code;
-        }
+        let max_code = pp.max_code();
+        let codes = [0, 1, 2].map(|c| lut_codes(&pp.luts[c], lin.a[c], th, max_code));
         store_codes(&codes, out);
         (slow, over_mask)
     }
@@ -212,98 +269,120 @@ unsafe fn store_codes(codes: &[__m256i; 3], out: &mut [[u16; 3]]) {
     out[LANES - 1] = [v as u16, (v >> 16) as u16, (v >> 32) as u16];
 }
 
-/// One row with the AVX2 kernel; the last `len % 8` pixels go through the portable
-/// block. Arguments as the portable row kernel's.
-///
-/// # Safety
-/// AVX2 must be available.
-#[target_feature(enable = "avx2")]
-#[allow(clippy::too_many_arguments)]
-pub(super) unsafe fn row(
-    pp: &PreparedProfile,
-    irow: &[[f32; 3]],
-    orow: &mut [[u16; 3]],
-    frow: &mut [u8],
-    y: u32,
-    row_gain: &[[f32; 3]],
-    cols: &Columns,
-    hist: &mut [u64; 16],
-) {
-    let degenerate = pp.luts.iter().any(|l| l.pairs().is_empty());
-    let flat = pp.flat.is_some();
-    // Ordered-dither thresholds repeat every 16 columns.
+/// Ordered-dither thresholds of row `y` (they repeat every 16 columns); 0.5 without
+/// dithering.
+fn dither_row(pp: &PreparedProfile, y: u32) -> [f32; 16] {
     let mut thr_row = [0.5f32; 16];
     if pp.dither {
         for (x, t) in thr_row.iter_mut().enumerate() {
             *t = dither_threshold(x as u32, y);
         }
     }
+    thr_row
+}
+
+/// Flat-field gains of the eight pixels from column `x0` into lanes `g[c][j]`.
+///
+/// # Safety
+/// AVX2 must be available; the row holds eight pixels from `x0`.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn gains8(ctx: &RowContext<'_>, x0: usize, g: &mut [[f32; LANES]; 3]) {
+    let (cols, row_gain) = (ctx.cols, ctx.row_gain);
+    let (first, last) = (cols.texels[x0], cols.texels[x0 + LANES - 1]);
+    if first.0 != last.0 {
+        pixel_gains(row_gain, cols, x0, LANES, g);
+        return;
+    }
+    // one texel span: the reference's lerp, eight lanes at once
+    let (c0, c1) = (row_gain[first.0], row_gain[first.1]);
+    let w = &cols.weights[x0..x0 + LANES];
+    for c in 0..3 {
+        // SAFETY: AVX2 is enabled here; `w` and `g[c]` hold 8 floats.
+        unsafe {
+            let lo = _mm256_set1_ps(c0[c]);
+            let d = _mm256_set1_ps(c1[c] - c0[c]);
+            let v = _mm256_add_ps(lo, _mm256_mul_ps(d, _mm256_loadu_ps(w.as_ptr())));
+            _mm256_storeu_ps(g[c].as_mut_ptr(), v);
+        }
+    }
+}
+
+/// Flags and histogram of eight pixels after [`fast8`] (OVER_RANGE on the lanes it
+/// scaled, 0 elsewhere, without branches), then the `slow` lanes through the scalar
+/// reference.
+#[inline(always)]
+fn finish8(
+    ctx: &RowContext<'_>,
+    ib: &[[f32; 3]],
+    x0: usize,
+    gain: Option<&[[f32; LANES]; 3]>,
+    (slow, over): (u32, u32),
+    out: BlockOut<'_>,
+) {
+    let pp = ctx.pp;
+    let mut flag_bytes = 0u64;
+    for j in 0..LANES {
+        flag_bytes |= (u64::from((over >> j) & 1) * u64::from(PixelFlags::OVER_RANGE.0)) << (8 * j);
+    }
+    out.flags.copy_from_slice(&flag_bytes.to_le_bytes());
+    out.hist[PixelFlags::OVER_RANGE.0 as usize] += u64::from(over.count_ones());
+    out.hist[0] += u64::from(LANES as u32 - (over | slow).count_ones());
+    let mut rest = slow;
+    while rest != 0 {
+        let j = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        let px = pp.apply_gain(ib[j], gain.map(|g| [g[0][j], g[1][j], g[2][j]]));
+        out.codes[j] = pp.quantise_pixel(px.drive, (x0 + j) as u32, ctx.y);
+        out.flags[j] = px.flags.0 as u8;
+        out.hist[(px.flags.0 & 15) as usize] += 1;
+    }
+}
+
+/// One row with the AVX2 kernel; the last `len % 8` pixels go through the portable
+/// block.
+///
+/// # Safety
+/// AVX2 must be available.
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn row(ctx: &RowContext<'_>, irow: &[[f32; 3]], out: BlockOut<'_>) {
+    let pp = ctx.pp;
+    let degenerate = pp.luts.iter().any(|l| l.pairs().is_empty());
+    let flat = pp.flat.is_some();
+    let thr_row = dither_row(pp, ctx.y);
     let full = if degenerate { 0 } else { irow.len() / LANES };
     let mut g = [[1f32; LANES]; 3];
     for b in 0..full {
         let x0 = b * LANES;
         let ib = &irow[x0..x0 + LANES];
         if flat {
-            let (first, last) = (cols.texels[x0], cols.texels[x0 + LANES - 1]);
-            if first.0 == last.0 {
-                // one texel span: the reference's lerp, eight lanes at once
-                let (c0, c1) = (row_gain[first.0], row_gain[first.1]);
-                let w = &cols.weights[x0..x0 + LANES];
-                for c in 0..3 {
-                    // SAFETY: AVX2 is enabled here; `w` and `g[c]` hold 8 floats.
-                    unsafe {
-                        let lo = _mm256_set1_ps(c0[c]);
-                        let d = _mm256_set1_ps(c1[c] - c0[c]);
-                        let v = _mm256_add_ps(lo, _mm256_mul_ps(d, _mm256_loadu_ps(w.as_ptr())));
-                        _mm256_storeu_ps(g[c].as_mut_ptr(), v);
-                    }
-                }
-            } else {
-                pixel_gains(row_gain, cols, x0, LANES, &mut g);
-            }
+            // SAFETY: AVX2 is enabled for this function; the row has 8 pixels from x0.
+            unsafe { gains8(ctx, x0, &mut g) };
         }
         let thr: &[f32; LANES] = if x0 & 15 == 0 {
             thr_row[..LANES].try_into().unwrap_or(&[0.5; LANES])
         } else {
             thr_row[LANES..].try_into().unwrap_or(&[0.5; LANES])
         };
+        let gain = flat.then_some(&g);
+        let ob = &mut out.codes[x0..x0 + LANES];
         // SAFETY: AVX2 is enabled for this function; `ib` has 8 pixels; no LUT is
         // empty (`degenerate` is false whenever `full` > 0).
-        let ob = &mut orow[x0..x0 + LANES];
-        let fb = &mut frow[x0..x0 + LANES];
-        let (slow, over) = unsafe { fast8(pp, ib, flat.then_some(&g), thr, ob) };
-        // flags without branches: OVER_RANGE on the lanes scaled here, 0 elsewhere
-        // (the reference's lanes are overwritten below)
-        let mut flag_bytes = 0u64;
-        for j in 0..LANES {
-            flag_bytes |=
-                (u64::from((over >> j) & 1) * u64::from(PixelFlags::OVER_RANGE.0)) << (8 * j);
-        }
-        fb.copy_from_slice(&flag_bytes.to_le_bytes());
-        hist[PixelFlags::OVER_RANGE.0 as usize] += u64::from(over.count_ones());
-        hist[0] += u64::from(LANES as u32 - (over | slow).count_ones());
-        let mut rest = slow;
-        while rest != 0 {
-            let j = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            let px = pp.apply_gain(ib[j], flat.then(|| [g[0][j], g[1][j], g[2][j]]));
-            ob[j] = pp.quantise_pixel(px.drive, (x0 + j) as u32, y);
-            fb[j] = px.flags.0 as u8;
-            hist[(px.flags.0 & 15) as usize] += 1;
-        }
+        let masks = unsafe { fast8(pp, ib, gain, thr, ob) };
+        let block_out = BlockOut {
+            codes: ob,
+            flags: &mut out.flags[x0..x0 + LANES],
+            hist: &mut *out.hist,
+        };
+        finish8(ctx, ib, x0, gain, masks, block_out);
     }
     let x0 = full * LANES;
     if x0 < irow.len() {
-        portable_block(
-            pp,
-            &irow[x0..],
-            &mut orow[x0..],
-            &mut frow[x0..],
-            x0,
-            y,
-            row_gain,
-            cols,
-            hist,
-        );
+        let tail = BlockOut {
+            codes: &mut out.codes[x0..],
+            flags: &mut out.flags[x0..],
+            hist: out.hist,
+        };
+        portable_block(ctx, &irow[x0..], x0, tail);
     }
 }

@@ -78,4 +78,7 @@ pub enum PostError {
     /// A profile could not be read.
     #[error(transparent)]
     Profile(#[from] ProfileError),
+    /// Wall, frames and displays do not fit together.
+    #[error(transparent)]
+    Wall(#[from] super::wall::WallError),
 }

@@ -5,6 +5,12 @@
 //! CPU path) and one without (`flat_none.wgsl`: no binding, no fetch, no division). A
 //! profile without a texture runs the second. Frames go up in bands of rows so that no
 //! buffer exceeds the adapter's storage-buffer limit.
+//!
+//! Resources live as long as what they depend on: the device, pipelines and bind-group
+//! layouts in [`GpuPost`] (once); the uniform block, LUT and flat-field buffers of one
+//! profile in a [`GpuProfile`] (once per profile, from [`GpuPost::prepare`]); the band
+//! buffers and the bind group in its band cache, reused while the frame width is
+//! unchanged.
 
 use std::sync::mpsc;
 
@@ -19,7 +25,9 @@ const SHADER_FLAT: &str = include_str!("flat_texture.wgsl");
 const SHADER_NONE: &str = include_str!("flat_none.wgsl");
 const WORKGROUP: u32 = 256;
 
-/// Uniform block of the shader (layout of `Params` in `post.wgsl`).
+/// Uniform block of the shader. Mirrored field by field by `struct Params` in
+/// `post.wgsl` (WGSL cannot share the Rust definition): change both together. `m` is the
+/// shader's `m0`, `m1`, `m2`; `pad` its `pad0`, `pad1` (16-byte alignment).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct Params {
@@ -43,30 +51,100 @@ struct Params {
     pad: [u32; 2],
 }
 
+/// The three inverse LUTs packed into one buffer: bases then slopes of R, G, B, with
+/// each table's offset, length and scale for the uniform block.
+struct PackedLuts {
+    data: Vec<f32>,
+    base: [u32; 4],
+    slope: [u32; 4],
+    len: [u32; 4],
+    scale: [f32; 4],
+}
+
+impl PackedLuts {
+    fn new(pp: &PreparedProfile) -> Self {
+        let mut packed = PackedLuts {
+            data: Vec::new(),
+            base: [0; 4],
+            slope: [0; 4],
+            len: [0; 4],
+            scale: [0.0; 4],
+        };
+        for (c, lut) in pp.luts.iter().enumerate() {
+            packed.base[c] = packed.data.len() as u32;
+            packed.data.extend_from_slice(&lut.base);
+            packed.slope[c] = packed.data.len() as u32;
+            packed.data.extend_from_slice(&lut.slope);
+            packed.len[c] = lut.base.len() as u32;
+            packed.scale[c] = lut.scale;
+        }
+        packed
+    }
+}
+
+impl Params {
+    /// The profile's part of the block; frame size and band are set per dispatch.
+    fn for_profile(pp: &PreparedProfile, luts: &PackedLuts) -> Self {
+        let m = pp.matrix;
+        let xyz0 = |v: [f32; 3]| [v[0], v[1], v[2], 0.0];
+        Params {
+            m: [xyz0(m[0]), xyz0(m[1]), xyz0(m[2])],
+            offset: xyz0(pp.offset),
+            white_dir: xyz0(pp.white_dir),
+            lut_scale: luts.scale,
+            lut_len: luts.len,
+            lut_base: luts.base,
+            lut_slope: luts.slope,
+            width: 0,
+            height: 0,
+            row0: 0,
+            npix: 0,
+            max_code: pp.max_code(),
+            dither: u32::from(pp.dither),
+            false_colour: u32::from(pp.out_of_gamut == OutOfGamut::FalseColour),
+            flat_w: pp.flat.as_ref().map_or(1, |f| f.width),
+            flat_h: pp.flat.as_ref().map_or(1, |f| f.height),
+            max_input: MAX_INPUT_CD_M2,
+            pad: [0; 2],
+        }
+    }
+}
+
+/// One shader variant: its pipeline and the layout of its bind group 0.
+struct Variant {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+}
+
+impl Variant {
+    fn new(device: &wgpu::Device, flat_source: &str, label: &str) -> Self {
+        let source = format!("{SHADER_MAIN}\n{flat_source}");
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(label),
+            layout: None,
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: wgpu::PipelineCompilationOptions::default(),
+            cache: None,
+        });
+        let layout = pipeline.get_bind_group_layout(0);
+        Variant { pipeline, layout }
+    }
+}
+
 /// A headless GPU device with the two post-pass pipelines.
 pub struct GpuPost {
     device: wgpu::Device,
     queue: wgpu::Queue,
     info: wgpu::AdapterInfo,
-    with_flat: wgpu::ComputePipeline,
-    without_flat: wgpu::ComputePipeline,
+    with_flat: Variant,
+    without_flat: Variant,
     max_band_pixels: usize,
-}
-
-fn pipeline(device: &wgpu::Device, variant: &str, label: &str) -> wgpu::ComputePipeline {
-    let source = format!("{SHADER_MAIN}\n{variant}");
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(label),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(label),
-        layout: None,
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: wgpu::PipelineCompilationOptions::default(),
-        cache: None,
-    })
+    max_groups: u32,
 }
 
 impl GpuPost {
@@ -92,8 +170,8 @@ impl GpuPost {
         device.on_uncaptured_error(std::sync::Arc::new(|e| {
             tracing::error!("wgpu: {e}");
         }));
-        let with_flat = pipeline(&device, SHADER_FLAT, "post pass (flat field)");
-        let without_flat = pipeline(&device, SHADER_NONE, "post pass (no flat field)");
+        let with_flat = Variant::new(&device, SHADER_FLAT, "post pass (flat field)");
+        let without_flat = Variant::new(&device, SHADER_NONE, "post pass (no flat field)");
         // Input is 12 bytes per pixel; keep every binding well under the limits.
         let max_binding = limits
             .max_storage_buffer_binding_size
@@ -101,7 +179,9 @@ impl GpuPost {
             .min(256 << 20);
         let by_groups =
             u64::from(limits.max_compute_workgroups_per_dimension) * u64::from(WORKGROUP);
-        let max_band_pixels = (max_binding / 12).min(by_groups).min(4 << 20) as usize;
+        let max_band_pixels = (max_binding / INPUT_BYTES_PER_PIXEL as u64)
+            .min(by_groups)
+            .min(4 << 20) as usize;
         Ok(GpuPost {
             device,
             queue,
@@ -109,6 +189,7 @@ impl GpuPost {
             with_flat,
             without_flat,
             max_band_pixels,
+            max_groups: limits.max_compute_workgroups_per_dimension,
         })
     }
 
@@ -122,216 +203,283 @@ impl GpuPost {
         self.info.device_type == wgpu::DeviceType::Cpu
     }
 
-    /// Runs the post pass over a whole frame for one display.
-    pub fn apply(&self, pp: &PreparedProfile, frame: &XyzFrame) -> Result<CodeImage, PostError> {
-        let w = frame.width as usize;
-        let n = frame.pixels.len();
-        let mut codes = vec![[0u16; 3]; n];
-        let mut flags = vec![0u8; n];
-        let mut counts = FlagCounts::default();
-        if n == 0 {
-            return Ok(CodeImage {
-                width: frame.width,
-                height: frame.height,
-                bit_depth: pp.bit_depth,
-                codes,
-                flags,
-                counts,
-            });
-        }
-        let rows_per_band = (self.max_band_pixels / w).max(1);
-        if w > self.max_band_pixels {
-            return Err(PostError::SizeMismatch(format!(
-                "a row of {w} pixels is too wide for this GPU's buffers"
-            )));
-        }
-        let band_pixels = rows_per_band * w;
-
-        // LUTs: bases then slopes of R, G, B in one buffer.
-        let mut lut = Vec::new();
-        let mut base = [0u32; 4];
-        let mut slope = [0u32; 4];
-        let mut len = [0u32; 4];
-        let mut scale = [0f32; 4];
-        for c in 0..3 {
-            base[c] = lut.len() as u32;
-            lut.extend_from_slice(&pp.luts[c].base);
-            slope[c] = lut.len() as u32;
-            lut.extend_from_slice(&pp.luts[c].slope);
-            len[c] = pp.luts[c].base.len() as u32;
-            scale[c] = pp.luts[c].scale;
-        }
-        let dev = &self.device;
+    /// Uploads one display's profile: its uniform block, LUTs and flat-field texture.
+    /// Keep the result to run many frames through the same profile.
+    pub fn prepare(&self, pp: &PreparedProfile) -> GpuProfile<'_> {
         let storage = |label: &str, bytes: &[u8]| {
-            dev.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: bytes,
-                usage: wgpu::BufferUsages::STORAGE,
-            })
+            self.device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: bytes,
+                    usage: wgpu::BufferUsages::STORAGE,
+                })
         };
-        let lut_buf = storage("post lut", bytemuck::cast_slice(&lut));
+        let luts = PackedLuts::new(pp);
+        let lut_buf = storage("post lut", bytemuck::cast_slice(&luts.data));
         let flat_buf = pp.flat.as_ref().map(|ff| {
             let texels: Vec<f32> = ff.gain.iter().flatten().copied().collect();
             storage("post flat field", bytemuck::cast_slice(&texels))
         });
-        let in_buf = dev.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("post input"),
-            size: (band_pixels * 12) as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let out_size = (band_pixels * 8) as u64;
-        let out_buf = dev.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("post codes"),
-            size: out_size,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let read_buf = dev.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("post readback"),
-            size: out_size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let m = pp.matrix;
-        let mut params = Params {
-            m: [
-                [m[0][0], m[0][1], m[0][2], 0.0],
-                [m[1][0], m[1][1], m[1][2], 0.0],
-                [m[2][0], m[2][1], m[2][2], 0.0],
-            ],
-            offset: [pp.offset[0], pp.offset[1], pp.offset[2], 0.0],
-            white_dir: [pp.white_dir[0], pp.white_dir[1], pp.white_dir[2], 0.0],
-            lut_scale: scale,
-            lut_len: len,
-            lut_base: base,
-            lut_slope: slope,
-            width: frame.width,
-            height: frame.height,
-            row0: 0,
-            npix: 0,
-            max_code: pp.max_code(),
-            dither: u32::from(pp.dither),
-            false_colour: u32::from(pp.out_of_gamut == OutOfGamut::FalseColour),
-            flat_w: pp.flat.as_ref().map_or(1, |f| f.width),
-            flat_h: pp.flat.as_ref().map_or(1, |f| f.height),
-            max_input: MAX_INPUT_CD_M2,
-            pad: [0; 2],
-        };
-        let param_buf = dev.create_buffer(&wgpu::BufferDescriptor {
+        let param_buf = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("post params"),
             size: std::mem::size_of::<Params>() as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let pipeline = if flat_buf.is_some() {
-            &self.with_flat
-        } else {
-            &self.without_flat
-        };
-        let mut entries = vec![
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: param_buf.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: in_buf.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: lut_buf.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 3,
-                resource: out_buf.as_entire_binding(),
-            },
-        ];
-        if let Some(fb) = &flat_buf {
-            entries.push(wgpu::BindGroupEntry {
-                binding: 4,
-                resource: fb.as_entire_binding(),
-            });
+        GpuProfile {
+            gpu: self,
+            params: Params::for_profile(pp, &luts),
+            bit_depth: pp.bit_depth,
+            param_buf,
+            lut_buf,
+            flat_buf,
+            band: None,
         }
-        let bind = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("post bind group"),
-            layout: &pipeline.get_bind_group_layout(0),
-            entries: &entries,
-        });
-        let max_groups = self.device.limits().max_compute_workgroups_per_dimension;
+    }
 
+    /// Runs the post pass over a whole frame for one display (uploading the profile for
+    /// this frame only; use [`GpuPost::prepare`] for many frames).
+    pub fn apply(&self, pp: &PreparedProfile, frame: &XyzFrame) -> Result<CodeImage, PostError> {
+        self.prepare(pp).apply(frame)
+    }
+
+    fn storage_buffer(&self, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// Waits for the GPU to finish what was submitted.
+    fn wait(&self) -> Result<(), PostError> {
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: None,
+                timeout: None,
+            })
+            .map(|_| ())
+            .map_err(|e| PostError::Gpu(format!("waiting for the GPU: {e}")))
+    }
+}
+
+/// Bytes of one input pixel (X, Y, Z as f32).
+const INPUT_BYTES_PER_PIXEL: usize = 12;
+/// Bytes of one output pixel (R, G packed in one u32; B and the flags in another).
+const OUTPUT_BYTES_PER_PIXEL: usize = 8;
+
+/// The buffers of one band of rows and the bind group that ties them to a profile's.
+struct Band {
+    width: u32,
+    rows: usize,
+    input: wgpu::Buffer,
+    output: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    bind: wgpu::BindGroup,
+}
+
+/// One display's profile on the GPU: built once by [`GpuPost::prepare`], then any number
+/// of frames through [`GpuProfile::apply`].
+pub struct GpuProfile<'g> {
+    gpu: &'g GpuPost,
+    params: Params,
+    bit_depth: u32,
+    param_buf: wgpu::Buffer,
+    lut_buf: wgpu::Buffer,
+    flat_buf: Option<wgpu::Buffer>,
+    /// Band buffers of the last frame width.
+    band: Option<Band>,
+}
+
+impl GpuProfile<'_> {
+    /// Runs the post pass over a whole frame.
+    pub fn apply(&mut self, frame: &XyzFrame) -> Result<CodeImage, PostError> {
+        let n = frame.pixels.len();
+        let mut img = CodeImage {
+            width: frame.width,
+            height: frame.height,
+            bit_depth: self.bit_depth,
+            codes: vec![[0u16; 3]; n],
+            flags: vec![0u8; n],
+            counts: FlagCounts::default(),
+        };
+        if n == 0 {
+            return Ok(img);
+        }
+        let w = frame.width as usize;
+        if w > self.gpu.max_band_pixels {
+            return Err(PostError::SizeMismatch(format!(
+                "a row of {w} pixels is too wide for this GPU's buffers"
+            )));
+        }
+        self.ensure_band(frame.width);
+        self.params.width = frame.width;
+        self.params.height = frame.height;
+        let rows_per_band = self.band.as_ref().map_or(1, |b| b.rows);
         let mut row0 = 0usize;
         while row0 < frame.height as usize {
             let rows = rows_per_band.min(frame.height as usize - row0);
-            let npix = rows * w;
-            let start = row0 * w;
-            params.row0 = row0 as u32;
-            params.npix = npix as u32;
-            self.queue
-                .write_buffer(&param_buf, 0, bytemuck::bytes_of(&params));
-            self.queue.write_buffer(
-                &in_buf,
-                0,
-                bytemuck::cast_slice(&frame.pixels[start..start + npix]),
-            );
-            let groups = (npix as u32).div_ceil(WORKGROUP);
-            let gx = groups.min(max_groups);
-            let gy = groups.div_ceil(gx);
-            let mut enc = dev.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("post pass"),
-            });
-            {
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("post pass"),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, &bind, &[]);
-                pass.dispatch_workgroups(gx, gy, 1);
-            }
-            let bytes = (npix * 8) as u64;
-            enc.copy_buffer_to_buffer(&out_buf, 0, &read_buf, 0, bytes);
-            self.queue.submit([enc.finish()]);
-            let (tx, rx) = mpsc::channel();
-            read_buf.map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
-                let _ = tx.send(r);
-            });
-            self.device
-                .poll(wgpu::PollType::Wait {
-                    submission_index: None,
-                    timeout: None,
-                })
-                .map_err(|e| PostError::Gpu(format!("waiting for the GPU: {e}")))?;
-            rx.recv()
-                .map_err(|e| PostError::Gpu(format!("readback lost: {e}")))?
-                .map_err(|e| PostError::Gpu(format!("readback failed: {e}")))?;
-            {
-                let view = read_buf
-                    .get_mapped_range(0..bytes)
-                    .map_err(|e| PostError::Gpu(format!("readback mapping: {e}")))?;
-                let words: &[u32] = bytemuck::cast_slice(&view);
-                for (i, pair) in words.chunks_exact(2).enumerate() {
-                    let (rg, bf) = (pair[0], pair[1]);
-                    codes[start + i] = [
-                        (rg & 0xffff) as u16,
-                        (rg >> 16) as u16,
-                        (bf & 0xffff) as u16,
-                    ];
-                    let f = (bf >> 16) as u8;
-                    flags[start + i] = f;
-                    counts.add(lumiwall_profiles::apply::PixelFlags(u32::from(f)));
-                }
-            }
-            read_buf.unmap();
+            self.run_band(frame, row0, rows, &mut img)?;
             row0 += rows;
         }
-        Ok(CodeImage {
-            width: frame.width,
-            height: frame.height,
-            bit_depth: pp.bit_depth,
-            codes,
-            flags,
-            counts,
-        })
+        Ok(img)
+    }
+
+    fn variant(&self) -> &Variant {
+        if self.flat_buf.is_some() {
+            &self.gpu.with_flat
+        } else {
+            &self.gpu.without_flat
+        }
+    }
+
+    /// (Re)builds the band buffers and bind group unless they fit frames `width` wide.
+    fn ensure_band(&mut self, width: u32) {
+        if self.band.as_ref().is_some_and(|b| b.width == width) {
+            return;
+        }
+        let gpu = self.gpu;
+        let rows = (gpu.max_band_pixels / width as usize).max(1);
+        let band_pixels = rows * width as usize;
+        let out_size = (band_pixels * OUTPUT_BYTES_PER_PIXEL) as u64;
+        use wgpu::BufferUsages as U;
+        let input = gpu.storage_buffer(
+            "post input",
+            (band_pixels * INPUT_BYTES_PER_PIXEL) as u64,
+            U::STORAGE | U::COPY_DST,
+        );
+        let output = gpu.storage_buffer("post codes", out_size, U::STORAGE | U::COPY_SRC);
+        let readback = gpu.storage_buffer("post readback", out_size, U::MAP_READ | U::COPY_DST);
+        let bind = self.bind_group(&input, &output);
+        self.band = Some(Band {
+            width,
+            rows,
+            input,
+            output,
+            readback,
+            bind,
+        });
+    }
+
+    fn bind_group_entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+        wgpu::BindGroupEntry {
+            binding,
+            resource: buffer.as_entire_binding(),
+        }
+    }
+
+    fn bind_group(&self, input: &wgpu::Buffer, output: &wgpu::Buffer) -> wgpu::BindGroup {
+        let entry = Self::bind_group_entry;
+        let mut entries = vec![
+            entry(0, &self.param_buf),
+            entry(1, input),
+            entry(2, &self.lut_buf),
+            entry(3, output),
+        ];
+        if let Some(flat) = &self.flat_buf {
+            entries.push(entry(4, flat));
+        }
+        self.gpu
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("post bind group"),
+                layout: &self.variant().layout,
+                entries: &entries,
+            })
+    }
+
+    /// Uploads, runs and reads back `rows` rows from `row0` into `img`.
+    fn run_band(
+        &mut self,
+        frame: &XyzFrame,
+        row0: usize,
+        rows: usize,
+        img: &mut CodeImage,
+    ) -> Result<(), PostError> {
+        let w = frame.width as usize;
+        let (start, npix) = (row0 * w, rows * w);
+        self.params.row0 = row0 as u32;
+        self.params.npix = npix as u32;
+        let band = self.band.as_ref().expect("ensure_band ran");
+        let queue = &self.gpu.queue;
+        queue.write_buffer(&self.param_buf, 0, bytemuck::bytes_of(&self.params));
+        queue.write_buffer(
+            &band.input,
+            0,
+            bytemuck::cast_slice(&frame.pixels[start..start + npix]),
+        );
+        let bytes = (npix * OUTPUT_BYTES_PER_PIXEL) as u64;
+        self.dispatch(band, npix, bytes);
+        self.read_back(band, bytes, start, img)
+    }
+
+    /// Records and submits the compute pass of `npix` pixels and the copy of their codes
+    /// into the readback buffer.
+    fn dispatch(&self, band: &Band, npix: usize, bytes: u64) {
+        let groups = (npix as u32).div_ceil(WORKGROUP);
+        let gx = groups.min(self.gpu.max_groups);
+        let gy = groups.div_ceil(gx);
+        let device = &self.gpu.device;
+        let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("post pass"),
+        });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("post pass"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.variant().pipeline);
+            pass.set_bind_group(0, &band.bind, &[]);
+            pass.dispatch_workgroups(gx, gy, 1);
+        }
+        enc.copy_buffer_to_buffer(&band.output, 0, &band.readback, 0, bytes);
+        self.gpu.queue.submit([enc.finish()]);
+    }
+
+    /// Maps the readback buffer and unpacks its codes and flags into `img` from pixel
+    /// `start` on.
+    fn read_back(
+        &self,
+        band: &Band,
+        bytes: u64,
+        start: usize,
+        img: &mut CodeImage,
+    ) -> Result<(), PostError> {
+        let (tx, rx) = mpsc::channel();
+        band.readback
+            .map_async(wgpu::MapMode::Read, 0..bytes, move |r| {
+                let _ = tx.send(r);
+            });
+        self.gpu.wait()?;
+        rx.recv()
+            .map_err(|e| PostError::Gpu(format!("readback lost: {e}")))?
+            .map_err(|e| PostError::Gpu(format!("readback failed: {e}")))?;
+        {
+            let view = band
+                .readback
+                .get_mapped_range(0..bytes)
+                .map_err(|e| PostError::Gpu(format!("readback mapping: {e}")))?;
+            unpack(bytemuck::cast_slice(&view), start, img);
+        }
+        band.readback.unmap();
+        Ok(())
+    }
+}
+
+/// Unpacks the shader's output words (`R | G << 16`, `B | flags << 16` per pixel) into
+/// `img` from pixel `start` on.
+fn unpack(words: &[u32], start: usize, img: &mut CodeImage) {
+    for (i, pair) in words.chunks_exact(2).enumerate() {
+        let (rg, bf) = (pair[0], pair[1]);
+        img.codes[start + i] = [
+            (rg & 0xffff) as u16,
+            (rg >> 16) as u16,
+            (bf & 0xffff) as u16,
+        ];
+        let f = (bf >> 16) as u8;
+        img.flags[start + i] = f;
+        img.counts
+            .add(lumiwall_profiles::apply::PixelFlags(u32::from(f)));
     }
 }

@@ -156,12 +156,6 @@ pub fn check_values(
             }
         }
     }
-    let at = |i: usize| {
-        (
-            (i % width.max(1) as usize) as u32,
-            (i / width.max(1) as usize) as u32,
-        )
-    };
     if opts.sanitize {
         for v in pixels.iter_mut().flatten() {
             if !v.is_finite() || *v < 0.0 {
@@ -170,27 +164,32 @@ pub fn check_values(
         }
         return Ok(());
     }
-    if let Some(i) = first_bad {
-        let (x, y) = at(i);
-        return Err(PostError::BadValues {
+    let bad_values = |i: usize, count: u64, what: &'static str, flag: &'static str| {
+        let w = width.max(1) as usize;
+        PostError::BadValues {
             path: path.to_path_buf(),
-            count: report.non_finite,
-            what: "NaN or infinite",
-            first_x: x,
-            first_y: y,
-            flag: "--sanitize",
-        });
+            count,
+            what,
+            first_x: (i % w) as u32,
+            first_y: (i / w) as u32,
+            flag,
+        }
+    };
+    if let Some(i) = first_bad {
+        return Err(bad_values(
+            i,
+            report.non_finite,
+            "NaN or infinite",
+            "--sanitize",
+        ));
     }
     if let (Some(i), false) = (first_neg, opts.allow_negative) {
-        let (x, y) = at(i);
-        return Err(PostError::BadValues {
-            path: path.to_path_buf(),
-            count: report.negative,
-            what: "negative",
-            first_x: x,
-            first_y: y,
-            flag: "--allow-negative (or --sanitize)",
-        });
+        return Err(bad_values(
+            i,
+            report.negative,
+            "negative",
+            "--allow-negative (or --sanitize)",
+        ));
     }
     Ok(())
 }
@@ -223,24 +222,35 @@ pub fn write_exr(path: &Path, frame: &XyzFrame, rgb_names: bool) -> Result<(), P
         .map_err(exr_err(path))
 }
 
+/// Maps an image codec error on `path` to [`PostError::Png`].
+fn png_err(path: &Path) -> impl Fn(image::ImageError) -> PostError + '_ {
+    move |e| PostError::Png {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// Maps an I/O error on `path` to [`PostError::Io`].
+fn io_err(path: &Path) -> impl Fn(std::io::Error) -> PostError + '_ {
+    move |source| PostError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Opens and decodes an image; `guess_format` trusts its bytes over its extension.
+fn decode_image(path: &Path, guess_format: bool) -> Result<image::DynamicImage, PostError> {
+    let mut reader = image::ImageReader::open(path).map_err(io_err(path))?;
+    if guess_format {
+        reader = reader.with_guessed_format().map_err(io_err(path))?;
+    }
+    reader.decode().map_err(png_err(path))
+}
+
 /// Reads an 8- or 16-bit PNG as uncalibrated sRGB and maps it to XYZ cd/m² with
 /// `rgb_to_xyz` (linear relative RGB → XYZ, e.g. for the wall white).
 pub fn read_png_srgb(path: &Path, rgb_to_xyz: &[[f64; 3]; 3]) -> Result<XyzFrame, PostError> {
-    let img = image::ImageReader::open(path)
-        .map_err(|source| PostError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?
-        .with_guessed_format()
-        .map_err(|source| PostError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?
-        .decode()
-        .map_err(|e| PostError::Png {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
+    let img = decode_image(path, true)?;
     let rgb = img.to_rgb32f();
     let (w, h) = rgb.dimensions();
     let pixels = rgb.pixels().map(|p| srgb_to_xyz(p.0, rgb_to_xyz)).collect();
@@ -250,10 +260,7 @@ pub fn read_png_srgb(path: &Path, rgb_to_xyz: &[[f64; 3]; 3]) -> Result<XyzFrame
 /// Writes display codes as a PNG (8-bit, or 16-bit with the code in the high bits; see
 /// the module doc).
 pub fn write_png(path: &Path, img: &CodeImage) -> Result<(), PostError> {
-    let png_err = |e: image::ImageError| PostError::Png {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    };
+    let png_err = png_err(path);
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|source| PostError::Io {
             path: dir.to_path_buf(),
@@ -279,16 +286,7 @@ pub fn write_png(path: &Path, img: &CodeImage) -> Result<(), PostError> {
 
 /// Reads a PNG written by [`write_png`] back into code values of `bit_depth` bits.
 pub fn read_png_codes(path: &Path, bit_depth: u32) -> Result<(u32, u32, Vec<[u16; 3]>), PostError> {
-    let img = image::ImageReader::open(path)
-        .map_err(|source| PostError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?
-        .decode()
-        .map_err(|e| PostError::Png {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
+    let img = decode_image(path, false)?;
     let (w, h) = (img.width(), img.height());
     let codes = if bit_depth == 8 {
         img.to_rgb8().pixels().map(|p| p.0.map(u16::from)).collect()

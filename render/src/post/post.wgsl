@@ -3,6 +3,8 @@
 // The flat-field part (`gain_at`, `div_gain`) is appended by the host: one variant
 // reads the texture, the other has no texture binding at all.
 
+// Mirrors `struct Params` in gpu.rs field by field (m0..m2 = its `m`, pad0/pad1 = its
+// `pad`); change both together.
 struct Params {
     m0: vec4<f32>,
     m1: vec4<f32>,

@@ -1,43 +1,23 @@
 //! Shared fixtures of the post-pass tests: analytic displays and test frames.
-#![allow(dead_code)]
+#![allow(
+    dead_code,
+    reason = "each test binary uses a different subset of the fixtures"
+)]
 
-use lumiwall_profiles::apply::model::{AnalyticDisplay, ModelProfileSpec, ToneShape};
+use lumiwall_profiles::apply::model::{AnalyticDisplay, ModelProfileSpec};
 use lumiwall_profiles::{BlackMode, DisplayKey, DisplayProfile, Eye, FlatField, OutOfGamut};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-pub fn xyz_of(x: f64, y: f64, lum: f64) -> [f64; 3] {
-    [x / y * lum, lum, (1.0 - x - y) / y * lum]
-}
+pub(crate) use lumiwall_profiles::apply::model::xyz_of;
 
 /// A projector with Kresse's Infitec common-gamut primaries (Tab. 5) and S-shaped curves.
-pub fn infitec_display() -> AnalyticDisplay {
-    AnalyticDisplay {
-        primaries_xyz_cd_m2: [
-            xyz_of(0.625, 0.370, 21.0),
-            xyz_of(0.286, 0.613, 55.0),
-            xyz_of(0.140, 0.045, 6.5),
-        ],
-        black_xyz_cd_m2: xyz_of(0.29, 0.31, 0.35),
-        tone: [
-            ToneShape {
-                gamma: 2.1,
-                s_mix: 0.3,
-            },
-            ToneShape {
-                gamma: 2.3,
-                s_mix: 0.4,
-            },
-            ToneShape {
-                gamma: 1.9,
-                s_mix: 0.2,
-            },
-        ],
-    }
+pub(crate) fn infitec_display() -> AnalyticDisplay {
+    AnalyticDisplay::infitec_example()
 }
 
 /// 64×32 vignetting texture (Kresse's size): gains in (0.55, 1], per channel shifted.
-pub fn vignette() -> FlatField {
+pub(crate) fn vignette() -> FlatField {
     let (w, h) = (64u32, 32u32);
     let mut gain = Vec::new();
     for y in 0..h {
@@ -59,7 +39,7 @@ pub fn vignette() -> FlatField {
     }
 }
 
-pub fn key(display: u32, eye: Eye) -> DisplayKey {
+pub(crate) fn key(display: u32, eye: Eye) -> DisplayKey {
     DisplayKey {
         wall: "test-wall".into(),
         display,
@@ -70,15 +50,13 @@ pub fn key(display: u32, eye: Eye) -> DisplayKey {
 }
 
 /// Target white: 90 % of the display's full white at D65-ish 0.3127/0.3290 scaled to fit.
-pub fn profile(
+pub(crate) fn profile(
     d: &AnalyticDisplay,
     mode: BlackMode,
     flat: Option<FlatField>,
     bit_depth: u32,
 ) -> DisplayProfile {
-    let full: [f64; 3] =
-        [0, 1, 2].map(|i| (0..3).map(|c| d.primaries_xyz_cd_m2[c][i]).sum::<f64>());
-    let white = full.map(|v| v * 0.9);
+    let white = d.full_white_xyz().map(|v| v * 0.9);
     d.profile(&ModelProfileSpec {
         display: key(0, Eye::Mono),
         black_mode: mode,
@@ -94,7 +72,7 @@ pub fn profile(
 
 /// `n` XYZ values (cd/m²) mixing in-gamut colours, out-of-gamut chromaticities,
 /// negative components, huge (to 1e6 cd/m²), zero, tiny, NaN and ±Inf inputs.
-pub fn wild_xyz(n: usize, d: &AnalyticDisplay, seed: u64) -> Vec<[f32; 3]> {
+pub(crate) fn wild_xyz(n: usize, d: &AnalyticDisplay, seed: u64) -> Vec<[f32; 3]> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let p = d.primaries_xyz_cd_m2;
     (0..n)
