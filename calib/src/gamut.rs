@@ -160,14 +160,11 @@ pub fn largest_inscribed_triangle(poly: &[Xy]) -> Option<[Xy; 3]> {
 /// Orders three points as R, G, B: the permutation closest (least summed squared xy
 /// distance) to the mean of the displays' own R, G, B primaries.
 fn label_rgb(tri: [Xy; 3], reference: [Xy; 3]) -> [Xy; 3] {
-    const PERMS: [[usize; 3]; 6] = [
-        [0, 1, 2],
-        [0, 2, 1],
-        [1, 0, 2],
-        [1, 2, 0],
-        [2, 0, 1],
-        [2, 1, 0],
-    ];
+    // The six orderings of (0, 1, 2), lexicographic (ties keep the first).
+    let perms: Vec<[usize; 3]> = (0..27)
+        .map(|k| [k / 9, k / 3 % 3, k % 3])
+        .filter(|p| p[0] != p[1] && p[1] != p[2] && p[0] != p[2])
+        .collect();
     let cost = |p: &[usize; 3]| -> f64 {
         (0..3)
             .map(|c| {
@@ -176,8 +173,8 @@ fn label_rgb(tri: [Xy; 3], reference: [Xy; 3]) -> [Xy; 3] {
             })
             .sum()
     };
-    let mut best = PERMS[0];
-    for p in PERMS.iter().skip(1) {
+    let mut best = perms[0];
+    for p in perms.iter().skip(1) {
         if cost(p) < cost(&best) {
             best = *p;
         }

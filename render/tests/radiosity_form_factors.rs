@@ -55,6 +55,22 @@ fn catalogue_sanity_values() {
     assert!((howell_perpendicular(1.0, 1.0, 1.0) - 0.20004).abs() < 1e-4);
 }
 
+/// The quadrilateral `[o, o + u, o + u + v, o + v]` (normal along u × v).
+fn quad(o: V3, u: V3, v: V3) -> [V3; 4] {
+    [o, o + u, o + u + v, o + v]
+}
+
+/// Polygon-to-polygon form factor of `recv` from `src`, checked against `exact` to 1e-3.
+fn form_factor_matches(recv: &[V3; 4], src: &[V3; 4], exact: f64, case: &str) -> f64 {
+    let f = polygon_to_polygon(recv, src, 1e-5);
+    assert!(
+        (f.value - exact).abs() < 1e-3,
+        "{case}: {} vs {exact}",
+        f.value
+    );
+    f.error
+}
+
 #[test]
 fn parallel_rectangles_match_howell() {
     for &(a, b, c) in &[
@@ -64,26 +80,12 @@ fn parallel_rectangles_match_howell() {
         (1.0, 1.0, 0.1),
     ] {
         // receiver at z = 0 facing up, source at z = c facing down (both a × b)
-        let recv = [
-            V3::new(0., 0., 0.),
-            V3::new(a, 0., 0.),
-            V3::new(a, b, 0.),
-            V3::new(0., b, 0.),
-        ];
-        let src = [
-            V3::new(0., 0., c),
-            V3::new(0., b, c),
-            V3::new(a, b, c),
-            V3::new(a, 0., c),
-        ];
-        let f = polygon_to_polygon(&recv, &src, 1e-5);
-        let exact = howell_parallel(a, b, c);
-        assert!(
-            (f.value - exact).abs() < 1e-3,
-            "a={a} b={b} c={c}: {} vs {exact}",
-            f.value
-        );
-        assert!(f.error < 1e-3);
+        let (along_x, along_y) = (V3::new(a, 0., 0.), V3::new(0., b, 0.));
+        let recv = quad(V3::new(0., 0., 0.), along_x, along_y);
+        let src = quad(V3::new(0., 0., c), along_y, along_x);
+        let case = format!("a={a} b={b} c={c}");
+        let error = form_factor_matches(&recv, &src, howell_parallel(a, b, c), &case);
+        assert!(error < 1e-3, "{case}: error estimate {error}");
     }
 }
 
@@ -97,25 +99,11 @@ fn perpendicular_rectangles_match_howell() {
     ] {
         // common edge along x from 0 to l; receiver in z = 0 (y from 0 to w, facing +z),
         // source in y = 0 (z from 0 to h, facing +y)
-        let recv = [
-            V3::new(0., 0., 0.),
-            V3::new(l, 0., 0.),
-            V3::new(l, w, 0.),
-            V3::new(0., w, 0.),
-        ];
-        let src = [
-            V3::new(0., 0., 0.),
-            V3::new(0., 0., h),
-            V3::new(l, 0., h),
-            V3::new(l, 0., 0.),
-        ];
-        let f = polygon_to_polygon(&recv, &src, 1e-5);
-        let exact = howell_perpendicular(l, w, h);
-        assert!(
-            (f.value - exact).abs() < 1e-3,
-            "l={l} w={w} h={h}: {} vs {exact}",
-            f.value
-        );
+        let origin = V3::new(0., 0., 0.);
+        let recv = quad(origin, V3::new(l, 0., 0.), V3::new(0., w, 0.));
+        let src = quad(origin, V3::new(0., 0., h), V3::new(l, 0., 0.));
+        let case = format!("l={l} w={w} h={h}");
+        form_factor_matches(&recv, &src, howell_perpendicular(l, w, h), &case);
     }
 }
 
