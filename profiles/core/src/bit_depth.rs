@@ -5,6 +5,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::CoreError;
+use crate::macros::validated_number;
 
 /// Bits per channel, 1 to 16. Serialised as the plain number.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -56,18 +57,7 @@ impl BitDepth {
     }
 }
 
-impl TryFrom<u32> for BitDepth {
-    type Error = CoreError;
-    fn try_from(bits: u32) -> Result<Self, CoreError> {
-        Self::new(bits)
-    }
-}
-
-impl From<BitDepth> for u32 {
-    fn from(b: BitDepth) -> u32 {
-        b.0
-    }
-}
+validated_number!(BitDepth, u32);
 
 impl fmt::Display for BitDepth {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::CoreError;
+use crate::macros::validated_number;
 
 /// Largest linear channel intensity the solve may use, in (0, 1]: 1 drives the most
 /// limited channel to full; less keeps a reserve (e.g. for lamp ageing until the next
@@ -36,18 +37,7 @@ impl Default for Headroom {
     }
 }
 
-impl TryFrom<f64> for Headroom {
-    type Error = CoreError;
-    fn try_from(fraction: f64) -> Result<Self, CoreError> {
-        Self::new(fraction)
-    }
-}
-
-impl From<Headroom> for f64 {
-    fn from(h: Headroom) -> f64 {
-        h.0
-    }
-}
+validated_number!(Headroom, f64);
 
 #[cfg(test)]
 mod tests {

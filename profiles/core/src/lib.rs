@@ -21,6 +21,7 @@ mod display;
 mod error;
 mod headroom;
 pub mod lab;
+mod macros;
 pub mod mat3;
 pub mod observer;
 pub mod srgb;

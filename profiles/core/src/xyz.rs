@@ -4,6 +4,7 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use crate::CoreError;
+use crate::macros::array_conversions;
 
 /// CIE 1931 2° tristimulus values in absolute units: `y` is luminance in cd/m²,
 /// `x` and `z` are on the same scale.
@@ -71,17 +72,7 @@ impl Xyz {
     }
 }
 
-impl From<[f64; 3]> for Xyz {
-    fn from(a: [f64; 3]) -> Self {
-        Self::from_array(a)
-    }
-}
-
-impl From<Xyz> for [f64; 3] {
-    fn from(v: Xyz) -> Self {
-        v.to_array()
-    }
-}
+array_conversions!(Xyz, [f64; 3]);
 
 impl From<Vector3<f64>> for Xyz {
     fn from(v: Vector3<f64>) -> Self {
@@ -183,17 +174,7 @@ impl Xy {
     }
 }
 
-impl From<[f64; 2]> for Xy {
-    fn from(a: [f64; 2]) -> Self {
-        Self::from_array(a)
-    }
-}
-
-impl From<Xy> for [f64; 2] {
-    fn from(v: Xy) -> Self {
-        v.to_array()
-    }
-}
+array_conversions!(Xy, [f64; 2]);
 
 impl std::fmt::Display for Xy {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
