@@ -18,16 +18,17 @@ pub const MIN_TRIANGLE_AREA: f64 = 1e-4;
 /// Smallest area of the intersection polygon that still counts as a common gamut.
 pub const MIN_COMMON_AREA: f64 = 1e-7;
 
-/// A point in the xy chromaticity plane.
-pub type Xy = [f64; 2];
+/// A point of the xy chromaticity plane as the polygon clipping works on it: the plain
+/// `[x, y]` form of [`lumiwall_core::Xy`] (convert with `Xy::from` / `to_array`).
+pub type XyPoint = [f64; 2];
 
 /// Signed area of the triangle `a b c` (positive when counter-clockwise).
-pub fn signed_area(a: Xy, b: Xy, c: Xy) -> f64 {
+pub fn signed_area(a: XyPoint, b: XyPoint, c: XyPoint) -> f64 {
     0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
 }
 
 /// Area of a simple polygon (shoelace formula), always ≥ 0.
-pub fn polygon_area(poly: &[Xy]) -> f64 {
+pub fn polygon_area(poly: &[XyPoint]) -> f64 {
     let n = poly.len();
     if n < 3 {
         return 0.0;
@@ -40,7 +41,7 @@ pub fn polygon_area(poly: &[Xy]) -> f64 {
     0.5 * s.abs()
 }
 
-fn ccw(tri: &[Xy; 3]) -> [Xy; 3] {
+fn ccw(tri: &[XyPoint; 3]) -> [XyPoint; 3] {
     if signed_area(tri[0], tri[1], tri[2]) < 0.0 {
         [tri[0], tri[2], tri[1]]
     } else {
@@ -49,8 +50,8 @@ fn ccw(tri: &[Xy; 3]) -> [Xy; 3] {
 }
 
 /// Clips a convex counter-clockwise polygon by the half-plane left of `a → b`.
-fn clip_half_plane(poly: &[Xy], a: Xy, b: Xy) -> Vec<Xy> {
-    let side = |p: Xy| (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
+fn clip_half_plane(poly: &[XyPoint], a: XyPoint, b: XyPoint) -> Vec<XyPoint> {
+    let side = |p: XyPoint| (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
     let n = poly.len();
     let mut out = Vec::with_capacity(n + 1);
     for i in 0..n {
@@ -66,7 +67,7 @@ fn clip_half_plane(poly: &[Xy], a: Xy, b: Xy) -> Vec<Xy> {
     }
     // Drop (near-)duplicate consecutive vertices created when the clip line passes
     // through a vertex (near-identical displays).
-    let mut dedup: Vec<Xy> = Vec::with_capacity(out.len());
+    let mut dedup: Vec<XyPoint> = Vec::with_capacity(out.len());
     for p in out {
         let dup = dedup
             .last()
@@ -86,7 +87,7 @@ fn clip_half_plane(poly: &[Xy], a: Xy, b: Xy) -> Vec<Xy> {
     dedup
 }
 
-fn check_triangle(name: &str, tri: &[Xy; 3]) -> Result<(), CalibError> {
+fn check_triangle(name: &str, tri: &[XyPoint; 3]) -> Result<(), CalibError> {
     for (c, p) in Channel::ALL.iter().zip(tri) {
         for v in p {
             if !v.is_finite() {
@@ -111,7 +112,9 @@ fn check_triangle(name: &str, tri: &[Xy; 3]) -> Result<(), CalibError> {
 /// Intersection polygon (counter-clockwise) of named xy triangles `(name, [R, G, B])`.
 /// Errors: a degenerate triangle (named), or an empty intersection (names the display
 /// whose triangle emptied it).
-pub fn gamut_intersection_named(displays: &[(String, [Xy; 3])]) -> Result<Vec<Xy>, CalibError> {
+pub fn gamut_intersection_named(
+    displays: &[(String, [XyPoint; 3])],
+) -> Result<Vec<XyPoint>, CalibError> {
     let Some((first_name, first)) = displays.first() else {
         return Err(CalibError::InvalidOption {
             option: "displays".into(),
@@ -119,7 +122,7 @@ pub fn gamut_intersection_named(displays: &[(String, [Xy; 3])]) -> Result<Vec<Xy
         });
     };
     check_triangle(first_name, first)?;
-    let mut poly: Vec<Xy> = ccw(first).to_vec();
+    let mut poly: Vec<XyPoint> = ccw(first).to_vec();
     for (name, tri) in &displays[1..] {
         check_triangle(name, tri)?;
         let t = ccw(tri);
@@ -137,7 +140,7 @@ pub fn gamut_intersection_named(displays: &[(String, [Xy; 3])]) -> Result<Vec<Xy
 
 /// Largest-area triangle with corners on the vertices of a convex polygon (exact for
 /// convex polygons). Returns `None` for fewer than 3 vertices.
-pub fn largest_inscribed_triangle(poly: &[Xy]) -> Option<[Xy; 3]> {
+pub fn largest_inscribed_triangle(poly: &[XyPoint]) -> Option<[XyPoint; 3]> {
     let n = poly.len();
     if n < 3 {
         return None;
@@ -159,7 +162,7 @@ pub fn largest_inscribed_triangle(poly: &[Xy]) -> Option<[Xy; 3]> {
 
 /// Orders three points as R, G, B: the permutation closest (least summed squared xy
 /// distance) to the mean of the displays' own R, G, B primaries.
-fn label_rgb(tri: [Xy; 3], reference: [Xy; 3]) -> [Xy; 3] {
+fn label_rgb(tri: [XyPoint; 3], reference: [XyPoint; 3]) -> [XyPoint; 3] {
     // The six orderings of (0, 1, 2), lexicographic (ties keep the first).
     let perms: Vec<[usize; 3]> = (0..27)
         .map(|k| [k / 9, k / 3 % 3, k % 3])
@@ -184,7 +187,7 @@ fn label_rgb(tri: [Xy; 3], reference: [Xy; 3]) -> [Xy; 3] {
 
 /// Common gamut of named displays: the largest triangle inscribed in the intersection of
 /// their xy triangles `[R, G, B]`, labelled R, G, B. Errors name the display.
-pub fn common_gamut_named(displays: &[(String, [Xy; 3])]) -> Result<[Xy; 3], CalibError> {
+pub fn common_gamut_named(displays: &[(String, [XyPoint; 3])]) -> Result<[XyPoint; 3], CalibError> {
     let poly = gamut_intersection_named(displays)?;
     let tri = largest_inscribed_triangle(&poly).ok_or_else(|| CalibError::EmptyGamut {
         display: displays
@@ -205,8 +208,8 @@ pub fn common_gamut_named(displays: &[(String, [Xy; 3])]) -> Result<[Xy; 3], Cal
 
 /// Common gamut of displays given as xy triangles `[R, G, B]`; errors name displays by
 /// their index ("display 3").
-pub fn common_gamut(displays: &[[Xy; 3]]) -> Result<[Xy; 3], CalibError> {
-    let named: Vec<(String, [Xy; 3])> = displays
+pub fn common_gamut(displays: &[[XyPoint; 3]]) -> Result<[XyPoint; 3], CalibError> {
+    let named: Vec<(String, [XyPoint; 3])> = displays
         .iter()
         .enumerate()
         .map(|(i, t)| (format!("display {i}"), *t))

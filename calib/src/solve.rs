@@ -24,7 +24,7 @@
 
 use std::fmt;
 
-use lumiwall_core::{BitDepth, Channel, Headroom, Xy as Chromaticity};
+use lumiwall_core::{BitDepth, Channel, Headroom, Xy};
 use lumiwall_devices::Xyz;
 use lumiwall_profiles::{
     BlackMode, DisplayKey, DisplayProfile, FORMAT_VERSION, MIN_LUT_ENTRIES, MeasurementInfo,
@@ -35,7 +35,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
 use crate::colorimetry::cct_to_xy;
-use crate::gamut::{MIN_TRIANGLE_AREA, Xy, common_gamut_named, signed_area};
+use crate::gamut::{MIN_TRIANGLE_AREA, XyPoint, common_gamut_named, signed_area};
 use crate::tone::fit_monotone_named;
 
 /// A channel used for less than this fraction of the headroom by the white gets a
@@ -134,7 +134,7 @@ pub enum SolveWarning {
     /// The target white is outside the common gamut triangle.
     WhiteOutsideCommonGamut {
         /// The target white chromaticity.
-        white_xy: Chromaticity,
+        white_xy: Xy,
     },
     /// A channel is used for little of its range by the white, so few code values carry
     /// the image (Kresse 3.3.9).
@@ -343,7 +343,7 @@ fn prepare(m: &DisplayMeasurement, lut_entries: Option<usize>) -> Result<Prepare
             });
         }
     }
-    let tri: Vec<Xy> = cols.iter().filter_map(|c| Xyz::from(*c).xy()).collect();
+    let tri: Vec<XyPoint> = cols.iter().filter_map(|c| Xyz::from(*c).xy()).collect();
     let area = if tri.len() == 3 {
         signed_area(tri[0], tri[1], tri[2]).abs()
     } else {
@@ -418,7 +418,7 @@ fn prepare_all(
 /// xy triangles `[R, G, B]` of the displays' black-subtracted primaries, named by key.
 pub fn primaries_xy(
     measurements: &[DisplayMeasurement],
-) -> Result<Vec<(String, [Xy; 3])>, CalibError> {
+) -> Result<Vec<(String, [XyPoint; 3])>, CalibError> {
     measurements
         .iter()
         .map(|m| {
@@ -504,7 +504,7 @@ pub fn solve_wall_in_gamut_at(
     let mut warnings = Vec::new();
     if !inside_triangle(common_primaries_xy, ws.white_xy) {
         warnings.push(SolveWarning::WhiteOutsideCommonGamut {
-            white_xy: Chromaticity::from(ws.white_xy),
+            white_xy: Xy::from(ws.white_xy),
         });
     }
     let wall = WallTerms {
@@ -718,7 +718,7 @@ fn target_white_xy(
                 })?
         }
     };
-    if !Chromaticity::from(white_xy).is_valid() {
+    if !Xy::from(white_xy).is_valid() {
         return Err(invalid_option(
             "white",
             format!("xy {white_xy:?} is not a valid chromaticity"),
