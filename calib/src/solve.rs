@@ -916,26 +916,21 @@ fn solve_lp_vertices(cons: &[(Vector3<f64>, f64)], scale: f64) -> Option<Vector3
 /// Current time as RFC 3339 UTC (`2026-11-22T23:05:00Z`): the creation time to pass to
 /// [`solve_wall_at`].
 pub fn now_rfc3339() -> String {
-    let secs = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_secs())
-        .unwrap_or(0);
-    let days = (secs / 86_400) as i64;
-    let rem = secs % 86_400;
-    // Civil-from-days (Howard Hinnant).
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + i64::from(m <= 2);
-    format!(
-        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
-        rem / 3600,
-        (rem % 3600) / 60,
-        rem % 60
-    )
+    jiff::Timestamp::now()
+        .strftime("%Y-%m-%dT%H:%M:%SZ")
+        .to_string()
+}
+
+#[cfg(test)]
+mod clock_tests {
+    use super::now_rfc3339;
+
+    #[test]
+    fn creation_time_is_rfc3339_utc_to_the_second_and_now() {
+        let text = now_rfc3339();
+        assert_eq!(text.len(), "2026-11-22T23:05:00Z".len(), "{text}");
+        let t: jiff::Timestamp = text.parse().expect("RFC 3339");
+        let age_s = jiff::Timestamp::now().as_second() - t.as_second();
+        assert!((0..=2).contains(&age_s), "{text} is {age_s} s from now");
+    }
 }
