@@ -171,3 +171,37 @@ fn too_many_comb_bands_or_overrides_are_refused() {
     let m = refused(&text);
     assert!(m.contains("[[override]] tables, at most 8192"), "{m}");
 }
+
+#[test]
+fn scatter_of_1e308_is_refused_instead_of_panicking_in_the_sampler() {
+    // Found by fuzz_parsers (corpus file crash-scatter-gamma-1e308.toml).
+    for field in [
+        "gamma = 0.08",
+        "panel_shift_nm = 2.0",
+        "curve_shape = 0.04",
+        "vignetting_rel = 0.25",
+        "hotspot_offset = 0.05",
+    ] {
+        let name = field.split(' ').next().unwrap();
+        let text = replaced(&mono_2x1(), field, &format!("{name} = 1e308"));
+        let m = refused(&text);
+        assert!(
+            m.contains(&format!("scatter.{name} must be <= 1e6, got 1e308")),
+            "{field}: {m}"
+        );
+    }
+}
+
+#[test]
+fn negative_override_white_segment_is_refused_instead_of_emitting_negative_light() {
+    // Found by fuzz_parsers (crash-override-white-segment-negative.toml).
+    let text = format!(
+        "{}\n[[override]]\ndisplay = 1\nwhite_segment = -1\n",
+        mono_2x1()
+    );
+    let m = refused(&text);
+    assert!(
+        m.contains("[[override]] white_segment of display 1 must be a finite number >= 0, got -1"),
+        "{m}"
+    );
+}

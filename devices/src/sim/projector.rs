@@ -278,6 +278,10 @@ impl Individual {
             }
         }
         check_finite_nonneg("override lamp_hours", self.lamp_hours)?;
+        check_finite_nonneg(
+            &format!("[[override]] white_segment of display {index}"),
+            self.white_segment,
+        )?;
         check_finite_nonneg("lamp power after overrides", self.lamp_power)?;
         for g in self.gain {
             check_finite_nonneg("channel gain after overrides", g)?;

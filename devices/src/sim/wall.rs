@@ -79,6 +79,9 @@ pub const MAX_TILES: u64 = 4096;
 pub const MAX_TILE_SIZE_M: f64 = 1000.0;
 /// Most pass bands one Infitec comb filter may have.
 pub const MAX_COMB_BANDS: usize = 64;
+/// Largest manufacturing scatter a wall file may ask for (any `scatter.*` value):
+/// far above anything physical, far below where drawing ±value overflows.
+pub const MAX_SCATTER: f64 = 1.0e6;
 /// Most `[[override]]` tables a wall file may have.
 pub const MAX_OVERRIDES: usize = 2 * MAX_TILES as usize;
 
@@ -204,6 +207,12 @@ fn validate_optics(file: &WallFile) -> Result<(), DeviceError> {
         ("scatter.hotspot_offset", s.hotspot_offset),
     ] {
         finite_at_least(what, v, 0.0)?;
+        // ±v is drawn uniformly: 2v must stay finite (1e308 panicked in the sampler).
+        if v > MAX_SCATTER {
+            return Err(DeviceError::Config(format!(
+                "{what} must be <= {MAX_SCATTER:e}, got {v:e}"
+            )));
+        }
     }
     if s.lamp_power_rel >= 1.0 || s.channel_gain_rel >= 1.0 {
         return Err(DeviceError::Config(
