@@ -485,3 +485,16 @@ fn emulator_without_instrument_time_answers_200_readings_within_4_s() {
     eprintln!("{n} readings through the pty in {elapsed:?}");
     assert!(elapsed < Duration::from_secs(4), "{elapsed:?}");
 }
+
+#[test]
+fn a_read_timeout_of_u64_max_ms_does_not_overflow_the_deadline() {
+    // `Instant::now() + read_timeout` panicked for a timeout read from a config file
+    // as u64::MAX ms; the deadline is now capped.
+    let huge = K10aConfig {
+        read_timeout: Duration::from_millis(u64::MAX),
+        resync_timeout: Duration::from_millis(u64::MAX),
+        ..config(2000, 0)
+    };
+    let (_emu, mut meter) = open_meter(FaultPlan::default(), huge);
+    assert_close(meter.measure().unwrap(), value(0));
+}

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use lumiwall_core::{Channel, Headroom};
+use lumiwall_core::{BitDepth, Channel, Headroom, Xy};
 pub use lumiwall_core::{DisplayKey, Eye};
 
 use crate::ProfileError;
@@ -197,14 +197,42 @@ impl DisplayProfile {
         if !self.xyz_to_drive.iter().all(finite3) || !self.primaries_xyz_cd_m2.iter().all(finite3) {
             return Err(bad("matrix has a non-finite value".into()));
         }
+        if self.display.wall.is_empty() {
+            return Err(bad("display.wall (the wall name) is empty".into()));
+        }
+        for (ch, [x, y]) in Channel::ALL.into_iter().zip(self.common_primaries_xy) {
+            if !Xy::new(x, y).is_valid() {
+                return Err(bad(format!(
+                    "common_primaries_xy of {ch} is ({x}, {y}), not a chromaticity \
+                     (x, y finite, x >= 0, y > 0, x + y <= 1)"
+                )));
+            }
+        }
+        if let Some(e) = self.measurement.additivity_error
+            && !e.is_finite()
+        {
+            return Err(bad(format!(
+                "measurement.additivity_error is {e}, must be a finite number or null"
+            )));
+        }
         Headroom::new(self.headroom).map_err(|e| bad(e.to_string()))?;
-        if !matches!(self.bit_depth, 8 | 10 | 12 | 16) {
+        if !BitDepth::is_profile_depth(self.bit_depth) {
             return Err(bad(format!(
                 "bit depth {} is not 8, 10, 12 or 16",
                 self.bit_depth
             )));
         }
         for (ch, curve) in Channel::ALL.into_iter().zip(&self.curves) {
+            if let Some(i) = curve
+                .forward
+                .iter()
+                .position(|s| !(s[0].is_finite() && s[1].is_finite()))
+            {
+                return Err(bad(format!(
+                    "{ch} forward curve sample {i} is {:?}, not finite",
+                    curve.forward[i]
+                )));
+            }
             if curve.inverse_lut.len() < MIN_LUT_ENTRIES {
                 return Err(bad(format!(
                     "{ch} inverse LUT has {} entries, at least {MIN_LUT_ENTRIES} needed",
@@ -223,8 +251,9 @@ impl DisplayProfile {
             }
         }
         if let Some(ff) = &self.flat_field {
-            let n = ff.width as usize * ff.height as usize;
-            if ff.width == 0 || ff.height == 0 || ff.gain.len() != n {
+            // u32 × u32 always fits u64: exact on every platform.
+            let n = u64::from(ff.width) * u64::from(ff.height);
+            if ff.width == 0 || ff.height == 0 || ff.gain.len() as u64 != n {
                 return Err(bad(format!(
                     "flat-field texture is {}×{} but holds {} texels",
                     ff.width,
@@ -293,23 +322,121 @@ impl DisplayProfile {
     }
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
+/// Writes `bytes` to `path` through a temporary file `.NAME.tmp-PID` in the same
+/// folder, synced, then renamed over `path`: a crash never leaves a half-written
+/// `path`. On every failure (create, write, sync, rename) the temporary file is
+/// removed again, so a full disk is not kept full by leftovers.
+///
+/// Before writing, temporary files that writers which are no longer running left in
+/// the folder (`.*.tmp-PID` of a dead PID, see [`remove_stale_temp_files`]) are
+/// removed: a kill -9 or a power cut between create and rename leaves one behind.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ProfileError> {
     let io = |source| ProfileError::Io {
         path: path.to_path_buf(),
         source,
     };
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+    if let Some(dir) = dir {
         std::fs::create_dir_all(dir).map_err(io)?;
     }
+    // Best effort: a folder that cannot be listed still gets its file written.
+    let _ = remove_stale_temp_files(dir.unwrap_or(Path::new(".")));
     let mut tmp: PathBuf = path.to_path_buf();
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "profile".into());
-    tmp.set_file_name(format!(".{name}.tmp-{}", std::process::id()));
-    std::fs::write(&tmp, bytes).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)
+    tmp.set_file_name(format!(".{name}{TEMP_MARK}{}", std::process::id()));
+    let written = write_and_sync(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
+    if let Err(e) = written {
+        // Our own temporary name (a file, or a link, which is not followed); never a
+        // folder that holds the name.
+        if std::fs::symlink_metadata(&tmp).is_ok_and(|m| !m.is_dir()) {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        return Err(io(e));
+    }
+    Ok(())
+}
+
+/// What separates the file name from the writer's PID in a temporary file name.
+const TEMP_MARK: &str = ".tmp-";
+
+/// Creates (or truncates) `tmp`, writes `bytes` and syncs it to the disk.
+fn write_and_sync(tmp: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut f = std::fs::File::create(tmp)?;
+    f.write_all(bytes)?;
+    f.sync_all()
+}
+
+/// The PID of the writer of a temporary file named by [`write_atomic`]
+/// (`.NAME.tmp-PID`), or `None` for any other name.
+fn temp_file_pid(file_name: &str) -> Option<u32> {
+    let rest = file_name.strip_prefix('.')?;
+    let (stem, pid) = rest.rsplit_once(TEMP_MARK)?;
+    if stem.is_empty() || pid.is_empty() || !pid.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    pid.parse().ok()
+}
+
+/// How old a temporary file must be before it counts as stale (it may belong to a
+/// writer in another PID namespace sharing the folder, whose PID we cannot see).
+pub const STALE_TEMP_AGE: std::time::Duration = std::time::Duration::from_secs(60);
+
+/// How old a temporary file must be to count as stale where the liveness of its
+/// writer cannot be checked (no `/proc`).
+pub const STALE_TEMP_AGE_UNCHECKED: std::time::Duration = std::time::Duration::from_secs(24 * 3600);
+
+/// Whether process `pid` is known to have ended: `Some(true)` when it has (Linux,
+/// through `/proc`), `Some(false)` when it runs, `None` when this cannot be told.
+fn process_ended(pid: u32) -> Option<bool> {
+    if !Path::new("/proc/self").exists() {
+        return None;
+    }
+    Some(!Path::new("/proc").join(pid.to_string()).exists())
+}
+
+/// Removes the temporary files (`.NAME.tmp-PID`, regular files only) that
+/// [`write_atomic`] left in `dir` when its writer died between creating and renaming
+/// them: those whose writer process has ended (checked through `/proc`, Linux) and
+/// that are older than [`STALE_TEMP_AGE`]; where process liveness cannot be
+/// checked, those older than [`STALE_TEMP_AGE_UNCHECKED`]. Files of this process and
+/// of running processes are kept. Returns the removed paths.
+pub fn remove_stale_temp_files(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let me = std::process::id();
+    let now = std::time::SystemTime::now();
+    let mut removed = Vec::new();
+    for entry in std::fs::read_dir(dir)? {
+        let Ok(entry) = entry else { continue };
+        let name = entry.file_name();
+        let Some(pid) = name.to_str().and_then(temp_file_pid) else {
+            continue;
+        };
+        if pid == me {
+            continue;
+        }
+        let Ok(meta) = std::fs::symlink_metadata(entry.path()) else {
+            continue;
+        };
+        if !meta.is_file() {
+            continue;
+        }
+        let age = meta
+            .modified()
+            .ok()
+            .and_then(|m| now.duration_since(m).ok())
+            .unwrap_or_default();
+        let stale = match process_ended(pid) {
+            Some(ended) => ended && age >= STALE_TEMP_AGE,
+            None => age >= STALE_TEMP_AGE_UNCHECKED,
+        };
+        if stale && std::fs::remove_file(entry.path()).is_ok() {
+            removed.push(entry.path());
+        }
+    }
+    Ok(removed)
 }
 
 /// All profiles of one wall, as written by `lumiwall commission` into one folder:

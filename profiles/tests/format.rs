@@ -247,7 +247,6 @@ fn save_into_read_only_folder_fails_and_keeps_the_old_file_unless_root() {
 }
 
 #[test]
-#[ignore = "known bug in profile::write_atomic: the temp file stays when the rename fails"]
 fn failed_rename_removes_the_temporary_file() {
     let dir = tempfile::tempdir().unwrap();
     // The target name is a non-empty folder: writing the temp file works, the
@@ -359,6 +358,12 @@ fn curve() -> impl Strategy<Value = ToneCurve> {
         })
 }
 
+/// A valid chromaticity (x ≥ 0, y > 0, x + y ≤ 1), as `validate` requires of the
+/// common primaries.
+fn chromaticity() -> impl Strategy<Value = [f64; 2]> {
+    (0.0f64..0.8, 0.01f64..0.99).prop_map(|(x, f)| [x, f * (1.0 - x)])
+}
+
 fn flat_field() -> impl Strategy<Value = Option<FlatField>> {
     prop::option::of((1u32..9, 1u32..5).prop_flat_map(|(w, h)| {
         prop::collection::vec(
@@ -380,7 +385,7 @@ prop_compose! {
         wall in "[a-zA-Z0-9 _äöü-]{1,20}",
         prim in [v3(), v3(), v3()],
         black in v3(), shown in v3(), white in v3(),
-        xy in [[0.0f64..0.8, 0.0f64..0.9], [0.0f64..0.8, 0.0f64..0.9], [0.0f64..0.8, 0.0f64..0.9]],
+        xy in [chromaticity(), chromaticity(), chromaticity()],
         m in [v3(), v3(), v3()],
         offset in v3(), usage in v3(),
         headroom in prop_oneof![Just(1.0), 0.01f64..=1.0],
@@ -431,8 +436,6 @@ proptest! {
 }
 
 #[test]
-#[ignore = "known bug in profile::validate: NaN in common_primaries_xy / forward curve is \
-            not caught, save writes `null` and the file no longer loads"]
 fn profile_that_saves_also_loads() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.json");
@@ -442,4 +445,113 @@ fn profile_that_saves_also_loads() {
     if p.save(&path).is_ok() {
         DisplayProfile::load(&path).unwrap();
     }
+}
+
+#[test]
+fn nan_or_invalid_values_that_json_cannot_hold_are_refused_by_validate_naming_the_field() {
+    type Spoil = fn(&mut DisplayProfile);
+    let cases: [(&str, Spoil); 7] = [
+        ("common_primaries_xy of green", |p| {
+            p.common_primaries_xy[1][0] = f64::NAN
+        }),
+        ("common_primaries_xy of blue", |p| {
+            p.common_primaries_xy[2] = [0.7, 0.5]
+        }),
+        ("common_primaries_xy of red", |p| {
+            p.common_primaries_xy[0][1] = 0.0
+        }),
+        ("red forward curve sample 3", |p| {
+            p.curves[0].forward[3][1] = f64::NAN
+        }),
+        ("blue forward curve sample 0", |p| {
+            p.curves[2].forward[0][0] = f64::INFINITY
+        }),
+        ("measurement.additivity_error", |p| {
+            p.measurement.additivity_error = Some(f64::NAN)
+        }),
+        ("display.wall", |p| p.display.wall = String::new()),
+    ];
+    for (field, spoil) in cases {
+        let mut p = profile("hall-a", 0);
+        spoil(&mut p);
+        let r = reason(p.validate().unwrap_err());
+        assert!(r.contains(field), "{field}: {r}");
+        let dir = tempfile::tempdir().unwrap();
+        assert!(p.save(&dir.path().join("p.json")).is_err(), "{field}");
+        assert!(files_in(dir.path()).is_empty(), "{field}");
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn failed_write_to_a_full_disk_removes_the_temporary_file() {
+    // /dev/full answers every write with ENOSPC, like a full disk. The temporary
+    // file is a symlink to it here, so the create succeeds and the write fails.
+    if !Path::new("/dev/full").exists() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (path, old) = saved_old_profile(dir.path());
+    let tmp = dir
+        .path()
+        .join(format!(".p.json.tmp-{}", std::process::id()));
+    std::os::unix::fs::symlink("/dev/full", &tmp).unwrap();
+    let err = profile("hall-a", 4).save(&path).unwrap_err();
+    assert!(matches!(err, ProfileError::Io { .. }), "{err:?}");
+    assert!(err.to_string().contains("p.json"), "{err}");
+    assert_eq!(DisplayProfile::load(&path).unwrap(), old);
+    // The link is removed, not followed.
+    assert!(Path::new("/dev/full").exists());
+    assert_eq!(files_in(dir.path()), vec!["p.json".to_string()]);
+}
+
+/// A PID that belonged to a process which has ended.
+fn dead_pid() -> u32 {
+    let mut child = std::process::Command::new("true").spawn().unwrap();
+    let pid = child.id();
+    child.wait().unwrap();
+    pid
+}
+
+fn age(path: &Path, secs: u64) {
+    let f = std::fs::File::options().write(true).open(path).unwrap();
+    f.set_modified(std::time::SystemTime::now() - std::time::Duration::from_secs(secs))
+        .unwrap();
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn save_removes_stale_temporary_files_of_dead_writers_and_keeps_live_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let dead = dead_pid();
+    let stale = dir.path().join(format!(".d001-c1r0-mono.json.tmp-{dead}"));
+    let fresh_dead = dir.path().join(format!(".wall.json.tmp-{dead}"));
+    let mine = dir
+        .path()
+        .join(format!(".other.json.tmp-{}", std::process::id()));
+    let live = dir.path().join(".other.json.tmp-1");
+    let not_ours = dir.path().join(format!(".notes.tmp-{dead}x"));
+    let folder = dir.path().join(format!(".f.json.tmp-{dead}"));
+    for f in [&stale, &fresh_dead, &mine, &live, &not_ours] {
+        std::fs::write(f, b"half a profile").unwrap();
+    }
+    std::fs::create_dir(&folder).unwrap();
+    for f in [&stale, &mine, &live, &not_ours] {
+        age(f, 3600);
+    }
+    profile("hall-a", 0)
+        .save(&dir.path().join("p.json"))
+        .unwrap();
+    let mut expected: Vec<String> = [&fresh_dead, &mine, &live, &not_ours, &folder]
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    expected.push("p.json".into());
+    expected.sort();
+    assert_eq!(files_in(dir.path()), expected);
+    // Once old enough, the dead writer's second file goes too.
+    age(&fresh_dead, 61);
+    let removed = lumiwall_profiles::remove_stale_temp_files(dir.path()).unwrap();
+    assert_eq!(removed, vec![fresh_dead.clone()]);
+    assert!(!fresh_dead.exists());
 }

@@ -89,6 +89,15 @@ mod duration_ms {
     }
 }
 
+/// Longest wait a timeout from the configuration is taken as: `Instant + Duration`
+/// panics on overflow, and a configured `read_timeout` of u64::MAX ms did.
+const LONGEST_WAIT: Duration = Duration::from_secs(24 * 3600);
+
+/// The instant `timeout` from now, the timeout capped at [`LONGEST_WAIT`].
+fn deadline_after(timeout: Duration) -> Instant {
+    Instant::now() + timeout.min(LONGEST_WAIT)
+}
+
 /// Counters of what the driver had to do, for logs and tests.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ExchangeStats {
@@ -160,7 +169,7 @@ impl KleinK10a {
             .parity(Parity::None)
             .stop_bits(StopBits::One)
             .flow_control(FlowControl::None)
-            .timeout(config.read_timeout);
+            .timeout(config.read_timeout.min(LONGEST_WAIT));
         #[cfg(unix)]
         {
             let native = builder
@@ -415,7 +424,7 @@ impl KleinK10a {
         self.stats.commands += 1;
         let wire = command.wire();
         self.port
-            .set_timeout(self.config.read_timeout)
+            .set_timeout(self.config.read_timeout.min(LONGEST_WAIT))
             .map_err(|e| self.io_error(e.into()))?;
         match self.port.write_all(&wire) {
             Ok(()) => Ok(()),
@@ -462,7 +471,7 @@ impl KleinK10a {
     fn exchange(&mut self, command: Command) -> Result<Vec<u8>, DeviceError> {
         self.send(command)?;
         let n = command.answer_len();
-        let deadline = Instant::now() + self.config.read_timeout;
+        let deadline = deadline_after(self.config.read_timeout);
         let mut buf = Vec::with_capacity(n);
         if self.read_until(&mut buf, deadline, n, |b| b.len() >= n)? {
             return Ok(buf);
@@ -488,7 +497,7 @@ impl KleinK10a {
     /// everything up to and including its acknowledgement.
     fn resync(&mut self) -> Result<(), DeviceError> {
         self.send(Command::AutoRange)?;
-        let deadline = Instant::now() + self.config.resync_timeout;
+        let deadline = deadline_after(self.config.resync_timeout);
         let mut buf = Vec::new();
         let code = Command::AutoRange.code();
         let found = self.read_until(&mut buf, deadline, usize::MAX, |b| {

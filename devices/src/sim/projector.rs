@@ -73,6 +73,10 @@ fn check_finite_nonneg(what: &str, v: f64) -> Result<(), DeviceError> {
     }
 }
 
+/// Brightest bare-lamp luminance a wall file may ask for (cd/m²): far above any
+/// projector, far below where the simulation's products overflow.
+pub const MAX_WHITE_CD_M2: f64 = 1.0e6;
+
 /// Smallest and largest lamp colour temperature a wall file may ask for (K).
 const LAMP_CCT_RANGE_K: std::ops::RangeInclusive<f64> = 1000.0..=30000.0;
 /// Smallest transfer-curve γ the manufacturing scatter may leave (keeps curves rising).
@@ -88,14 +92,21 @@ const MIN_LENGTH: f64 = 1e-6;
 /// Least output an aged lamp keeps per channel (the model never goes fully dark).
 const MIN_AGEING_FACTOR: f64 = 0.02;
 
-/// The bit depth of a projector model, refused outside 1..=16 bits.
+/// The bit depth of a projector model, refused unless a display profile can hold it
+/// (8, 10, 12 or 16 bits), so that a wall file is refused when loaded rather than
+/// after all its displays were measured.
 fn bit_depth(p: &ProjectorSpec) -> Result<BitDepth, DeviceError> {
-    BitDepth::new(p.bit_depth).map_err(|_| {
+    let refused = || {
         DeviceError::Config(format!(
-            "projector.bit_depth must be 1..=16, got {}",
+            "projector.bit_depth must be 8, 10, 12 or 16 (the depths a display profile \
+             can hold), got {}",
             p.bit_depth
         ))
-    })
+    };
+    if !BitDepth::is_profile_depth(p.bit_depth) {
+        return Err(refused());
+    }
+    BitDepth::new(p.bit_depth).map_err(|_| refused())
 }
 
 fn check_positive(what: &str, v: f64) -> Result<(), DeviceError> {
@@ -109,10 +120,25 @@ fn check_positive(what: &str, v: f64) -> Result<(), DeviceError> {
 /// Validates the projector model of a wall file.
 pub fn validate_spec(p: &ProjectorSpec) -> Result<(), DeviceError> {
     bit_depth(p)?;
-    if !(p.lamp.white_cd_m2.is_finite() && p.lamp.white_cd_m2 > 0.0) {
+    if !(p.lamp.white_cd_m2.is_finite()
+        && p.lamp.white_cd_m2 > 0.0
+        && p.lamp.white_cd_m2 <= MAX_WHITE_CD_M2)
+    {
         return Err(DeviceError::Config(format!(
-            "projector.lamp.white_cd_m2 must be > 0, got {}",
+            "projector.lamp.white_cd_m2 must be > 0 and <= {MAX_WHITE_CD_M2:e} cd/m², got {}",
             p.lamp.white_cd_m2
+        )));
+    }
+    check_positive("projector.lamp.line_fwhm_nm", p.lamp.line_fwhm_nm)?;
+    if !(0.0..=1.0).contains(&p.lamp.red_deficit) {
+        return Err(DeviceError::Config(format!(
+            "projector.lamp.red_deficit must be in 0..=1, got {}",
+            p.lamp.red_deficit
+        )));
+    }
+    if let Some(d) = p.warmup.deficit.iter().find(|d| !(0.0..=1.0).contains(*d)) {
+        return Err(DeviceError::Config(format!(
+            "projector.warmup.deficit must be in 0..=1 per channel, got {d}"
         )));
     }
     if !LAMP_CCT_RANGE_K.contains(&p.lamp.cct_k) {
@@ -252,6 +278,10 @@ impl Individual {
             }
         }
         check_finite_nonneg("override lamp_hours", self.lamp_hours)?;
+        check_finite_nonneg(
+            &format!("[[override]] white_segment of display {index}"),
+            self.white_segment,
+        )?;
         check_finite_nonneg("lamp power after overrides", self.lamp_power)?;
         for g in self.gain {
             check_finite_nonneg("channel gain after overrides", g)?;
@@ -356,6 +386,19 @@ impl SimDisplay {
         let mut ind = Individual::draw(p, &wall.scatter, rng);
         ind.adjust(wall, index, eye)?;
         let tri = tristimuli(wall, eye, &ind)?;
+        let light = tri
+            .channel_xyz
+            .iter()
+            .flatten()
+            .chain(&tri.black_xyz)
+            .chain(&tri.white_segment_xyz);
+        if let Some(v) = light.into_iter().find(|v| !v.is_finite()) {
+            return Err(DeviceError::Config(format!(
+                "display #{index} ({eye}) would emit {v} cd/m²: projector.lamp.white_cd_m2, \
+                 projector.white_segment, projector.channel_gain and the [[override]] \
+                 lamp_power/channel_gain multiply to more than a number can hold"
+            )));
+        }
         let (cols, rows) = (wall.tiles.cols, wall.tiles.rows);
         let (w, h) = (wall.tiles.width_m, wall.tiles.height_m);
         let info = DisplayInfo {

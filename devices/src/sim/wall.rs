@@ -51,7 +51,15 @@ impl WallState {
         let spot = d.spot_m(uv);
         let meter = screen::meter_position_m(&self.file.meter, spot);
         let g = screen::gain(&self.file.screen, d.lens_m(), spot, meter);
-        Ok(Xyz::from_array(xyz.map(|v| v * g)))
+        let out = xyz.map(|v| v * g);
+        if out.iter().any(|v| !v.is_finite()) {
+            return Err(DeviceError::Config(format!(
+                "display {id} of wall {:?} emits {out:?} at uv {uv:?}: not finite; lower \
+                 projector.lamp.white_cd_m2, the gains or the screen gains in the wall file",
+                self.file.name
+            )));
+        }
+        Ok(Xyz::from_array(out))
     }
 }
 
@@ -63,6 +71,89 @@ fn finite_at_least(what: &str, v: f64, min: f64) -> Result<(), DeviceError> {
             "{what} must be a finite number >= {min}, got {v}"
         )))
     }
+}
+
+/// Most tiles (`tiles.cols × tiles.rows`) a wall file may describe.
+pub const MAX_TILES: u64 = 4096;
+/// Largest width or height of one tile (m).
+pub const MAX_TILE_SIZE_M: f64 = 1000.0;
+/// Most pass bands one Infitec comb filter may have.
+pub const MAX_COMB_BANDS: usize = 64;
+/// Largest manufacturing scatter a wall file may ask for (any `scatter.*` value):
+/// far above anything physical, far below where drawing ±value overflows.
+pub const MAX_SCATTER: f64 = 1.0e6;
+/// Most `[[override]]` tables a wall file may have.
+pub const MAX_OVERRIDES: usize = 2 * MAX_TILES as usize;
+
+/// Checks the name, the size and the tile geometry of a wall file with exact
+/// arithmetic, before anything is allocated; returns the number of displays.
+fn validate_shape(file: &WallFile) -> Result<u32, DeviceError> {
+    if file.name.trim().is_empty() {
+        return Err(DeviceError::Config(
+            "name is empty; give the wall a name (it goes into every display key and \
+             profile, e.g. name = \"hall-a\")"
+                .into(),
+        ));
+    }
+    let t = &file.tiles;
+    if t.cols == 0 || t.rows == 0 {
+        return Err(DeviceError::Config(format!(
+            "tiles.cols and tiles.rows must be at least 1, got cols = {}, rows = {}",
+            t.cols, t.rows
+        )));
+    }
+    // u32 × u32 always fits in u64: the product is exact, never wrapped.
+    let tiles = u64::from(t.cols) * u64::from(t.rows);
+    if tiles > MAX_TILES {
+        return Err(DeviceError::Config(format!(
+            "tiles.cols × tiles.rows = {} × {} = {tiles} tiles, more than the {MAX_TILES} a \
+             wall may have; check tiles.cols and tiles.rows",
+            t.cols, t.rows
+        )));
+    }
+    for (what, v) in [("tiles.width_m", t.width_m), ("tiles.height_m", t.height_m)] {
+        if !(v.is_finite() && v > 0.0 && v <= MAX_TILE_SIZE_M) {
+            return Err(DeviceError::Config(format!(
+                "{what} must be a finite number > 0 and <= {MAX_TILE_SIZE_M} m, got {v}"
+            )));
+        }
+    }
+    finite_at_least(
+        "clock.seconds_per_reading",
+        file.clock.seconds_per_reading,
+        0.0,
+    )?;
+    let eyes: u64 = match file.stereo {
+        Stereo::Mono => 1,
+        Stereo::Infitec => 2,
+    };
+    let n = u32::try_from(tiles * eyes).map_err(|_| {
+        DeviceError::Config(format!(
+            "{tiles} tiles × {eyes} eyes do not fit a display id"
+        ))
+    })?;
+    if file.overrides.len() > MAX_OVERRIDES {
+        return Err(DeviceError::Config(format!(
+            "{} [[override]] tables, at most {MAX_OVERRIDES} allowed",
+            file.overrides.len()
+        )));
+    }
+    if let Some(o) = file.overrides.iter().find(|o| o.display >= n) {
+        return Err(DeviceError::Config(format!(
+            "override for display {} but the wall has only {n} displays (#0..#{})",
+            o.display,
+            n - 1
+        )));
+    }
+    for (eye, comb) in [("left", &file.infitec.left), ("right", &file.infitec.right)] {
+        if comb.bands.len() > MAX_COMB_BANDS {
+            return Err(DeviceError::Config(format!(
+                "infitec.{eye} has {} pass bands, at most {MAX_COMB_BANDS} allowed",
+                comb.bands.len()
+            )));
+        }
+    }
+    Ok(n)
 }
 
 /// Checks the parts of a wall file outside the projector model.
@@ -116,6 +207,12 @@ fn validate_optics(file: &WallFile) -> Result<(), DeviceError> {
         ("scatter.hotspot_offset", s.hotspot_offset),
     ] {
         finite_at_least(what, v, 0.0)?;
+        // ±v is drawn uniformly: 2v must stay finite (1e308 panicked in the sampler).
+        if v > MAX_SCATTER {
+            return Err(DeviceError::Config(format!(
+                "{what} must be <= {MAX_SCATTER:e}, got {v:e}"
+            )));
+        }
     }
     if s.lamp_power_rel >= 1.0 || s.channel_gain_rel >= 1.0 {
         return Err(DeviceError::Config(
@@ -202,38 +299,19 @@ impl VirtualWall {
         Self::from_wall_file(file)
     }
 
-    /// Builds a wall from a parsed wall file.
+    /// Builds a wall from a parsed wall file. Everything the file says is checked
+    /// before anything is built: its name, its size (with exact arithmetic, against
+    /// [`MAX_TILES`]), the tile geometry, the projector model (bit depth included) and
+    /// the optics.
     pub fn from_wall_file(file: WallFile) -> Result<Self, DeviceError> {
+        let n = validate_shape(&file)?;
         validate_spec(&file.projector)?;
         validate_optics(&file)?;
         let t = &file.tiles;
-        if t.cols == 0 || t.rows == 0 || t.cols * t.rows > 4096 {
-            return Err(DeviceError::Config(format!(
-                "tiles must be at least 1×1 and at most 4096 in all, got {}×{}",
-                t.cols, t.rows
-            )));
-        }
-        if !(t.width_m > 0.0 && t.height_m > 0.0) {
-            return Err(DeviceError::Config(
-                "tiles.width_m and tiles.height_m must be > 0".into(),
-            ));
-        }
-        if !(file.clock.seconds_per_reading >= 0.0 && file.clock.seconds_per_reading.is_finite()) {
-            return Err(DeviceError::Config(
-                "clock.seconds_per_reading must be a finite number >= 0".into(),
-            ));
-        }
         let eyes: &[Eye] = match file.stereo {
             Stereo::Mono => &[Eye::Mono],
             Stereo::Infitec => &[Eye::Left, Eye::Right],
         };
-        let n = t.cols * t.rows * eyes.len() as u32;
-        if let Some(o) = file.overrides.iter().find(|o| o.display >= n) {
-            return Err(DeviceError::Config(format!(
-                "override for display {} but the wall has only {n} displays",
-                o.display
-            )));
-        }
         let mut displays = Vec::with_capacity(n as usize);
         for &eye in eyes {
             for row in 0..t.rows {

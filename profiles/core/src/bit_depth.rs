@@ -19,6 +19,10 @@ impl BitDepth {
     pub const EIGHT: BitDepth = BitDepth(8);
     /// 10 bits per channel.
     pub const TEN: BitDepth = BitDepth(10);
+    /// The bit depths a display profile can hold (8, 10, 12 and 16 bits per channel:
+    /// the depths of PNG/EXR output and of projector inputs). A wall file asking for
+    /// another depth is refused when it is loaded, before any measuring.
+    pub const PROFILE_BITS: [u32; 4] = [8, 10, 12, 16];
 
     /// A bit depth of `bits`, which must be 1..=16.
     pub fn new(bits: u32) -> Result<Self, CoreError> {
@@ -27,6 +31,11 @@ impl BitDepth {
         } else {
             Err(CoreError::BitDepth(bits))
         }
+    }
+
+    /// True for the depths a display profile can hold ([`BitDepth::PROFILE_BITS`]).
+    pub fn is_profile_depth(bits: u32) -> bool {
+        Self::PROFILE_BITS.contains(&bits)
     }
 
     /// Bits per channel.
@@ -78,6 +87,14 @@ mod tests {
         assert!((BitDepth::EIGHT.quantise(0.5) - 128.0 / 255.0).abs() < 1e-15);
         assert_eq!(BitDepth::TEN.quantise(1.7), 1.0);
         assert_eq!(BitDepth::TEN.quantise(-0.2), 0.0);
+    }
+
+    #[test]
+    fn profile_depths_are_8_10_12_and_16_only() {
+        let ok: Vec<u32> = (0..=40)
+            .filter(|&b| BitDepth::is_profile_depth(b))
+            .collect();
+        assert_eq!(ok, vec![8, 10, 12, 16]);
     }
 
     #[test]
