@@ -67,6 +67,17 @@ pub enum ReadingsError {
     /// Verification failed (boxed: the error is large).
     #[error(transparent)]
     Verify(#[from] Box<VerifyError>),
+    /// A budget is below [`MeasureOptions::MIN_BUDGET`] (checked before any run).
+    #[error(
+        "a budget of {budget} readings per display is too small: every display needs at \
+         least {min}; raise it to {min} or more"
+    )]
+    BudgetTooSmall {
+        /// The budget asked for.
+        budget: u32,
+        /// Smallest workable budget.
+        min: u32,
+    },
 }
 
 /// Runs every noise model (exact first) and budget; `on_row` sees each row as it is
@@ -75,6 +86,10 @@ pub fn run(
     bench: &ReadingsBench,
     on_row: &mut dyn FnMut(&ReadingsRow),
 ) -> Result<Vec<ReadingsRow>, ReadingsError> {
+    let min = MeasureOptions::MIN_BUDGET;
+    if let Some(&budget) = bench.budgets.iter().find(|&&b| b < min) {
+        return Err(ReadingsError::BudgetTooSmall { budget, min });
+    }
     let mut rows = Vec::new();
     for noise in Noise::ALL {
         for &budget in &bench.budgets {

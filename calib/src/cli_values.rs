@@ -1,11 +1,57 @@
 //! Text forms of calibration options, as the command line and configuration files
 //! write them: white targets (`8500K`, `xy:0.291,0.300`, `native:3`) and low-light
-//! handling (`avg:4`, `skip`).
+//! handling (`avg:4`, `skip`) — and the bounded counts of the station's options: the
+//! reading budget per display ([`parse_budget`]) and the verify patches per display
+//! ([`parse_patches`]), for clap's `value_parser`.
 
 use std::str::FromStr;
 
-use crate::measure::LowLight;
+use crate::measure::{LowLight, MeasureOptions};
 use crate::solve::WhiteTarget;
+
+/// Largest reading budget per display accepted: 10 000 readings (hours per display at
+/// a real meter's pace; the adaptive ramps stop long before).
+pub const MAX_BUDGET: u32 = 10_000;
+
+/// Largest number of verify patches per display accepted: 100 000 (each is a reading;
+/// the targets of a whole wall then stay within a few hundred MB).
+pub const MAX_PATCHES: usize = 100_000;
+
+/// Parses a reading budget per display in
+/// [`MeasureOptions::MIN_BUDGET`]`..=`[`MAX_BUDGET`].
+pub fn parse_budget(s: &str) -> Result<u32, String> {
+    let min = MeasureOptions::MIN_BUDGET;
+    let n: u32 = s.trim().parse().map_err(|_| {
+        format!("`{s}` is not a number of readings; use {min} to {MAX_BUDGET} per display")
+    })?;
+    if n < min {
+        Err(format!(
+            "a budget of {n} readings per display is too small: every display needs at least \
+             {min} (black, R, G, B, W and two ramp samples per channel); raise --budget to {min} \
+             or more"
+        ))
+    } else if n > MAX_BUDGET {
+        Err(format!(
+            "a budget of {n} readings per display is more than the {MAX_BUDGET} allowed"
+        ))
+    } else {
+        Ok(n)
+    }
+}
+
+/// Parses a number of verify patches per display in `1..=`[`MAX_PATCHES`].
+pub fn parse_patches(s: &str) -> Result<usize, String> {
+    let n: usize = s.trim().parse().map_err(|_| {
+        format!("`{s}` is not a number of patches; use 1 to {MAX_PATCHES} per display")
+    })?;
+    if (1..=MAX_PATCHES).contains(&n) {
+        Ok(n)
+    } else {
+        Err(format!(
+            "{n} patches per display: use 1 to {MAX_PATCHES} (0 would verify nothing)"
+        ))
+    }
+}
 
 impl FromStr for WhiteTarget {
     type Err = String;
@@ -92,6 +138,21 @@ mod tests {
         assert_eq!("avg:4".parse(), Ok(LowLight::Average { repeats: 4 }));
         for bad in ["avg:0", "avg:", "avg:x", "average"] {
             assert!(bad.parse::<LowLight>().is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn budgets_and_patches_are_bounded() {
+        assert_eq!(parse_budget("40"), Ok(40));
+        assert_eq!(parse_budget("11"), Ok(MeasureOptions::MIN_BUDGET));
+        assert!(parse_budget("10").unwrap_err().contains("raise --budget"));
+        for bad in ["0", "10001", "-1", "x", "4000000000000"] {
+            assert!(parse_budget(bad).is_err(), "{bad}");
+        }
+        assert_eq!(parse_patches("20"), Ok(20));
+        assert_eq!(parse_patches("100000"), Ok(MAX_PATCHES));
+        for bad in ["0", "100001", "4000000000", "-3", "5.5"] {
+            assert!(parse_patches(bad).is_err(), "{bad}");
         }
     }
 }

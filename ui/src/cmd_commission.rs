@@ -12,6 +12,7 @@ use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
 use lumiwall_bench::readings::{self, ReadingsBench, ReadingsRow};
+use lumiwall_calib::cli_values::{parse_budget, parse_patches};
 use lumiwall_calib::colorimetry::cct_to_xy;
 use lumiwall_calib::commission::{CommissionOptions, CommissionOutcome};
 use lumiwall_calib::measure::{LowLight, MeasureOptions, Progress};
@@ -23,6 +24,7 @@ use lumiwall_devices::serial::FaultPlan;
 use lumiwall_profiles::{BlackMode, MIN_LUT_ENTRIES, OutOfGamut, ProfileSet};
 
 use crate::CliError;
+use crate::values;
 
 /// Error model of the simulated meter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -75,10 +77,14 @@ pub(crate) struct MeterArgs {
     #[arg(long, value_enum, default_value = "realistic")]
     pub(crate) noise: NoiseArg,
     /// Speed of the emulated instrument: factor on its real measurement time
-    /// (1 = a real K-10A's timing).
-    #[arg(long, default_value_t = lumiwall_calib::station::DEFAULT_TIME_SCALE)]
+    /// (1 = a real K-10A's timing; greater than 0 and at most 10).
+    #[arg(long, allow_negative_numbers = true, default_value_t = lumiwall_calib::station::DEFAULT_TIME_SCALE,
+          value_parser = |s: &str| values::positive_at_most(s, MAX_TIME_SCALE))]
     pub(crate) time_scale: f64,
 }
+
+/// Largest `--time-scale`: ten times slower than a real K-10A.
+const MAX_TIME_SCALE: f64 = 10.0;
 
 impl MeterArgs {
     /// The station's meter as these options name it.
@@ -101,7 +107,7 @@ pub(crate) struct SolveArgs {
     #[arg(long, value_enum, default_value = "individual")]
     pub(crate) black: BlackArg,
     /// Largest channel usage for the common white (e.g. 0.9 leaves room for lamp ageing).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub(crate) headroom: f64,
 }
 
@@ -144,8 +150,8 @@ pub(crate) struct CommissionArgs {
     solve: SolveArgs,
     #[command(flatten)]
     meter: MeterArgs,
-    /// Meter readings allowed per display.
-    #[arg(long, default_value_t = 40)]
+    /// Meter readings allowed per display (11 to 10 000).
+    #[arg(long, default_value_t = 40, value_parser = parse_budget)]
     budget: u32,
     /// Below the meter's reliable limit: average N readings (avg:N) or skip ramp
     /// samples (skip).
@@ -270,6 +276,7 @@ impl ProgressReport {
 /// Runs `lumiwall commission`.
 pub(crate) fn run(args: CommissionArgs) -> Result<(), CliError> {
     let opts = args.commission_options()?;
+    values::check_output_dir("--out", &args.out)?;
     let mut station = args.open_station()?;
     let displays = station.displays();
     println!(
@@ -345,16 +352,16 @@ pub(crate) struct BenchArgs {
     /// Wall description (TOML).
     #[arg(long, default_value = "fixtures/walls/heyewall-48.toml")]
     wall: PathBuf,
-    /// Reading budgets per display to compare (comma-separated).
-    #[arg(long, value_delimiter = ',', default_value = "16,24,40,80")]
+    /// Reading budgets per display to compare (comma-separated; each 11 to 10 000).
+    #[arg(long, value_delimiter = ',', default_value = "16,24,40,80", value_parser = parse_budget)]
     budgets: Vec<u32>,
     /// Meter path (direct is fastest; emulated goes through the pty).
     #[arg(long, default_value = "direct")]
     meter: MeterChoice,
     #[command(flatten)]
     solve: SolveArgs,
-    /// Verify patches per display.
-    #[arg(long, default_value_t = 20)]
+    /// Verify patches per display (1 to 100 000).
+    #[arg(long, default_value_t = 20, value_parser = parse_patches)]
     patches: usize,
     /// Scratch folder for the profiles of each run.
     #[arg(long, default_value = "out/bench-readings")]
@@ -364,6 +371,7 @@ pub(crate) struct BenchArgs {
 /// Runs `lumiwall bench readings`: for each budget and each meter error model,
 /// commissions the wall and verifies it with the same meter model.
 pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
+    values::check_output_dir("--out", &args.out)?;
     let bench = ReadingsBench {
         solve: args.solve.solve_options()?,
         wall: args.wall,

@@ -11,6 +11,7 @@ use lumiwall_profiles::store::{
 use lumiwall_profiles::{DisplayProfile, ProfileSet};
 
 use crate::CliError;
+use crate::values;
 
 /// Arguments of `lumiwall profiles`.
 #[derive(Debug, clap::Args)]
@@ -57,11 +58,13 @@ struct DriftArgs {
     /// taken as 00:00 UTC, or RFC 3339); default: the first run of the wall.
     #[arg(long)]
     since: Option<String>,
-    /// Fail (exit 3) if any display's white luminance changed by more than this many percent.
-    #[arg(long)]
+    /// Fail (exit 3) if any display's white luminance changed by more than this many
+    /// percent (a finite number greater than 0).
+    #[arg(long, allow_negative_numbers = true, value_parser = values::positive_finite)]
     max_luminance_change_pct: Option<f64>,
-    /// Fail (exit 3) if any display's white moved by more than this in CIE 1931 xy.
-    #[arg(long)]
+    /// Fail (exit 3) if any display's white moved by more than this in CIE 1931 xy (a
+    /// finite number greater than 0).
+    #[arg(long, allow_negative_numbers = true, value_parser = values::positive_finite)]
     max_delta_xy: Option<f64>,
 }
 
@@ -324,6 +327,8 @@ fn import_time(time: Option<&str>, profiles: &[DisplayProfile]) -> Result<Timest
 }
 
 fn import(a: &ImportArgs) -> Result<String, CliError> {
+    // The store (and SQLite's journal next to it) is written: check its folder first.
+    values::check_output_files("--store", &[&a.store])?;
     let (wall, profiles) = ProfileSet::load_dir(&a.dir)?;
     let started_utc = import_time(a.time.as_deref(), &profiles)?;
     let run = CommissionRun {

@@ -20,6 +20,7 @@ use lumiwall_render::radiosity::{
 use lumiwall_render::scene::{Scene, load_scene};
 
 use crate::CliError;
+use crate::values::{self, MAX_DURATION};
 
 /// Radiosity solver choice.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -59,21 +60,21 @@ pub(crate) struct RenderArgs {
     /// Solver.
     #[arg(long, value_enum, default_value = "radiosity")]
     method: Method,
-    /// Requested relative error, e.g. `1%` or `0.01`.
-    #[arg(long, default_value = "1%", value_parser = parse_fraction)]
+    /// Requested relative error, e.g. `1%` or `0.01` (between 0 and 100 %).
+    #[arg(long, allow_negative_numbers = true, default_value = "1%", value_parser = values::fraction)]
     error: f64,
-    /// Wall-time limit, e.g. `60s`, `2m`.
-    #[arg(long, value_parser = parse_duration)]
+    /// Wall-time limit, e.g. `60s`, `2m`, `1h` (at most 7 days).
+    #[arg(long, allow_negative_numbers = true, value_parser = values::duration)]
     time: Option<Duration>,
     /// Output OpenEXR (channels X, Y, Z in cd/m²); the curve (.csv, .png) and the
     /// per-vertex radiosity (.ply) are written next to it.
     #[arg(long, default_value = "frame.exr")]
     out: PathBuf,
-    /// Progressive solver: longest element edge in metres.
-    #[arg(long, default_value_t = 0.05)]
+    /// Progressive solver: longest element edge in metres (greater than 0).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.05, value_parser = values::positive_finite)]
     max_edge_m: f64,
     /// Hierarchical solver: smallest element area in m² (0 = automatic).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.0, value_parser = values::non_negative_finite)]
     min_area_m2: f64,
     /// Hierarchical solver: receiver representation. The constant basis's error
     /// estimate is conservative; the linear one's is exact for smooth light but can
@@ -81,45 +82,6 @@ pub(crate) struct RenderArgs {
     /// use `constant` where the bound must hold.
     #[arg(long, value_enum, default_value = "auto")]
     basis: BasisArg,
-}
-
-pub(crate) fn parse_fraction(s: &str) -> Result<f64, String> {
-    let t = s.trim();
-    let v = if let Some(p) = t.strip_suffix('%') {
-        p.trim().parse::<f64>().map(|v| v / 100.0)
-    } else {
-        t.parse::<f64>()
-    }
-    .map_err(|e| format!("`{s}` is not an error like 1% or 0.01: {e}"))?;
-    if v > 0.0 && v < 1.0 {
-        Ok(v)
-    } else {
-        Err(format!("error {s} must be between 0 and 100 %"))
-    }
-}
-
-pub(crate) fn parse_duration(s: &str) -> Result<Duration, String> {
-    let t = s.trim();
-    let (num, mult) = if let Some(n) = t.strip_suffix("ms") {
-        (n, 1e-3)
-    } else if let Some(n) = t.strip_suffix('s') {
-        (n, 1.0)
-    } else if let Some(n) = t.strip_suffix('m') {
-        (n, 60.0)
-    } else if let Some(n) = t.strip_suffix('h') {
-        (n, 3600.0)
-    } else {
-        (t, 1.0)
-    };
-    let v: f64 = num
-        .trim()
-        .parse()
-        .map_err(|e| format!("`{s}` is not a duration like 60s or 2m: {e}"))?;
-    if v.is_finite() && v > 0.0 {
-        Ok(Duration::from_secs_f64(v * mult))
-    } else {
-        Err(format!("duration {s} must be positive"))
-    }
 }
 
 /// Loads a scene and reports what was checked on stderr.
@@ -180,6 +142,7 @@ fn percent_errors(p: &CurvePoint) -> [f64; 3] {
 
 /// Runs `lumiwall render`.
 pub(crate) fn run(args: RenderArgs) -> Result<(), CliError> {
+    check_outputs(&args.out)?;
     let scene = load(&args.scene)?;
     let sol = solve(&scene, &args)?;
     print_curve_table(&sol);
@@ -225,6 +188,24 @@ fn print_stats(sol: &Solution) {
     );
 }
 
+/// The files `render --out OUT` writes: OUT and its siblings.
+fn output_paths(out: &Path) -> [PathBuf; 5] {
+    [
+        out.to_path_buf(),
+        with_ext(out, ".curve.csv"),
+        with_ext(out, ".curve.png"),
+        with_ext(out, ".ply"),
+        with_ext(out, ".preview.png"),
+    ]
+}
+
+/// Checks before the solve that every output of `--out` can be written.
+fn check_outputs(out: &Path) -> Result<(), CliError> {
+    let paths = output_paths(out);
+    let refs: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
+    values::check_output_files("--out", &refs)
+}
+
 /// Writes the curve (CSV, PNG), the per-vertex PLY and, with a camera, the image and
 /// its preview; returns the paths written.
 fn write_outputs(
@@ -232,9 +213,7 @@ fn write_outputs(
     sol: &Solution,
     args: &RenderArgs,
 ) -> Result<Vec<PathBuf>, CliError> {
-    let csv = with_ext(&args.out, ".curve.csv");
-    let png = with_ext(&args.out, ".curve.png");
-    let ply = with_ext(&args.out, ".ply");
+    let [_, csv, png, ply, preview] = output_paths(&args.out);
     write_curve_csv(&sol.curve, &csv)?;
     plot_curves_png(&[(&sol.curve, [200, 30, 30])], Some(args.error), &png)?;
     write_ply(sol, &ply)?;
@@ -244,7 +223,6 @@ fn write_outputs(
             let img = render_image(sol, cam);
             let (w, h) = (cam.width_px as usize, cam.height_px as usize);
             write_exr(&img, w, h, &args.out)?;
-            let preview = with_ext(&args.out, ".preview.png");
             write_preview_png(&img, w, h, &preview)?;
             wrote.push(args.out.clone());
             wrote.push(preview);
@@ -263,12 +241,13 @@ pub(crate) struct BenchArgs {
     /// Same room without occluders, for the visibility saving.
     #[arg(long, default_value = "fixtures/scenes/cornell/cornell_empty.toml")]
     empty_scene: PathBuf,
-    /// Reference mesh: longest element edge in metres.
-    #[arg(long, default_value_t = 0.035)]
+    /// Reference mesh: longest element edge in metres (greater than 0).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.035, value_parser = values::positive_finite)]
     reference_edge_m: f64,
-    /// Time limit per solve in seconds (the scale acceptance: 5 % within 5 minutes).
-    #[arg(long, default_value_t = 300.0)]
-    time_limit_s: f64,
+    /// Time limit per solve in seconds (the scale acceptance: 5 % within 5 minutes; at
+    /// most 7 days).
+    #[arg(long, allow_negative_numbers = true, default_value = "300", value_parser = values::duration_s)]
+    time_limit_s: Duration,
     /// Write the error/time curves of both solvers as a PNG here.
     #[arg(long)]
     plot: Option<PathBuf>,
@@ -276,36 +255,52 @@ pub(crate) struct BenchArgs {
     /// Cornell comparison.
     #[arg(long)]
     scale: bool,
-    /// Scale benchmark: triangle counts (comma-separated).
-    #[arg(long, value_delimiter = ',', default_value = "100000")]
+    /// Scale benchmark: triangle counts (comma-separated; each 1 to 10 000 000).
+    #[arg(long, value_delimiter = ',', default_value = "100000",
+          value_parser = |s: &str| values::count_in(s, 1, MAX_SCALE_TRIANGLES))]
     sizes: Vec<usize>,
-    /// Scale benchmark: number of lights.
-    #[arg(long, default_value_t = 100)]
+    /// Scale benchmark: number of lights (1 to 100 000).
+    #[arg(long, default_value_t = 100,
+          value_parser = |s: &str| values::count_in(s, 1, MAX_SCALE_LIGHTS))]
     lights: usize,
-    /// Scale benchmark: requested error.
-    #[arg(long, default_value = "5%", value_parser = parse_fraction)]
+    /// Scale benchmark: requested error (between 0 and 100 %).
+    #[arg(long, allow_negative_numbers = true, default_value = "5%", value_parser = values::fraction)]
     scale_error: f64,
     /// Scale benchmark: print the error/time curve of each solve.
     #[arg(long)]
     curve: bool,
     /// Check the solution (the Cornell reference, or each scale solve) against an
     /// independent Monte Carlo path tracer at this many patches (picked in proportion
-    /// to their area; 0 = no check).
-    #[arg(long, default_value_t = 0)]
+    /// to their area; 0 = no check; at most 100 000).
+    #[arg(long, default_value_t = 0,
+          value_parser = |s: &str| values::count_in(s, 0, MAX_CHECK_PATCHES))]
     check_patches: usize,
-    /// Paths per checked patch.
-    #[arg(long, default_value_t = 20_000)]
+    /// Paths per checked patch (1 to 10 000 000).
+    #[arg(long, default_value_t = 20_000,
+          value_parser = |s: &str| values::count_in(s, 1, MAX_CHECK_PATHS))]
     check_paths: usize,
 }
 
+/// Largest triangle count of the scale benchmark's generated cathedral.
+const MAX_SCALE_TRIANGLES: usize = 10_000_000;
+/// Largest number of lights of the scale benchmark.
+const MAX_SCALE_LIGHTS: usize = 100_000;
+/// Largest number of patches checked against the Monte Carlo path tracer.
+const MAX_CHECK_PATCHES: usize = 100_000;
+/// Largest number of Monte Carlo paths per checked patch.
+const MAX_CHECK_PATHS: usize = 10_000_000;
+
 impl BenchArgs {
     fn time_limit(&self) -> Option<Duration> {
-        Some(Duration::from_secs_f64(self.time_limit_s))
+        Some(self.time_limit_s.min(MAX_DURATION))
     }
 }
 
 /// Runs `lumiwall bench radiosity`.
 pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
+    if let Some(p) = &args.plot {
+        values::check_output_files("--plot", &[p])?;
+    }
     if args.scale {
         return scale_study(&args);
     }

@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use indicatif::{ProgressBar, ProgressStyle};
+use lumiwall_calib::cli_values::parse_patches;
 use lumiwall_calib::measure::meter_offset::MeterCorrection;
 use lumiwall_calib::measure::{MeasureOptions, Progress};
 use lumiwall_calib::station::Station;
@@ -14,6 +15,7 @@ use lumiwall_profiles::ProfileSet;
 
 use crate::CliError;
 use crate::cmd_commission::MeterArgs;
+use crate::values;
 
 /// Arguments of `lumiwall verify`.
 #[derive(Debug, clap::Args)]
@@ -24,20 +26,22 @@ pub(crate) struct VerifyArgs {
     /// Profile folder written by `lumiwall commission`.
     #[arg(long)]
     profiles: PathBuf,
-    /// Number of target colours per display.
-    #[arg(long, default_value_t = 20)]
+    /// Number of target colours per display (1 to 100 000).
+    #[arg(long, default_value_t = 20, value_parser = parse_patches)]
     patches: usize,
-    /// Largest ΔE2000 allowed on any patch.
-    #[arg(long, default_value_t = 1.5)]
+    /// Largest ΔE2000 allowed on any patch (a finite number greater than 0).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1.5, value_parser = values::positive_finite)]
     max_de: f64,
-    /// Largest median ΔE2000 allowed (per display and overall).
-    #[arg(long, default_value_t = 0.5)]
+    /// Largest median ΔE2000 allowed (per display and overall; greater than 0).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5, value_parser = values::positive_finite)]
     median_de: f64,
-    /// Largest black luminance difference (%) from the common black (common mode).
-    #[arg(long, default_value_t = 5.0)]
+    /// Largest black luminance difference (%) from the common black (common mode;
+    /// greater than 0).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 5.0, value_parser = values::positive_finite)]
     black_dl: f64,
-    /// Largest black chromaticity difference from the common black (common mode).
-    #[arg(long, default_value_t = 0.008)]
+    /// Largest black chromaticity difference from the common black (common mode;
+    /// greater than 0).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.008, value_parser = values::positive_finite)]
     black_dxy: f64,
     #[command(flatten)]
     meter: MeterArgs,

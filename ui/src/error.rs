@@ -88,6 +88,7 @@ impl From<lumiwall_bench::readings::ReadingsError> for CliError {
         use lumiwall_bench::readings::ReadingsError;
         match e {
             ReadingsError::Station(e) => e.into(),
+            ReadingsError::BudgetTooSmall { .. } => Self::input(e.to_string()),
             _ => Self::failure(e.to_string()),
         }
     }

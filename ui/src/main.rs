@@ -11,6 +11,7 @@ mod cmd_render;
 #[cfg(feature = "station")]
 mod cmd_verify;
 mod error;
+mod values;
 
 use clap::{Parser, Subcommand};
 
