@@ -108,22 +108,26 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
     let mut tilt_line = None;
     for (i, raw) in lines.iter().enumerate() {
         let l = raw.trim().trim_start_matches('\u{feff}');
-        if l.len() >= 5 && l[..5].eq_ignore_ascii_case("TILT=") {
-            tilt_line = Some(i);
+        // `get`: a multi-byte character within the first five bytes is no TILT line
+        if let Some(value) = l
+            .get(..5)
+            .filter(|p| p.eq_ignore_ascii_case("TILT="))
+            .and(l.get(5..))
+        {
+            tilt_line = Some((i, value.trim().to_string()));
             break;
         }
         if let Some(rest) = l.strip_prefix("[LUMINAIRE]") {
             name = rest.trim().to_string();
         }
     }
-    let Some(tilt_idx) = tilt_line else {
+    let Some((tilt_idx, tilt_value)) = tilt_line else {
         return Err(PhotometryError::Truncated {
             format: FORMAT,
             line: lines.len(),
             expected: "a TILT= line before the photometric data".into(),
         });
     };
-    let tilt_value = lines[tilt_idx].trim()[5..].trim().to_string();
     let items: Vec<(&str, usize)> = lines
         .iter()
         .enumerate()

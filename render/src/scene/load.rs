@@ -789,7 +789,15 @@ fn obj_polygons(
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, mtl) = tobj::load_obj(path, &opts).map_err(|e| SceneError::Obj {
+    // tobj 4 overflows on absurd indices (a panic in debug builds): a malformed file
+    // must be an error that names it, never a crash
+    let loaded = std::panic::catch_unwind(|| tobj::load_obj(path, &opts)).map_err(|_| {
+        SceneError::Obj {
+            path: path.to_path_buf(),
+            message: "the OBJ reader failed on a malformed face or index; check the file's `f` lines (indices must refer to existing v/vt/vn entries)".into(),
+        }
+    })?;
+    let (models, mtl) = loaded.map_err(|e| SceneError::Obj {
         path: path.to_path_buf(),
         message: e.to_string(),
     })?;
