@@ -8,12 +8,17 @@
 mod check;
 mod error;
 mod geom;
+pub mod limits;
 mod load;
 mod types;
 
 pub use check::{CheckReport, check_polygons};
 pub use error::SceneError;
 pub use geom::{V3, polygon_area_m2, polygon_normal};
+pub use limits::{
+    MAX_CAMERA_PIXELS, MAX_COORDINATE_M, MAX_FLUX_LM, MAX_ILLUMINANCE_LUX, MAX_INTENSITY_CD,
+    MAX_LUMINANCE_CD_M2, MAX_UNIT_M, MIN_UNIT_M,
+};
 pub use load::{
     GoniometricLightFile, LightFile, LightKindFile, LightOutputFile, SceneFile, load_scene,
     parse_scene_toml,

@@ -607,3 +607,15 @@ fn relative_photometry_scales_with_the_lamp_flux() {
     );
     assert!(l.with_lamp_flux_lm(-1.0).is_err());
 }
+
+#[test]
+fn ies_multibyte_character_in_the_first_bytes_of_a_header_line_is_no_panic() {
+    // found by fuzz_parsers: `l[..5]` sliced inside a UTF-8 character
+    let ies = fixture("downlight_bilateral.ies");
+    let text = ies.replacen("[TEST]", "TIL\u{e9}[TEST]", 1);
+    assert!(IntensityDistribution::from_ies_lm63(&text).is_ok());
+    assert!(IntensityDistribution::from_ies_lm63("ab\u{e9}\u{e9}\n").is_err());
+    // and a byte-order mark before TILT= still reads the TILT value
+    let bom = ies.replacen("TILT=NONE", "\u{feff}TILT=NONE", 1);
+    assert!(IntensityDistribution::from_ies_lm63(&bom).is_ok());
+}

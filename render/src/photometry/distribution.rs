@@ -268,9 +268,11 @@ fn check_increasing(v: &[f64], what: &str) -> Result<(), PhotometryError> {
             "{what} angle {bad} is not a number"
         )));
     }
-    if v.windows(2).any(|w| w[1] <= w[0]) {
+    // steps below the angle tolerance make the interpolation and the flux integral
+    // divide by (nearly) zero
+    if v.windows(2).any(|w| w[1] - w[0] < ANGLE_TOL_DEG) {
         return Err(PhotometryError::InvalidParameter(format!(
-            "{what} angles must be strictly increasing"
+            "{what} angles must be strictly increasing, each by at least {ANGLE_TOL_DEG}°"
         )));
     }
     Ok(())

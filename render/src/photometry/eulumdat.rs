@@ -10,6 +10,7 @@
 
 use super::distribution::{CSymmetry, GonioTable, IntensityDistribution};
 use super::error::PhotometryError;
+use crate::scene::limits::{MAX_FLUX_LM, MAX_INTENSITY_CD};
 
 const FORMAT: &str = "EULUMDAT";
 
@@ -112,11 +113,13 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
         l.next_text(&format!("colour rendering of set {set} (26e)"))?;
         l.next_f64(&format!("wattage of set {set} (26f)"))?;
         if s == 0 {
-            if flux <= 0.0 {
+            if !(flux > 0.0 && flux <= MAX_FLUX_LM) {
                 return Err(PhotometryError::Parse {
                     format: FORMAT,
                     line: fl,
-                    message: format!("total lamp flux must be > 0 lm, found {flux}"),
+                    message: format!(
+                        "total lamp flux must be > 0 lm and at most {MAX_FLUX_LM:e} lm, found {flux}"
+                    ),
                 });
             }
             first_set_flux = Some(flux);
@@ -138,7 +141,8 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
     let mut it = rest.into_iter();
     let last_line = l.lines.len();
     let mut take = |n: usize, what: &str| -> Result<(Vec<f64>, usize), PhotometryError> {
-        let mut out = Vec::with_capacity(n);
+        // never reserve more than the file has values for
+        let mut out = Vec::with_capacity(n.min(it.len()));
         let mut first = last_line;
         for i in 0..n {
             let Some((t, line)) = it.next() else {
@@ -206,6 +210,19 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
         })
         .collect();
     let to_cd = lamp_flux / 1000.0 * if conversion > 0.0 { conversion } else { 1.0 };
+    if let Some(v) = values
+        .iter()
+        .map(|v| v * to_cd)
+        .find(|v| !(v.is_finite() && *v <= MAX_INTENSITY_CD))
+    {
+        return Err(PhotometryError::Parse {
+            format: FORMAT,
+            line: v_line,
+            message: format!(
+                "an intensity × lamp flux / 1000 × conversion factor ({to_cd:e}) is {v:e} cd, above the {MAX_INTENSITY_CD:e} cd the renderer accepts; check the lamp flux and line 24"
+            ),
+        });
+    }
     let rows: Vec<Vec<f64>> = values
         .chunks(ng)
         .map(|r| r.iter().map(|v| v * to_cd).collect())
@@ -223,6 +240,15 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
         }
     })?;
     let declared = (lorl > 0.0).then_some(lamp_flux * lorl / 100.0);
+    if let Some(f) = declared.filter(|f| !(f.is_finite() && *f <= MAX_FLUX_LM)) {
+        return Err(PhotometryError::Parse {
+            format: FORMAT,
+            line: 23,
+            message: format!(
+                "lamp flux × light output ratio LORL = {f:e} lm is above the {MAX_FLUX_LM:e} lm the renderer accepts; LORL is a percentage"
+            ),
+        });
+    }
     let name = if name.is_empty() {
         "EULUMDAT luminaire"
     } else {

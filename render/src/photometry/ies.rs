@@ -14,8 +14,15 @@
 
 use super::distribution::{CSymmetry, GonioTable, IntensityDistribution};
 use super::error::PhotometryError;
+use crate::scene::limits::{MAX_FLUX_LM, MAX_INTENSITY_CD};
 
 const FORMAT: &str = "IES LM-63";
+
+/// Most vertical angles a file may declare: 0.1° steps over 0°…180°.
+pub(crate) const MAX_VERTICAL_ANGLES: usize = 1801;
+
+/// Most horizontal angles a file may declare: 0.1° steps over 0°…360°.
+pub(crate) const MAX_HORIZONTAL_ANGLES: usize = 3601;
 
 struct Tokens<'a> {
     items: Vec<(&'a str, usize)>,
@@ -61,10 +68,30 @@ impl<'a> Tokens<'a> {
     }
 
     fn take(&mut self, n: usize, what: &str) -> Result<(Vec<f64>, usize), PhotometryError> {
+        let left = self.items.len().saturating_sub(self.pos);
+        if n > left {
+            // refuse before allocating for values the file does not have
+            return Err(PhotometryError::Truncated {
+                format: FORMAT,
+                line: self.last_line,
+                expected: format!("{n} values of {what}, but only {left} values are left"),
+            });
+        }
         let mut out = Vec::with_capacity(n);
         let mut first_line = self.last_line;
         for i in 0..n {
-            let (v, line) = self.next_f64(&format!("{what} #{} of {n}", i + 1))?;
+            let (v, line) = self.next_f64(what).map_err(|e| match e {
+                PhotometryError::Parse {
+                    format,
+                    line,
+                    message,
+                } => PhotometryError::Parse {
+                    format,
+                    line,
+                    message: format!("{message} (#{} of {n})", i + 1),
+                },
+                other => other,
+            })?;
             if i == 0 {
                 first_line = line;
             }
@@ -81,22 +108,26 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
     let mut tilt_line = None;
     for (i, raw) in lines.iter().enumerate() {
         let l = raw.trim().trim_start_matches('\u{feff}');
-        if l.len() >= 5 && l[..5].eq_ignore_ascii_case("TILT=") {
-            tilt_line = Some(i);
+        // `get`: a multi-byte character within the first five bytes is no TILT line
+        if let Some(value) = l
+            .get(..5)
+            .filter(|p| p.eq_ignore_ascii_case("TILT="))
+            .and(l.get(5..))
+        {
+            tilt_line = Some((i, value.trim().to_string()));
             break;
         }
         if let Some(rest) = l.strip_prefix("[LUMINAIRE]") {
             name = rest.trim().to_string();
         }
     }
-    let Some(tilt_idx) = tilt_line else {
+    let Some((tilt_idx, tilt_value)) = tilt_line else {
         return Err(PhotometryError::Truncated {
             format: FORMAT,
             line: lines.len(),
             expected: "a TILT= line before the photometric data".into(),
         });
     };
-    let tilt_value = lines[tilt_idx].trim()[5..].trim().to_string();
     let items: Vec<(&str, usize)> = lines
         .iter()
         .enumerate()
@@ -154,8 +185,8 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
             message: format!("candela multiplier must be > 0, found {multiplier}"),
         });
     }
-    let (n_vert, _) = tok.next_count("number of vertical angles", 100_000)?;
-    let (n_horiz, _) = tok.next_count("number of horizontal angles", 100_000)?;
+    let (n_vert, _) = tok.next_count("number of vertical angles", MAX_VERTICAL_ANGLES)?;
+    let (n_horiz, _) = tok.next_count("number of horizontal angles", MAX_HORIZONTAL_ANGLES)?;
     let (ptype, pl) = tok.next_f64("photometric type")?;
     let (_units, _) = tok.next_f64("units type")?;
     let _ = tok.take(3, "luminous opening dimension (width, length, height)")?;
@@ -237,6 +268,19 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
     };
     let factor =
         multiplier * positive_or_one(ballast) * positive_or_one(ballast_lamp) * tilt_factor;
+    if let Some(v) = cd
+        .iter()
+        .map(|v| v * factor)
+        .find(|v| !(v.is_finite() && *v <= MAX_INTENSITY_CD))
+    {
+        return Err(PhotometryError::Parse {
+            format: FORMAT,
+            line: cl,
+            message: format!(
+                "a candela value × multiplier, ballast and tilt factors ({factor:e}) is {v:e} cd, above the {MAX_INTENSITY_CD:e} cd the renderer accepts; check the candela multiplier"
+            ),
+        });
+    }
     let rows: Vec<Vec<f64>> = cd
         .chunks(n_vert)
         .map(|r| r.iter().map(|v| v * factor).collect())
@@ -248,6 +292,15 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
             message: e.to_string(),
         })?;
     let declared = (lumens_per_lamp > 0.0 && n_lamps > 0.0).then_some(lumens_per_lamp * n_lamps);
+    if let Some(f) = declared.filter(|f| !(f.is_finite() && *f <= MAX_FLUX_LM)) {
+        return Err(PhotometryError::Parse {
+            format: FORMAT,
+            line: tilt_idx + 2,
+            message: format!(
+                "number of lamps × lumens per lamp = {f:e} lm is above the {MAX_FLUX_LM:e} lm the renderer accepts"
+            ),
+        });
+    }
     Ok(IntensityDistribution::from_table(
         table, name, declared, declared,
     ))

@@ -9,6 +9,10 @@ use serde::Deserialize;
 use super::check::{CheckReport, check_polygons};
 use super::error::SceneError;
 use super::geom::V3;
+use super::limits::{
+    MAX_CAMERA_PIXELS, MAX_COORDINATE_M, MAX_FLUX_LM, MAX_ILLUMINANCE_LUX, MAX_INTENSITY_CD,
+    MAX_LUMINANCE_CD_M2, MAX_UNIT_M, MIN_UNIT_M, MIN_UP_VIEW_SINE,
+};
 use super::types::{Camera, Light, LightKind, Material, Polygon, Scene};
 
 /// The TOML scene file as written on disk (see `fixtures/scenes/README.md`).
@@ -299,6 +303,47 @@ fn invalid(what: impl Into<String>, message: impl Into<String>) -> SceneError {
     }
 }
 
+/// A position given in file units, in metres: every coordinate finite and within
+/// ±[`MAX_COORDINATE_M`] once scaled by `unit_m`.
+fn point_m(what: &str, field: &str, a: [f64; 3], unit_m: f64) -> Result<V3, SceneError> {
+    if !a.iter().all(|c| c.is_finite()) {
+        return Err(invalid(
+            what,
+            format!("`{field}` = {a:?} is not finite; give three finite numbers (file units)"),
+        ));
+    }
+    let p = v3(a) * unit_m;
+    if p.iter().any(|c| c.abs() > MAX_COORDINATE_M) {
+        return Err(invalid(
+            what,
+            format!(
+                "`{field}` = {a:?} × unit_m {unit_m} = [{:e}, {:e}, {:e}] m lies beyond ±{MAX_COORDINATE_M:e} m; check unit_m and the coordinates",
+                p.x, p.y, p.z
+            ),
+        ));
+    }
+    Ok(p)
+}
+
+/// A unit direction from a file vector: finite and not zero.
+fn direction(what: &str, field: &str, a: [f64; 3]) -> Result<V3, SceneError> {
+    if !a.iter().all(|c| c.is_finite()) {
+        return Err(invalid(
+            what,
+            format!("`{field}` = {a:?} is not finite; give a non-zero direction of finite numbers"),
+        ));
+    }
+    // scale first so that huge components do not overflow the norm
+    let big = a.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    let d = if big > 0.0 { v3(a) / big } else { v3(a) };
+    d.try_normalize(MIN_DIRECTION_LENGTH).ok_or_else(|| {
+        invalid(
+            what,
+            format!("`{field}` = {a:?} has zero length; give a non-zero direction"),
+        )
+    })
+}
+
 fn xy_to_xyz(what: &str, xy: Option<[f64; 2]>) -> Result<[f64; 3], SceneError> {
     let [x, y] = xy.unwrap_or([1.0 / 3.0, 1.0 / 3.0]);
     if !(x.is_finite() && y.is_finite() && x >= 0.0 && y > 1e-6 && x + y <= 1.0) {
@@ -335,8 +380,13 @@ fn material(name: &str, m: &MaterialFile) -> Result<Material, SceneError> {
         ));
     }
     let l = m.emission_cd_m2.unwrap_or(0.0);
-    if !(l.is_finite() && l >= 0.0) {
-        return Err(invalid(what, format!("emission {l} cd/m² must be ≥ 0")));
+    if !(l.is_finite() && (0.0..=MAX_LUMINANCE_CD_M2).contains(&l)) {
+        return Err(invalid(
+            what,
+            format!(
+                "emission {l:?} cd/m² must be ≥ 0 and at most {MAX_LUMINANCE_CD_M2:e} cd/m² (the sun's disc is about 1.6e9 cd/m²)"
+            ),
+        ));
     }
     let c = xy_to_xyz(&what, m.emission_xy)?;
     Ok(Material {
@@ -360,10 +410,7 @@ fn light(i: usize, l: &LightFile, unit_m: f64, base_dir: &Path) -> Result<Light,
         l.name.clone()
     };
     let what = format!("light `{name}`");
-    let position = v3(l.position) * unit_m;
-    if !position.iter().all(|c| c.is_finite()) {
-        return Err(invalid(what, "position is not finite"));
-    }
+    let position = point_m(&what, "position", l.position, unit_m)?;
     let color_xyz = xy_to_xyz(&what, l.color_xy)?;
     let kind = match &l.kind {
         LightKindFile::Point { output } => LightKind::Isotropic {
@@ -396,11 +443,22 @@ fn intensity_cd(
 ) -> Result<f64, SceneError> {
     let cd = match (output.intensity_cd, output.flux_lm) {
         (Some(i), None) => i,
-        (None, Some(f)) => cd_from_flux(f),
+        (None, Some(f)) => {
+            if !(f.is_finite() && (0.0..=MAX_FLUX_LM).contains(&f)) {
+                return Err(invalid(
+                    what,
+                    format!("flux {f:?} lm must be ≥ 0 and at most {MAX_FLUX_LM:e} lm"),
+                ));
+            }
+            cd_from_flux(f)
+        }
         _ => return Err(invalid(what, "give exactly one of intensity_cd or flux_lm")),
     };
-    if !(cd.is_finite() && cd >= 0.0) {
-        return Err(invalid(what, format!("intensity {cd} cd must be ≥ 0")));
+    if !(cd.is_finite() && (0.0..=MAX_INTENSITY_CD).contains(&cd)) {
+        return Err(invalid(
+            what,
+            format!("intensity {cd:?} cd must be ≥ 0 and at most {MAX_INTENSITY_CD:e} cd"),
+        ));
     }
     Ok(cd)
 }
@@ -413,15 +471,22 @@ fn spot(
     inner_deg: Option<f64>,
     outer_deg: Option<f64>,
 ) -> Result<LightKind, SceneError> {
-    let axis = v3(axis.ok_or_else(|| invalid(what, "a spot needs `axis`"))?);
-    let axis = axis
-        .try_normalize(MIN_DIRECTION_LENGTH)
-        .ok_or_else(|| invalid(what, "spot axis has zero length"))?;
+    let axis = direction(
+        what,
+        "axis",
+        axis.ok_or_else(|| invalid(what, "a spot needs `axis`"))?,
+    )?;
     let inner_deg = inner_deg.unwrap_or(DEFAULT_SPOT_HALF_ANGLE_DEG);
+    let outer_deg = outer_deg.unwrap_or(inner_deg);
     let inner = inner_deg.to_radians();
-    let outer = outer_deg.unwrap_or(inner_deg).to_radians();
+    let outer = outer_deg.to_radians();
     if !(inner > 0.0 && outer >= inner && outer <= std::f64::consts::PI) {
-        return Err(invalid(what, "need 0 < inner_deg ≤ outer_deg ≤ 180"));
+        return Err(invalid(
+            what,
+            format!(
+                "inner_deg = {inner_deg:?}, outer_deg = {outer_deg:?}: need 0 < inner_deg ≤ outer_deg ≤ 180"
+            ),
+        ));
     }
     let intensity_cd = intensity_cd(what, output, |f| {
         f / super::types::spot_flux_per_cd(inner, outer)
@@ -455,8 +520,11 @@ fn goniometric(
     match (l.flux_lm, l.scale) {
         (Some(_), Some(_)) => return Err(invalid(&what, "give `flux_lm` or `scale`, not both")),
         (Some(f), None) => {
-            if !(f.is_finite() && f > 0.0) {
-                return Err(invalid(&what, format!("flux {f} lm must be positive")));
+            if !(f.is_finite() && f > 0.0 && f <= MAX_FLUX_LM) {
+                return Err(invalid(
+                    &what,
+                    format!("flux {f:?} lm must be positive and at most {MAX_FLUX_LM:e} lm"),
+                ));
             }
             dist = dist.scaled_to_flux(f);
         }
@@ -468,12 +536,30 @@ fn goniometric(
         }
         (None, None) => {}
     }
-    let aim = l.aim.unwrap_or(DEFAULT_AIM);
-    if v3(aim).norm() <= 0.0 || !aim.iter().all(|c| c.is_finite()) {
-        return Err(invalid(&what, "`aim` must be a non-zero direction"));
+    let (peak, flux) = (dist.max_intensity_cd(), dist.total_flux_lm());
+    if !(peak.is_finite() && peak <= MAX_INTENSITY_CD && flux.is_finite()) {
+        return Err(invalid(
+            &what,
+            format!(
+                "{file}: the scaled distribution peaks at {peak:e} cd (flux {flux:e} lm); at most {MAX_INTENSITY_CD:e} cd is accepted, lower `scale` or `flux_lm`"
+            ),
+        ));
     }
+    let aim_v = direction(&what, "aim", l.aim.unwrap_or(DEFAULT_AIM))?;
+    let aim = [aim_v.x, aim_v.y, aim_v.z];
     let frame = match l.c0 {
-        Some(c0) => LightFrame::from_axis(c0, aim),
+        Some(c0) => {
+            let c0_v = direction(&what, "c0", c0)?;
+            if c0_v.cross(&aim_v).norm() < MIN_UP_VIEW_SINE {
+                return Err(invalid(
+                    &what,
+                    format!(
+                        "`c0` = {c0:?} is parallel to `aim` {aim:?}; give a C0° direction across the axis"
+                    ),
+                ));
+            }
+            LightFrame::from_axis([c0_v.x, c0_v.y, c0_v.z], aim)
+        }
         None => LightFrame::aimed(aim),
     };
     let mut light = to_scene_light(name, &dist, [position.x, position.y, position.z], &frame);
@@ -519,8 +605,14 @@ fn daylight(s: &SkyFile) -> Result<super::types::Daylight, SceneError> {
     use super::types::{Daylight, DirectionalSource};
     use crate::photometry::Sky;
     let what = "sky";
-    if !(s.zenith_luminance_cd_m2.is_finite() && s.zenith_luminance_cd_m2 > 0.0) {
-        return Err(invalid(what, "zenith_luminance_cd_m2 must be positive"));
+    let zl = s.zenith_luminance_cd_m2;
+    if !(zl.is_finite() && zl > 0.0 && zl <= MAX_LUMINANCE_CD_M2) {
+        return Err(invalid(
+            what,
+            format!(
+                "zenith_luminance_cd_m2 = {zl:?} must be positive and at most {MAX_LUMINANCE_CD_M2:e} cd/m²"
+            ),
+        ));
     }
     if !(1..=MAX_SKY_BANDS).contains(&s.bands) {
         return Err(invalid(
@@ -528,10 +620,9 @@ fn daylight(s: &SkyFile) -> Result<super::types::Daylight, SceneError> {
             format!("bands {} must be in 1..={MAX_SKY_BANDS}", s.bands),
         ));
     }
-    let up = v3(s.up)
-        .try_normalize(MIN_DIRECTION_LENGTH)
-        .ok_or_else(|| invalid(what, "`up` must be a non-zero direction"))?;
-    let north = v3(s.north) - up * up.dot(&v3(s.north));
+    let up = direction(what, "up", s.up)?;
+    let north = direction(what, "north", s.north)?;
+    let north = north - up * up.dot(&north);
     let north = north
         .try_normalize(MIN_DIRECTION_LENGTH)
         .ok_or_else(|| invalid(what, "`north` must not be parallel to `up`"))?;
@@ -561,9 +652,16 @@ fn daylight(s: &SkyFile) -> Result<super::types::Daylight, SceneError> {
             let dir = [az.sin() * el.cos(), az.cos() * el.cos(), el.sin()];
             let sky = Sky::cie_clear(dir, s.zenith_luminance_cd_m2);
             match s.sun_normal_illuminance_lux {
-                Some(e) if e.is_finite() && e >= 0.0 => sky.with_sun_normal_illuminance_lux(e),
+                Some(e) if e.is_finite() && (0.0..=MAX_ILLUMINANCE_LUX).contains(&e) => {
+                    sky.with_sun_normal_illuminance_lux(e)
+                }
                 Some(e) => {
-                    return Err(invalid(what, format!("sun illuminance {e} lx must be ≥ 0")));
+                    return Err(invalid(
+                        what,
+                        format!(
+                            "sun_normal_illuminance_lux = {e:?} must be ≥ 0 and at most {MAX_ILLUMINANCE_LUX:e} lx"
+                        ),
+                    ));
                 }
                 None => sky,
             }
@@ -602,11 +700,18 @@ pub fn parse_scene_toml(
         path: source.to_path_buf(),
         message: e.to_string(),
     })?;
-    if !(file.unit_m.is_finite() && file.unit_m > 0.0) {
+    let u = file.unit_m;
+    if !(u.is_finite() && (MIN_UNIT_M..=MAX_UNIT_M).contains(&u)) {
         return Err(invalid(
             "unit_m",
-            "must be a positive number of metres per unit",
+            format!(
+                "unit_m = {u:?} must be the metres per file unit, between {MIN_UNIT_M:e} and {MAX_UNIT_M:e} (e.g. 1 for metres, 0.001 for millimetres)"
+            ),
         ));
+    }
+    // refuse an image too large to allocate before any geometry is read or solved
+    if let Some(c) = &file.camera {
+        camera_size(c)?;
     }
     let materials = Materials::of(&file)?;
     let mut raw = match &file.geometry {
@@ -684,7 +789,15 @@ fn obj_polygons(
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, mtl) = tobj::load_obj(path, &opts).map_err(|e| SceneError::Obj {
+    // tobj 4 overflows on absurd indices (a panic in debug builds): a malformed file
+    // must be an error that names it, never a crash
+    let loaded = std::panic::catch_unwind(|| tobj::load_obj(path, &opts)).map_err(|_| {
+        SceneError::Obj {
+            path: path.to_path_buf(),
+            message: "the OBJ reader failed on a malformed face or index; check the file's `f` lines (indices must refer to existing v/vt/vn entries)".into(),
+        }
+    })?;
+    let (models, mtl) = loaded.map_err(|e| SceneError::Obj {
         path: path.to_path_buf(),
         message: e.to_string(),
     })?;
@@ -732,6 +845,16 @@ fn model_faces(
         let p = mesh.positions.get(k..k + 3)?;
         Some(V3::new(p[0] as f64, p[1] as f64, p[2] as f64) * unit_m)
     };
+    if let Some(c) = mesh
+        .positions
+        .iter()
+        .map(|&c| c as f64 * unit_m)
+        .find(|c| c.is_finite() && c.abs() > MAX_COORDINATE_M)
+    {
+        return Err(obj_error(&format!(
+            "has a vertex coordinate of {c:e} m (file value × unit_m {unit_m}), beyond ±{MAX_COORDINATE_M:e} m; check unit_m and the OBJ's units"
+        )));
+    }
     let arities: Vec<u32> = if mesh.face_arities.is_empty() {
         vec![3; mesh.indices.len() / 3]
     } else {
@@ -765,8 +888,21 @@ fn inline_polygons(file: &SceneFile, materials: &Materials) -> Result<Vec<Polygo
         } else {
             p.name.clone()
         };
+        let vertices: Vec<V3> = p.vertices.iter().map(|&v| v3(v) * file.unit_m).collect();
+        if let Some(v) = vertices.iter().find(|v| {
+            v.iter()
+                .any(|c| c.is_finite() && c.abs() > MAX_COORDINATE_M)
+        }) {
+            return Err(invalid(
+                format!("polygon `{name}`"),
+                format!(
+                    "vertex [{:e}, {:e}, {:e}] m (file value × unit_m {}) lies beyond ±{MAX_COORDINATE_M:e} m; check unit_m and the coordinates",
+                    v.x, v.y, v.z, file.unit_m
+                ),
+            ));
+        }
         raw.push(Polygon {
-            vertices: p.vertices.iter().map(|&v| v3(v) * file.unit_m).collect(),
+            vertices,
             material: materials.lookup(&name, &p.material)?,
             object: name,
         });
@@ -779,20 +915,59 @@ const MAX_VFOV_DEG: f64 = 179.0;
 
 /// The `[camera]` entry, in metres.
 fn camera(c: &CameraFile, unit_m: f64) -> Result<Camera, SceneError> {
-    if !(c.vfov_deg > 0.0 && c.vfov_deg < MAX_VFOV_DEG && c.width > 0 && c.height > 0) {
+    let what = "camera";
+    if !(c.vfov_deg > 0.0 && c.vfov_deg < MAX_VFOV_DEG) {
         return Err(invalid(
-            "camera",
-            "need 0 < vfov_deg < 179 and width, height > 0",
+            what,
+            format!("vfov_deg = {:?} must lie in (0, 179) degrees", c.vfov_deg),
+        ));
+    }
+    camera_size(c)?;
+    let position = point_m(what, "position", c.position, unit_m)?;
+    let look_at = point_m(what, "look_at", c.look_at, unit_m)?;
+    let up = direction(what, "up", c.up)?;
+    let view = look_at - position;
+    let Some(fwd) = view.try_normalize(MIN_DIRECTION_LENGTH * unit_m) else {
+        return Err(invalid(
+            what,
+            format!(
+                "`position` {:?} and `look_at` {:?} are the same point, so the view direction is undefined; set look_at to the point the camera faces",
+                c.position, c.look_at
+            ),
+        ));
+    };
+    if fwd.cross(&up).norm() < MIN_UP_VIEW_SINE {
+        return Err(invalid(
+            what,
+            format!(
+                "`up` = {:?} is parallel to the view direction look_at − position = [{}, {}, {}]; give an up vector across it (e.g. [0, 0, 1] in a z-up scene)",
+                c.up, fwd.x, fwd.y, fwd.z
+            ),
         ));
     }
     Ok(Camera {
-        position: v3(c.position) * unit_m,
-        look_at: v3(c.look_at) * unit_m,
-        up: v3(c.up),
+        position,
+        look_at,
+        up,
         vfov_deg: c.vfov_deg,
         width_px: c.width,
         height_px: c.height,
     })
+}
+
+/// Checks the camera's image size against [`MAX_CAMERA_PIXELS`].
+fn camera_size(c: &CameraFile) -> Result<(), SceneError> {
+    let pixels = u64::from(c.width) * u64::from(c.height);
+    if pixels == 0 || pixels > MAX_CAMERA_PIXELS {
+        return Err(invalid(
+            "camera",
+            format!(
+                "width × height = {} × {} = {pixels} pixels; need width, height > 0 and at most {MAX_CAMERA_PIXELS} pixels (2^26, e.g. 8192 × 8192); lower width or height",
+                c.width, c.height
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// Loads a scene file from disk.
