@@ -4,55 +4,18 @@
 
 use std::path::{Path, PathBuf};
 
-use assert_cmd::Command;
 use predicates::prelude::*;
 use predicates::str::contains;
 use tempfile::TempDir;
 
-/// A file or folder of the repository's fixtures.
-fn fixture(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../fixtures")
-        .join(rel)
-}
-
-fn small_wall() -> PathBuf {
-    fixture("walls/mono-2x1.toml")
-}
-
-fn cornell() -> PathBuf {
-    fixture("scenes/cornell/cornell.toml")
-}
-
-fn lumiwall() -> Command {
-    Command::cargo_bin("lumiwall").unwrap()
-}
+mod common;
+use common::*;
 
 /// The entries of `dir` (empty when it does not exist).
 fn entries(dir: &Path) -> Vec<PathBuf> {
     std::fs::read_dir(dir)
         .map(|d| d.map(|e| e.unwrap().path()).collect())
         .unwrap_or_default()
-}
-
-/// Commissions the small wall with the exact, direct meter into `dir/profiles`.
-fn commission_small_wall(dir: &Path) -> PathBuf {
-    let out = dir.join("profiles");
-    lumiwall()
-        .args([
-            "commission",
-            "--meter",
-            "direct",
-            "--noise",
-            "none",
-            "--wall",
-        ])
-        .arg(small_wall())
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success();
-    out
 }
 
 /// `verify` of the small wall's `profiles` with `args` must fail with exit 2, naming
@@ -145,16 +108,13 @@ fn render_refuses_huge_durations_and_bad_sizes_before_solving() {
     let tmp = TempDir::new().unwrap();
     let out = tmp.path().join("frame.exr");
     let refuses = |args: &[&str], allowed: &str| {
-        lumiwall()
-            .arg("render")
+        let mut cmd = lumiwall();
+        cmd.arg("render")
             .args(args)
             .arg("--out")
             .arg(&out)
-            .arg(cornell())
-            .assert()
-            .code(2)
-            .stderr(contains(args[0]))
-            .stderr(contains(allowed));
+            .arg(cornell());
+        assert_refused(&mut cmd, args[0], allowed);
     };
     refuses(&["--time", "1e30h"], "at most 7 days");
     refuses(&["--time", "169h"], "at most 7 days");
@@ -233,12 +193,7 @@ fn commission_refuses_a_too_small_budget_without_suggesting_resume() {
     let tmp = TempDir::new().unwrap();
     let out = tmp.path().join("p");
     for budget in ["0", "10"] {
-        lumiwall()
-            .args(["commission", "--meter", "direct", "--budget", budget])
-            .arg("--wall")
-            .arg(small_wall())
-            .arg("--out")
-            .arg(&out)
+        commission_small(&out, &["--budget", budget])
             .assert()
             .code(2)
             .stderr(contains("--budget"))
@@ -246,12 +201,7 @@ fn commission_refuses_a_too_small_budget_without_suggesting_resume() {
             .stderr(contains("raise --budget"))
             .stderr(contains("--resume").not());
     }
-    lumiwall()
-        .args(["commission", "--meter", "direct", "--budget", "4000000000"])
-        .arg("--wall")
-        .arg(small_wall())
-        .arg("--out")
-        .arg(&out)
+    commission_small(&out, &["--budget", "4000000000"])
         .assert()
         .code(2)
         .stderr(contains("10000"));
@@ -264,11 +214,7 @@ fn commission_refuses_an_out_that_is_a_file_before_measuring() {
     let file = tmp.path().join("f");
     std::fs::write(&file, b"keep").unwrap();
     for out in [file.clone(), file.join("sub")] {
-        lumiwall()
-            .args(["commission", "--meter", "direct", "--wall"])
-            .arg(small_wall())
-            .arg("--out")
-            .arg(&out)
+        commission_small(&out, &[])
             .assert()
             .code(2)
             .stderr(contains("--out"))
@@ -294,13 +240,9 @@ fn bench_options_are_bounded() {
         .code(2)
         .stderr(contains("--patches"));
     let radiosity = |args: &[&str], allowed: &str| {
-        lumiwall()
-            .args(["bench", "radiosity"])
-            .args(args)
-            .assert()
-            .code(2)
-            .stderr(contains(args[0]))
-            .stderr(contains(allowed));
+        let mut cmd = lumiwall();
+        cmd.args(["bench", "radiosity"]).args(args);
+        assert_refused(&mut cmd, args[0], allowed);
     };
     radiosity(&["--time-limit-s", "1e300"], "at most 7 days");
     radiosity(&["--time-limit-s", "-1"], "greater than 0");

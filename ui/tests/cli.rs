@@ -10,43 +10,8 @@ use predicates::prelude::*;
 use predicates::str::contains;
 use tempfile::TempDir;
 
-/// A file or folder of the repository's fixtures.
-fn fixture(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../fixtures")
-        .join(rel)
-}
-
-/// The smallest wall: two mono projectors.
-fn small_wall() -> PathBuf {
-    fixture("walls/mono-2x1.toml")
-}
-
-fn lumiwall() -> Command {
-    Command::cargo_bin("lumiwall").unwrap()
-}
-
-/// Commissions the small wall with the exact, direct meter into `dir/profiles`.
-fn commission_small_wall(dir: &Path) -> PathBuf {
-    let out = dir.join("profiles");
-    lumiwall()
-        .args([
-            "commission",
-            "--meter",
-            "direct",
-            "--noise",
-            "none",
-            "--wall",
-        ])
-        .arg(small_wall())
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success()
-        .stdout(contains("commissioning mono-2x1: 2 displays"))
-        .stdout(contains("profiles: "));
-    out
-}
+mod common;
+use common::*;
 
 /// Records the commissioned profiles of the small wall in `dir/store.lumistore`.
 fn store_with_one_run(dir: &Path) -> PathBuf {
