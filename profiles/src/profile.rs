@@ -172,15 +172,23 @@ fn finite3(v: &[f64; 3]) -> bool {
 impl DisplayProfile {
     /// Checks internal consistency; returns a technician-readable reason on failure.
     pub fn validate(&self) -> Result<(), ProfileError> {
-        let bad = |reason: String| ProfileError::Invalid {
-            display: self.display.to_string(),
-            reason,
-        };
+        self.check_numbers()
+            .and_then(|()| self.check_settings())
+            .and_then(|()| self.check_curves())
+            .and_then(|()| self.check_flat_field())
+            .map_err(|reason| ProfileError::Invalid {
+                display: self.display.to_string(),
+                reason,
+            })
+    }
+
+    /// Format version, then every vector and matrix finite.
+    fn check_numbers(&self) -> Result<(), String> {
         if self.format_version != FORMAT_VERSION {
-            return Err(bad(format!(
+            return Err(format!(
                 "format version {} (expected {FORMAT_VERSION})",
                 self.format_version
-            )));
+            ));
         }
         let arrays = [
             ("black_xyz_cd_m2", &self.black_xyz_cd_m2),
@@ -191,84 +199,100 @@ impl DisplayProfile {
         ];
         for (name, v) in arrays {
             if !finite3(v) {
-                return Err(bad(format!("{name} has a non-finite value")));
+                return Err(format!("{name} has a non-finite value"));
             }
         }
         if !self.xyz_to_drive.iter().all(finite3) || !self.primaries_xyz_cd_m2.iter().all(finite3) {
-            return Err(bad("matrix has a non-finite value".into()));
+            return Err("matrix has a non-finite value".into());
         }
+        Ok(())
+    }
+
+    /// Wall name, common primaries, additivity error, headroom and bit depth.
+    fn check_settings(&self) -> Result<(), String> {
         if self.display.wall.is_empty() {
-            return Err(bad("display.wall (the wall name) is empty".into()));
+            return Err("display.wall (the wall name) is empty".into());
         }
         for (ch, [x, y]) in Channel::ALL.into_iter().zip(self.common_primaries_xy) {
             if !Xy::new(x, y).is_valid() {
-                return Err(bad(format!(
+                return Err(format!(
                     "common_primaries_xy of {ch} is ({x}, {y}), not a chromaticity \
                      (x, y finite, x >= 0, y > 0, x + y <= 1)"
-                )));
+                ));
             }
         }
         if let Some(e) = self.measurement.additivity_error
             && !e.is_finite()
         {
-            return Err(bad(format!(
+            return Err(format!(
                 "measurement.additivity_error is {e}, must be a finite number or null"
-            )));
+            ));
         }
-        Headroom::new(self.headroom).map_err(|e| bad(e.to_string()))?;
+        Headroom::new(self.headroom).map_err(|e| e.to_string())?;
         if !BitDepth::is_profile_depth(self.bit_depth) {
-            return Err(bad(format!(
+            return Err(format!(
                 "bit depth {} is not 8, 10, 12 or 16",
                 self.bit_depth
-            )));
+            ));
         }
+        Ok(())
+    }
+
+    /// Per channel: finite forward samples, a long enough monotone inverse LUT in 0..=1.
+    fn check_curves(&self) -> Result<(), String> {
         for (ch, curve) in Channel::ALL.into_iter().zip(&self.curves) {
             if let Some(i) = curve
                 .forward
                 .iter()
                 .position(|s| !(s[0].is_finite() && s[1].is_finite()))
             {
-                return Err(bad(format!(
+                return Err(format!(
                     "{ch} forward curve sample {i} is {:?}, not finite",
                     curve.forward[i]
-                )));
+                ));
             }
             if curve.inverse_lut.len() < MIN_LUT_ENTRIES {
-                return Err(bad(format!(
+                return Err(format!(
                     "{ch} inverse LUT has {} entries, at least {MIN_LUT_ENTRIES} needed",
                     curve.inverse_lut.len()
-                )));
+                ));
             }
             if curve
                 .inverse_lut
                 .iter()
                 .any(|v| !v.is_finite() || !(0.0..=1.0).contains(v))
             {
-                return Err(bad(format!("{ch} inverse LUT has a value outside 0..=1")));
+                return Err(format!("{ch} inverse LUT has a value outside 0..=1"));
             }
             if curve.inverse_lut.windows(2).any(|w| w[1] < w[0]) {
-                return Err(bad(format!("{ch} inverse LUT is not monotone")));
+                return Err(format!("{ch} inverse LUT is not monotone"));
             }
         }
-        if let Some(ff) = &self.flat_field {
-            // u32 × u32 always fits u64: exact on every platform.
-            let n = u64::from(ff.width) * u64::from(ff.height);
-            if ff.width == 0 || ff.height == 0 || ff.gain.len() as u64 != n {
-                return Err(bad(format!(
-                    "flat-field texture is {}×{} but holds {} texels",
-                    ff.width,
-                    ff.height,
-                    ff.gain.len()
-                )));
-            }
-            if ff
-                .gain
-                .iter()
-                .flatten()
-                .any(|g| !g.is_finite() || *g <= 0.0 || *g > 1.0)
-            {
-                return Err(bad("flat-field gain outside (0, 1]".into()));
-            }
+        Ok(())
+    }
+
+    /// The flat-field texture, if any: its size matches its texels, gains in (0, 1].
+    fn check_flat_field(&self) -> Result<(), String> {
+        let Some(ff) = &self.flat_field else {
+            return Ok(());
+        };
+        // u32 × u32 always fits u64: exact on every platform.
+        let n = u64::from(ff.width) * u64::from(ff.height);
+        if ff.width == 0 || ff.height == 0 || ff.gain.len() as u64 != n {
+            return Err(format!(
+                "flat-field texture is {}×{} but holds {} texels",
+                ff.width,
+                ff.height,
+                ff.gain.len()
+            ));
+        }
+        if ff
+            .gain
+            .iter()
+            .flatten()
+            .any(|g| !g.is_finite() || *g <= 0.0 || *g > 1.0)
+        {
+            return Err("flat-field gain outside (0, 1]".into());
         }
         Ok(())
     }
