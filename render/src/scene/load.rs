@@ -603,12 +603,34 @@ const MAX_SKY_BANDS: usize = 90;
 /// Daylight from a `[sky]` entry, in world coordinates.
 fn daylight(s: &SkyFile) -> Result<super::types::Daylight, SceneError> {
     use super::types::{Daylight, DirectionalSource};
-    use crate::photometry::Sky;
-    let what = "sky";
+    check_sky_numbers(s)?;
+    let world = sky_to_world(s)?;
+    let sky_col = xy_to_xyz("sky colour", Some(s.sky_xy.unwrap_or([0.3127, 0.3290])))?;
+    let sun_col = xy_to_xyz("sun colour", Some(s.sun_xy.unwrap_or([0.3324, 0.3474])))?;
+    let sky = sky_model(s)?;
+    let sky_cells = sky
+        .patches(s.bands)
+        .into_iter()
+        .map(|c| DirectionalSource {
+            direction: world(c.direction),
+            normal_illuminance_lux: c.luminance_cd_m2 * c.solid_angle_sr,
+            color_xyz: sky_col,
+        })
+        .collect();
+    let sun = sky.sun().map(|sun| DirectionalSource {
+        direction: world(sun.direction),
+        normal_illuminance_lux: sun.normal_illuminance_lux,
+        color_xyz: sun_col,
+    });
+    Ok(Daylight { sky_cells, sun })
+}
+
+/// The sky's zenith luminance and band count within their limits.
+fn check_sky_numbers(s: &SkyFile) -> Result<(), SceneError> {
     let zl = s.zenith_luminance_cd_m2;
     if !(zl.is_finite() && zl > 0.0 && zl <= MAX_LUMINANCE_CD_M2) {
         return Err(invalid(
-            what,
+            "sky",
             format!(
                 "zenith_luminance_cd_m2 = {zl:?} must be positive and at most {MAX_LUMINANCE_CD_M2:e} cd/m²"
             ),
@@ -616,27 +638,35 @@ fn daylight(s: &SkyFile) -> Result<super::types::Daylight, SceneError> {
     }
     if !(1..=MAX_SKY_BANDS).contains(&s.bands) {
         return Err(invalid(
-            what,
+            "sky",
             format!("bands {} must be in 1..={MAX_SKY_BANDS}", s.bands),
         ));
     }
-    let up = direction(what, "up", s.up)?;
-    let north = direction(what, "north", s.north)?;
+    Ok(())
+}
+
+/// Maps a direction of the sky model's frame (x east, y north, z up) to the world.
+fn sky_to_world(s: &SkyFile) -> Result<impl Fn([f64; 3]) -> V3, SceneError> {
+    let up = direction("sky", "up", s.up)?;
+    let north = direction("sky", "north", s.north)?;
     let north = north - up * up.dot(&north);
     let north = north
         .try_normalize(MIN_DIRECTION_LENGTH)
-        .ok_or_else(|| invalid(what, "`north` must not be parallel to `up`"))?;
+        .ok_or_else(|| invalid("sky", "`north` must not be parallel to `up`"))?;
     let east = north.cross(&up);
-    // the sky model's frame: x east, y north, z up
-    let world = |d: [f64; 3]| east * d[0] + north * d[1] + up * d[2];
-    let sky_col = xy_to_xyz("sky colour", Some(s.sky_xy.unwrap_or([0.3127, 0.3290])))?;
-    let sun_col = xy_to_xyz("sun colour", Some(s.sun_xy.unwrap_or([0.3324, 0.3474])))?;
-    let sky = match s.model.as_str() {
+    Ok(move |d: [f64; 3]| east * d[0] + north * d[1] + up * d[2])
+}
+
+/// The CIE sky of the file: overcast (no sun) or clear with its sun.
+fn sky_model(s: &SkyFile) -> Result<crate::photometry::Sky, SceneError> {
+    use crate::photometry::Sky;
+    let what = "sky";
+    match s.model.as_str() {
         "overcast" => {
             if s.sun_azimuth_deg.is_some() || s.sun_elevation_deg.is_some() {
                 return Err(invalid(what, "the overcast sky has no sun; remove sun_*"));
             }
-            Sky::cie_overcast(s.zenith_luminance_cd_m2)
+            Ok(Sky::cie_overcast(s.zenith_luminance_cd_m2))
         }
         "clear" => {
             let (Some(az), Some(el)) = (s.sun_azimuth_deg, s.sun_elevation_deg) else {
@@ -653,41 +683,22 @@ fn daylight(s: &SkyFile) -> Result<super::types::Daylight, SceneError> {
             let sky = Sky::cie_clear(dir, s.zenith_luminance_cd_m2);
             match s.sun_normal_illuminance_lux {
                 Some(e) if e.is_finite() && (0.0..=MAX_ILLUMINANCE_LUX).contains(&e) => {
-                    sky.with_sun_normal_illuminance_lux(e)
+                    Ok(sky.with_sun_normal_illuminance_lux(e))
                 }
-                Some(e) => {
-                    return Err(invalid(
-                        what,
-                        format!(
-                            "sun_normal_illuminance_lux = {e:?} must be ≥ 0 and at most {MAX_ILLUMINANCE_LUX:e} lx"
-                        ),
-                    ));
-                }
-                None => sky,
+                Some(e) => Err(invalid(
+                    what,
+                    format!(
+                        "sun_normal_illuminance_lux = {e:?} must be ≥ 0 and at most {MAX_ILLUMINANCE_LUX:e} lx"
+                    ),
+                )),
+                None => Ok(sky),
             }
         }
-        other => {
-            return Err(invalid(
-                what,
-                format!("model `{other}` is not known; use `overcast` or `clear`"),
-            ));
-        }
-    };
-    let sky_cells = sky
-        .patches(s.bands)
-        .into_iter()
-        .map(|c| DirectionalSource {
-            direction: world(c.direction),
-            normal_illuminance_lux: c.luminance_cd_m2 * c.solid_angle_sr,
-            color_xyz: sky_col,
-        })
-        .collect();
-    let sun = sky.sun().map(|sun| DirectionalSource {
-        direction: world(sun.direction),
-        normal_illuminance_lux: sun.normal_illuminance_lux,
-        color_xyz: sun_col,
-    });
-    Ok(Daylight { sky_cells, sun })
+        other => Err(invalid(
+            what,
+            format!("model `{other}` is not known; use `overcast` or `clear`"),
+        )),
+    }
 }
 
 /// Parses a scene from TOML text; `base_dir` resolves the OBJ path.
