@@ -610,3 +610,45 @@ fn integrate_sin(f: &dyn Fn(f64) -> f64, breaks: &[f64]) -> f64 {
     }
     total
 }
+
+/// Where a table of intensities came from, for [`scaled_intensity_rows`]'s error.
+pub(crate) struct IntensitySource {
+    /// The file format (e.g. "IES LM-63").
+    pub(crate) format: &'static str,
+    /// 1-based line of the first intensity value.
+    pub(crate) line: usize,
+    /// What multiplies the file's values, e.g. "a candela value × multiplier".
+    pub(crate) scaling: &'static str,
+    /// What the technician should check when the product is too large.
+    pub(crate) hint: &'static str,
+}
+
+/// The file's intensity `values` times `factor` (cd), cut into rows of `row_len`; an
+/// error naming the source when a product is not finite or above
+/// [`crate::scene::limits::MAX_INTENSITY_CD`].
+pub(crate) fn scaled_intensity_rows(
+    values: &[f64],
+    factor: f64,
+    row_len: usize,
+    source: &IntensitySource,
+) -> Result<Vec<Vec<f64>>, super::error::PhotometryError> {
+    use crate::scene::limits::MAX_INTENSITY_CD;
+    if let Some(v) = values
+        .iter()
+        .map(|v| v * factor)
+        .find(|v| !(v.is_finite() && *v <= MAX_INTENSITY_CD))
+    {
+        return Err(super::error::PhotometryError::Parse {
+            format: source.format,
+            line: source.line,
+            message: format!(
+                "{} ({factor:e}) is {v:e} cd, above the {MAX_INTENSITY_CD:e} cd the renderer accepts; {}",
+                source.scaling, source.hint
+            ),
+        });
+    }
+    Ok(values
+        .chunks(row_len)
+        .map(|r| r.iter().map(|v| v * factor).collect())
+        .collect())
+}

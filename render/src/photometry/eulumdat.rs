@@ -8,9 +8,11 @@
 //! flux (× the conversion factor of line 24 where it is > 0); the declared luminaire
 //! flux is that lamp flux × LORL. Decimal commas are accepted.
 
-use super::distribution::{CSymmetry, GonioTable, IntensityDistribution};
+use super::distribution::{
+    CSymmetry, GonioTable, IntensityDistribution, IntensitySource, scaled_intensity_rows,
+};
 use super::error::PhotometryError;
-use crate::scene::limits::{MAX_FLUX_LM, MAX_INTENSITY_CD};
+use crate::scene::limits::MAX_FLUX_LM;
 
 const FORMAT: &str = "EULUMDAT";
 
@@ -210,23 +212,17 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
         })
         .collect();
     let to_cd = lamp_flux / 1000.0 * if conversion > 0.0 { conversion } else { 1.0 };
-    if let Some(v) = values
-        .iter()
-        .map(|v| v * to_cd)
-        .find(|v| !(v.is_finite() && *v <= MAX_INTENSITY_CD))
-    {
-        return Err(PhotometryError::Parse {
+    let rows = scaled_intensity_rows(
+        &values,
+        to_cd,
+        ng,
+        &IntensitySource {
             format: FORMAT,
             line: v_line,
-            message: format!(
-                "an intensity × lamp flux / 1000 × conversion factor ({to_cd:e}) is {v:e} cd, above the {MAX_INTENSITY_CD:e} cd the renderer accepts; check the lamp flux and line 24"
-            ),
-        });
-    }
-    let rows: Vec<Vec<f64>> = values
-        .chunks(ng)
-        .map(|r| r.iter().map(|v| v * to_cd).collect())
-        .collect();
+            scaling: "an intensity × lamp flux / 1000 × conversion factor",
+            hint: "check the lamp flux and line 24",
+        },
+    )?;
     // Isym 3 runs through C360 ≡ C0; keep the angles increasing for validation.
     let table = GonioTable::unfold(&c_given, &gamma, &rows, symmetry).map_err(|e| {
         PhotometryError::Parse {

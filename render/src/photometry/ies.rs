@@ -12,9 +12,11 @@
 //! ballast-lamp photometric factor. Photometric types A and B (floodlights, automotive)
 //! and `TILT=<file name>` are rejected with [`PhotometryError::Unsupported`].
 
-use super::distribution::{CSymmetry, GonioTable, IntensityDistribution};
+use super::distribution::{
+    CSymmetry, GonioTable, IntensityDistribution, IntensitySource, scaled_intensity_rows,
+};
 use super::error::PhotometryError;
-use crate::scene::limits::{MAX_FLUX_LM, MAX_INTENSITY_CD};
+use crate::scene::limits::MAX_FLUX_LM;
 
 const FORMAT: &str = "IES LM-63";
 
@@ -268,23 +270,17 @@ pub(crate) fn parse(text: &str) -> Result<IntensityDistribution, PhotometryError
     };
     let factor =
         multiplier * positive_or_one(ballast) * positive_or_one(ballast_lamp) * tilt_factor;
-    if let Some(v) = cd
-        .iter()
-        .map(|v| v * factor)
-        .find(|v| !(v.is_finite() && *v <= MAX_INTENSITY_CD))
-    {
-        return Err(PhotometryError::Parse {
+    let rows = scaled_intensity_rows(
+        &cd,
+        factor,
+        n_vert,
+        &IntensitySource {
             format: FORMAT,
             line: cl,
-            message: format!(
-                "a candela value × multiplier, ballast and tilt factors ({factor:e}) is {v:e} cd, above the {MAX_INTENSITY_CD:e} cd the renderer accepts; check the candela multiplier"
-            ),
-        });
-    }
-    let rows: Vec<Vec<f64>> = cd
-        .chunks(n_vert)
-        .map(|r| r.iter().map(|v| v * factor).collect())
-        .collect();
+            scaling: "a candela value × multiplier, ballast and tilt factors",
+            hint: "check the candela multiplier",
+        },
+    )?;
     let table =
         GonioTable::unfold(&horiz, &vert, &rows, symmetry).map_err(|e| PhotometryError::Parse {
             format: FORMAT,
