@@ -1,11 +1,13 @@
 //! Corpus-driven mutation fuzzing on top of proptest, shared by the fuzz targets of
 //! the workspace's crates (`devices/tests/fuzz_parsers.rs`,
-//! `profiles/tests/fuzz_parsers.rs` include it with `#[path]`).
+//! `profiles/tests/fuzz_parsers.rs`, `render/tests/fuzz_parsers.rs` include it with
+//! `#[path]`).
 //!
 //! A target starts from the files in `fuzz/corpus/<parser>/` (the fixtures and the
 //! interesting cases, crashing inputs found earlier included) and applies a few
 //! mutations to one of them: bit flips, byte replacements, truncation, deletion,
-//! duplication, splicing with another corpus file, and numbers replaced by extremes
+//! duplication, splicing with another corpus file, line duplication, deletion and
+//! swaps, and numbers replaced by extremes
 //! (1e308, -0, NaN, inf, huge integers). Every case runs on a worker thread and must
 //! finish within [`case_limit`] (no hang); a panic or a property violation fails the
 //! target with the shrunk input, written to `$CARGO_TARGET_TMPDIR` for the corpus.
@@ -149,6 +151,12 @@ pub(crate) enum Mutation {
     Number(Index, &'static str),
     /// Insert an extreme at a position.
     InsertText(Index, &'static str),
+    /// Repeat line `n` (modulo the line count) this many times.
+    DuplicateLine(usize, usize),
+    /// Remove line `n` (modulo the line count).
+    DeleteLine(usize),
+    /// Swap two lines (each modulo the line count).
+    SwapLines(usize, usize),
 }
 
 fn mutation() -> impl Strategy<Value = Mutation> {
@@ -164,12 +172,22 @@ fn mutation() -> impl Strategy<Value = Mutation> {
             .prop_map(|(a, f, b, n)| Mutation::Splice(a, f, b, n)),
         (any::<Index>(), extreme.clone()).prop_map(|(i, e)| Mutation::Number(i, e)),
         (any::<Index>(), extreme).prop_map(|(i, e)| Mutation::InsertText(i, e)),
+        (any::<usize>(), 1usize..50).prop_map(|(l, n)| Mutation::DuplicateLine(l, n)),
+        any::<usize>().prop_map(Mutation::DeleteLine),
+        (any::<usize>(), any::<usize>()).prop_map(|(a, b)| Mutation::SwapLines(a, b)),
     ]
+}
+
+/// Applies a change to the lines of `data` (split at `\n`; never empty).
+fn edit_lines(data: &mut Vec<u8>, edit: impl FnOnce(&mut Vec<Vec<u8>>)) {
+    let mut lines: Vec<Vec<u8>> = data.split(|c| *c == b'\n').map(<[u8]>::to_vec).collect();
+    edit(&mut lines);
+    *data = lines.join(&b'\n');
 }
 
 /// Byte ranges of the numbers in `s`: maximal runs of digits with their sign,
 /// point, exponent and underscores.
-fn numbers(s: &[u8]) -> Vec<(usize, usize)> {
+pub(crate) fn numbers(s: &[u8]) -> Vec<(usize, usize)> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < s.len() {
@@ -248,6 +266,19 @@ pub(crate) fn apply(data: &mut Vec<u8>, m: &Mutation, corpus: &[(String, Vec<u8>
             let k = at(i, data.len() + 1);
             data.splice(k..k, e.bytes());
         }
+        Mutation::DuplicateLine(line, times) => edit_lines(data, |lines| {
+            let k = line % lines.len();
+            let copies = vec![lines[k].clone(); *times];
+            lines.splice(k..k, copies);
+        }),
+        Mutation::DeleteLine(line) => edit_lines(data, |lines| {
+            let n = lines.len();
+            lines.remove(line % n);
+        }),
+        Mutation::SwapLines(a, b) => edit_lines(data, |lines| {
+            let n = lines.len();
+            lines.swap(a % n, b % n);
+        }),
     }
 }
 
