@@ -34,7 +34,7 @@ use std::time::Duration;
 pub use jiff::Timestamp;
 use rusqlite::{Connection, ErrorCode, OpenFlags, OptionalExtension, params};
 
-pub use drift::Drift;
+pub use drift::{Drift, DriftLimits};
 pub use error::StoreError;
 
 use crate::{DisplayProfile, Eye, ProfileError};

@@ -5,8 +5,8 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use lumiwall_profiles::store::{
-    CommissionRun, Drift, ProfileStore, Timestamp, drift::native_white_xyz_cd_m2, drift::xy_of,
-    parse_time,
+    CommissionRun, Drift, DriftLimits, ProfileStore, Timestamp, drift::native_white_xyz_cd_m2,
+    drift::xy_of, parse_time,
 };
 use lumiwall_profiles::{DisplayProfile, ProfileSet};
 
@@ -138,7 +138,11 @@ fn drift(a: &DriftArgs) -> Result<(), CliError> {
         )));
     }
     print!("{}", drift_table(&drifts));
-    check_limits(&drifts, a.max_luminance_change_pct, a.max_delta_xy)
+    let limits = DriftLimits {
+        max_luminance_change_pct: a.max_luminance_change_pct,
+        max_delta_xy: a.max_delta_xy,
+    };
+    check_limits(&drifts, limits)
 }
 
 /// One row per stored profile: native white, black and channel usage.
@@ -274,30 +278,8 @@ fn drift_table(drifts: &[Drift]) -> String {
 }
 
 /// Exit status 3 if a drift exceeds the user's limits.
-fn check_limits(
-    drifts: &[Drift],
-    max_pct: Option<f64>,
-    max_xy: Option<f64>,
-) -> Result<(), CliError> {
-    let mut over = Vec::new();
-    for d in drifts {
-        if let (Some(limit), Some(v)) = (max_pct, d.white_luminance_change_pct)
-            && v.abs() > limit
-        {
-            over.push(format!(
-                "display {} {}: white luminance {v:+.2} % (limit ±{limit} %)",
-                d.display.display, d.display.eye
-            ));
-        }
-        if let (Some(limit), Some(v)) = (max_xy, d.white_delta_xy)
-            && v > limit
-        {
-            over.push(format!(
-                "display {} {}: white Δxy {v:.4} (limit {limit})",
-                d.display.display, d.display.eye
-            ));
-        }
-    }
+fn check_limits(drifts: &[Drift], limits: DriftLimits) -> Result<(), CliError> {
+    let over = limits.violations(drifts);
     if over.is_empty() {
         Ok(())
     } else {
@@ -484,8 +466,12 @@ mod tests {
         let drifts = store.drift_wall("hall-a", None).unwrap();
         let t = drift_table(&drifts);
         assert!(t.contains("-4.00") && t.contains("display 1 mono"), "{t}");
-        assert!(check_limits(&drifts, Some(5.0), Some(0.001)).is_ok());
-        let err = check_limits(&drifts, Some(3.0), None).unwrap_err();
+        let limits = |pct, xy| DriftLimits {
+            max_luminance_change_pct: pct,
+            max_delta_xy: xy,
+        };
+        assert!(check_limits(&drifts, limits(Some(5.0), Some(0.001))).is_ok());
+        let err = check_limits(&drifts, limits(Some(3.0), None)).unwrap_err();
         assert_eq!(err.exit_code(), 3);
         assert!(err.message.contains("display 1 mono"), "{}", err.message);
 

@@ -99,3 +99,40 @@ impl Drift {
         }
     }
 }
+
+/// The drift a technician accepts before re-commissioning (`None`: not checked).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct DriftLimits {
+    /// Largest |white luminance change| in percent.
+    pub max_luminance_change_pct: Option<f64>,
+    /// Largest white Δxy (CIE 1931).
+    pub max_delta_xy: Option<f64>,
+}
+
+impl DriftLimits {
+    /// One line per display and quantity over its limit, e.g.
+    /// `display 3 left: white Δxy 0.0061 (limit 0.005)`; empty when all are within.
+    pub fn violations(&self, drifts: &[Drift]) -> Vec<String> {
+        let mut over = Vec::new();
+        for d in drifts {
+            if let (Some(limit), Some(v)) =
+                (self.max_luminance_change_pct, d.white_luminance_change_pct)
+                && v.abs() > limit
+            {
+                over.push(format!(
+                    "display {} {}: white luminance {v:+.2} % (limit ±{limit} %)",
+                    d.display.display, d.display.eye
+                ));
+            }
+            if let (Some(limit), Some(v)) = (self.max_delta_xy, d.white_delta_xy)
+                && v > limit
+            {
+                over.push(format!(
+                    "display {} {}: white Δxy {v:.4} (limit {limit})",
+                    d.display.display, d.display.eye
+                ));
+            }
+        }
+        over
+    }
+}
