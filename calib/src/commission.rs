@@ -45,6 +45,7 @@ use crate::report::{self, ReportInputs};
 use crate::solve::{
     DisplayMeasurement, SolveOptions, WallSolution, WhiteTarget, now_rfc3339, solve_wall_at,
 };
+use lumiwall_core::files::FolderLock;
 
 /// Version of the run-folder format.
 pub const RUN_FORMAT_VERSION: u32 = 1;
@@ -119,6 +120,9 @@ pub enum CommissionError {
         /// The run folder.
         run_dir: PathBuf,
     },
+    /// Another process writes into the same output folder.
+    #[error(transparent)]
+    Locked(#[from] lumiwall_core::files::LockError),
     /// The solve failed.
     #[error("solving the wall failed: {0}")]
     Solve(#[from] CalibError),
@@ -247,7 +251,9 @@ fn prepare_run_dir(
 }
 
 /// Commissions a wall: measures every display (resuming if asked), solves, writes the
-/// profiles into `out_dir` and the report.
+/// profiles into `out_dir` and the report. The output folder is locked for the whole
+/// run ([`FolderLock`]): a second commission into it fails at once with
+/// [`CommissionError::Locked`].
 pub fn commission(
     wall: &str,
     displays: &[DisplayInfo],
@@ -256,6 +262,7 @@ pub fn commission(
     opts: &CommissionOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<CommissionOutcome, CommissionError> {
+    let _lock = FolderLock::acquire(out_dir, &format!("commission of wall {wall}"))?;
     let measured = measure_wall(wall, displays, rig, out_dir, opts, progress)?;
     finish(wall, measured.0, measured.1, out_dir, opts)
 }

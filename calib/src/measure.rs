@@ -391,6 +391,45 @@ pub enum MeasureError {
         /// Smallest workable budget.
         min: u32,
     },
+    /// A primary reads no brighter than black and below the meter's reliable limit:
+    /// the display may work but be too dim for this meter (lamp off, dimmed or aged;
+    /// lens cap), or the meter looks elsewhere.
+    #[error(
+        "{display}: full {channel} reads {y_cd_m2:.4} cd/m², below the reliable limit of the \
+         meter ({meter}: {limit_cd_m2} cd/m²); the display is too dim for this meter or shows \
+         nothing at the spot: check the lamp (on, eco/dimming mode, hours), lens cap and aim, \
+         or use a more sensitive meter"
+    )]
+    BelowMeterLimit {
+        /// Display being measured.
+        display: String,
+        /// Channel name.
+        channel: &'static str,
+        /// Primary luminance read.
+        y_cd_m2: f64,
+        /// The reliable limit applied.
+        limit_cd_m2: f64,
+        /// The meter's model.
+        meter: String,
+    },
+    /// Every ramp reading of a channel was below the meter's limit (skipped or refused
+    /// as too dark), so its tone curve cannot be measured.
+    #[error(
+        "{display}: every {channel} ramp reading was below the reliable limit of the meter \
+         ({limit_cd_m2} cd/m²; full {channel} reads {full_y_cd_m2:.4} cd/m²), so the {channel} \
+         tone curve cannot be measured: use --low-light avg:16 to average dark readings, \
+         check the lamp (eco/dimming mode, hours), or use a more sensitive meter"
+    )]
+    RampBelowMeterLimit {
+        /// Display being measured.
+        display: String,
+        /// Channel name.
+        channel: &'static str,
+        /// Full-drive luminance of the channel.
+        full_y_cd_m2: f64,
+        /// The reliable limit applied.
+        limit_cd_m2: f64,
+    },
     /// A primary is not brighter than black: the display shows nothing, or the meter
     /// looks elsewhere.
     #[error(
@@ -741,6 +780,7 @@ pub fn measure_display(
     };
     let mut ramps = RampPlanner::new(black, primaries, info.bit_depth, opts);
     ramps.measure(&mut s, opts, progress)?;
+    ramps.check_measurable(key, s.limit_cd_m2)?;
     let readings = s.log.readings;
     let log = std::mem::take(&mut s.log);
     progress(Progress::DisplayDone {
@@ -779,6 +819,17 @@ fn measure_black_and_primaries(
             .repeated(Patch::Primary(c), primary_repeats, progress)?
             .unwrap_or_default();
         primaries[c.index()] = p;
+        // Not brighter than black: below the meter's limit the meter is the likelier
+        // cause (a dim display reads as nothing); above it, the display or the aim.
+        if p.y <= black.y && p.y < s.limit_cd_m2 {
+            return Err(MeasureError::BelowMeterLimit {
+                display: key.to_string(),
+                channel: c.name(),
+                y_cd_m2: p.y,
+                limit_cd_m2: s.limit_cd_m2,
+                meter: s.rig.meter.info().model,
+            });
+        }
         if p.y <= black.y {
             return Err(MeasureError::NoSignal {
                 display: key.to_string(),
@@ -846,6 +897,24 @@ impl RampPlanner {
         if toe {
             self.toe(s, opts, progress)?;
             self.adaptive(s, 0, progress)?;
+        }
+        Ok(())
+    }
+
+    /// Fails for a channel whose every ramp sample was too dark to read: the solve
+    /// would have no curve to fit, and the cause is the meter's range, not the ramp.
+    fn check_measurable(&self, key: &DisplayKey, limit_cd_m2: f64) -> Result<(), MeasureError> {
+        for c in Channel::ALL {
+            let i = c.index();
+            let tried = self.rel[i].len() > 2;
+            if tried && self.ramps[i].is_empty() {
+                return Err(MeasureError::RampBelowMeterLimit {
+                    display: key.to_string(),
+                    channel: c.name(),
+                    full_y_cd_m2: self.primaries[i].y,
+                    limit_cd_m2,
+                });
+            }
         }
         Ok(())
     }

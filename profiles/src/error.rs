@@ -43,6 +43,23 @@ pub enum ProfileError {
         /// What is wrong.
         reason: String,
     },
+    /// A profile folder without its manifest `wall.json`.
+    #[error(
+        "{dir} has no wall.json: it is not a profile folder, or a commission was interrupted \
+         while saving its profiles (re-run `lumiwall commission --resume` into it)"
+    )]
+    NoManifest {
+        /// The folder.
+        dir: PathBuf,
+    },
+    /// A profile folder whose files do not belong to one solve of one wall.
+    #[error("profile folder {dir} does not hold one solve of one wall: {reason}")]
+    MixedFolder {
+        /// The folder.
+        dir: PathBuf,
+        /// What does not match, naming the files.
+        reason: String,
+    },
     /// The profile store failed.
     #[error("profile store error: {0}")]
     Store(String),

@@ -1,6 +1,6 @@
 //! The `DisplayProfile` type and its file format.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
@@ -8,6 +8,8 @@ use lumiwall_core::{BitDepth, Channel, Headroom, Xy};
 pub use lumiwall_core::{DisplayKey, Eye};
 
 use crate::ProfileError;
+
+pub use lumiwall_core::files::remove_stale_temp_files;
 
 /// Version of the profile file format this build reads and writes.
 pub const FORMAT_VERSION: u32 = 1;
@@ -346,121 +348,13 @@ impl DisplayProfile {
     }
 }
 
-/// Writes `bytes` to `path` through a temporary file `.NAME.tmp-PID` in the same
-/// folder, synced, then renamed over `path`: a crash never leaves a half-written
-/// `path`. On every failure (create, write, sync, rename) the temporary file is
-/// removed again, so a full disk is not kept full by leftovers.
-///
-/// Before writing, temporary files that writers which are no longer running left in
-/// the folder (`.*.tmp-PID` of a dead PID, see [`remove_stale_temp_files`]) are
-/// removed: a kill -9 or a power cut between create and rename leaves one behind.
+/// Writes `bytes` to `path` atomically ([`lumiwall_core::files::write_atomic`]: a
+/// temporary file, synced, then renamed; no leftovers on failure).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ProfileError> {
-    let io = |source| ProfileError::Io {
+    lumiwall_core::files::write_atomic(path, bytes).map_err(|source| ProfileError::Io {
         path: path.to_path_buf(),
         source,
-    };
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
-    if let Some(dir) = dir {
-        std::fs::create_dir_all(dir).map_err(io)?;
-    }
-    // Best effort: a folder that cannot be listed still gets its file written.
-    let _ = remove_stale_temp_files(dir.unwrap_or(Path::new(".")));
-    let mut tmp: PathBuf = path.to_path_buf();
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "profile".into());
-    tmp.set_file_name(format!(".{name}{TEMP_MARK}{}", std::process::id()));
-    let written = write_and_sync(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
-    if let Err(e) = written {
-        // Our own temporary name (a file, or a link, which is not followed); never a
-        // folder that holds the name.
-        if std::fs::symlink_metadata(&tmp).is_ok_and(|m| !m.is_dir()) {
-            let _ = std::fs::remove_file(&tmp);
-        }
-        return Err(io(e));
-    }
-    Ok(())
-}
-
-/// What separates the file name from the writer's PID in a temporary file name.
-const TEMP_MARK: &str = ".tmp-";
-
-/// Creates (or truncates) `tmp`, writes `bytes` and syncs it to the disk.
-fn write_and_sync(tmp: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    use std::io::Write;
-    let mut f = std::fs::File::create(tmp)?;
-    f.write_all(bytes)?;
-    f.sync_all()
-}
-
-/// The PID of the writer of a temporary file named by [`write_atomic`]
-/// (`.NAME.tmp-PID`), or `None` for any other name.
-fn temp_file_pid(file_name: &str) -> Option<u32> {
-    let rest = file_name.strip_prefix('.')?;
-    let (stem, pid) = rest.rsplit_once(TEMP_MARK)?;
-    if stem.is_empty() || pid.is_empty() || !pid.bytes().all(|b| b.is_ascii_digit()) {
-        return None;
-    }
-    pid.parse().ok()
-}
-
-/// How old a temporary file must be before it counts as stale (it may belong to a
-/// writer in another PID namespace sharing the folder, whose PID we cannot see).
-pub const STALE_TEMP_AGE: std::time::Duration = std::time::Duration::from_secs(60);
-
-/// How old a temporary file must be to count as stale where the liveness of its
-/// writer cannot be checked (no `/proc`).
-pub const STALE_TEMP_AGE_UNCHECKED: std::time::Duration = std::time::Duration::from_secs(24 * 3600);
-
-/// Whether process `pid` is known to have ended: `Some(true)` when it has (Linux,
-/// through `/proc`), `Some(false)` when it runs, `None` when this cannot be told.
-fn process_ended(pid: u32) -> Option<bool> {
-    if !Path::new("/proc/self").exists() {
-        return None;
-    }
-    Some(!Path::new("/proc").join(pid.to_string()).exists())
-}
-
-/// Removes the temporary files (`.NAME.tmp-PID`, regular files only) that
-/// [`write_atomic`] left in `dir` when its writer died between creating and renaming
-/// them: those whose writer process has ended (checked through `/proc`, Linux) and
-/// that are older than [`STALE_TEMP_AGE`]; where process liveness cannot be
-/// checked, those older than [`STALE_TEMP_AGE_UNCHECKED`]. Files of this process and
-/// of running processes are kept. Returns the removed paths.
-pub fn remove_stale_temp_files(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
-    let me = std::process::id();
-    let now = std::time::SystemTime::now();
-    let mut removed = Vec::new();
-    for entry in std::fs::read_dir(dir)? {
-        let Ok(entry) = entry else { continue };
-        let name = entry.file_name();
-        let Some(pid) = name.to_str().and_then(temp_file_pid) else {
-            continue;
-        };
-        if pid == me {
-            continue;
-        }
-        let Ok(meta) = std::fs::symlink_metadata(entry.path()) else {
-            continue;
-        };
-        if !meta.is_file() {
-            continue;
-        }
-        let age = meta
-            .modified()
-            .ok()
-            .and_then(|m| now.duration_since(m).ok())
-            .unwrap_or_default();
-        let stale = match process_ended(pid) {
-            Some(ended) => ended && age >= STALE_TEMP_AGE,
-            None => age >= STALE_TEMP_AGE_UNCHECKED,
-        };
-        if stale && std::fs::remove_file(entry.path()).is_ok() {
-            removed.push(entry.path());
-        }
-    }
-    Ok(removed)
+    })
 }
 
 /// All profiles of one wall, as written by `lumiwall commission` into one folder:
@@ -479,12 +373,26 @@ impl ProfileSet {
     /// Name of the manifest file inside a profile folder.
     pub const MANIFEST: &'static str = "wall.json";
 
-    /// Writes every profile and then the manifest into `dir`.
+    /// Writes every profile and then the manifest into `dir`. The old manifest is
+    /// removed first, so an interruption while saving leaves a folder that
+    /// [`ProfileSet::load_dir`] refuses ([`ProfileError::NoManifest`]) instead of one
+    /// that mixes the profiles of two solves.
     pub fn save_dir(
         dir: &Path,
         wall: &str,
         profiles: &[DisplayProfile],
     ) -> Result<(), ProfileError> {
+        let manifest = dir.join(Self::MANIFEST);
+        match std::fs::remove_file(&manifest) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(source) => {
+                return Err(ProfileError::Io {
+                    path: manifest,
+                    source,
+                });
+            }
+        }
         let mut files = Vec::with_capacity(profiles.len());
         for p in profiles {
             let name = format!("{}.json", p.display.file_stem());
@@ -497,16 +405,35 @@ impl ProfileSet {
             files,
         };
         let text = serde_json::to_string_pretty(&set).unwrap_or_default();
-        write_atomic(&dir.join(Self::MANIFEST), text.as_bytes())
+        write_atomic(&manifest, text.as_bytes())
     }
 
-    /// Reads the manifest and every profile it lists.
+    /// Reads the manifest and every profile it lists, and checks that they are one
+    /// solve of one wall ([`ProfileSet::check_one_solve`]).
     pub fn load_dir(dir: &Path) -> Result<(String, Vec<DisplayProfile>), ProfileError> {
+        let set = Self::load_manifest(dir)?;
+        let profiles = set
+            .files
+            .iter()
+            .map(|f| DisplayProfile::load(&dir.join(f)))
+            .collect::<Result<Vec<_>, _>>()?;
+        set.check_one_solve(dir, &profiles)?;
+        Ok((set.wall, profiles))
+    }
+
+    /// Reads and checks `dir/wall.json`: version, and file names that are plain names
+    /// inside the folder.
+    fn load_manifest(dir: &Path) -> Result<ProfileSet, ProfileError> {
         let path = dir.join(Self::MANIFEST);
-        let text = std::fs::read_to_string(&path).map_err(|source| ProfileError::Io {
-            path: path.clone(),
-            source,
-        })?;
+        let text = match std::fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound && dir.is_dir() => {
+                return Err(ProfileError::NoManifest {
+                    dir: dir.to_path_buf(),
+                });
+            }
+            Err(source) => return Err(ProfileError::Io { path, source }),
+        };
         let set: ProfileSet = serde_json::from_str(&text).map_err(|e| ProfileError::Parse {
             path: path.clone(),
             message: e.to_string(),
@@ -518,11 +445,83 @@ impl ProfileSet {
                 expected: FORMAT_VERSION,
             });
         }
-        let profiles = set
-            .files
-            .iter()
-            .map(|f| DisplayProfile::load(&dir.join(f)))
-            .collect::<Result<Vec<_>, _>>()?;
-        Ok((set.wall, profiles))
+        let mixed = |reason: String| ProfileError::MixedFolder {
+            dir: dir.to_path_buf(),
+            reason,
+        };
+        if set.files.is_empty() {
+            return Err(mixed("wall.json lists no profile".into()));
+        }
+        for f in &set.files {
+            let plain = Path::new(f).file_name().is_some_and(|n| n == f.as_str());
+            if !plain || f.starts_with('.') {
+                return Err(mixed(format!(
+                    "wall.json lists {f:?}, which is not a file name inside the folder"
+                )));
+            }
+        }
+        Ok(set)
+    }
+
+    /// The wall identity check every command shares: every profile belongs to this
+    /// manifest's wall, no display appears twice, and all come from one solve (same
+    /// creation time, target white, common primaries and black mode).
+    pub fn check_one_solve(
+        &self,
+        dir: &Path,
+        profiles: &[DisplayProfile],
+    ) -> Result<(), ProfileError> {
+        let mixed = |reason: String| ProfileError::MixedFolder {
+            dir: dir.to_path_buf(),
+            reason,
+        };
+        let mut seen = std::collections::HashSet::new();
+        for (file, p) in self.files.iter().zip(profiles) {
+            if p.display.wall != self.wall {
+                return Err(mixed(format!(
+                    "{file} is a profile of wall {:?}, but wall.json is wall {:?}",
+                    p.display.wall, self.wall
+                )));
+            }
+            if !seen.insert(p.display.clone()) {
+                return Err(mixed(format!(
+                    "{file}: display {} appears twice",
+                    p.display
+                )));
+            }
+        }
+        let (Some(first_file), Some(first)) = (self.files.first(), profiles.first()) else {
+            return Ok(());
+        };
+        for (file, p) in self.files.iter().zip(profiles).skip(1) {
+            if let Some(what) = solve_difference(first, p) {
+                return Err(mixed(format!(
+                    "{file} and {first_file} come from different solves ({what} differ); a \
+                     commission into this folder was interrupted or two ran at once: re-run \
+                     `lumiwall commission` into it"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What differs between two profiles that one solve would have made alike, if anything.
+fn solve_difference(a: &DisplayProfile, b: &DisplayProfile) -> Option<&'static str> {
+    let close = |u: &[f64; 3], v: &[f64; 3]| {
+        u.iter()
+            .zip(v)
+            .all(|(x, y)| (x - y).abs() <= 1e-9 * x.abs().max(y.abs()).max(1.0))
+    };
+    if a.created_utc != b.created_utc {
+        Some("creation times")
+    } else if !close(&a.target_white_xyz_cd_m2, &b.target_white_xyz_cd_m2) {
+        Some("target whites")
+    } else if a.common_primaries_xy != b.common_primaries_xy {
+        Some("common primaries")
+    } else if a.black_mode != b.black_mode {
+        Some("black modes")
+    } else {
+        None
     }
 }

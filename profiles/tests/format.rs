@@ -321,6 +321,99 @@ fn profile_set_of_other_version_or_missing_file_is_refused() {
     assert!(matches!(err, ProfileError::Io { .. }), "{err:?}");
 }
 
+/// A saved two-display set of wall `hall-a` in `dir`.
+fn saved_set(dir: &Path) -> Vec<DisplayProfile> {
+    let profiles = vec![profile("hall-a", 0), profile("hall-a", 1)];
+    ProfileSet::save_dir(dir, "hall-a", &profiles).unwrap();
+    profiles
+}
+
+/// The reason of a [`ProfileError::MixedFolder`], or a panic naming the error.
+fn mixed_reason(err: ProfileError) -> String {
+    match err {
+        ProfileError::MixedFolder { reason, .. } => reason,
+        other => panic!("expected MixedFolder, got {other:?}"),
+    }
+}
+
+#[test]
+fn profile_set_of_two_solves_is_refused_naming_both_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut profiles = saved_set(dir.path());
+    // What a kill -9 during a re-commission leaves: one profile of the new solve.
+    profiles[1].created_utc = "2031-01-01T00:00:00Z".into();
+    profiles[1]
+        .save(&dir.path().join("d001-c1r0-mono.json"))
+        .unwrap();
+    let reason = mixed_reason(ProfileSet::load_dir(dir.path()).unwrap_err());
+    assert!(reason.contains("d001-c1r0-mono.json"), "{reason}");
+    assert!(reason.contains("d000-c0r0-mono.json"), "{reason}");
+    assert!(reason.contains("creation times"), "{reason}");
+
+    // Same time, another target white: still two solves.
+    profiles[1].created_utc = profiles[0].created_utc.clone();
+    profiles[1].target_white_xyz_cd_m2[1] *= 1.01;
+    profiles[1]
+        .save(&dir.path().join("d001-c1r0-mono.json"))
+        .unwrap();
+    let reason = mixed_reason(ProfileSet::load_dir(dir.path()).unwrap_err());
+    assert!(reason.contains("target whites"), "{reason}");
+}
+
+#[test]
+fn profile_of_another_wall_in_the_folder_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    saved_set(dir.path());
+    let other = profile("hall-b", 1);
+    other.save(&dir.path().join("d001-c1r0-mono.json")).unwrap();
+    let reason = mixed_reason(ProfileSet::load_dir(dir.path()).unwrap_err());
+    assert!(reason.contains("\"hall-b\""), "{reason}");
+    assert!(reason.contains("\"hall-a\""), "{reason}");
+}
+
+#[test]
+fn manifest_naming_a_path_outside_the_folder_or_a_display_twice_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    saved_set(dir.path());
+    let manifest = dir.path().join("wall.json");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    for bad in ["../d000-c0r0-mono.json", "/etc/passwd", ".hidden.json"] {
+        std::fs::write(&manifest, text.replace("d001-c1r0-mono.json", bad)).unwrap();
+        let reason = mixed_reason(ProfileSet::load_dir(dir.path()).unwrap_err());
+        assert!(
+            reason.contains("not a file name inside the folder"),
+            "{bad}: {reason}"
+        );
+    }
+    std::fs::write(
+        &manifest,
+        text.replace("d001-c1r0-mono.json", "d000-c0r0-mono.json"),
+    )
+    .unwrap();
+    let reason = mixed_reason(ProfileSet::load_dir(dir.path()).unwrap_err());
+    assert!(reason.contains("appears twice"), "{reason}");
+}
+
+#[test]
+fn interrupted_save_leaves_a_folder_that_is_refused_with_what_to_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut profiles = saved_set(dir.path());
+    // A re-save removes the manifest first; an interruption before it is written
+    // again leaves the folder without one.
+    profiles[0].created_utc = "2031-01-01T00:00:00Z".into();
+    profiles[0]
+        .save(&dir.path().join("d000-c0r0-mono.json"))
+        .unwrap();
+    std::fs::remove_file(dir.path().join("wall.json")).unwrap();
+    let err = ProfileSet::load_dir(dir.path()).unwrap_err();
+    assert!(matches!(err, ProfileError::NoManifest { .. }), "{err:?}");
+    assert!(err.to_string().contains("--resume"), "{err}");
+    // A complete re-save is accepted again.
+    profiles[1].created_utc = profiles[0].created_utc.clone();
+    ProfileSet::save_dir(dir.path(), "hall-a", &profiles).unwrap();
+    assert_eq!(ProfileSet::load_dir(dir.path()).unwrap().1, profiles);
+}
+
 // ---- property test: any valid profile survives JSON exactly ----
 
 fn finite() -> impl Strategy<Value = f64> {

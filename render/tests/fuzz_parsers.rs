@@ -1,5 +1,6 @@
 //! Fuzz targets for the renderer's parsers (issue 9): the scene TOML, OBJ geometry
-//! (through the scene loader), IES LM-63 and EULUMDAT.
+//! (through the scene loader), IES LM-63, EULUMDAT, and the post pass's image readers
+//! (OpenEXR and PNG, headers and pixels).
 //!
 //! The harness is the workspace's shared one (`fuzz/mutate.rs`, see `fuzz/README.md`):
 //! every corpus file of `fuzz/corpus/<parser>/` first as it is, then proptest-made
@@ -211,4 +212,65 @@ fn line_mutations_duplicate_delete_and_swap_lines_and_numbers_are_found() {
     apply(&mut m, &Mutation::SwapLines(0, 5), &[]);
     assert_eq!(m, b"c\nb\na");
     assert_eq!(numbers(b"v 1e-5 -2 x3"), vec![(2, 6), (7, 9), (11, 12)]);
+}
+
+/// A frame the post pass read: within the input limits, one pixel per position, and
+/// (sanitised) every value finite and non-negative.
+fn validate_frame(f: &lumiwall_render::post::XyzFrame) -> Result<(), String> {
+    use lumiwall_render::post::io::{MAX_INPUT_PIXELS, MAX_INPUT_SIDE};
+    let (w, h) = (u64::from(f.width), u64::from(f.height));
+    if w > MAX_INPUT_SIDE || h > MAX_INPUT_SIDE || w * h > MAX_INPUT_PIXELS {
+        return Err(format!("a {w}×{h} frame was read"));
+    }
+    if f.pixels.len() as u64 != w * h {
+        return Err(format!("{w}×{h} frame with {} pixels", f.pixels.len()));
+    }
+    if let Some(p) = f
+        .pixels
+        .iter()
+        .find(|p| !p.iter().all(|v| v.is_finite() && *v >= 0.0))
+    {
+        return Err(format!("pixel {p:?} passed sanitising"));
+    }
+    Ok(())
+}
+
+#[test]
+fn fuzz_exr_reader_never_panics_or_allocates_past_the_limits() {
+    use lumiwall_render::post::io::{ReadOptions, read_exr};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("fuzz.exr");
+    let opts = ReadOptions {
+        allow_negative: false,
+        sanitize: true,
+        white_for_luminance_xyz: [95.0, 100.0, 108.0],
+    };
+    fuzz("exr", move |input| {
+        std::fs::write(&path, input).map_err(|e| e.to_string())?;
+        match read_exr(&path, &opts) {
+            Ok((frame, _)) => validate_frame(&frame),
+            Err(e) if e.to_string().is_empty() => Err("an empty error message".into()),
+            Err(_) => Ok(()),
+        }
+    });
+}
+
+#[test]
+fn fuzz_png_reader_never_panics_or_allocates_past_the_limits() {
+    use lumiwall_render::post::io::read_png_srgb;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("fuzz.png");
+    let to_xyz = [
+        [0.4124, 0.3576, 0.1805],
+        [0.2126, 0.7152, 0.0722],
+        [0.0193, 0.1192, 0.9505],
+    ];
+    fuzz("png", move |input| {
+        std::fs::write(&path, input).map_err(|e| e.to_string())?;
+        match read_png_srgb(&path, &to_xyz) {
+            Ok(frame) => validate_frame(&frame),
+            Err(e) if e.to_string().is_empty() => Err("an empty error message".into()),
+            Err(_) => Ok(()),
+        }
+    });
 }

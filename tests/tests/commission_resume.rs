@@ -104,10 +104,13 @@ fn assert_interrupted_at_display_1_reading_21(err: &CommissionError) {
     assert!(msg.contains("--resume") && msg.contains("check"), "{msg}");
 }
 
-/// Nothing half-written: no profiles, no manifest, no temporary files; the run folder
-/// holds the manifest and display 0's measurement only.
+/// Nothing half-written: no profiles, no manifest, no temporary files (only the
+/// folder's lock file); the run folder holds the manifest and display 0's measurement.
 fn assert_only_display_0_saved(out: &Path) {
-    assert_eq!(files(out), vec!["run".to_string()]);
+    assert_eq!(
+        files(out),
+        vec![".lumiwall.lock".to_string(), "run".to_string()]
+    );
     let run = files(&out.join("run"));
     assert_eq!(run.len(), 2, "{run:?}");
     assert!(run.contains(&"run.json".to_string()));

@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use lumiwall_bench::apply::ApplyBenchOptions;
+use lumiwall_core::files::FolderLock;
 use lumiwall_profiles::apply::srgb::SRGB_PRIMARIES_XY;
 use lumiwall_profiles::apply::{ApplyOptions, PreparedProfile, rgb_to_xyz_matrix};
 use lumiwall_profiles::{DisplayKey, DisplayProfile, OutOfGamut, ProfileSet};
@@ -238,6 +239,8 @@ fn run_wall(args: &ApplyArgs, dir: &Path, opts: &ApplyOptions) -> Result<(), Cli
         .clone()
         .ok_or_else(|| CliError::input("--profiles needs --out-dir DIR"))?;
     let (wall, profiles) = ProfileSet::load_dir(dir)?;
+    // One writer per output folder, checked before any frame is read.
+    let _lock = FolderLock::acquire(&out_dir, &format!("apply of wall {wall}"))?;
     let first = profiles.first().ok_or_else(|| {
         CliError::input(format!("profile folder {} lists no display", dir.display()))
     })?;

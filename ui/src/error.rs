@@ -130,7 +130,21 @@ impl From<lumiwall_render::scene::SceneError> for CliError {
 }
 
 impl From<lumiwall_render::radiosity::RadiosityError> for CliError {
+    /// A scene or option the solver refuses is input (exit 2); the rest are failures.
     fn from(e: lumiwall_render::radiosity::RadiosityError) -> Self {
+        use lumiwall_render::radiosity::RadiosityError;
+        match e {
+            RadiosityError::BadScene(_) | RadiosityError::BadOption(_) => {
+                Self::input(e.to_string())
+            }
+            _ => Self::failure(e.to_string()),
+        }
+    }
+}
+
+impl From<lumiwall_core::files::LockError> for CliError {
+    /// Another lumiwall writes into the folder: a failure (exit 1), retried later.
+    fn from(e: lumiwall_core::files::LockError) -> Self {
         Self::failure(e.to_string())
     }
 }

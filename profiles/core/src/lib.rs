@@ -5,7 +5,8 @@
 //! - displays: [`Channel`] (red, green, blue), [`BitDepth`] (max code, quantisation),
 //!   [`Headroom`] (largest planned channel usage), [`Eye`], [`DisplayId`] and [`DisplayKey`];
 //! - data: the CIE 1931 2° observer and D65 ([`observer`], parsed once), the sRGB
-//!   decoding curve ([`srgb`]) and row-major 3×3 matrices ([`Mat3`], [`mat3`]).
+//!   decoding curve ([`srgb`]) and row-major 3×3 matrices ([`Mat3`], [`mat3`]);
+//! - files: atomic writes and output-folder locks ([`files`]).
 //!
 //! ```
 //! use lumiwall_core::{Xy, Xyz};
@@ -19,6 +20,7 @@ mod bit_depth;
 mod channel;
 mod display;
 mod error;
+pub mod files;
 mod headroom;
 pub mod lab;
 mod macros;

@@ -63,6 +63,25 @@ pub enum PostError {
         /// Command-line flag that accepts them.
         flag: &'static str,
     },
+    /// An input image larger than the post pass reads (checked from its header,
+    /// before anything is allocated).
+    #[error(
+        "{path}: the image is {width}×{height} pixels; the post pass reads at most \
+         {max_side} pixels a side and {max_pixels} pixels in all (a 16384×16384 frame); \
+         split the frame or check the file"
+    )]
+    TooLarge {
+        /// File concerned.
+        path: PathBuf,
+        /// Width the header claims.
+        width: u64,
+        /// Height the header claims.
+        height: u64,
+        /// Largest width or height read.
+        max_side: u64,
+        /// Largest pixel count read.
+        max_pixels: u64,
+    },
     /// Image and display (or wall) sizes do not fit together.
     #[error("size mismatch: {0}")]
     SizeMismatch(String),

@@ -61,7 +61,45 @@ fn short_name(full: &str) -> &str {
     full.rsplit('.').next().unwrap_or(full)
 }
 
-/// Reads an OpenEXR frame (see the module doc for the channel convention).
+/// Largest width or height of an input image (pixels).
+pub const MAX_INPUT_SIDE: u64 = 65_536;
+
+/// Largest pixel count of an input image: 2²⁸, a 16384×16384 frame (3 GiB as XYZ f32),
+/// more than a 48-tile wall of 1920×1200 displays (110 Mpx).
+pub const MAX_INPUT_PIXELS: u64 = 1 << 28;
+
+/// Fails with [`PostError::TooLarge`] when a header's `width × height` exceeds the
+/// input limits; called before any pixel memory is allocated.
+pub fn check_input_size(path: &Path, width: u64, height: u64) -> Result<(), PostError> {
+    let pixels = width.checked_mul(height);
+    let too_large = width > MAX_INPUT_SIDE
+        || height > MAX_INPUT_SIDE
+        || pixels.is_none_or(|n| n > MAX_INPUT_PIXELS);
+    if too_large {
+        return Err(PostError::TooLarge {
+            path: path.to_path_buf(),
+            width,
+            height,
+            max_side: MAX_INPUT_SIDE,
+            max_pixels: MAX_INPUT_PIXELS,
+        });
+    }
+    Ok(())
+}
+
+/// Reads only the headers of an OpenEXR file and checks every layer's size against
+/// the input limits.
+fn check_exr_header(path: &Path) -> Result<(), PostError> {
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(exr_err(path))?;
+    for header in meta.headers.iter() {
+        let size = header.layer_size;
+        check_input_size(path, size.x() as u64, size.y() as u64)?;
+    }
+    Ok(())
+}
+
+/// Reads an OpenEXR frame (see the module doc for the channel convention). The
+/// headers are checked against [`MAX_INPUT_PIXELS`] before any pixel is read.
 pub fn read_exr(path: &Path, opts: &ReadOptions) -> Result<(XyzFrame, InputReport), PostError> {
     if !path.exists() {
         return Err(PostError::Io {
@@ -69,6 +107,7 @@ pub fn read_exr(path: &Path, opts: &ReadOptions) -> Result<(XyzFrame, InputRepor
             source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
         });
     }
+    check_exr_header(path)?;
     let image = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
@@ -216,10 +255,12 @@ pub fn write_exr(path: &Path, frame: &XyzFrame, rgb_names: bool) -> Result<(), P
         Encoding::FAST_LOSSLESS,
         AnyChannels::sort(list),
     );
+    let mut bytes = std::io::Cursor::new(Vec::new());
     Image::from_layer(layer)
         .write()
-        .to_file(path)
-        .map_err(exr_err(path))
+        .to_buffered(&mut bytes)
+        .map_err(exr_err(path))?;
+    lumiwall_core::files::write_atomic(path, bytes.get_ref()).map_err(io_err(path))
 }
 
 /// Maps an image codec error on `path` to [`PostError::Png`].
@@ -239,11 +280,24 @@ fn io_err(path: &Path) -> impl Fn(std::io::Error) -> PostError + '_ {
 }
 
 /// Opens and decodes an image; `guess_format` trusts its bytes over its extension.
+/// Decodes an image after checking its header's size against the input limits.
 fn decode_image(path: &Path, guess_format: bool) -> Result<image::DynamicImage, PostError> {
-    let mut reader = image::ImageReader::open(path).map_err(io_err(path))?;
-    if guess_format {
-        reader = reader.with_guessed_format().map_err(io_err(path))?;
-    }
+    let open = || -> Result<image::ImageReader<_>, PostError> {
+        let mut reader = image::ImageReader::open(path).map_err(io_err(path))?;
+        if guess_format {
+            reader = reader.with_guessed_format().map_err(io_err(path))?;
+        }
+        Ok(reader)
+    };
+    let (w, h) = open()?.into_dimensions().map_err(png_err(path))?;
+    check_input_size(path, u64::from(w), u64::from(h))?;
+    let mut reader = open()?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(w);
+    limits.max_image_height = Some(h);
+    // RGBA at 16 bit is the largest buffer a PNG decodes into.
+    limits.max_alloc = Some(MAX_INPUT_PIXELS * 8);
+    reader.limits(limits);
     reader.decode().map_err(png_err(path))
 }
 
@@ -258,30 +312,36 @@ pub fn read_png_srgb(path: &Path, rgb_to_xyz: &[[f64; 3]; 3]) -> Result<XyzFrame
 }
 
 /// Writes display codes as a PNG (8-bit, or 16-bit with the code in the high bits; see
-/// the module doc).
+/// the module doc), atomically: the image is encoded in memory and written through a
+/// temporary file ([`lumiwall_core::files::write_atomic`]), so an interruption never
+/// turns a complete earlier image into a truncated one.
 pub fn write_png(path: &Path, img: &CodeImage) -> Result<(), PostError> {
-    let png_err = png_err(path);
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|source| PostError::Io {
-            path: dir.to_path_buf(),
-            source,
-        })?;
-    }
-    if img.bit_depth == 8 {
+    let bytes = encode_png(img).map_err(png_err(path))?;
+    lumiwall_core::files::write_atomic(path, &bytes).map_err(io_err(path))
+}
+
+/// Encodes display codes as PNG bytes (see [`write_png`]).
+pub fn encode_png(img: &CodeImage) -> Result<Vec<u8>, image::ImageError> {
+    let size_err = || {
+        image::ImageError::Parameter(image::error::ParameterError::from_kind(
+            image::error::ParameterErrorKind::DimensionMismatch,
+        ))
+    };
+    let dynamic = if img.bit_depth == 8 {
         let data: Vec<u8> = img.codes.iter().flatten().map(|v| *v as u8).collect();
-        let buf = image::RgbImage::from_raw(img.width, img.height, data)
-            .ok_or_else(|| PostError::SizeMismatch("code image size".into()))?;
-        buf.save_with_format(path, image::ImageFormat::Png)
-            .map_err(png_err)
+        image::DynamicImage::ImageRgb8(
+            image::RgbImage::from_raw(img.width, img.height, data).ok_or_else(size_err)?,
+        )
     } else {
         let shift = 16 - img.bit_depth.min(16);
         let data: Vec<u16> = img.codes.iter().flatten().map(|v| v << shift).collect();
-        let buf =
-            image::ImageBuffer::<image::Rgb<u16>, Vec<u16>>::from_raw(img.width, img.height, data)
-                .ok_or_else(|| PostError::SizeMismatch("code image size".into()))?;
-        buf.save_with_format(path, image::ImageFormat::Png)
-            .map_err(png_err)
-    }
+        image::DynamicImage::ImageRgb16(
+            image::ImageBuffer::from_raw(img.width, img.height, data).ok_or_else(size_err)?,
+        )
+    };
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    dynamic.write_to(&mut bytes, image::ImageFormat::Png)?;
+    Ok(bytes.into_inner())
 }
 
 /// Reads a PNG written by [`write_png`] back into code values of `bit_depth` bits.

@@ -156,6 +156,15 @@ struct Solver<'a, 'c> {
     previous_change: f64,
     idle_refines: usize,
     linear_leaves: usize,
+    /// Under a time limit: the leaves before the latest refinement and their error,
+    /// returned when the limit cuts a refinement short and leaves a worse solution.
+    before_refine: Option<Snapshot>,
+}
+
+/// The solution's leaves at one moment and the curve point that estimated its error.
+struct Snapshot {
+    patches: Vec<Patch>,
+    point: CurvePoint,
 }
 
 /// The change a sweep made to the leaves.
@@ -216,6 +225,7 @@ impl<'a, 'c> Solver<'a, 'c> {
             previous_change: f64::NAN,
             idle_refines: 0,
             linear_leaves: 0,
+            before_refine: None,
         }
     }
 
@@ -225,6 +235,7 @@ impl<'a, 'c> Solver<'a, 'c> {
         let mut needs_refine = true;
         loop {
             if needs_refine {
+                self.keep_before_refine();
                 self.refine();
                 needs_refine = false;
             }
@@ -242,6 +253,34 @@ impl<'a, 'c> Solver<'a, 'c> {
                 needs_refine = true;
             }
         }
+    }
+
+    /// Under a time limit, keeps the current leaves if their estimated error is the
+    /// lowest so far: a refinement the deadline cuts short can leave a solution whose
+    /// new links have not converged yet.
+    fn keep_before_refine(&mut self) {
+        let Some(point) = self.curve.points.last().copied() else {
+            return;
+        };
+        let better = self
+            .before_refine
+            .as_ref()
+            .is_none_or(|b| point.estimated_error < b.point.estimated_error);
+        if self.clock.deadline.is_some() && better {
+            self.before_refine = Some(Snapshot {
+                patches: self.leaves(),
+                point,
+            });
+        }
+    }
+
+    /// The leaf patches of the current solution.
+    fn leaves(&self) -> Vec<Patch> {
+        let h = &self.h;
+        (0..h.patches.len())
+            .filter(|&p| h.patches[p].is_leaf())
+            .map(|p| output_patch(h, &self.st, p, self.opts.basis, self.eps))
+            .collect()
     }
 
     /// Refines at the current ε and restarts the convergence history.
@@ -443,13 +482,32 @@ impl<'a, 'c> Solver<'a, 'c> {
         self.eps *= (EPS_STEP_AIM * r * r * r).clamp(EPS_STEP_MIN, EPS_STEP_MAX);
     }
 
-    /// The solution: the leaves and the statistics.
-    fn finish(self, stop: StopReason) -> Solution {
+    /// The solution: the leaves and the statistics. When the time limit stopped the
+    /// solve with a higher estimated error than the solution before the latest
+    /// refinement, that earlier solution is returned, and the curve ends with a point
+    /// for it (its error, now).
+    fn finish(mut self, stop: StopReason) -> Solution {
+        let last_error = self.curve.points.last().map(|p| p.estimated_error);
+        let patches = match self.before_refine.take() {
+            Some(b)
+                if stop == StopReason::TimeLimit
+                    && last_error.is_some_and(|e| b.point.estimated_error < e) =>
+            {
+                tracing::info!(
+                    error = b.point.estimated_error,
+                    "time limit cut a refinement short; returning the solution before it"
+                );
+                self.curve.points.push(CurvePoint {
+                    time_s: self.clock.elapsed_s(),
+                    iteration: self.iterations,
+                    patches: b.patches.len(),
+                    ..b.point
+                });
+                b.patches
+            }
+            _ => self.leaves(),
+        };
         let h = &self.h;
-        let patches: Vec<Patch> = (0..h.patches.len())
-            .filter(|&p| h.patches[p].is_leaf())
-            .map(|p| output_patch(h, &self.st, p, self.opts.basis, self.eps))
-            .collect();
         let by_polygon = Solution::index(&patches, self.ctx.scene.polygons.len());
         let counters = &self.ctx.counters;
         let stats = SolveStats {

@@ -20,9 +20,23 @@ fn out_err(path: &Path, e: impl std::fmt::Display) -> RadiosityError {
     }
 }
 
+/// Writes `bytes` to `path` atomically (temporary file, then rename).
+fn save(path: &Path, bytes: &[u8]) -> Result<(), RadiosityError> {
+    lumiwall_core::files::write_atomic(path, bytes).map_err(|e| out_err(path, e))
+}
+
+/// Encodes an RGB image as PNG and saves it atomically.
+fn save_png(img: image::RgbImage, path: &Path) -> Result<(), RadiosityError> {
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    image::DynamicImage::ImageRgb8(img)
+        .write_to(&mut bytes, image::ImageFormat::Png)
+        .map_err(|e| out_err(path, e))?;
+    save(path, bytes.get_ref())
+}
+
 /// Writes the curve as CSV.
 pub fn write_curve_csv(curve: &ErrorCurve, path: &Path) -> Result<(), RadiosityError> {
-    std::fs::write(path, curve.to_csv()).map_err(|e| out_err(path, e))
+    save(path, curve.to_csv().as_bytes())
 }
 
 /// Per-vertex luminance: for every patch corner the area-weighted mean luminance
@@ -84,7 +98,7 @@ pub fn write_ply(sol: &Solution, path: &Path) -> Result<(), RadiosityError> {
         }
         s.push('\n');
     }
-    std::fs::write(path, s).map_err(|e| out_err(path, e))
+    save(path, s.as_bytes())
 }
 
 /// Points closer to the camera than this (m along the view axis) are not projected.
@@ -237,26 +251,18 @@ pub fn render_image(sol: &Solution, camera: &Camera) -> Vec<[f32; 3]> {
     raster.img
 }
 
-/// Writes an XYZ float OpenEXR (channels X, Y, Z; cd/m²).
+/// Writes an XYZ float OpenEXR (channels X, Y, Z; cd/m²), atomically
+/// ([`crate::post::io::write_exr`]).
 pub fn write_exr(
     img: &[[f32; 3]],
     width: usize,
     height: usize,
     path: &Path,
 ) -> Result<(), RadiosityError> {
-    use exr::prelude::*;
-    let channels = SpecificChannels::build()
-        .with_channel("X")
-        .with_channel("Y")
-        .with_channel("Z")
-        .with_pixel_fn(|pos: Vec2<usize>| {
-            let p = img[pos.y() * width + pos.x()];
-            (p[0], p[1], p[2])
-        });
-    Image::from_channels((width, height), channels)
-        .write()
-        .to_file(path)
-        .map_err(|e| out_err(path, e))
+    let size = |v: usize| u32::try_from(v).map_err(|e| out_err(path, e));
+    let frame = crate::post::XyzFrame::new(size(width)?, size(height)?, img.to_vec())
+        .map_err(|e| out_err(path, e))?;
+    crate::post::io::write_exr(path, &frame, false).map_err(|e| out_err(path, e))
 }
 
 // --- a tiny 3×5 bitmap font for the plot labels ---
@@ -510,7 +516,7 @@ pub fn plot_curves_png(
     for (c, col) in curves {
         frame.draw_curve(&mut img, c, *col);
     }
-    img.save(path).map_err(|e| out_err(path, e))
+    save_png(img, path)
 }
 
 /// Writes a tone-mapped sRGB preview PNG of an XYZ luminance image (exposure set so
@@ -553,5 +559,5 @@ pub fn write_preview_png(
             image::Rgb([enc(r), enc(g), enc(b)]),
         );
     }
-    out.save(path).map_err(|e| out_err(path, e))
+    save_png(out, path)
 }

@@ -46,18 +46,50 @@ pub(crate) struct MeshElem {
     pub points: Vec<(V3, f64)>,
 }
 
+/// Most elements a uniform mesh may have (about 0.5 GB of elements with their
+/// quadrature points, before any form factor).
+pub const MAX_UNIFORM_ELEMENTS: u64 = 1 << 20;
+
+/// Deepest midpoint subdivision of one polygon (4¹⁰ cells).
+const MAX_SUBDIVISION_LEVEL: u32 = 10;
+
+/// The subdivision level of each polygon for `max_edge_m`.
+fn subdivision_levels(scene: &Scene, max_edge_m: f64) -> Vec<u32> {
+    scene
+        .polygons
+        .iter()
+        .map(|p| {
+            let longest = (0..p.vertices.len())
+                .map(|i| (p.vertices[(i + 1) % p.vertices.len()] - p.vertices[i]).norm())
+                .fold(0.0, f64::max);
+            let mut level = 0;
+            while longest / f64::from(1u32 << level) > max_edge_m && level < MAX_SUBDIVISION_LEVEL {
+                level += 1;
+            }
+            level
+        })
+        .collect()
+}
+
 /// Subdivides every polygon (midpoint quadtree) until its longest edge is at most
-/// `max_edge_m`.
-pub(crate) fn uniform_mesh(scene: &Scene, max_edge_m: f64) -> Vec<MeshElem> {
-    let mut out = Vec::new();
-    for (pi, p) in scene.polygons.iter().enumerate() {
-        let longest = (0..p.vertices.len())
-            .map(|i| (p.vertices[(i + 1) % p.vertices.len()] - p.vertices[i]).norm())
-            .fold(0.0, f64::max);
-        let mut level = 0;
-        while longest / f64::from(1u32 << level) > max_edge_m && level < 10 {
-            level += 1;
-        }
+/// `max_edge_m`. The element count is computed first and refused above
+/// `max_elements` (at most [`MAX_UNIFORM_ELEMENTS`]) before anything is allocated.
+pub(crate) fn uniform_mesh(
+    scene: &Scene,
+    max_edge_m: f64,
+    max_elements: u64,
+) -> Result<Vec<MeshElem>, RadiosityError> {
+    let levels = subdivision_levels(scene, max_edge_m);
+    let count: u64 = levels.iter().map(|l| 1u64 << (2 * l)).sum();
+    let limit = max_elements.min(MAX_UNIFORM_ELEMENTS);
+    if count > limit {
+        return Err(RadiosityError::BadOption(format!(
+            "a max edge of {max_edge_m} m cuts this scene into {count} elements, more than \
+             the {limit} allowed; give a larger max edge (--max-edge-m)"
+        )));
+    }
+    let mut out = Vec::with_capacity(count as usize);
+    for ((pi, p), level) in scene.polygons.iter().enumerate().zip(levels) {
         let mut cells = vec![p.vertices.clone()];
         for _ in 0..level {
             cells = cells.iter().flat_map(|c| quadrature::split4(c)).collect();
@@ -74,7 +106,7 @@ pub(crate) fn uniform_mesh(scene: &Scene, max_edge_m: f64) -> Vec<MeshElem> {
             });
         }
     }
-    out
+    Ok(out)
 }
 
 pub(crate) fn facing(a: &MeshElem, b: &MeshElem) -> bool {
@@ -274,7 +306,7 @@ pub fn solve_progressive(
             opts.max_edge_m
         )));
     }
-    let mut solver = Shooter::new(scene, vis, opts.max_edge_m, clock);
+    let mut solver = Shooter::new(scene, vis, opts.max_edge_m, clock)?;
     let stop = solver.run(&opts.stop)?;
     Ok(solver.finish(scene, stop))
 }
@@ -315,8 +347,13 @@ struct UnshotFlux {
 
 impl<'a> Shooter<'a> {
     /// Meshes the scene and lights it directly.
-    fn new(scene: &Scene, vis: &'a dyn Visibility, max_edge_m: f64, clock: SolveClock) -> Self {
-        let mesh = uniform_mesh(scene, max_edge_m);
+    fn new(
+        scene: &Scene,
+        vis: &'a dyn Visibility,
+        max_edge_m: f64,
+        clock: SolveClock,
+    ) -> Result<Self, RadiosityError> {
+        let mesh = uniform_mesh(scene, max_edge_m, MAX_UNIFORM_ELEMENTS)?;
         let materials = MeshMaterials::of(scene, &mesh);
         let counters = RayCounters::default();
         let irradiance = direct_light(scene, vis, &mesh, &counters.rays);
@@ -331,7 +368,7 @@ impl<'a> Shooter<'a> {
             .map(|(e, r)| e.area * r[1])
             .sum::<f64>()
             / total_area;
-        Self {
+        Ok(Self {
             vis,
             clock,
             mesh,
@@ -345,7 +382,7 @@ impl<'a> Shooter<'a> {
             shots: 0,
             form_factor_evals: 0,
             last_report_s: f64::NEG_INFINITY,
-        }
+        })
     }
 
     /// Shoots until the stop rule says stop.

@@ -33,13 +33,8 @@ pub fn solve_dense_reference(
 ) -> Result<Solution, RadiosityError> {
     let start = Instant::now();
     super::validate(scene, NOMINAL_TARGET)?;
-    let mesh = uniform_mesh(scene, max_edge_m);
+    let mesh = uniform_mesh(scene, max_edge_m, max_elements as u64)?;
     let n = mesh.len();
-    if n > max_elements {
-        return Err(RadiosityError::BadOption(format!(
-            "reference mesh has {n} elements, more than the allowed {max_elements}; use a larger max edge"
-        )));
-    }
     let counters = RayCounters::default();
     let direct = direct_light(scene, vis, &mesh, &counters.rays);
     let rows = form_factor_rows(vis, &mesh, &counters);

@@ -11,6 +11,7 @@
 //! Refinement runs in rounds: decide every link in parallel, split the chosen
 //! elements, evaluate the new links in parallel, until nothing changes.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -277,7 +278,7 @@ pub(super) fn refine(
         cluster: vec![true; clinks.len()],
     };
     for _round in 0..MAX_ROUNDS {
-        if params.deadline.is_some_and(|d| Instant::now() > d) {
+        if past(params.deadline) {
             break;
         }
         // 1. decide
@@ -296,15 +297,15 @@ pub(super) fn refine(
                 .sum::<usize>();
         st.grow(h);
         plinks.resize(h.patches.len(), Vec::new());
-        // 3. the replacement links
+        // 3. the replacement links; past the deadline the round is given up and the
+        // old links stay (the new children then receive through their parents)
         let jobs = replacement_jobs(h, &decisions, plinks, clinks);
+        let Some(made) = make_links(params, h, &jobs) else {
+            break;
+        };
         // the old links go
         drop_decided(plinks, &decisions.patch);
         drop_decided(clinks, &decisions.cluster);
-        let made: Vec<NewLink> = jobs
-            .par_iter()
-            .filter_map(|&(recv, src, vis)| make_link(params.ctx, h, recv, src, vis))
-            .collect();
         dirty.patch.resize(plinks.len(), true);
         for m in made {
             match m {
@@ -320,6 +321,35 @@ pub(super) fn refine(
         }
     }
     changed
+}
+
+/// A link to make: receiver, sender, and whether the parent link was unoccluded.
+type ReplacementJob = (Node, Node, bool);
+
+/// Makes the replacement links in parallel, or `None` when the deadline passes
+/// before all are made (so that a time limit is kept within one link's work).
+fn make_links(
+    params: &RefineParams,
+    h: &Hierarchy,
+    jobs: &[ReplacementJob],
+) -> Option<Vec<NewLink>> {
+    let late = AtomicBool::new(false);
+    let made: Vec<NewLink> = jobs
+        .par_iter()
+        .filter_map(|&(recv, src, vis)| {
+            if late.load(Ordering::Relaxed) || past(params.deadline) {
+                late.store(true, Ordering::Relaxed);
+                return None;
+            }
+            make_link(params.ctx, h, recv, src, vis)
+        })
+        .collect();
+    (!late.load(Ordering::Relaxed)).then_some(made)
+}
+
+/// Whether `deadline` is set and has passed.
+fn past(deadline: Option<Instant>) -> bool {
+    deadline.is_some_and(|d| Instant::now() > d)
 }
 
 /// Receivers whose links must be decided again in the next round.
@@ -461,8 +491,8 @@ fn replacement_jobs(
     decisions: &RoundDecisions,
     plinks: &[Vec<PLink>],
     clinks: &[Vec<CLink>],
-) -> Vec<(Node, Node, bool)> {
-    let mut jobs: Vec<(Node, Node, bool)> = Vec::new();
+) -> Vec<ReplacementJob> {
+    let mut jobs: Vec<ReplacementJob> = Vec::new();
     let mut push_jobs = |recv: Node, src: Node, visible: bool, split: Split| match split {
         Split::Receiver => {
             let (kids, n) = h.children(recv);
