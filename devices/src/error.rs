@@ -59,6 +59,17 @@ pub enum DeviceError {
     /// The display asked for does not exist.
     #[error("no display {0} on this wall")]
     NoSuchDisplay(String),
+    /// A render node (pattern server) refused or failed a request, or cannot be
+    /// reached.
+    #[error("render node {node}: {message}")]
+    Node {
+        /// The node's address (`host:port`) and output, as the wall file names it.
+        node: String,
+        /// What went wrong and what to do about it.
+        message: String,
+        /// Whether retrying the same request can succeed (unreachable, deadline).
+        transient: bool,
+    },
     /// A wall description or device configuration is wrong.
     #[error("configuration error: {0}")]
     Config(String),
@@ -76,7 +87,12 @@ impl DeviceError {
     pub fn is_transient(&self) -> bool {
         matches!(
             self,
-            DeviceError::Timeout { .. } | DeviceError::Garbled { .. }
+            DeviceError::Timeout { .. }
+                | DeviceError::Garbled { .. }
+                | DeviceError::Node {
+                    transient: true,
+                    ..
+                }
         )
     }
 }

@@ -1,0 +1,228 @@
+//! The station's pattern output over the render nodes of a wall.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, PatternOutput};
+
+use crate::address::OutputAddress;
+use crate::framebuffer::{Framebuffer, max_code};
+
+use super::{NodeClient, NodeOptions};
+
+/// Where one display's patterns go.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Route {
+    /// The display.
+    pub display: DisplayId,
+    /// Its node and output.
+    pub address: OutputAddress,
+}
+
+/// Shows patterns on the displays of a wall through their nodes' pattern servers:
+/// the display's output gets the uniform field, every other output of its node black,
+/// and the node that showed the previous pattern (if another) black as well.
+pub struct RemotePatternOutput {
+    displays: Vec<DisplayInfo>,
+    nodes: Vec<NodeClient>,
+    routes: HashMap<DisplayId, (usize, String)>,
+    lit_node: Option<usize>,
+}
+
+impl std::fmt::Debug for RemotePatternOutput {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RemotePatternOutput")
+            .field("displays", &self.displays.len())
+            .field("nodes", &self.nodes)
+            .finish()
+    }
+}
+
+/// Fails unless every display has exactly one route and no output serves two displays.
+fn check_routes(displays: &[DisplayInfo], routes: &[Route]) -> Result<(), DeviceError> {
+    let mut missing = Vec::new();
+    for d in displays {
+        match routes.iter().filter(|r| r.display == d.id).count() {
+            0 => missing.push(d.name.clone()),
+            1 => {}
+            n => {
+                return Err(DeviceError::Config(format!(
+                    "display {} ({}) has {n} outputs in the wall file; give it one",
+                    d.id, d.name
+                )));
+            }
+        }
+    }
+    if !missing.is_empty() {
+        return Err(DeviceError::Config(format!(
+            "the wall file gives no output for {} display(s): {}; add an [[output]] for each",
+            missing.len(),
+            missing.join(", ")
+        )));
+    }
+    for (i, r) in routes.iter().enumerate() {
+        if let Some(other) = routes[..i].iter().find(|o| o.address == r.address) {
+            return Err(DeviceError::Config(format!(
+                "{} is given to displays {} and {}; one output shows one display",
+                r.address, other.display, r.display
+            )));
+        }
+        if !displays.iter().any(|d| d.id == r.display) {
+            return Err(DeviceError::NoSuchDisplay(r.display.to_string()));
+        }
+    }
+    Ok(())
+}
+
+impl RemotePatternOutput {
+    /// Connects to every node the routes name, takes their leases, and checks that
+    /// every output exists with the display's bit depth.
+    pub fn connect(
+        displays: Vec<DisplayInfo>,
+        routes: &[Route],
+        opts: &NodeOptions,
+    ) -> Result<Self, DeviceError> {
+        check_routes(&displays, routes)?;
+        let rt = Arc::new(
+            tokio::runtime::Builder::new_multi_thread()
+                .worker_threads(2)
+                .enable_all()
+                .build()
+                .map_err(|e| {
+                    DeviceError::Config(format!("cannot start the network runtime: {e}"))
+                })?,
+        );
+        let mut nodes: Vec<NodeClient> = Vec::new();
+        let mut index: HashMap<String, usize> = HashMap::new();
+        let mut table = HashMap::new();
+        for r in routes {
+            let node = r.address.node();
+            let n = match index.get(&node) {
+                Some(n) => *n,
+                None => {
+                    let c = NodeClient::connect(
+                        Arc::clone(&rt),
+                        &node,
+                        &r.address.endpoint_uri(),
+                        opts.clone(),
+                    )?;
+                    nodes.push(c);
+                    index.insert(node.clone(), nodes.len() - 1);
+                    nodes.len() - 1
+                }
+            };
+            let info = displays
+                .iter()
+                .find(|d| d.id == r.display)
+                .ok_or_else(|| DeviceError::NoSuchDisplay(r.display.to_string()))?;
+            check_output(&nodes[n], &r.address, info)?;
+            table.insert(r.display, (n, r.address.output.clone()));
+        }
+        Ok(RemotePatternOutput {
+            displays,
+            nodes,
+            routes: table,
+            lit_node: None,
+        })
+    }
+
+    /// The node and output of `display`.
+    fn route(&self, display: DisplayId) -> Result<(usize, &str), DeviceError> {
+        self.routes
+            .get(&display)
+            .map(|(n, o)| (*n, o.as_str()))
+            .ok_or_else(|| DeviceError::NoSuchDisplay(display.to_string()))
+    }
+
+    fn info(&self, display: DisplayId) -> Result<&DisplayInfo, DeviceError> {
+        self.displays
+            .iter()
+            .find(|d| d.id == display)
+            .ok_or_else(|| DeviceError::NoSuchDisplay(display.to_string()))
+    }
+
+    /// Blacks out the node that shows the previous pattern if it is not `next`.
+    fn blank_previous(&mut self, next: usize) -> Result<(), DeviceError> {
+        if let Some(prev) = self.lit_node.filter(|p| *p != next) {
+            self.nodes[prev].blank()?;
+        }
+        self.lit_node = Some(next);
+        Ok(())
+    }
+
+    /// Shows a PNG (the output's size) on `display`'s output.
+    pub fn show_image(&mut self, display: DisplayId, png: Vec<u8>) -> Result<(), DeviceError> {
+        let (n, output) = self.route(display)?;
+        let output = output.to_string();
+        self.blank_previous(n)?;
+        self.nodes[n].show_image(&output, png).map(|_| ())
+    }
+
+    /// The frame `display`'s output last presented.
+    pub fn read_back(&self, display: DisplayId) -> Result<Framebuffer, DeviceError> {
+        let (n, output) = self.route(display)?;
+        self.nodes[n].read_back(output)
+    }
+}
+
+/// Fails unless `address`'s output exists on the node with `info`'s bit depth.
+fn check_output(
+    node: &NodeClient,
+    address: &OutputAddress,
+    info: &DisplayInfo,
+) -> Result<(), DeviceError> {
+    let o = node
+        .outputs()
+        .iter()
+        .find(|o| o.name == address.output)
+        .ok_or_else(|| {
+            let have: Vec<&str> = node.outputs().iter().map(|o| o.name.as_str()).collect();
+            DeviceError::Config(format!(
+                "{address} (display {}) does not exist: node {} has outputs {}",
+                info.name,
+                node.node(),
+                have.join(", ")
+            ))
+        })?;
+    if o.bit_depth != info.bit_depth {
+        return Err(DeviceError::Config(format!(
+            "display {} is {}-bit in the wall file, but {address} takes {}-bit codes",
+            info.name, info.bit_depth, o.bit_depth
+        )));
+    }
+    if o.surface_bit_depth < o.bit_depth {
+        tracing::warn!(
+            "{address}: only a {}-bit surface for a {}-bit display; codes are rounded to {} bit \
+             (steps {}× coarser)",
+            o.surface_bit_depth,
+            o.bit_depth,
+            o.surface_bit_depth,
+            1u32 << (o.bit_depth - o.surface_bit_depth)
+        );
+    }
+    Ok(())
+}
+
+impl PatternOutput for RemotePatternOutput {
+    fn displays(&self) -> Vec<DisplayInfo> {
+        self.displays.clone()
+    }
+
+    fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError> {
+        if !drive
+            .iter()
+            .all(|d| d.is_finite() && (0.0..=1.0).contains(d))
+        {
+            return Err(DeviceError::Config(format!(
+                "pattern drive {drive:?} is outside 0..=1 per channel"
+            )));
+        }
+        let bits = self.info(display)?.bit_depth;
+        let top = f64::from(max_code(bits));
+        let code = drive.map(|d| (d * top).round() as u32);
+        let (n, output) = self.route(display)?;
+        let output = output.to_string();
+        self.blank_previous(n)?;
+        self.nodes[n].show_uniform(&output, code, bits).map(|_| ())
+    }
+}

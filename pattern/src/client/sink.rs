@@ -1,0 +1,44 @@
+//! The virtual wall behind real pattern servers: what a node presented is read back
+//! and shown by the simulated projector of that display, so a commissioning run goes
+//! through the network, the servers and their presentation while the (simulated) meter
+//! reads the virtual wall.
+
+use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, PatternOutput};
+
+use crate::framebuffer::max_code;
+
+use super::RemotePatternOutput;
+
+/// Shows each pattern on the remote nodes, reads back the presented frame and shows
+/// exactly those code values on the simulator.
+#[derive(Debug)]
+pub struct SimulatorSink<S> {
+    remote: RemotePatternOutput,
+    simulator: S,
+}
+
+impl<S: PatternOutput> SimulatorSink<S> {
+    /// The remote output feeding `simulator`.
+    pub fn new(remote: RemotePatternOutput, simulator: S) -> Self {
+        SimulatorSink { remote, simulator }
+    }
+}
+
+impl<S: PatternOutput> PatternOutput for SimulatorSink<S> {
+    fn displays(&self) -> Vec<DisplayInfo> {
+        self.remote.displays()
+    }
+
+    fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError> {
+        self.remote.show(display, drive)?;
+        let frame = self.remote.read_back(display)?;
+        let code = frame.uniform_code().ok_or_else(|| {
+            DeviceError::Config(format!(
+                "display {display}: the node presented a frame that is not uniform"
+            ))
+        })?;
+        let top = f64::from(max_code(frame.bits));
+        self.simulator
+            .show(display, code.map(|c| f64::from(c) / top))
+    }
+}

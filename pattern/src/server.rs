@@ -1,0 +1,14 @@
+//! The node side: `lumiwall pattern-server`. A [`Presenter`] shows frames on the node's
+//! outputs (off-screen in [`HeadlessPresenter`]); [`PatternNode`] is the gRPC service
+//! (token, lease, limits, one output lit and the others black); [`serve`] runs it on
+//! the address given, with the standard gRPC health service beside it.
+
+mod config;
+mod presenter;
+mod run;
+mod service;
+
+pub use config::{OutputSpec, ServerConfig};
+pub use presenter::{HeadlessPresenter, Presenter};
+pub use run::{ServeError, serve};
+pub use service::PatternNode;

@@ -1,0 +1,291 @@
+//! The pattern service end to end on 127.0.0.1: a headless server, the station's
+//! client, and the refusals a technician meets (wrong token, busy node, protocol
+//! mismatch, bad codes, oversized images, a node that is gone).
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::Duration;
+
+use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, Eye, PatternOutput};
+use lumiwall_pattern::client::{NodeClient, NodeOptions, RemotePatternOutput, Route};
+use lumiwall_pattern::server::{HeadlessPresenter, OutputSpec, ServerConfig, serve};
+use lumiwall_pattern::{Framebuffer, OutputAddress, Token, proto};
+
+const TOKEN: &str = "test-token-0123456789";
+
+/// A running headless server; stops when dropped.
+struct Server {
+    addr: SocketAddr,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        if let Some(s) = self.stop.take() {
+            let _ = s.send(());
+        }
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+fn start(outputs: &[&str], settle_ms: u64) -> Server {
+    let outputs: Vec<OutputSpec> = outputs.iter().map(|s| s.parse().unwrap()).collect();
+    let config = ServerConfig {
+        listen: "127.0.0.1:0".parse().unwrap(),
+        token: Token::new(TOKEN).unwrap(),
+        outputs: outputs.clone(),
+        settle: Duration::from_millis(settle_ms),
+        node_name: "test-node".into(),
+    };
+    let (addr_tx, addr_rx) = std::sync::mpsc::channel();
+    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
+    let thread = std::thread::spawn(move || {
+        let rt = tokio::runtime::Runtime::new().unwrap();
+        rt.block_on(async move {
+            let presenter = Box::new(HeadlessPresenter::new(&outputs));
+            serve(config, presenter, |a| addr_tx.send(a).unwrap(), async {
+                let _ = stop_rx.await;
+            })
+            .await
+            .unwrap();
+        });
+    });
+    let addr = addr_rx.recv_timeout(Duration::from_secs(10)).unwrap();
+    Server {
+        addr,
+        stop: Some(stop_tx),
+        thread: Some(thread),
+    }
+}
+
+fn display(id: u32, bits: u32) -> DisplayInfo {
+    DisplayInfo {
+        id: DisplayId(id),
+        name: format!("tile c{id}r0 mono"),
+        tile_col: id,
+        tile_row: 0,
+        eye: Eye::Mono,
+        bit_depth: bits,
+    }
+}
+
+fn route(id: u32, server: &Server, output: &str) -> Route {
+    Route {
+        display: DisplayId(id),
+        address: format!("tcp://{}/{output}", server.addr).parse().unwrap(),
+    }
+}
+
+fn opts(station: &str) -> NodeOptions {
+    NodeOptions {
+        deadline: Duration::from_secs(3),
+        retries: 0,
+        ..NodeOptions::new(Token::new(TOKEN).unwrap(), station.into())
+    }
+}
+
+fn node_message(e: DeviceError) -> String {
+    match e {
+        DeviceError::Node { message, .. } => message,
+        other => panic!("expected a node error, got {other:?}"),
+    }
+}
+
+#[test]
+fn uniform_codes_are_presented_exactly_and_the_other_outputs_are_black() {
+    let s = start(&["L=8x4@10", "R=8x4@10/8"], 0);
+    let displays = vec![display(0, 10), display(1, 10)];
+    let routes = vec![route(0, &s, "L"), route(1, &s, "R")];
+    let mut out = RemotePatternOutput::connect(displays, &routes, &opts("station-a")).unwrap();
+    out.show(DisplayId(0), [1.0, 512.0 / 1023.0, 0.0]).unwrap();
+    assert_eq!(
+        out.read_back(DisplayId(0)).unwrap().uniform_code(),
+        Some([1023, 512, 0])
+    );
+    assert_eq!(
+        out.read_back(DisplayId(1)).unwrap().uniform_code(),
+        Some([0, 0, 0])
+    );
+    // The 10-bit display behind an 8-bit surface: codes are rounded to 8 bit.
+    out.show(DisplayId(1), [1.0, 512.0 / 1023.0, 3.0 / 1023.0])
+        .unwrap();
+    let f = out.read_back(DisplayId(1)).unwrap();
+    assert_eq!((f.bits, f.uniform_code()), (8, Some([255, 128, 1])));
+    assert_eq!(
+        out.read_back(DisplayId(0)).unwrap().uniform_code(),
+        Some([0, 0, 0])
+    );
+}
+
+#[test]
+fn a_second_station_is_told_who_holds_the_node_and_gets_it_after_release() {
+    let s = start(&["0=4x4@8"], 0);
+    let routes = vec![route(0, &s, "0")];
+    let first =
+        RemotePatternOutput::connect(vec![display(0, 8)], &routes, &opts("station-a")).unwrap();
+    let err =
+        RemotePatternOutput::connect(vec![display(0, 8)], &routes, &opts("station-b")).unwrap_err();
+    let msg = node_message(err);
+    assert!(msg.contains("busy (held by station-a since 20"), "{msg}");
+    drop(first);
+    RemotePatternOutput::connect(vec![display(0, 8)], &routes, &opts("station-b")).unwrap();
+}
+
+#[test]
+fn a_wrong_token_is_refused_and_the_server_keeps_serving() {
+    let s = start(&["0=4x4@8"], 0);
+    let routes = vec![route(0, &s, "0")];
+    let wrong = NodeOptions {
+        token: Token::new("another-token-987654321").unwrap(),
+        ..opts("station-a")
+    };
+    let err = RemotePatternOutput::connect(vec![display(0, 8)], &routes, &wrong).unwrap_err();
+    assert!(!err.is_transient());
+    assert!(node_message(err).contains("refused the token"));
+    RemotePatternOutput::connect(vec![display(0, 8)], &routes, &opts("station-a")).unwrap();
+}
+
+#[test]
+fn routes_to_missing_outputs_or_other_bit_depths_are_configuration_errors() {
+    let s = start(&["0=4x4@8"], 0);
+    let err =
+        RemotePatternOutput::connect(vec![display(0, 8)], &[route(0, &s, "DP-9")], &opts("a"))
+            .unwrap_err()
+            .to_string();
+    assert!(
+        err.contains("does not exist") && err.contains("has outputs 0"),
+        "{err}"
+    );
+    let err = RemotePatternOutput::connect(vec![display(0, 10)], &[route(0, &s, "0")], &opts("a"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("10-bit in the wall file") && err.contains("8-bit codes"),
+        "{err}"
+    );
+    let err = RemotePatternOutput::connect(
+        vec![display(0, 8), display(1, 8)],
+        &[route(0, &s, "0")],
+        &opts("a"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("no output for 1 display"), "{err}");
+}
+
+#[test]
+fn a_node_that_is_gone_is_a_transient_error_naming_it() {
+    let s = start(&["0=4x4@8"], 0);
+    let routes = vec![route(0, &s, "0")];
+    let mut out = RemotePatternOutput::connect(vec![display(0, 8)], &routes, &opts("a")).unwrap();
+    let node = s.addr.to_string();
+    drop(s);
+    let err = out.show(DisplayId(0), [0.5; 3]).unwrap_err();
+    assert!(err.is_transient(), "{err}");
+    let text = err.to_string();
+    assert!(
+        text.contains(&node) && text.contains("pattern-server"),
+        "{text}"
+    );
+}
+
+/// A raw protocol client with the token, for requests the station never sends.
+fn raw(
+    s: &Server,
+) -> (
+    tokio::runtime::Runtime,
+    proto::pattern_service_client::PatternServiceClient<tonic::transport::Channel>,
+) {
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let c = rt
+        .block_on(
+            proto::pattern_service_client::PatternServiceClient::connect(format!(
+                "http://{}",
+                s.addr
+            )),
+        )
+        .unwrap();
+    (rt, c)
+}
+
+fn authed<T>(msg: T) -> tonic::Request<T> {
+    let mut r = tonic::Request::new(msg);
+    r.metadata_mut()
+        .insert("authorization", format!("Bearer {TOKEN}").parse().unwrap());
+    r
+}
+
+#[test]
+fn protocol_mismatch_bad_codes_and_wrong_sized_images_are_refused_with_the_reason() {
+    let s = start(&["0=4x4@8"], 0);
+    let (rt, mut c) = raw(&s);
+    let err = rt
+        .block_on(c.acquire(authed(proto::AcquireRequest {
+            station: "old".into(),
+            protocol: "lumiwall.pattern.v0".into(),
+        })))
+        .unwrap_err();
+    assert_eq!(err.code(), tonic::Code::FailedPrecondition);
+    assert!(
+        err.message().contains("speaks lumiwall.pattern.v1"),
+        "{}",
+        err.message()
+    );
+    let lease = rt
+        .block_on(c.acquire(authed(proto::AcquireRequest {
+            station: "raw".into(),
+            protocol: "lumiwall.pattern.v1".into(),
+        })))
+        .unwrap()
+        .into_inner()
+        .lease;
+    let show = |code: Vec<u32>, bits: u32| proto::ShowUniformRequest {
+        lease: lease.clone(),
+        output: "0".into(),
+        code,
+        bit_depth: bits,
+    };
+    for (req, says) in [
+        (show(vec![256, 0, 0], 8), "above 255"),
+        (show(vec![1, 2], 8), "2 code values"),
+        (show(vec![1, 2, 3], 10), "takes 8 bit"),
+    ] {
+        let err = rt.block_on(c.show_uniform(authed(req))).unwrap_err();
+        assert_eq!(err.code(), tonic::Code::InvalidArgument);
+        assert!(err.message().contains(says), "{}", err.message());
+    }
+    let png = Framebuffer::black(5, 4, 8).to_png().unwrap();
+    let err = rt
+        .block_on(c.show_image(authed(proto::ShowImageRequest {
+            lease: lease.clone(),
+            output: "0".into(),
+            png,
+        })))
+        .unwrap_err();
+    assert!(err.message().contains("5×4"), "{}", err.message());
+    // Still serving.
+    rt.block_on(c.show_uniform(authed(show(vec![1, 2, 3], 8))))
+        .unwrap();
+}
+
+#[test]
+fn acknowledgement_comes_after_the_settle_time() {
+    let s = start(&["0=4x4@8"], 150);
+    let rt = Arc::new(tokio::runtime::Runtime::new().unwrap());
+    let node = NodeClient::connect(
+        rt,
+        &s.addr.to_string(),
+        &format!("http://{}", s.addr),
+        opts("a"),
+    )
+    .unwrap();
+    let t = std::time::Instant::now();
+    let p = node.show_uniform("0", [9, 9, 9], 8).unwrap();
+    assert!(t.elapsed() >= Duration::from_millis(150));
+    assert_eq!(p.settle_ms, 150.0);
+    assert!(p.present_latency_ms >= 0.0 && p.present_latency_ms < 1000.0);
+    let _ = OutputAddress::clone;
+}
