@@ -17,8 +17,10 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use lumiwall_devices::serial::{Emulator, EmulatorOptions, FaultPlan, K10aConfig, KleinK10a};
-use lumiwall_devices::sim::{MeterModel, SimPatternOutput, SimPositioner, VirtualWall};
-use lumiwall_devices::{Colorimeter, DeviceError, DisplayInfo};
+use lumiwall_devices::sim::{MeterModel, SimPositioner, VirtualWall};
+use lumiwall_devices::{Colorimeter, DeviceError, DisplayInfo, PatternOutput};
+use lumiwall_pattern::client::{NodeOptions, RemotePatternOutput, Route, SimulatorSink};
+use lumiwall_pattern::{OutputAddress, Token};
 use lumiwall_profiles::DisplayProfile;
 
 use crate::commission::{CommissionError, CommissionOptions, CommissionOutcome, commission};
@@ -168,15 +170,32 @@ pub enum StationError {
         #[source]
         source: DeviceError,
     },
+    /// A real meter with a wall file that sends the patterns nowhere real.
+    #[error(
+        "wall {wall} has no [[output]] tables: the patterns would go to the simulator while \
+         the meter on {port} reads the real wall. Add an [[output]] per display and a \
+         [network] section (README, \"Setting up a real wall\"), or use --meter emulated \
+         for the virtual wall"
+    )]
+    NoOutputs {
+        /// The wall's name.
+        wall: String,
+        /// The real meter's port.
+        port: String,
+    },
+    /// The render nodes of the wall's `[[output]]` tables cannot be used.
+    #[error("cannot drive the wall's render nodes: {0}")]
+    Nodes(#[source] DeviceError),
 }
 
-/// The devices of a station: the virtual wall's pattern output and positioner and a
-/// meter (possibly behind the pty emulator).
+/// The devices of a station: the pattern output (the virtual wall's, or the render
+/// nodes the wall file names), the positioner and a meter (possibly behind the pty
+/// emulator).
 pub struct Station {
     /// The virtual wall.
     pub wall: VirtualWall,
     /// Pattern output.
-    pub pattern: SimPatternOutput,
+    pub pattern: Box<dyn PatternOutput + Send>,
     /// Positioner.
     pub positioner: SimPositioner,
     /// The meter as the calibration sees it.
@@ -196,13 +215,24 @@ impl std::fmt::Debug for Station {
 }
 
 impl Station {
-    /// Opens the wall file and the meter `opts` names.
+    /// Opens the wall file, the meter `opts` names and the pattern output: the render
+    /// nodes of the wall file's `[[output]]` tables (fed back into the virtual wall
+    /// when the meter is simulated), or the virtual wall's own.
     pub fn open(wall_path: &Path, opts: &StationOptions) -> Result<Self, StationError> {
         let wall = VirtualWall::from_toml_file(wall_path).map_err(|source| StationError::Wall {
             path: wall_path.to_path_buf(),
             source,
         })?;
-        Self::with_wall(wall, opts)
+        let mut station = Self::with_wall(wall, opts)?;
+        if !station.wall.output_routes().is_empty() {
+            station.pattern = remote_pattern(&station.wall, wall_path, &opts.meter)?;
+        } else if let MeterChoice::Serial(port) = &opts.meter {
+            return Err(StationError::NoOutputs {
+                wall: station.wall.name(),
+                port: port.clone(),
+            });
+        }
+        Ok(station)
     }
 
     /// Opens the meter `opts` names on an already loaded wall (clones of one wall share
@@ -232,7 +262,7 @@ impl Station {
             }
         };
         Ok(Self {
-            pattern: wall.pattern_output(),
+            pattern: Box::new(wall.pattern_output()),
             positioner: wall.positioner(),
             wall,
             meter,
@@ -248,7 +278,7 @@ impl Station {
     /// The three devices as the calibration sees them.
     pub fn rig(&mut self) -> Rig<'_> {
         Rig {
-            pattern: &mut self.pattern,
+            pattern: self.pattern.as_mut(),
             meter: self.meter.as_mut(),
             positioner: &mut self.positioner,
         }
@@ -305,4 +335,59 @@ impl Station {
         };
         self.verify(profiles, targets, &opts, &mut |_| {})
     }
+}
+
+/// The pattern output over the render nodes `wall`'s `[[output]]` tables name (its
+/// `[network]` token file is relative to `wall_path`); with a simulated meter the
+/// presented frames are fed back into the virtual wall ([`SimulatorSink`]).
+fn remote_pattern(
+    wall: &VirtualWall,
+    wall_path: &Path,
+    meter: &MeterChoice,
+) -> Result<Box<dyn PatternOutput + Send>, StationError> {
+    let config = |msg: String| StationError::Wall {
+        path: wall_path.to_path_buf(),
+        source: DeviceError::Config(msg),
+    };
+    let file = wall.wall_file();
+    let net = file
+        .network
+        .ok_or_else(|| config("[[output]] tables need a [network] section".into()))?;
+    let token_path = wall_path
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join(&net.token_file);
+    let token = Token::from_file(&token_path).map_err(|e| config(e.to_string()))?;
+    let routes = wall
+        .output_routes()
+        .into_iter()
+        .map(|(display, to)| {
+            let address: OutputAddress = to
+                .parse()
+                .map_err(|e: lumiwall_pattern::AddressError| config(e.to_string()))?;
+            Ok(Route { display, address })
+        })
+        .collect::<Result<Vec<_>, StationError>>()?;
+    let station = net.station.unwrap_or_else(host_name);
+    let opts = NodeOptions {
+        deadline: Duration::from_millis(net.deadline_ms),
+        ..NodeOptions::new(token, station)
+    };
+    let remote = RemotePatternOutput::connect(wall.displays(), &routes, &opts)
+        .map_err(StationError::Nodes)?;
+    Ok(match meter {
+        MeterChoice::Serial(_) => Box::new(remote),
+        MeterChoice::Emulated | MeterChoice::Direct => {
+            Box::new(SimulatorSink::new(remote, wall.pattern_output()))
+        }
+    })
+}
+
+/// This machine's host name (for the nodes' "busy" messages), or `station`.
+fn host_name() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .map(|h| h.trim().to_string())
+        .filter(|h| lumiwall_pattern::limits::valid_name(h))
+        .unwrap_or_else(|| "station".into())
 }

@@ -23,4 +23,4 @@ pub mod wall_file;
 pub use curve::TransferCurve;
 pub use meter::{MeterModel, SimMeter};
 pub use wall::{SimPatternOutput, SimPositioner, TruePrimaries, VirtualWall};
-pub use wall_file::WallFile;
+pub use wall_file::{NetworkSpec, OutputRoute, WallFile};

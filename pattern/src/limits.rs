@@ -15,8 +15,9 @@ pub const MAX_OUTPUT_SIDE: u32 = 16_384;
 /// Most pixels of one output (an 8192 × 8192 frame).
 pub const MAX_OUTPUT_PIXELS: u64 = 1 << 26;
 
-/// Most outputs one node serves.
-pub const MAX_OUTPUTS: usize = 16;
+/// Most outputs one node serves (a node with several GPUs has up to 16 heads; virtual
+/// and test nodes may serve a whole wall).
+pub const MAX_OUTPUTS: usize = 64;
 
 /// Longest output, node or station name, characters.
 pub const MAX_NAME_CHARS: usize = 64;

@@ -6,6 +6,8 @@
 mod cmd_apply;
 #[cfg(feature = "station")]
 mod cmd_commission;
+#[cfg(feature = "pattern-server")]
+mod cmd_pattern_server;
 mod cmd_profiles;
 mod cmd_render;
 #[cfg(feature = "station")]
@@ -42,6 +44,9 @@ enum Command {
     Render(cmd_render::RenderArgs),
     /// Inspect the profile store: history and drift.
     Profiles(cmd_profiles::ProfilesArgs),
+    /// Serve this render node's outputs to calibration stations (gRPC pattern service).
+    #[cfg(feature = "pattern-server")]
+    PatternServer(cmd_pattern_server::PatternServerArgs),
     /// Benchmarks that print a table.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -80,6 +85,8 @@ fn main() {
         Command::Apply(a) => cmd_apply::run(a),
         Command::Render(a) => cmd_render::run(a),
         Command::Profiles(a) => cmd_profiles::run(a),
+        #[cfg(feature = "pattern-server")]
+        Command::PatternServer(a) => cmd_pattern_server::run(a),
         Command::Bench(BenchCommand::Apply(a)) => cmd_apply::bench(a),
         Command::Bench(BenchCommand::Radiosity(a)) => cmd_render::bench(a),
         #[cfg(feature = "station")]

@@ -114,6 +114,16 @@ pub(crate) fn duration(s: &str) -> Result<Duration, String> {
     seconds(v * unit_s).map_err(|e| format!("duration {s} {e}"))
 }
 
+/// A duration like [`duration`] that may also be zero (`0s`, `0ms`), e.g. a settle
+/// time.
+pub(crate) fn duration_or_zero(s: &str) -> Result<Duration, String> {
+    let zero = s.trim().trim_end_matches(['m', 's', 'h']).trim();
+    if zero.parse::<f64>().is_ok_and(|v| v == 0.0) {
+        return Ok(Duration::ZERO);
+    }
+    duration(s)
+}
+
 /// `secs` seconds as a duration in (0, [`MAX_DURATION`]].
 pub(crate) fn seconds(secs: f64) -> Result<Duration, String> {
     let max = MAX_DURATION.as_secs();

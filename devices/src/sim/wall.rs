@@ -156,6 +156,66 @@ fn validate_shape(file: &WallFile) -> Result<u32, DeviceError> {
     Ok(n)
 }
 
+/// Longest `to` of an `[[output]]`, characters.
+const MAX_OUTPUT_ADDRESS_CHARS: usize = 300;
+
+/// Longest call deadline a wall file may ask for (a minute).
+const MAX_DEADLINE_MS: u64 = 60_000;
+
+/// Checks the `[[output]]` tables against the grid and the stereo mode, and that a
+/// `[network]` section comes with them; `n` is the number of displays.
+fn validate_outputs(file: &WallFile, n: u32) -> Result<(), DeviceError> {
+    if file.outputs.is_empty() {
+        return Ok(());
+    }
+    if file.outputs.len() > n as usize {
+        return Err(DeviceError::Config(format!(
+            "{} [[output]] tables for {n} displays",
+            file.outputs.len()
+        )));
+    }
+    for (i, o) in file.outputs.iter().enumerate() {
+        let at = format!("[[output]] #{} (to = {:?})", i + 1, o.to);
+        let [col, row] = o.tile;
+        if col >= file.tiles.cols || row >= file.tiles.rows {
+            return Err(DeviceError::Config(format!(
+                "{at}: tile [{col}, {row}] is outside the {} × {} grid",
+                file.tiles.cols, file.tiles.rows
+            )));
+        }
+        let eye_ok = matches!(
+            (file.stereo, o.eye),
+            (Stereo::Mono, None | Some(Eye::Mono))
+                | (Stereo::Infitec, Some(Eye::Left | Eye::Right))
+        );
+        if !eye_ok {
+            return Err(DeviceError::Config(format!(
+                "{at}: eye {:?} does not fit a {:?} wall (mono: omit eye; infitec: left or right)",
+                o.eye, file.stereo
+            )));
+        }
+        if o.to.is_empty() || o.to.chars().count() > MAX_OUTPUT_ADDRESS_CHARS {
+            return Err(DeviceError::Config(format!(
+                "{at}: to must be tcp://HOST:PORT/OUTPUT"
+            )));
+        }
+    }
+    match &file.network {
+        None => Err(DeviceError::Config(
+            "[[output]] tables need a [network] section with token_file (the wall's shared \
+             token)"
+                .into(),
+        )),
+        Some(net) if net.deadline_ms == 0 || net.deadline_ms > MAX_DEADLINE_MS => {
+            Err(DeviceError::Config(format!(
+                "network.deadline_ms must be 1 to {MAX_DEADLINE_MS}, got {}",
+                net.deadline_ms
+            )))
+        }
+        Some(_) => Ok(()),
+    }
+}
+
 /// Checks the parts of a wall file outside the projector model.
 fn validate_optics(file: &WallFile) -> Result<(), DeviceError> {
     finite_at_least(
@@ -305,6 +365,7 @@ impl VirtualWall {
     /// the optics.
     pub fn from_wall_file(file: WallFile) -> Result<Self, DeviceError> {
         let n = validate_shape(&file)?;
+        validate_outputs(&file, n)?;
         validate_spec(&file.projector)?;
         validate_optics(&file)?;
         let t = &file.tiles;
@@ -376,6 +437,27 @@ impl VirtualWall {
             .displays
             .iter()
             .map(|d| d.info.clone())
+            .collect()
+    }
+
+    /// The `[[output]]` routes of the wall file, each with its display (empty when the
+    /// patterns go to this simulator).
+    pub fn output_routes(&self) -> Vec<(DisplayId, String)> {
+        let s = self.lock();
+        s.file
+            .outputs
+            .iter()
+            .filter_map(|o| {
+                let eye = o.eye.unwrap_or(Eye::Mono);
+                s.displays
+                    .iter()
+                    .find(|d| {
+                        d.info.tile_col == o.tile[0]
+                            && d.info.tile_row == o.tile[1]
+                            && d.info.eye == eye
+                    })
+                    .map(|d| (d.info.id, o.to.clone()))
+            })
             .collect()
     }
 

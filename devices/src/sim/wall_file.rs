@@ -41,6 +41,47 @@ pub struct WallFile {
     /// Per-projector overrides (`[[override]]` tables).
     #[serde(default, rename = "override")]
     pub overrides: Vec<OverrideSpec>,
+    /// Where each display's patterns go on a real wall (`[[output]]` tables): an
+    /// output of a render node's pattern server. None: the patterns go to this
+    /// simulator.
+    #[serde(default, rename = "output")]
+    pub outputs: Vec<OutputRoute>,
+    /// How the station reaches the render nodes (`[network]`); needed with outputs.
+    #[serde(default)]
+    pub network: Option<NetworkSpec>,
+}
+
+/// One display's output (`[[output]]`).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputRoute {
+    /// Tile `[col, row]`, 0-based from the top left.
+    pub tile: [u32; 2],
+    /// Eye (`left`/`right` on an Infitec wall; omitted or `mono` on a mono wall).
+    #[serde(default)]
+    pub eye: Option<lumiwall_core::Eye>,
+    /// The output: `tcp://HOST:PORT/OUTPUT`, e.g. `tcp://node03:50051/DP-1`.
+    pub to: String,
+}
+
+/// How the station reaches the render nodes (`[network]`).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NetworkSpec {
+    /// The wall's pre-shared token, a file beside the wall file (or an absolute path);
+    /// every node runs with the same file.
+    pub token_file: String,
+    /// Deadline of one call to a node, ms (presenting plus settling must fit).
+    #[serde(default = "d_deadline_ms")]
+    pub deadline_ms: u64,
+    /// The station's name shown to other stations that find a node busy (default:
+    /// this machine's host name).
+    #[serde(default)]
+    pub station: Option<String>,
+}
+
+fn d_deadline_ms() -> u64 {
+    10_000
 }
 
 /// Stereo mode of the wall.
