@@ -30,7 +30,7 @@
 
 use std::path::{Path, PathBuf};
 
-use lumiwall_devices::{DisplayId, DisplayInfo, Xyz};
+use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, Xyz};
 use lumiwall_profiles::{BlackMode, DisplayKey, ProfileError, ProfileSet, write_atomic};
 use serde::{Deserialize, Serialize};
 
@@ -114,6 +114,24 @@ pub enum CommissionError {
         #[source]
         source: MeasureError,
         /// Displays saved so far.
+        saved: usize,
+        /// Displays of the wall.
+        total: usize,
+        /// The run folder.
+        run_dir: PathBuf,
+    },
+    /// The technician skipped displays while aiming; the others are measured and saved.
+    #[error(
+        "the technician skipped {}: {}; {saved} of {total} displays are measured and saved in \
+         {}; no profiles were written. Re-run with --resume to measure the skipped ones.",
+        if displays.len() == 1 { "1 display".to_string() } else { format!("{} displays", displays.len()) },
+        displays.join(", "),
+        run_dir.display()
+    )]
+    Skipped {
+        /// The skipped displays.
+        displays: Vec<String>,
+        /// Displays measured and saved.
         saved: usize,
         /// Displays of the wall.
         total: usize,
@@ -292,6 +310,7 @@ pub fn measure_wall(
 
     let mut measured: Vec<MeasuredDisplay> = Vec::with_capacity(displays.len());
     let mut resumed = Vec::new();
+    let mut skipped: Vec<String> = Vec::new();
     let white_xy = match opts.solve.white {
         WhiteTarget::Xy(xy) => Some(xy),
         WhiteTarget::Cct(k) => cct_to_xy(k).ok(),
@@ -333,16 +352,34 @@ pub fn measure_wall(
             measured.push(m);
             continue;
         }
-        let m = measure_display(rig, info, key, &mopts, progress).map_err(|source| {
-            CommissionError::Interrupted {
-                source,
-                saved: i,
-                total: displays.len(),
-                run_dir: run_dir.clone(),
+        let m = match measure_display(rig, info, key, &mopts, progress) {
+            Ok(m) => m,
+            Err(MeasureError::Aim {
+                source: DeviceError::AimSkipped(_),
+                ..
+            }) => {
+                skipped.push(info.name.clone());
+                continue;
             }
-        })?;
+            Err(source) => {
+                return Err(CommissionError::Interrupted {
+                    source,
+                    saved: i - skipped.len(),
+                    total: displays.len(),
+                    run_dir: run_dir.clone(),
+                });
+            }
+        };
         write_atomic(&path, &to_json(&m))?;
         measured.push(m);
+    }
+    if !skipped.is_empty() {
+        return Err(CommissionError::Skipped {
+            displays: skipped,
+            saved: measured.len(),
+            total: displays.len(),
+            run_dir,
+        });
     }
     Ok((measured, resumed))
 }

@@ -40,7 +40,8 @@ pub mod meter_offset;
 
 use lumiwall_core::{BitDepth, Channel};
 use lumiwall_devices::{
-    Colorimeter, DeviceError, DisplayId, DisplayInfo, MeterPositioner, PatternOutput, Xyz,
+    AimingAids, Colorimeter, DeviceError, DisplayId, DisplayInfo, MeterPositioner, PatternOutput,
+    Xyz,
 };
 use lumiwall_profiles::DisplayKey;
 use serde::{Deserialize, Serialize};
@@ -539,13 +540,19 @@ impl<'r, 'a> Session<'r, 'a> {
         opts: &MeasureOptions,
     ) -> Result<Self, MeasureError> {
         let name = display.to_string();
+        let aim_err = |source| MeasureError::Aim {
+            display: name.clone(),
+            uv,
+            source,
+        };
+        rig.positioner.aim(id, uv).map_err(aim_err)?;
+        let aids = AimingAids {
+            pattern: &mut *rig.pattern,
+            meter: &mut *rig.meter,
+        };
         rig.positioner
-            .aim(id, uv)
-            .map_err(|source| MeasureError::Aim {
-                display: name.clone(),
-                uv,
-                source,
-            })?;
+            .confirm(id, &name, uv, aids)
+            .map_err(aim_err)?;
         let limit_cd_m2 = opts
             .low_light_limit_cd_m2
             .unwrap_or_else(|| rig.meter.info().min_reliable_cd_m2)

@@ -17,8 +17,10 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use lumiwall_devices::serial::{Emulator, EmulatorOptions, FaultPlan, K10aConfig, KleinK10a};
-use lumiwall_devices::sim::{MeterModel, SimPositioner, VirtualWall};
-use lumiwall_devices::{Colorimeter, DeviceError, DisplayInfo, PatternOutput};
+use lumiwall_devices::sim::{MeterModel, VirtualWall};
+use lumiwall_devices::{
+    Colorimeter, DeviceError, DisplayInfo, GuidedPositioner, MeterPositioner, PatternOutput,
+};
 use lumiwall_pattern::client::{NodeOptions, RemotePatternOutput, Route, SimulatorSink};
 use lumiwall_pattern::{OutputAddress, Token};
 use lumiwall_profiles::DisplayProfile;
@@ -128,6 +130,36 @@ pub struct StationOptions {
     pub faults: FaultPlan,
     /// Settings of the serial driver (emulated and real meters).
     pub driver: K10aConfig,
+    /// Who aims the meter.
+    pub aim: AimChoice,
+}
+
+/// Who aims the meter at each display.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AimChoice {
+    /// A technician with a real meter, the simulator with a simulated one.
+    Auto,
+    /// A technician, prompted in the terminal (stdin/stdout) with an aiming pattern and
+    /// live readings.
+    Guided,
+    /// The simulator (the virtual wall's meter is aimed by software).
+    Simulated,
+}
+
+impl std::str::FromStr for AimChoice {
+    type Err = String;
+
+    /// Parses `auto`, `guided` or `simulated`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Self::Auto),
+            "guided" => Ok(Self::Guided),
+            "simulated" => Ok(Self::Simulated),
+            _ => Err(format!(
+                "unknown aiming '{s}': use auto, guided or simulated"
+            )),
+        }
+    }
 }
 
 impl StationOptions {
@@ -139,6 +171,7 @@ impl StationOptions {
             time_scale: DEFAULT_TIME_SCALE,
             faults: FaultPlan::default(),
             driver: driver_config(),
+            aim: AimChoice::Auto,
         }
     }
 }
@@ -197,7 +230,7 @@ pub struct Station {
     /// Pattern output.
     pub pattern: Box<dyn PatternOutput + Send>,
     /// Positioner.
-    pub positioner: SimPositioner,
+    pub positioner: Box<dyn MeterPositioner + Send>,
     /// The meter as the calibration sees it.
     pub meter: Box<dyn Colorimeter + Send>,
     /// The emulator serving the pty, if any (stopped on drop of the station).
@@ -263,7 +296,7 @@ impl Station {
         };
         Ok(Self {
             pattern: Box::new(wall.pattern_output()),
-            positioner: wall.positioner(),
+            positioner: positioner(&wall, opts),
             wall,
             meter,
             emulator,
@@ -280,7 +313,7 @@ impl Station {
         Rig {
             pattern: self.pattern.as_mut(),
             meter: self.meter.as_mut(),
-            positioner: &mut self.positioner,
+            positioner: self.positioner.as_mut(),
         }
     }
 
@@ -390,4 +423,25 @@ fn host_name() -> String {
         .map(|h| h.trim().to_string())
         .filter(|h| lumiwall_pattern::limits::valid_name(h))
         .unwrap_or_else(|| "station".into())
+}
+
+/// The positioner `opts.aim` asks for: the simulator's, or a technician prompted on
+/// stdin/stdout (the simulator's is aimed too, so a simulated meter reads the display
+/// being aimed at).
+fn positioner(wall: &VirtualWall, opts: &StationOptions) -> Box<dyn MeterPositioner + Send> {
+    let guided = match opts.aim {
+        AimChoice::Guided => true,
+        AimChoice::Simulated => false,
+        AimChoice::Auto => matches!(opts.meter, MeterChoice::Serial(_)),
+    };
+    let sim = Box::new(wall.positioner());
+    if guided {
+        Box::new(GuidedPositioner::new(
+            sim,
+            Box::new(std::io::BufReader::new(std::io::stdin())),
+            Box::new(std::io::stdout()),
+        ))
+    } else {
+        sim
+    }
 }

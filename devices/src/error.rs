@@ -70,6 +70,12 @@ pub enum DeviceError {
         /// Whether retrying the same request can succeed (unreachable, deadline).
         transient: bool,
     },
+    /// The technician stopped while aiming the meter.
+    #[error("stopped by the technician while aiming the meter at {0}")]
+    AimStopped(String),
+    /// The technician skipped a display while aiming the meter.
+    #[error("skipped by the technician while aiming the meter at {0}")]
+    AimSkipped(String),
     /// A wall description or device configuration is wrong.
     #[error("configuration error: {0}")]
     Config(String),

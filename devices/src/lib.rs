@@ -8,6 +8,7 @@
 //! observer used to integrate spectra.
 
 pub mod error;
+mod guided;
 pub mod traits;
 pub mod xyz;
 
@@ -17,7 +18,8 @@ pub mod serial;
 pub mod sim;
 
 pub use error::DeviceError;
+pub use guided::GuidedPositioner;
 pub use traits::{
-    Colorimeter, DisplayId, DisplayInfo, Eye, MeterInfo, MeterPositioner, PatternOutput,
+    AimingAids, Colorimeter, DisplayId, DisplayInfo, Eye, MeterInfo, MeterPositioner, PatternOutput,
 };
 pub use xyz::Xyz;

@@ -51,6 +51,22 @@ pub trait PatternOutput {
     /// Shows a uniform colour on one display; `drive` is the normalised input per
     /// channel in 0..=1 (code value / max code); the other displays show black.
     fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError>;
+
+    /// Shows a pattern that helps a person aim the meter at spot `uv` of `display`
+    /// (a crosshair where the output can show images; full white otherwise).
+    fn show_aim_marker(&mut self, display: DisplayId, uv: [f64; 2]) -> Result<(), DeviceError> {
+        let _ = uv;
+        self.show(display, [1.0; 3])
+    }
+}
+
+/// What a positioner that asks a person may use while the meter is aimed: the
+/// pattern output (for an aiming pattern) and the meter (for live readings).
+pub struct AimingAids<'a> {
+    /// Shows the aiming pattern.
+    pub pattern: &'a mut dyn PatternOutput,
+    /// Takes live readings.
+    pub meter: &'a mut dyn Colorimeter,
 }
 
 /// Points the meter at a display (a technician, a motorised mount, or the simulator).
@@ -58,4 +74,20 @@ pub trait MeterPositioner {
     /// Aims the meter at the calibration spot of `display` (its centre unless told
     /// otherwise); `uv` is the spot in normalised display coordinates, 0..=1.
     fn aim(&mut self, display: DisplayId, uv: [f64; 2]) -> Result<(), DeviceError>;
+
+    /// Waits until the aim at `uv` of `display` (named `label`) is confirmed: a
+    /// technician looks at the aiming pattern and live readings; a mount or the
+    /// simulator is aimed once [`MeterPositioner::aim`] returns (the default). Fails
+    /// with [`DeviceError::AimStopped`] or [`DeviceError::AimSkipped`] when the person
+    /// says so.
+    fn confirm(
+        &mut self,
+        display: DisplayId,
+        label: &str,
+        uv: [f64; 2],
+        aids: AimingAids<'_>,
+    ) -> Result<(), DeviceError> {
+        let _ = (display, label, uv, aids);
+        Ok(())
+    }
 }

@@ -17,7 +17,7 @@ use lumiwall_calib::colorimetry::cct_to_xy;
 use lumiwall_calib::commission::{CommissionOptions, CommissionOutcome};
 use lumiwall_calib::measure::{LowLight, MeasureOptions, Progress};
 use lumiwall_calib::solve::{SolveOptions, WhiteTarget};
-use lumiwall_calib::station::{MeterChoice, Noise, Station, StationOptions};
+use lumiwall_calib::station::{AimChoice, MeterChoice, Noise, Station, StationOptions};
 use lumiwall_core::Headroom;
 use lumiwall_devices::DisplayInfo;
 use lumiwall_devices::serial::FaultPlan;
@@ -81,6 +81,11 @@ pub(crate) struct MeterArgs {
     #[arg(long, allow_negative_numbers = true, default_value_t = lumiwall_calib::station::DEFAULT_TIME_SCALE,
           value_parser = |s: &str| values::positive_at_most(s, MAX_TIME_SCALE))]
     pub(crate) time_scale: f64,
+    /// Who aims the meter: auto (a technician with a real meter, the simulator
+    /// otherwise), guided (prompted here: Enter = aimed, r = read again, s = skip,
+    /// q = stop; --resume continues) or simulated.
+    #[arg(long, default_value = "auto")]
+    pub(crate) aim: AimChoice,
 }
 
 /// Largest `--time-scale`: ten times slower than a real K-10A.
@@ -91,6 +96,7 @@ impl MeterArgs {
     pub(crate) fn station_options(&self) -> StationOptions {
         StationOptions {
             time_scale: self.time_scale,
+            aim: self.aim,
             ..StationOptions::new(self.meter.clone(), self.noise.into())
         }
     }

@@ -14,6 +14,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::{fixture, lumiwall};
+use predicates::prelude::*;
 use predicates::str::contains;
 use tempfile::TempDir;
 
@@ -210,4 +211,52 @@ fn a_pattern_server_killed_mid_run_is_named_and_resume_finishes_the_job() {
         .success()
         .stdout(contains("profiles: "));
     assert_eq!(profiles(&out).len(), 48);
+}
+
+#[test]
+fn guided_aiming_prompts_per_display_and_stop_or_skip_resume_where_the_technician_left() {
+    let tmp = TempDir::new().unwrap();
+    let out = tmp.path().join("out");
+    let guided = |typed: &str| {
+        let mut cmd = lumiwall();
+        cmd.args([
+            "commission",
+            "--meter",
+            "direct",
+            "--noise",
+            "none",
+            "--aim",
+            "guided",
+        ])
+        .arg("--wall")
+        .arg(fixture("walls/mono-2x1.toml"))
+        .arg("--out")
+        .arg(&out)
+        .write_stdin(typed.to_string());
+        cmd
+    };
+    // Aim display 0, stop at display 1.
+    guided("r\n\nq\n")
+        .assert()
+        .code(1)
+        .stdout(contains("aim the meter at mono-2x1 display 0"))
+        .stdout(contains("live: Y = "))
+        .stderr(contains(
+            "stopped by the technician while aiming the meter at mono-2x1 display 1",
+        ))
+        .stderr(contains("--resume"));
+    // Resume: display 0 is kept, display 1 is skipped this time.
+    guided("s\n")
+        .arg("--resume")
+        .assert()
+        .code(1)
+        .stdout(contains("aim the meter at mono-2x1 display 0").not())
+        .stderr(contains("the technician skipped 1 display: tile c1r0 mono"))
+        .stderr(contains("Re-run with --resume"));
+    guided("\n")
+        .arg("--resume")
+        .assert()
+        .success()
+        .stdout(contains("aim the meter at mono-2x1 display 1"))
+        .stdout(contains("profiles: "));
 }

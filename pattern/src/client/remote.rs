@@ -208,6 +208,22 @@ impl PatternOutput for RemotePatternOutput {
         self.displays.clone()
     }
 
+    /// A white crosshair (lines a hundredth of the height wide, at least 2 pixels) on
+    /// black through the spot, with a white square at the spot.
+    fn show_aim_marker(&mut self, display: DisplayId, uv: [f64; 2]) -> Result<(), DeviceError> {
+        let (n, output) = self.route(display)?;
+        let o = self.nodes[n]
+            .outputs()
+            .iter()
+            .find(|o| o.name == output)
+            .cloned()
+            .ok_or_else(|| DeviceError::NoSuchDisplay(display.to_string()))?;
+        let png = crosshair(o.width_px, o.height_px, o.bit_depth, uv)
+            .to_png()
+            .map_err(|e| DeviceError::Config(format!("aiming pattern: {e}")))?;
+        self.show_image(display, png)
+    }
+
     fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError> {
         if !drive
             .iter()
@@ -225,4 +241,24 @@ impl PatternOutput for RemotePatternOutput {
         self.blank_previous(n)?;
         self.nodes[n].show_uniform(&output, code, bits).map(|_| ())
     }
+}
+
+/// A white crosshair through `uv` on black, at `bits` bits per channel.
+fn crosshair(width: u32, height: u32, bits: u32, uv: [f64; 2]) -> Framebuffer {
+    let mut f = Framebuffer::black(width, height, bits);
+    let white = max_code(bits) as u16;
+    let cx = (uv[0].clamp(0.0, 1.0) * f64::from(width - 1)).round() as i64;
+    let cy = (uv[1].clamp(0.0, 1.0) * f64::from(height - 1)).round() as i64;
+    let half = i64::from((height / 200).max(1));
+    let square = 6 * half;
+    for y in 0..i64::from(height) {
+        for x in 0..i64::from(width) {
+            let on_line = (x - cx).abs() <= half || (y - cy).abs() <= half;
+            let in_square = (x - cx).abs() <= square && (y - cy).abs() <= square;
+            if on_line || in_square {
+                f.codes[(y * i64::from(width) + x) as usize] = [white; 3];
+            }
+        }
+    }
+    f
 }

@@ -29,6 +29,12 @@ impl<S: PatternOutput> PatternOutput for SimulatorSink<S> {
         self.remote.displays()
     }
 
+    /// The crosshair on the node; the simulator shows white (it models uniform fields).
+    fn show_aim_marker(&mut self, display: DisplayId, uv: [f64; 2]) -> Result<(), DeviceError> {
+        self.remote.show_aim_marker(display, uv)?;
+        self.simulator.show(display, [1.0; 3])
+    }
+
     fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError> {
         self.remote.show(display, drive)?;
         let frame = self.remote.read_back(display)?;
