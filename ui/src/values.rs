@@ -54,6 +54,10 @@ pub(crate) fn non_negative_finite(s: &str) -> Result<f64, String> {
 }
 
 /// A finite number in `(0, max]`.
+#[cfg_attr(
+    not(feature = "station"),
+    expect(dead_code, reason = "used by the station commands only")
+)]
 pub(crate) fn positive_at_most(s: &str, max: f64) -> Result<f64, String> {
     let v = positive_finite(s).map_err(|e| format!("{e} and at most {max}"))?;
     if v <= max {
@@ -223,6 +227,10 @@ pub(crate) fn check_output_files(option: &str, paths: &[&Path]) -> Result<(), Cl
 /// Checks, before any work, that the output folder `dir` of `option` can be written:
 /// it is an existing writable folder, or it does not exist yet and its nearest existing
 /// ancestor is a writable folder (the command creates it).
+#[cfg_attr(
+    not(feature = "station"),
+    expect(dead_code, reason = "used by the station commands only")
+)]
 pub(crate) fn check_output_dir(option: &str, dir: &Path) -> Result<(), CliError> {
     if dir.exists() && !dir.is_dir() {
         return Err(CliError::input(format!(

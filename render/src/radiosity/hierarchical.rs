@@ -159,6 +159,9 @@ struct Solver<'a, 'c> {
     /// Under a time limit: the leaves before the latest refinement and their error,
     /// returned when the limit cuts a refinement short and leaves a worse solution.
     before_refine: Option<Snapshot>,
+    /// The latest refinement was cut short by the time limit: its error estimate
+    /// misses what was left unrefined, so it cannot count as converged.
+    refinement_cut_short: bool,
 }
 
 /// The solution's leaves at one moment and the curve point that estimated its error.
@@ -226,6 +229,7 @@ impl<'a, 'c> Solver<'a, 'c> {
             idle_refines: 0,
             linear_leaves: 0,
             before_refine: None,
+            refinement_cut_short: false,
         }
     }
 
@@ -291,13 +295,15 @@ impl<'a, 'c> Solver<'a, 'c> {
             lim: self.lim,
             deadline: self.clock.deadline,
         };
-        let changed = refine::refine(
+        let refined = refine::refine(
             &params,
             &mut self.h,
             &mut self.st,
             &mut self.plinks,
             &mut self.clinks,
         );
+        let changed = refined.changed;
+        self.refinement_cut_short = refined.cut_short;
         self.st
             .bake_cluster_direct(self.ctx.scene, &self.h, self.ctx.emitters, &self.clinks);
         self.idle_refines = if changed == 0 {
@@ -463,7 +469,8 @@ impl<'a, 'c> Solver<'a, 'c> {
 
     /// Why the solve stops after this sweep, if it does.
     fn stop_reason(&self, error: &SweepError) -> Option<StopReason> {
-        if error.solve + error.discretization <= self.opts.stop.target_error {
+        let met = error.solve + error.discretization <= self.opts.stop.target_error;
+        if met && !self.refinement_cut_short {
             Some(StopReason::Converged)
         } else if self.clock.past_deadline() {
             Some(StopReason::TimeLimit)
@@ -482,16 +489,17 @@ impl<'a, 'c> Solver<'a, 'c> {
         self.eps *= (EPS_STEP_AIM * r * r * r).clamp(EPS_STEP_MIN, EPS_STEP_MAX);
     }
 
-    /// The solution: the leaves and the statistics. When the time limit stopped the
-    /// solve with a higher estimated error than the solution before the latest
-    /// refinement, that earlier solution is returned, and the curve ends with a point
-    /// for it (its error, now).
+    /// The solution: the leaves and the statistics. When the time limit cut the latest
+    /// refinement short (or stopped the solve with a higher estimated error than the
+    /// solution before it), the solution before that refinement is returned, and the
+    /// curve ends with a point for it (its error, now).
     fn finish(mut self, stop: StopReason) -> Solution {
         let last_error = self.curve.points.last().map(|p| p.estimated_error);
         let patches = match self.before_refine.take() {
             Some(b)
                 if stop == StopReason::TimeLimit
-                    && last_error.is_some_and(|e| b.point.estimated_error < e) =>
+                    && (self.refinement_cut_short
+                        || last_error.is_some_and(|e| b.point.estimated_error < e)) =>
             {
                 tracing::info!(
                     error = b.point.estimated_error,

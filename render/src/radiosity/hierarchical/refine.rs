@@ -260,16 +260,27 @@ struct RoundDecisions {
     cluster: Decisions,
 }
 
+/// What one refinement did.
+pub(super) struct Refined {
+    /// Links replaced.
+    pub changed: usize,
+    /// The deadline passed before every link was refined to ε: the links are a valid
+    /// but incomplete hierarchy, and the error estimate of the next sweeps does not
+    /// cover what was left unrefined.
+    pub cut_short: bool,
+}
+
 /// Refines at tolerance `eps` (lm) until no link asks for a split or the deadline
-/// passes. Returns the number of links replaced.
+/// passes.
 pub(super) fn refine(
     params: &RefineParams,
     h: &mut Hierarchy,
     st: &mut State,
     plinks: &mut Vec<Vec<PLink>>,
     clinks: &mut [Vec<CLink>],
-) -> usize {
+) -> Refined {
     let mut changed = 0usize;
+    let mut cut_short = false;
     // receivers whose links may decide differently than in the last round: all at
     // first, then those that gained or lost links or had decisions deferred (nothing
     // else changes within one refinement: the strengths stay until the next sweep)
@@ -279,6 +290,7 @@ pub(super) fn refine(
     };
     for _round in 0..MAX_ROUNDS {
         if past(params.deadline) {
+            cut_short = true;
             break;
         }
         // 1. decide
@@ -301,6 +313,7 @@ pub(super) fn refine(
         // old links stay (the new children then receive through their parents)
         let jobs = replacement_jobs(h, &decisions, plinks, clinks);
         let Some(made) = make_links(params, h, &jobs) else {
+            cut_short = true;
             break;
         };
         // the old links go
@@ -320,7 +333,7 @@ pub(super) fn refine(
             }
         }
     }
-    changed
+    Refined { changed, cut_short }
 }
 
 /// A link to make: receiver, sender, and whether the parent link was unoccluded.
