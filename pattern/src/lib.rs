@@ -22,7 +22,13 @@ pub use framebuffer::{Framebuffer, max_code, requantise};
 pub use token::{Token, TokenError};
 
 /// The generated gRPC messages, client and server of `lumiwall.pattern.v1`.
-#[allow(missing_docs, unreachable_pub, clippy::all, reason = "generated code")]
+#[allow(
+    missing_docs,
+    unreachable_pub,
+    clippy::all,
+    clippy::allow_attributes_without_reason,
+    reason = "generated code"
+)]
 pub mod proto {
     tonic::include_proto!("lumiwall.pattern.v1");
 }

@@ -258,8 +258,11 @@ fn display_set(var: impl Fn(&str) -> Option<String>) -> bool {
 
 /// The process's winit event loop (any thread on Linux and the BSDs).
 fn build_event_loop() -> Result<EventLoop<Request>, WindowError> {
-    if cfg!(all(unix, not(target_vendor = "apple"), not(target_os = "android")))
-        && !display_set(|k| std::env::var(k).ok())
+    if cfg!(all(
+        unix,
+        not(target_vendor = "apple"),
+        not(target_os = "android")
+    )) && !display_set(|k| std::env::var(k).ok())
     {
         return Err(WindowError::NoDisplay);
     }
@@ -531,7 +534,10 @@ mod tests {
             [MonitorChoice::Index(0), MonitorChoice::Index(1)]
         );
         let err = monitors_for(&two, &[MonitorChoice::Index(0)]).unwrap_err();
-        assert!(err.to_string().contains("1 monitors given for 2 outputs"), "{err}");
+        assert!(
+            err.to_string().contains("1 monitors given for 2 outputs"),
+            "{err}"
+        );
         let same = [MonitorChoice::Index(1), MonitorChoice::Index(1)];
         assert!(monitors_for(&two, &same).is_err());
         assert!(monitors_for(&[], &[]).is_err());
@@ -542,7 +548,9 @@ mod tests {
         assert!(!display_set(|_| None));
         assert!(!display_set(|_| Some(String::new())));
         assert!(display_set(|k| (k == "DISPLAY").then(|| ":0".into())));
-        assert!(display_set(|k| (k == "WAYLAND_DISPLAY").then(|| "wayland-0".into())));
+        assert!(display_set(
+            |k| (k == "WAYLAND_DISPLAY").then(|| "wayland-0".into())
+        ));
         assert_eq!(
             WindowError::NoDisplay.to_string(),
             "no X/Wayland display: set DISPLAY or use --headless"

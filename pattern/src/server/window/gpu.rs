@@ -77,13 +77,16 @@ impl Screens {
         display: OwnedDisplayHandle,
         windows: Vec<(OutputSpec, Arc<Window>)>,
     ) -> Result<Self, WindowError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_with_display_handle_from_env(
-            Box::new(display),
-        ));
+        let instance = wgpu::Instance::new(
+            wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(display)),
+        );
         let mut surfaces = Vec::with_capacity(windows.len());
         for (spec, window) in windows {
             let surface = instance.create_surface(Arc::clone(&window)).map_err(|e| {
-                WindowError::Gpu(format!("cannot create a surface for output {}: {e}", spec.name))
+                WindowError::Gpu(format!(
+                    "cannot create a surface for output {}: {e}",
+                    spec.name
+                ))
             })?;
             surfaces.push((spec, window, surface));
         }
@@ -160,7 +163,10 @@ impl Screens {
     /// Draws the source textures of screens `which` to their surfaces in one submission,
     /// presents them, and waits for the GPU.
     fn draw(&mut self, which: &[usize]) -> Result<(), String> {
-        let scope = self.gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let scope = self
+            .gpu
+            .device
+            .push_error_scope(wgpu::ErrorFilter::Validation);
         let mut encoder = self
             .gpu
             .device
@@ -196,7 +202,10 @@ impl Screens {
 
 impl Gpu {
     /// The adapter that can present to `surface` and its device.
-    fn open(instance: &wgpu::Instance, surface: Option<&wgpu::Surface<'_>>) -> Result<Self, WindowError> {
+    fn open(
+        instance: &wgpu::Instance,
+        surface: Option<&wgpu::Surface<'_>>,
+    ) -> Result<Self, WindowError> {
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
             force_fallback_adapter: false,
@@ -297,7 +306,12 @@ fn choose_format(offered: &[wgpu::TextureFormat], bits: u32) -> Option<(wgpu::Te
     if bits > 8 && offered.contains(&F::Rgb10a2Unorm) {
         return Some((F::Rgb10a2Unorm, 10));
     }
-    let eight = [F::Bgra8Unorm, F::Rgba8Unorm, F::Bgra8UnormSrgb, F::Rgba8UnormSrgb];
+    let eight = [
+        F::Bgra8Unorm,
+        F::Rgba8Unorm,
+        F::Bgra8UnormSrgb,
+        F::Rgba8UnormSrgb,
+    ];
     eight
         .into_iter()
         .find(|f| offered.contains(f))
@@ -314,6 +328,14 @@ impl Screen {
     ) -> Result<Self, WindowError> {
         let caps = surface.get_capabilities(&gpu.adapter);
         let bits = spec.surface_bit_depth;
+        if caps.formats.is_empty() {
+            return Err(WindowError::Gpu(format!(
+                "output {}: {} cannot present to this window (it offers no surface format; \
+                 with a 30-bit X screen, try a 24-bit one)",
+                spec.name,
+                gpu.adapter.get_info().name
+            )));
+        }
         let (format, shown) = choose_format(&caps.formats, bits).ok_or_else(|| {
             WindowError::Gpu(format!(
                 "output {}: the surface offers no 8- or 10-bit UNORM format (it offers {:?})",
@@ -342,7 +364,9 @@ impl Screen {
             layout: &gpu.layout,
             entries: &[wgpu::BindGroupEntry {
                 binding: 0,
-                resource: wgpu::BindingResource::TextureView(&source.create_view(&Default::default())),
+                resource: wgpu::BindingResource::TextureView(
+                    &source.create_view(&Default::default()),
+                ),
             }],
         });
         gpu.pipeline(view_format);
@@ -444,7 +468,12 @@ impl Screen {
             .iter()
             .find(|(f, _)| *f == self.view_format)
             .map(|(_, p)| p)
-            .ok_or_else(|| format!("output {}: no pipeline for {:?}", self.name, self.view_format))?;
+            .ok_or_else(|| {
+                format!(
+                    "output {}: no pipeline for {:?}",
+                    self.name, self.view_format
+                )
+            })?;
         let view = target.texture.create_view(&wgpu::TextureViewDescriptor {
             format: Some(self.view_format),
             ..Default::default()
@@ -525,7 +554,10 @@ mod tests {
         assert_eq!(choose_format(&all, 10), Some((F::Rgb10a2Unorm, 10)));
         assert_eq!(choose_format(&all, 8), Some((F::Bgra8Unorm, 8)));
         assert_eq!(choose_format(&all[..2], 10), Some((F::Bgra8Unorm, 8)));
-        assert_eq!(choose_format(&[F::Rgba8UnormSrgb], 8), Some((F::Rgba8UnormSrgb, 8)));
+        assert_eq!(
+            choose_format(&[F::Rgba8UnormSrgb], 8),
+            Some((F::Rgba8UnormSrgb, 8))
+        );
         assert_eq!(choose_format(&[F::Rgba16Float], 8), None);
     }
 }
