@@ -173,9 +173,8 @@ pub fn list_monitors() -> Result<Vec<MonitorInfo>, WindowError> {
         .ok_or_else(|| WindowError::EventLoop("the event loop never started".into()))
 }
 
-/// The function that serves with the windows' presenter (typically a tokio runtime
-/// running [`serve`](super::serve)); its error ends [`run_with_windows`].
-pub type ServeFn = Box<dyn FnOnce(Box<dyn Presenter>) -> Result<(), String> + Send + 'static>;
+/// The function that serves with the windows' presenter.
+type ServeFn = Box<dyn FnOnce(Box<dyn Presenter>) -> Result<(), String> + Send + 'static>;
 
 /// Opens one borderless fullscreen window per output (output `i` on `monitors[i]`;
 /// with no monitors given, output `i` goes on monitor `i`), then calls `serve` on a new
@@ -183,8 +182,12 @@ pub type ServeFn = Box<dyn FnOnce(Box<dyn Presenter>) -> Result<(), String> + Se
 /// until `serve` returns. Returns `serve`'s outcome, or why the windows failed (a
 /// window closed, no display, a monitor whose mode is not the output's size, no GPU).
 ///
+/// `serve` typically builds a tokio runtime and runs [`serve`](super::serve) with the
+/// presenter until a signal. When a window closes or the window system fails, this
+/// returns that error while `serve` may still run: end the process then.
+///
 /// Call it from the main thread (macOS and Windows require it; on Linux and the BSDs
-/// any thread works) and once per process.
+/// any thread works), outside any async runtime, and once per process.
 pub fn run_with_windows(
     outputs: &[OutputSpec],
     monitors: &[MonitorChoice],
@@ -278,7 +281,12 @@ fn build_event_loop() -> Result<EventLoop<Request>, WindowError> {
              already called"
                 .into(),
         ),
-        e => WindowError::EventLoop(e.to_string()),
+        e => WindowError::EventLoop(format!(
+            "{e} (DISPLAY={:?}, WAYLAND_DISPLAY={:?}: is that display running and may this \
+             user open it?)",
+            std::env::var("DISPLAY").unwrap_or_default(),
+            std::env::var("WAYLAND_DISPLAY").unwrap_or_default()
+        )),
     })
 }
 
@@ -294,7 +302,9 @@ enum Request {
 }
 
 /// The service's presenter: forwards each `present` to the window event loop and
-/// waits until the frames were presented and the GPU finished.
+/// waits until the frames were drawn, queued for presentation with vsync (FIFO) and
+/// the GPU finished; the flip itself happens at the display's next vertical blank,
+/// within one refresh (the node's settle time covers it).
 ///
 /// `read_back` gives the last frames presented as they were given to `present` (which
 /// is what was drawn, code for code); it does not read the screen.

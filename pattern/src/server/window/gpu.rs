@@ -141,7 +141,10 @@ impl Screens {
         let Some(s) = self.screens.iter_mut().find(|s| s.window.id() == id) else {
             return;
         };
-        if (size.width, size.height) == (s.config.width, s.config.height) || size.width == 0 {
+        if (size.width, size.height) == (s.config.width, s.config.height)
+            || size.width == 0
+            || size.height == 0
+        {
             return;
         }
         tracing::warn!(
@@ -343,32 +346,19 @@ impl Screen {
             ))
         })?;
         warn_if_shallow(&spec, shown, &caps.formats);
+        let side = gpu.device.limits().max_texture_dimension_2d;
+        if spec.width_px.max(spec.height_px) > side {
+            return Err(WindowError::Gpu(format!(
+                "output {} is {}×{} but {} takes textures of at most {side} pixels a side",
+                spec.name,
+                spec.width_px,
+                spec.height_px,
+                gpu.adapter.get_info().name
+            )));
+        }
         let view_format = format.remove_srgb_suffix();
         let config = surface_config(&spec, &caps, format, view_format);
-        let source = gpu.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("pattern codes"),
-            size: wgpu::Extent3d {
-                width: spec.width_px,
-                height: spec.height_px,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba16Uint,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
-        let bind = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("pattern codes"),
-            layout: &gpu.layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::TextureView(
-                    &source.create_view(&Default::default()),
-                ),
-            }],
-        });
+        let (source, bind) = source_texture(gpu, &spec);
         gpu.pipeline(view_format);
         let screen = Screen {
             name: spec.name.clone(),
@@ -496,6 +486,34 @@ impl Screen {
         pass.draw(0..3, 0..1);
         Ok(())
     }
+}
+
+/// The texture that holds an output's codes (RGBA16 unsigned, alpha the largest code)
+/// and its bind group.
+fn source_texture(gpu: &Gpu, spec: &OutputSpec) -> (wgpu::Texture, wgpu::BindGroup) {
+    let source = gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("pattern codes"),
+        size: wgpu::Extent3d {
+            width: spec.width_px,
+            height: spec.height_px,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba16Uint,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    let bind = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("pattern codes"),
+        layout: &gpu.layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::TextureView(&source.create_view(&Default::default())),
+        }],
+    });
+    (source, bind)
 }
 
 /// The configuration of an output's surface: its size, FIFO (vsync), opaque.
