@@ -58,7 +58,7 @@ pub enum WindowError {
     ModeMismatch {
         /// The output's name.
         output: String,
-        /// The monitor's description.
+        /// The monitor's index and name.
         monitor: String,
         /// The monitor's width in pixels.
         monitor_w: u32,
@@ -489,7 +489,7 @@ fn pick_monitor(
     if (m.width_px, m.height_px) != (output.width_px, output.height_px) {
         return Err(WindowError::ModeMismatch {
             output: output.name.clone(),
-            monitor: m.to_string(),
+            monitor: format!("{} ({})", m.index, m.name),
             monitor_w: m.width_px,
             monitor_h: m.height_px,
             output_w: output.width_px,
