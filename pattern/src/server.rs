@@ -1,12 +1,15 @@
 //! The node side: `lumiwall pattern-server`. A [`Presenter`] shows frames on the node's
 //! outputs (off-screen in [`HeadlessPresenter`]); [`PatternNode`] is the gRPC service
 //! (token, lease, limits, one output lit and the others black); [`serve`] runs it on
-//! the address given, with the standard gRPC health service beside it.
+//! the address given, with the standard gRPC health service beside it. With feature
+//! `window`, [`window::run_with_windows`] shows the frames in fullscreen windows.
 
 mod config;
 mod presenter;
 mod run;
 mod service;
+#[cfg(feature = "window")]
+pub mod window;
 
 pub use config::{OutputSpec, ServerConfig};
 pub use presenter::{HeadlessPresenter, Presenter};
