@@ -61,6 +61,10 @@ enum BenchCommand {
     /// Calibration accuracy against the number of meter readings per display.
     #[cfg(feature = "station")]
     Readings(cmd_commission::BenchArgs),
+    /// Pattern service: time per pattern change on loopback against a raw TCP round
+    /// trip; the share of a 48-projector commissioning.
+    #[cfg(all(feature = "station", feature = "pattern-server"))]
+    Patterns(cmd_pattern_server::BenchArgs),
 }
 
 fn main() {
@@ -91,6 +95,8 @@ fn main() {
         Command::Bench(BenchCommand::Radiosity(a)) => cmd_render::bench(a),
         #[cfg(feature = "station")]
         Command::Bench(BenchCommand::Readings(a)) => cmd_commission::bench(a),
+        #[cfg(all(feature = "station", feature = "pattern-server"))]
+        Command::Bench(BenchCommand::Patterns(a)) => cmd_pattern_server::bench(a),
     };
     if let Err(e) = result {
         eprintln!("lumiwall: error: {e}");

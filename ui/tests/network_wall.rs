@@ -260,3 +260,22 @@ fn guided_aiming_prompts_per_display_and_stop_or_skip_resume_where_the_technicia
         .stdout(contains("aim the meter at mono-2x1 display 1"))
         .stdout(contains("profiles: "));
 }
+
+#[test]
+fn bench_patterns_prints_the_latency_against_the_tcp_peer_and_the_commissioning_share() {
+    lumiwall()
+        .args([
+            "bench",
+            "patterns",
+            "--output",
+            "0=64x40@8",
+            "--changes",
+            "20",
+        ])
+        .assert()
+        .success()
+        .stdout(contains("station → presented → answer"))
+        .stdout(contains("peer: raw TCP round trip"))
+        .stdout(contains("ratio pattern change / TCP round trip"))
+        .stdout(contains("commissioning 48 displays × 40 readings"));
+}
