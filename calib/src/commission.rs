@@ -285,6 +285,31 @@ pub fn commission(
     finish(wall, measured.0, measured.1, out_dir, opts)
 }
 
+/// Where the next display's ramps should concentrate: on the part of each channel the
+/// common white will use, given the displays measured so far.
+fn ramp_focus(
+    opts: &CommissionOptions,
+    white_xy: [f64; 2],
+    measured: &[MeasuredDisplay],
+) -> RampFocus {
+    RampFocus {
+        white_xy,
+        headroom: opts.solve.headroom,
+        white_y_cd_m2: measured
+            .iter()
+            .filter_map(|m| {
+                let mm = &m.measurement;
+                white_capacity(mm.black, &mm.primaries, white_xy, opts.solve.headroom).map(|c| c.0)
+            })
+            .reduce(f64::min),
+        toe_samples: opts.solve.black_mode == BlackMode::Common,
+        common_black: measured
+            .iter()
+            .map(|m| m.measurement.black)
+            .reduce(|a, b| Xyz::new(a.x.max(b.x), a.y.max(b.y), a.z.max(b.z))),
+    }
+}
+
 /// The measuring half of [`commission`]: returns every display's measurement and the
 /// displays taken from an earlier run.
 pub fn measure_wall(
@@ -321,23 +346,7 @@ pub fn measure_wall(
         // wall white can be no brighter than what every display measured so far reaches.
         let mut mopts = opts.measure.clone();
         if mopts.focus.is_none() {
-            mopts.focus = white_xy.map(|white_xy| RampFocus {
-                white_xy,
-                headroom: opts.solve.headroom,
-                white_y_cd_m2: measured
-                    .iter()
-                    .filter_map(|m| {
-                        let mm = &m.measurement;
-                        white_capacity(mm.black, &mm.primaries, white_xy, opts.solve.headroom)
-                            .map(|c| c.0)
-                    })
-                    .reduce(f64::min),
-                toe_samples: opts.solve.black_mode == BlackMode::Common,
-                common_black: measured
-                    .iter()
-                    .map(|m| m.measurement.black)
-                    .reduce(|a, b| Xyz::new(a.x.max(b.x), a.y.max(b.y), a.z.max(b.z))),
-            });
+            mopts.focus = white_xy.map(|white_xy| ramp_focus(opts, white_xy, &measured));
         }
         let path = measurement_path(&run_dir, key);
         if opts.resume

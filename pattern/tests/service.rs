@@ -289,3 +289,25 @@ fn acknowledgement_comes_after_the_settle_time() {
     assert!(p.present_latency_ms >= 0.0 && p.present_latency_ms < 1000.0);
     let _ = OutputAddress::clone;
 }
+
+#[test]
+fn a_node_slower_than_the_deadline_is_a_transient_error_saying_how_long_was_waited() {
+    // The settle time stands in for a slow link or a stalled presenter.
+    let s = start(&["0=4x4@8"], 600);
+    let rt = Arc::new(tokio::runtime::Runtime::new().unwrap());
+    let slow = NodeOptions {
+        deadline: Duration::from_millis(200),
+        retries: 1,
+        ..opts("a")
+    };
+    let node =
+        NodeClient::connect(rt, &s.addr.to_string(), &format!("http://{}", s.addr), slow).unwrap();
+    let t = std::time::Instant::now();
+    let err = node.show_uniform("0", [1, 2, 3], 8).unwrap_err();
+    assert!(err.is_transient(), "{err}");
+    let text = err.to_string();
+    assert!(text.contains("no answer within 200 ms"), "{text}");
+    assert!(text.contains(&s.addr.to_string()), "{text}");
+    // One retry: two deadlines and the pause between them, not an endless wait.
+    assert!(t.elapsed() < Duration::from_secs(2), "{:?}", t.elapsed());
+}

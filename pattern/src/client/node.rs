@@ -66,18 +66,24 @@ pub(crate) fn node_error(
     status: &Status,
     deadline: Duration,
 ) -> DeviceError {
+    // The channel's own timeout arrives as a cancelled or unknown call.
+    let timed_out = status.code() == Code::DeadlineExceeded
+        || status
+            .message()
+            .to_ascii_lowercase()
+            .contains("timeout expired");
     let (message, transient) = match status.code() {
-        Code::Unauthenticated => (status.message().to_string(), false),
-        Code::FailedPrecondition | Code::InvalidArgument => {
-            (format!("{what}: {}", status.message()), false)
-        }
-        Code::DeadlineExceeded => (
+        _ if timed_out => (
             format!(
                 "{what}: no answer within {} ms; check the node and the network",
                 deadline.as_millis()
             ),
             true,
         ),
+        Code::Unauthenticated => (status.message().to_string(), false),
+        Code::FailedPrecondition | Code::InvalidArgument => {
+            (format!("{what}: {}", status.message()), false)
+        }
         Code::Unavailable | Code::Cancelled | Code::Unknown => (
             format!(
                 "{what}: cannot be reached ({}); is `lumiwall pattern-server` running there \
