@@ -89,6 +89,7 @@ fn start_server(
         outputs: vec![output.clone()],
         settle: Duration::ZERO,
         node_name: "bench".into(),
+        tls: None,
     };
     let (addr_tx, addr_rx) = std::sync::mpsc::channel();
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();

@@ -386,10 +386,15 @@ fn remote_pattern(
     let net = file
         .network
         .ok_or_else(|| config("[[output]] tables need a [network] section".into()))?;
-    let token_path = wall_path
-        .parent()
-        .unwrap_or(Path::new("."))
-        .join(&net.token_file);
+    let beside = |f: &str| wall_path.parent().unwrap_or(Path::new(".")).join(f);
+    let token_path = beside(&net.token_file);
+    let tls_ca_pem = match &net.ca_file {
+        Some(f) => Some(
+            std::fs::read(beside(f))
+                .map_err(|e| config(format!("network.ca_file {}: {e}", beside(f).display())))?,
+        ),
+        None => None,
+    };
     let token = Token::from_file(&token_path).map_err(|e| config(e.to_string()))?;
     let routes = wall
         .output_routes()
@@ -404,6 +409,7 @@ fn remote_pattern(
     let station = net.station.unwrap_or_else(host_name);
     let opts = NodeOptions {
         deadline: Duration::from_millis(net.deadline_ms),
+        tls_ca_pem,
         ..NodeOptions::new(token, station)
     };
     let remote = RemotePatternOutput::connect(wall.displays(), &routes, &opts)

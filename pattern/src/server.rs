@@ -11,7 +11,7 @@ mod service;
 #[cfg(feature = "window")]
 pub mod window;
 
-pub use config::{OutputSpec, ServerConfig};
+pub use config::{OutputSpec, ServerConfig, TlsIdentity};
 pub use presenter::{HeadlessPresenter, Presenter};
 pub use run::{ServeError, serve};
 pub use service::PatternNode;

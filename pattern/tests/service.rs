@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, Eye, PatternOutput};
 use lumiwall_pattern::client::{NodeClient, NodeOptions, RemotePatternOutput, Route};
-use lumiwall_pattern::server::{HeadlessPresenter, OutputSpec, ServerConfig, serve};
+use lumiwall_pattern::server::{HeadlessPresenter, OutputSpec, ServerConfig, TlsIdentity, serve};
 use lumiwall_pattern::{Framebuffer, OutputAddress, Token, proto};
 
 const TOKEN: &str = "test-token-0123456789";
@@ -32,6 +32,10 @@ impl Drop for Server {
 }
 
 fn start(outputs: &[&str], settle_ms: u64) -> Server {
+    start_with(outputs, settle_ms, None)
+}
+
+fn start_with(outputs: &[&str], settle_ms: u64, tls: Option<TlsIdentity>) -> Server {
     let outputs: Vec<OutputSpec> = outputs.iter().map(|s| s.parse().unwrap()).collect();
     let config = ServerConfig {
         listen: "127.0.0.1:0".parse().unwrap(),
@@ -39,6 +43,7 @@ fn start(outputs: &[&str], settle_ms: u64) -> Server {
         outputs: outputs.clone(),
         settle: Duration::from_millis(settle_ms),
         node_name: "test-node".into(),
+        tls,
     };
     let (addr_tx, addr_rx) = std::sync::mpsc::channel();
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
@@ -275,13 +280,7 @@ fn protocol_mismatch_bad_codes_and_wrong_sized_images_are_refused_with_the_reaso
 fn acknowledgement_comes_after_the_settle_time() {
     let s = start(&["0=4x4@8"], 150);
     let rt = Arc::new(tokio::runtime::Runtime::new().unwrap());
-    let node = NodeClient::connect(
-        rt,
-        &s.addr.to_string(),
-        &format!("http://{}", s.addr),
-        opts("a"),
-    )
-    .unwrap();
+    let node = NodeClient::connect(rt, &s.addr.to_string(), "127.0.0.1", opts("a")).unwrap();
     let t = std::time::Instant::now();
     let p = node.show_uniform("0", [9, 9, 9], 8).unwrap();
     assert!(t.elapsed() >= Duration::from_millis(150));
@@ -300,8 +299,7 @@ fn a_node_slower_than_the_deadline_is_a_transient_error_saying_how_long_was_wait
         retries: 1,
         ..opts("a")
     };
-    let node =
-        NodeClient::connect(rt, &s.addr.to_string(), &format!("http://{}", s.addr), slow).unwrap();
+    let node = NodeClient::connect(rt, &s.addr.to_string(), "127.0.0.1", slow).unwrap();
     let t = std::time::Instant::now();
     let err = node.show_uniform("0", [1, 2, 3], 8).unwrap_err();
     assert!(err.is_transient(), "{err}");
@@ -310,4 +308,71 @@ fn a_node_slower_than_the_deadline_is_a_transient_error_saying_how_long_was_wait
     assert!(text.contains(&s.addr.to_string()), "{text}");
     // One retry: two deadlines and the pause between them, not an endless wait.
     assert!(t.elapsed() < Duration::from_secs(2), "{:?}", t.elapsed());
+}
+
+/// A CA and a node certificate for `localhost` signed by it (PEM): (ca, identity).
+fn certificates() -> (Vec<u8>, TlsIdentity) {
+    let ca_key = rcgen::KeyPair::generate().unwrap();
+    let mut ca_params = rcgen::CertificateParams::new(Vec::<String>::new()).unwrap();
+    ca_params.is_ca = rcgen::IsCa::Ca(rcgen::BasicConstraints::Unconstrained);
+    let ca = ca_params.self_signed(&ca_key).unwrap();
+    let issuer = rcgen::Issuer::new(ca_params, ca_key);
+    let node_key = rcgen::KeyPair::generate().unwrap();
+    let node = rcgen::CertificateParams::new(vec!["localhost".to_string()])
+        .unwrap()
+        .signed_by(&node_key, &issuer)
+        .unwrap();
+    (
+        ca.pem().into_bytes(),
+        TlsIdentity {
+            cert_pem: node.pem().into_bytes(),
+            key_pem: node_key.serialize_pem().into_bytes(),
+        },
+    )
+}
+
+#[test]
+fn tls_nodes_accept_stations_that_trust_their_authority_and_refuse_the_rest() {
+    let (ca, identity) = certificates();
+    let s = start_with(&["0=4x4@8"], 0, Some(identity));
+    let route = Route {
+        display: DisplayId(0),
+        address: format!("tcp://localhost:{}/0", s.addr.port())
+            .parse()
+            .unwrap(),
+    };
+    let with_ca = |ca: Option<Vec<u8>>| NodeOptions {
+        tls_ca_pem: ca,
+        ..opts("a")
+    };
+    {
+        let mut out = RemotePatternOutput::connect(
+            vec![display(0, 8)],
+            std::slice::from_ref(&route),
+            &with_ca(Some(ca.clone())),
+        )
+        .unwrap();
+        out.show(DisplayId(0), [1.0, 0.0, 0.0]).unwrap();
+        assert_eq!(
+            out.read_back(DisplayId(0)).unwrap().uniform_code(),
+            Some([255, 0, 0])
+        );
+    }
+    // A station speaking plain TCP, and one trusting another authority, get nowhere.
+    assert!(
+        RemotePatternOutput::connect(
+            vec![display(0, 8)],
+            std::slice::from_ref(&route),
+            &with_ca(None)
+        )
+        .is_err()
+    );
+    let (other_ca, _) = certificates();
+    let err = RemotePatternOutput::connect(vec![display(0, 8)], &[route], &with_ca(Some(other_ca)))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains(&format!("localhost:{}", s.addr.port())),
+        "{err}"
+    );
 }

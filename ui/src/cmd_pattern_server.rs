@@ -45,6 +45,14 @@ pub(crate) struct PatternServerArgs {
     /// The node's name in messages (default: this machine's host name).
     #[arg(long)]
     node_name: Option<String>,
+    /// TLS: this node's certificate chain (PEM), signed by the CA the wall file's
+    /// network.ca_file names, for the host name the station uses. Without it the
+    /// server speaks plain TCP (the token then travels in clear).
+    #[arg(long, requires = "tls_key")]
+    tls_cert: Option<PathBuf>,
+    /// TLS: this node's private key (PEM).
+    #[arg(long, requires = "tls_cert")]
+    tls_key: Option<PathBuf>,
 }
 
 /// This machine's host name, or `node`.
@@ -120,9 +128,26 @@ fn config(args: &PatternServerArgs) -> Result<ServerConfig, CliError> {
         outputs: args.outputs.clone(),
         settle: args.settle,
         node_name: args.node_name.clone().unwrap_or_else(host_name),
+        tls: tls_identity(args)?,
     };
     config.validate().map_err(CliError::input)?;
     Ok(config)
+}
+
+/// The TLS identity `--tls-cert`/`--tls-key` name, if given.
+fn tls_identity(
+    args: &PatternServerArgs,
+) -> Result<Option<lumiwall_pattern::server::TlsIdentity>, CliError> {
+    let (Some(cert), Some(key)) = (&args.tls_cert, &args.tls_key) else {
+        return Ok(None);
+    };
+    let read = |p: &PathBuf| {
+        std::fs::read(p).map_err(|e| CliError::input(format!("{}: {e}", p.display())))
+    };
+    Ok(Some(lumiwall_pattern::server::TlsIdentity {
+        cert_pem: read(cert)?,
+        key_pem: read(key)?,
+    }))
 }
 
 /// Serves on a new runtime until Ctrl-C or SIGTERM.

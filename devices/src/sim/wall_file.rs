@@ -78,6 +78,10 @@ pub struct NetworkSpec {
     /// this machine's host name).
     #[serde(default)]
     pub station: Option<String>,
+    /// TLS: the certificate authority (PEM, beside the wall file) that signed every
+    /// node's certificate; absent: plain TCP (the token travels in clear).
+    #[serde(default)]
+    pub ca_file: Option<String>,
 }
 
 fn d_deadline_ms() -> u64 {

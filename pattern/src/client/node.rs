@@ -25,6 +25,9 @@ pub struct NodeOptions {
     pub deadline: Duration,
     /// Extra attempts after a transient failure (unreachable, deadline passed).
     pub retries: u32,
+    /// TLS: the certificate authority (PEM) the nodes' certificates are checked
+    /// against. `None`: plain TCP.
+    pub tls_ca_pem: Option<Vec<u8>>,
 }
 
 impl NodeOptions {
@@ -35,6 +38,7 @@ impl NodeOptions {
             station,
             deadline: DEFAULT_DEADLINE,
             retries: 2,
+            tls_ca_pem: None,
         }
     }
 }
@@ -109,12 +113,14 @@ pub(crate) fn node_error(
 }
 
 impl NodeClient {
-    /// Connects to `node` (`HOST:PORT`, URI `uri`), lists its outputs and takes its
-    /// lease.
+    /// Connects to `node` (`HOST:PORT`; `host` alone names it in its certificate),
+    /// lists its outputs and takes its lease. With [`NodeOptions::tls_ca_pem`] the
+    /// connection is TLS and the node's certificate must be signed by that authority
+    /// for `host`.
     pub fn connect(
         rt: Arc<tokio::runtime::Runtime>,
         node: &str,
-        uri: &str,
+        host: &str,
         opts: NodeOptions,
     ) -> Result<NodeClient, DeviceError> {
         let config = |message: String| DeviceError::Node {
@@ -122,10 +128,24 @@ impl NodeClient {
             message,
             transient: false,
         };
-        let endpoint = Endpoint::from_shared(uri.to_string())
+        let scheme = if opts.tls_ca_pem.is_some() {
+            "https"
+        } else {
+            "http"
+        };
+        let uri = format!("{scheme}://{node}");
+        let mut endpoint = Endpoint::from_shared(uri.clone())
             .map_err(|e| config(format!("bad address {uri}: {e}")))?
             .connect_timeout(opts.deadline)
             .timeout(opts.deadline);
+        if let Some(ca) = &opts.tls_ca_pem {
+            let tls = tonic::transport::ClientTlsConfig::new()
+                .ca_certificate(tonic::transport::Certificate::from_pem(ca))
+                .domain_name(host.trim_start_matches('[').trim_end_matches(']'));
+            endpoint = endpoint
+                .tls_config(tls)
+                .map_err(|e| config(format!("TLS settings: {e}")))?;
+        }
         let channel = rt.block_on(endpoint.connect()).map_err(|e| DeviceError::Node {
             node: node.to_string(),
             message: format!(

@@ -100,12 +100,8 @@ impl RemotePatternOutput {
             let n = match index.get(&node) {
                 Some(n) => *n,
                 None => {
-                    let c = NodeClient::connect(
-                        Arc::clone(&rt),
-                        &node,
-                        &r.address.endpoint_uri(),
-                        opts.clone(),
-                    )?;
+                    let c =
+                        NodeClient::connect(Arc::clone(&rt), &node, &r.address.host, opts.clone())?;
                     nodes.push(c);
                     index.insert(node.clone(), nodes.len() - 1);
                     nodes.len() - 1

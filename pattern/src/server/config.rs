@@ -93,6 +93,24 @@ pub struct ServerConfig {
     pub settle: Duration,
     /// The node's name in messages (its host name).
     pub node_name: String,
+    /// TLS: the node's certificate chain and private key (PEM). `None`: plain TCP
+    /// (the token then travels in clear: use it only on a closed wall network).
+    pub tls: Option<TlsIdentity>,
+}
+
+/// A node's TLS identity, PEM.
+#[derive(Clone)]
+pub struct TlsIdentity {
+    /// Certificate chain, PEM.
+    pub cert_pem: Vec<u8>,
+    /// Private key, PEM.
+    pub key_pem: Vec<u8>,
+}
+
+impl std::fmt::Debug for TlsIdentity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("TlsIdentity(<hidden>)")
+    }
 }
 
 impl ServerConfig {

@@ -48,6 +48,7 @@ pub async fn serve(
     let bound = listener
         .local_addr()
         .map_err(|source| ServeError::Bind { addr, source })?;
+    let tls = config.tls.clone();
     let (reporter, health) = tonic_health::server::health_reporter();
     reporter
         .set_serving::<PatternServiceServer<PatternNode>>()
@@ -55,9 +56,15 @@ pub async fn serve(
     let service = PatternServiceServer::new(PatternNode::new(config, presenter))
         .max_decoding_message_size(MAX_MESSAGE_BYTES)
         .max_encoding_message_size(MAX_MESSAGE_BYTES);
+    let mut builder = tonic::transport::Server::builder().timeout(REQUEST_TIMEOUT);
+    if let Some(tls) = &tls {
+        let identity = tonic::transport::Identity::from_pem(&tls.cert_pem, &tls.key_pem);
+        builder = builder
+            .tls_config(tonic::transport::ServerTlsConfig::new().identity(identity))
+            .map_err(|e| ServeError::Config(format!("TLS certificate or key: {e}")))?;
+    }
     on_listening(bound);
-    tonic::transport::Server::builder()
-        .timeout(REQUEST_TIMEOUT)
+    builder
         .add_service(health)
         .add_service(service)
         .serve_with_incoming_shutdown(
