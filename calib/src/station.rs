@@ -406,7 +406,9 @@ fn remote_pattern(
             Ok(Route { display, address })
         })
         .collect::<Result<Vec<_>, StationError>>()?;
-    let station = net.station.unwrap_or_else(host_name);
+    let station = net
+        .station
+        .unwrap_or_else(|| lumiwall_pattern::limits::host_name_or("station"));
     let opts = NodeOptions {
         deadline: Duration::from_millis(net.deadline_ms),
         tls_ca_pem,
@@ -420,15 +422,6 @@ fn remote_pattern(
             Box::new(SimulatorSink::new(remote, wall.pattern_output()))
         }
     })
-}
-
-/// This machine's host name (for the nodes' "busy" messages), or `station`.
-fn host_name() -> String {
-    std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .ok()
-        .map(|h| h.trim().to_string())
-        .filter(|h| lumiwall_pattern::limits::valid_name(h))
-        .unwrap_or_else(|| "station".into())
 }
 
 /// The positioner `opts.aim` asks for: the simulator's, or a technician prompted on

@@ -44,6 +44,21 @@ pub trait Colorimeter {
     fn measure(&mut self) -> Result<Xyz, DeviceError>;
 }
 
+/// Fails unless every channel of a pattern drive is finite and in 0..=1: the one check
+/// every [`PatternOutput`] makes before showing.
+pub fn check_drive(drive: [f64; 3]) -> Result<(), DeviceError> {
+    if drive
+        .iter()
+        .all(|d| d.is_finite() && (0.0..=1.0).contains(d))
+    {
+        Ok(())
+    } else {
+        Err(DeviceError::Config(format!(
+            "pattern drive {drive:?} is outside 0..=1 per channel"
+        )))
+    }
+}
+
 /// Shows full-field patterns on the displays of a wall.
 pub trait PatternOutput {
     /// The displays, in wall order.

@@ -47,3 +47,13 @@ pub fn valid_name(name: &str) -> bool {
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || "-_.:@".contains(c))
 }
+
+/// This machine's host name if it is a [`valid_name`], else `fallback`: how a station
+/// or a node names itself in the other side's messages.
+pub fn host_name_or(fallback: &str) -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .map(|h| h.trim().to_string())
+        .filter(|h| valid_name(h))
+        .unwrap_or_else(|| fallback.into())
+}

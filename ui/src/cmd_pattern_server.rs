@@ -55,15 +55,6 @@ pub(crate) struct PatternServerArgs {
     tls_key: Option<PathBuf>,
 }
 
-/// This machine's host name, or `node`.
-fn host_name() -> String {
-    std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .ok()
-        .map(|h| h.trim().to_string())
-        .filter(|h| lumiwall_pattern::limits::valid_name(h))
-        .unwrap_or_else(|| "node".into())
-}
-
 /// Resolves once Ctrl-C or SIGTERM arrives.
 async fn interrupted() {
     let term = async {
@@ -127,7 +118,10 @@ fn config(args: &PatternServerArgs) -> Result<ServerConfig, CliError> {
         token,
         outputs: args.outputs.clone(),
         settle: args.settle,
-        node_name: args.node_name.clone().unwrap_or_else(host_name),
+        node_name: args
+            .node_name
+            .clone()
+            .unwrap_or_else(|| lumiwall_pattern::limits::host_name_or("node")),
         tls: tls_identity(args)?,
     };
     config.validate().map_err(CliError::input)?;

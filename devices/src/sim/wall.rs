@@ -12,6 +12,7 @@ use super::projector::{Conditions, SimDisplay, validate_spec};
 use super::screen;
 use super::spectra::Band;
 use super::wall_file::{Stereo, WallFile};
+use crate::traits::check_drive;
 use crate::{DeviceError, DisplayId, DisplayInfo, Eye, MeterPositioner, PatternOutput, Xyz};
 use lumiwall_core::Channel;
 
@@ -302,19 +303,6 @@ fn check_band(what: &str, b: &Band) -> Result<(), DeviceError> {
     } else {
         Err(DeviceError::Config(format!(
             "{what} {b:?} needs lo_nm < hi_nm, edge_nm > 0 and 0 <= floor <= peak <= 1"
-        )))
-    }
-}
-
-fn check_drive(drive: [f64; 3]) -> Result<(), DeviceError> {
-    if drive
-        .iter()
-        .all(|d| d.is_finite() && (0.0..=1.0).contains(d))
-    {
-        Ok(())
-    } else {
-        Err(DeviceError::Config(format!(
-            "pattern drive {drive:?} is outside 0..=1 per channel"
         )))
     }
 }

@@ -3,6 +3,7 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
+use lumiwall_devices::traits::check_drive;
 use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, PatternOutput};
 
 use crate::address::OutputAddress;
@@ -221,14 +222,7 @@ impl PatternOutput for RemotePatternOutput {
     }
 
     fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError> {
-        if !drive
-            .iter()
-            .all(|d| d.is_finite() && (0.0..=1.0).contains(d))
-        {
-            return Err(DeviceError::Config(format!(
-                "pattern drive {drive:?} is outside 0..=1 per channel"
-            )));
-        }
+        check_drive(drive)?;
         let bits = self.info(display)?.bit_depth;
         let top = f64::from(max_code(bits));
         let code = drive.map(|d| (d * top).round() as u32);
