@@ -4,14 +4,14 @@
 //! means for commissioning the 48-projector wall with a real K-10-A's timing.
 
 use std::io::{Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::time::{Duration, Instant};
 
 use lumiwall_devices::serial::KLEIN_K10A;
 use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, Eye, PatternOutput};
 use lumiwall_pattern::Token;
 use lumiwall_pattern::client::{NodeOptions, RemotePatternOutput, Route};
-use lumiwall_pattern::server::{HeadlessPresenter, OutputSpec, ServerConfig, serve};
+use lumiwall_pattern::server::{HeadlessServer, OutputSpec, ServerConfig, spawn_headless};
 
 /// What to measure.
 #[derive(Debug, Clone)]
@@ -76,49 +76,24 @@ pub struct PatternsReport {
 
 const TOKEN: &str = "bench-token-0123456789abcdef";
 
-/// Runs a headless server on 127.0.0.1 in a thread; returns its address and a stop.
-fn start_server(
-    output: &OutputSpec,
-) -> Result<(std::net::SocketAddr, tokio::sync::oneshot::Sender<()>), PatternsBenchError> {
+/// Runs a headless server for `output` on 127.0.0.1 with no settle time.
+fn start_server(output: &OutputSpec) -> Result<HeadlessServer, PatternsBenchError> {
     let token = Token::new(TOKEN).map_err(PatternsBenchError::Service)?;
     let config = ServerConfig {
-        listen: "127.0.0.1:0"
-            .parse()
-            .map_err(|e| PatternsBenchError::Service(format!("{e}")))?,
+        listen: SocketAddr::from(([127, 0, 0, 1], 0)),
         token,
         outputs: vec![output.clone()],
         settle: Duration::ZERO,
         node_name: "bench".into(),
         tls: None,
     };
-    let (addr_tx, addr_rx) = std::sync::mpsc::channel();
-    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
-    let outputs = config.outputs.clone();
-    std::thread::spawn(move || {
-        let Ok(rt) = tokio::runtime::Runtime::new() else {
-            return;
-        };
-        let presenter = Box::new(HeadlessPresenter::new(&outputs));
-        let _ = rt.block_on(serve(
-            config,
-            presenter,
-            |a| {
-                let _ = addr_tx.send(a);
-            },
-            async {
-                let _ = stop_rx.await;
-            },
-        ));
-    });
-    let addr = addr_rx
-        .recv_timeout(Duration::from_secs(10))
-        .map_err(|_| PatternsBenchError::Service("the server did not start".into()))?;
-    Ok((addr, stop_tx))
+    spawn_headless(config).map_err(|e| PatternsBenchError::Service(e.to_string()))
 }
 
 /// Times `changes` pattern changes through the service.
 fn time_patterns(opts: &PatternsBenchOptions) -> Result<Spread, PatternsBenchError> {
-    let (addr, stop) = start_server(&opts.output)?;
+    let server = start_server(&opts.output)?;
+    let addr = server.addr();
     let display = DisplayInfo {
         id: DisplayId(0),
         name: "bench display".into(),
@@ -148,7 +123,7 @@ fn time_patterns(opts: &PatternsBenchOptions) -> Result<Spread, PatternsBenchErr
         times.push(t.elapsed().as_secs_f64() * 1e3);
     }
     drop(out);
-    let _ = stop.send(());
+    drop(server);
     Ok(spread(times))
 }
 

@@ -8,6 +8,7 @@ mod config;
 mod presenter;
 mod run;
 mod service;
+mod spawn;
 #[cfg(feature = "window")]
 pub mod window;
 
@@ -15,3 +16,4 @@ pub use config::{OutputSpec, ServerConfig, TlsIdentity};
 pub use presenter::{HeadlessPresenter, Presenter};
 pub use run::{ServeError, serve};
 pub use service::PatternNode;
+pub use spawn::{HeadlessServer, spawn_headless};

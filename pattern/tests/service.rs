@@ -2,40 +2,23 @@
 //! client, and the refusals a technician meets (wrong token, busy node, protocol
 //! mismatch, bad codes, oversized images, a node that is gone).
 
-use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Duration;
 
 use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, Eye, PatternOutput};
 use lumiwall_pattern::client::{NodeClient, NodeOptions, RemotePatternOutput, Route};
-use lumiwall_pattern::server::{HeadlessPresenter, OutputSpec, ServerConfig, TlsIdentity, serve};
+use lumiwall_pattern::server::{
+    HeadlessServer, OutputSpec, ServerConfig, TlsIdentity, spawn_headless,
+};
 use lumiwall_pattern::{Framebuffer, OutputAddress, Token, proto};
 
 const TOKEN: &str = "test-token-0123456789";
 
-/// A running headless server; stops when dropped.
-struct Server {
-    addr: SocketAddr,
-    stop: Option<tokio::sync::oneshot::Sender<()>>,
-    thread: Option<std::thread::JoinHandle<()>>,
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        if let Some(s) = self.stop.take() {
-            let _ = s.send(());
-        }
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
-
-fn start(outputs: &[&str], settle_ms: u64) -> Server {
+fn start(outputs: &[&str], settle_ms: u64) -> HeadlessServer {
     start_with(outputs, settle_ms, None)
 }
 
-fn start_with(outputs: &[&str], settle_ms: u64, tls: Option<TlsIdentity>) -> Server {
+fn start_with(outputs: &[&str], settle_ms: u64, tls: Option<TlsIdentity>) -> HeadlessServer {
     let outputs: Vec<OutputSpec> = outputs.iter().map(|s| s.parse().unwrap()).collect();
     let config = ServerConfig {
         listen: "127.0.0.1:0".parse().unwrap(),
@@ -45,25 +28,7 @@ fn start_with(outputs: &[&str], settle_ms: u64, tls: Option<TlsIdentity>) -> Ser
         node_name: "test-node".into(),
         tls,
     };
-    let (addr_tx, addr_rx) = std::sync::mpsc::channel();
-    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
-    let thread = std::thread::spawn(move || {
-        let rt = tokio::runtime::Runtime::new().unwrap();
-        rt.block_on(async move {
-            let presenter = Box::new(HeadlessPresenter::new(&outputs));
-            serve(config, presenter, |a| addr_tx.send(a).unwrap(), async {
-                let _ = stop_rx.await;
-            })
-            .await
-            .unwrap();
-        });
-    });
-    let addr = addr_rx.recv_timeout(Duration::from_secs(10)).unwrap();
-    Server {
-        addr,
-        stop: Some(stop_tx),
-        thread: Some(thread),
-    }
+    spawn_headless(config).unwrap()
 }
 
 fn display(id: u32, bits: u32) -> DisplayInfo {
@@ -77,10 +42,10 @@ fn display(id: u32, bits: u32) -> DisplayInfo {
     }
 }
 
-fn route(id: u32, server: &Server, output: &str) -> Route {
+fn route(id: u32, server: &HeadlessServer, output: &str) -> Route {
     Route {
         display: DisplayId(id),
-        address: format!("tcp://{}/{output}", server.addr).parse().unwrap(),
+        address: format!("tcp://{}/{output}", server.addr()).parse().unwrap(),
     }
 }
 
@@ -186,7 +151,7 @@ fn a_node_that_is_gone_is_a_transient_error_naming_it() {
     let s = start(&["0=4x4@8"], 0);
     let routes = vec![route(0, &s, "0")];
     let mut out = RemotePatternOutput::connect(vec![display(0, 8)], &routes, &opts("a")).unwrap();
-    let node = s.addr.to_string();
+    let node = s.addr().to_string();
     drop(s);
     let err = out.show(DisplayId(0), [0.5; 3]).unwrap_err();
     assert!(err.is_transient(), "{err}");
@@ -199,7 +164,7 @@ fn a_node_that_is_gone_is_a_transient_error_naming_it() {
 
 /// A raw protocol client with the token, for requests the station never sends.
 fn raw(
-    s: &Server,
+    s: &HeadlessServer,
 ) -> (
     tokio::runtime::Runtime,
     proto::pattern_service_client::PatternServiceClient<tonic::transport::Channel>,
@@ -209,7 +174,7 @@ fn raw(
         .block_on(
             proto::pattern_service_client::PatternServiceClient::connect(format!(
                 "http://{}",
-                s.addr
+                s.addr()
             )),
         )
         .unwrap();
@@ -280,7 +245,7 @@ fn protocol_mismatch_bad_codes_and_wrong_sized_images_are_refused_with_the_reaso
 fn acknowledgement_comes_after_the_settle_time() {
     let s = start(&["0=4x4@8"], 150);
     let rt = Arc::new(tokio::runtime::Runtime::new().unwrap());
-    let node = NodeClient::connect(rt, &s.addr.to_string(), "127.0.0.1", opts("a")).unwrap();
+    let node = NodeClient::connect(rt, &s.addr().to_string(), "127.0.0.1", opts("a")).unwrap();
     let t = std::time::Instant::now();
     let p = node.show_uniform("0", [9, 9, 9], 8).unwrap();
     assert!(t.elapsed() >= Duration::from_millis(150));
@@ -299,13 +264,13 @@ fn a_node_slower_than_the_deadline_is_a_transient_error_saying_how_long_was_wait
         retries: 1,
         ..opts("a")
     };
-    let node = NodeClient::connect(rt, &s.addr.to_string(), "127.0.0.1", slow).unwrap();
+    let node = NodeClient::connect(rt, &s.addr().to_string(), "127.0.0.1", slow).unwrap();
     let t = std::time::Instant::now();
     let err = node.show_uniform("0", [1, 2, 3], 8).unwrap_err();
     assert!(err.is_transient(), "{err}");
     let text = err.to_string();
     assert!(text.contains("no answer within 200 ms"), "{text}");
-    assert!(text.contains(&s.addr.to_string()), "{text}");
+    assert!(text.contains(&s.addr().to_string()), "{text}");
     // One retry: two deadlines and the pause between them, not an endless wait.
     assert!(t.elapsed() < Duration::from_secs(2), "{:?}", t.elapsed());
 }
@@ -337,7 +302,7 @@ fn tls_nodes_accept_stations_that_trust_their_authority_and_refuse_the_rest() {
     let s = start_with(&["0=4x4@8"], 0, Some(identity));
     let route = Route {
         display: DisplayId(0),
-        address: format!("tcp://localhost:{}/0", s.addr.port())
+        address: format!("tcp://localhost:{}/0", s.addr().port())
             .parse()
             .unwrap(),
     };
@@ -372,7 +337,7 @@ fn tls_nodes_accept_stations_that_trust_their_authority_and_refuse_the_rest() {
         .unwrap_err()
         .to_string();
     assert!(
-        err.contains(&format!("localhost:{}", s.addr.port())),
+        err.contains(&format!("localhost:{}", s.addr().port())),
         "{err}"
     );
 }
