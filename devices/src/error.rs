@@ -76,6 +76,20 @@ pub enum DeviceError {
     /// The technician skipped a display while aiming the meter.
     #[error("skipped by the technician while aiming the meter at {0}")]
     AimSkipped(String),
+    /// The camera cannot set its exposure: photometry needs a known exposure time.
+    #[error(
+        "camera {0} offers automatic exposure only; photometry needs a fixed exposure time: \
+         choose a camera (or a driver mode) with manual exposure"
+    )]
+    AutoExposureOnly(String),
+    /// No camera was found, or the one named is not there.
+    #[error("camera: {0}")]
+    NoCamera(String),
+    /// The pattern output cannot show images, only uniform colours.
+    #[error(
+        "pattern output {0} shows uniform colours only; flat fields and registration need images"
+    )]
+    NoImages(String),
     /// A wall description or device configuration is wrong.
     #[error("configuration error: {0}")]
     Config(String),

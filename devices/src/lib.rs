@@ -7,6 +7,7 @@
 //! tested without hardware. [`xyz`] holds the measured quantity and the CIE 1931
 //! observer used to integrate spectra.
 
+pub mod camera;
 pub mod error;
 mod guided;
 pub mod traits;
@@ -17,6 +18,7 @@ pub mod serial;
 #[cfg(feature = "sim")]
 pub mod sim;
 
+pub use camera::{Camera, CameraInfo, DriveImage, Frame};
 pub use error::DeviceError;
 pub use guided::GuidedPositioner;
 pub use traits::{

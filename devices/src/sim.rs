@@ -11,6 +11,7 @@
 //! Spectra are reduced to per-channel XYZ once per display with the CIE 1931 2°
 //! observer ([`observer`]), so a reading costs microseconds.
 
+pub mod camera;
 pub mod curve;
 pub mod meter;
 pub mod observer;
@@ -20,6 +21,7 @@ pub mod spectra;
 pub mod wall;
 pub mod wall_file;
 
+pub use camera::{CameraPose, CameraSpec, VirtualCamera};
 pub use curve::TransferCurve;
 pub use meter::{MeterModel, SimMeter};
 pub use wall::{SimPatternOutput, SimPositioner, TruePrimaries, VirtualWall};

@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 
 pub use lumiwall_core::{DisplayId, Eye};
 
-use crate::{DeviceError, Xyz};
+use crate::{DeviceError, DriveImage, Xyz};
 
 /// Static facts about one display.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -66,6 +66,13 @@ pub trait PatternOutput {
     /// Shows a uniform colour on one display; `drive` is the normalised input per
     /// channel in 0..=1 (code value / max code); the other displays show black.
     fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError>;
+
+    /// Shows an image on one display (the other displays show black); outputs that can
+    /// show uniform colours only fail with [`DeviceError::NoImages`].
+    fn show_image(&mut self, display: DisplayId, image: &DriveImage) -> Result<(), DeviceError> {
+        let _ = (display, image);
+        Err(DeviceError::NoImages(format!("for display {display}")))
+    }
 
     /// Shows a pattern that helps a person aim the meter at spot `uv` of `display`
     /// (a crosshair where the output can show images; full white otherwise).

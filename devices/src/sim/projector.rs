@@ -26,6 +26,8 @@ pub struct SimDisplay {
     pub black_xyz: [f64; 3],
     /// XYZ of the full DLP white segment (multiplied by min of the channel intensities).
     pub white_segment_xyz: [f64; 3],
+    /// The spectra behind `channel_xyz`, `black_xyz` and `white_segment_xyz`.
+    pub spectra: DisplaySpectra,
     /// Transfer curves, R, G, B.
     pub curves: [TransferCurve; 3],
     /// Falloff (after scatter).
@@ -304,6 +306,34 @@ struct Tristimuli {
     black_xyz: [f64; 3],
     /// The full white segment.
     white_segment_xyz: [f64; 3],
+    /// The spectra these were integrated from.
+    spectra: DisplaySpectra,
+}
+
+/// Spectral radiance of one display at the centre, new lamp, warmed up, head-on on a
+/// gain-1 screen, scaled so that the CIE 1931 observer gives Y in cd/m²: what a
+/// camera with other spectral sensitivities integrates.
+#[derive(Debug, Clone)]
+pub struct DisplaySpectra {
+    /// R, G, B at full drive, black excluded.
+    pub channel: [Spectrum; 3],
+    /// All channels at drive 0.
+    pub black: Spectrum,
+    /// The full white segment.
+    pub white_segment: Spectrum,
+}
+
+impl DisplaySpectra {
+    /// The five spectra integrated by `integrate`: `[R, G, B, black, white segment]`.
+    pub fn integrated(&self, integrate: impl Fn(&Spectrum) -> [f64; 3]) -> [[f64; 3]; 5] {
+        [
+            integrate(&self.channel[0]),
+            integrate(&self.channel[1]),
+            integrate(&self.channel[2]),
+            integrate(&self.black),
+            integrate(&self.white_segment),
+        ]
+    }
 }
 
 /// Transmission of the stereo comb filter in front of `eye` (none for mono), its
@@ -349,24 +379,25 @@ fn tristimuli(wall: &WallFile, eye: Eye, ind: &Individual) -> Result<Tristimuli,
         .zip(ind.panel_shift)
         .map(|(b, s)| b.shifted(s).spectrum())
         .collect();
-    let channel_xyz: [[f64; 3]; 3] = std::array::from_fn(|c| {
-        obs.tristimulus(&through_comb.mul(&panels[c]))
-            .map(|v| v * scale * ind.gain[c])
-    });
+    let channel: [Spectrum; 3] =
+        std::array::from_fn(|c| through_comb.mul(&panels[c]).scaled(scale * ind.gain[c]));
     let leak = panels
         .iter()
         .zip(p.black.leak)
         .fold(Spectrum::constant(p.black.stray), |acc, (s, k)| {
             acc.add(&s.scaled(k))
         });
-    let black_xyz = obs.tristimulus(&through_comb.mul(&leak)).map(|v| v * scale);
-    let white_segment_xyz = obs
-        .tristimulus(&through_comb)
-        .map(|v| v * scale * ind.white_segment);
+    let spectra = DisplaySpectra {
+        channel,
+        black: through_comb.mul(&leak).scaled(scale),
+        white_segment: through_comb.scaled(scale * ind.white_segment),
+    };
+    let [r, g, b, black_xyz, white_segment_xyz] = spectra.integrated(|s| obs.tristimulus(s));
     Ok(Tristimuli {
-        channel_xyz,
+        channel_xyz: [r, g, b],
         black_xyz,
         white_segment_xyz,
+        spectra,
     })
 }
 
@@ -416,6 +447,7 @@ impl SimDisplay {
             channel_xyz: tri.channel_xyz,
             black_xyz: tri.black_xyz,
             white_segment_xyz: tri.white_segment_xyz,
+            spectra: tri.spectra,
             curves: ind.curves,
             falloff: ind.falloff,
             ageing: p.ageing,
@@ -491,6 +523,26 @@ impl SimDisplay {
     /// Noiseless XYZ (cd/m², black included) for quantised `drive` at `uv`, before
     /// the screen's view-dependent gain.
     pub fn emitted(&self, drive: [f64; 3], uv: [f64; 2], cond: Conditions) -> [f64; 3] {
+        let basis = [
+            self.channel_xyz[0],
+            self.channel_xyz[1],
+            self.channel_xyz[2],
+            self.black_xyz,
+            self.white_segment_xyz,
+        ];
+        self.emitted_in(&basis, drive, uv, cond)
+    }
+
+    /// Like [`SimDisplay::emitted`] but in the units of `basis`, the display's five
+    /// spectra (`[R, G, B, black, white segment]`, see [`DisplaySpectra::integrated`])
+    /// integrated by some instrument: the CIE observer gives XYZ, a camera its RGB.
+    pub fn emitted_in(
+        &self,
+        basis: &[[f64; 3]; 5],
+        drive: [f64; 3],
+        uv: [f64; 2],
+        cond: Conditions,
+    ) -> [f64; 3] {
         let f: [f64; 3] = std::array::from_fn(|c| self.relative_intensity(c, drive[c]));
         let fall = self.falloff_factor(uv);
         let age = self.ageing_factor(cond.lamp_hours);
@@ -500,11 +552,9 @@ impl SimDisplay {
         let white = f[0].min(f[1]).min(f[2]);
         let mut xyz = [0.0; 3];
         for (i, out) in xyz.iter_mut().enumerate() {
-            *out = self.black_xyz[i] * k_mean
-                + (0..3)
-                    .map(|c| f[c] * k[c] * self.channel_xyz[c][i])
-                    .sum::<f64>()
-                + white * k_mean * self.white_segment_xyz[i];
+            *out = basis[3][i] * k_mean
+                + (0..3).map(|c| f[c] * k[c] * basis[c][i]).sum::<f64>()
+                + white * k_mean * basis[4][i];
         }
         xyz
     }

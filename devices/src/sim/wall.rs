@@ -13,16 +13,37 @@ use super::screen;
 use super::spectra::Band;
 use super::wall_file::{Stereo, WallFile};
 use crate::traits::check_drive;
-use crate::{DeviceError, DisplayId, DisplayInfo, Eye, MeterPositioner, PatternOutput, Xyz};
+use crate::{
+    DeviceError, DisplayId, DisplayInfo, DriveImage, Eye, MeterPositioner, PatternOutput, Xyz,
+};
 use lumiwall_core::Channel;
 
+/// What a display is showing.
+#[derive(Debug, Clone)]
+pub(crate) enum Shown {
+    /// One drive over the whole display.
+    Uniform([f64; 3]),
+    /// An image (nearest pixel).
+    Image(Arc<DriveImage>),
+}
+
+impl Shown {
+    /// Drive at `uv`.
+    pub(crate) fn drive_at(&self, uv: [f64; 2]) -> [f64; 3] {
+        match self {
+            Shown::Uniform(d) => *d,
+            Shown::Image(img) => img.sample(uv),
+        }
+    }
+}
+
 #[derive(Debug)]
-struct WallState {
-    file: WallFile,
-    displays: Vec<SimDisplay>,
+pub(crate) struct WallState {
+    pub(crate) file: WallFile,
+    pub(crate) displays: Vec<SimDisplay>,
     /// Simulated seconds since the simulation started.
-    clock_s: f64,
-    shown: Option<(DisplayId, [f64; 3])>,
+    pub(crate) clock_s: f64,
+    pub(crate) shown: Option<(DisplayId, Shown)>,
     aimed: Option<(DisplayId, [f64; 2])>,
 }
 
@@ -37,7 +58,7 @@ impl WallState {
         })
     }
 
-    fn conditions(&self, d: &SimDisplay) -> Conditions {
+    pub(crate) fn conditions(&self, d: &SimDisplay) -> Conditions {
         Conditions {
             lamp_hours: d.lamp_hours_at_start + self.clock_s / 3600.0,
             minutes_on: self.file.clock.minutes_since_switch_on + self.clock_s / 60.0,
@@ -356,6 +377,7 @@ impl VirtualWall {
         validate_outputs(&file, n)?;
         validate_spec(&file.projector)?;
         validate_optics(&file)?;
+        file.camera.validate()?;
         let t = &file.tiles;
         let eyes: &[Eye] = match file.stereo {
             Stereo::Mono => &[Eye::Mono],
@@ -398,7 +420,7 @@ impl VirtualWall {
         Ok(())
     }
 
-    fn lock(&self) -> MutexGuard<'_, WallState> {
+    pub(crate) fn lock(&self) -> MutexGuard<'_, WallState> {
         // A panic in another thread cannot leave the state half-updated (every update
         // is a single assignment), so a poisoned lock is safe to reuse.
         self.state.lock().unwrap_or_else(|e| e.into_inner())
@@ -545,8 +567,8 @@ impl VirtualWall {
                     .into(),
             )
         })?;
-        let drive = match s.shown {
-            Some((shown, drive)) if shown == id => drive,
+        let drive = match &s.shown {
+            Some((shown, pattern)) if *shown == id => pattern.drive_at(uv),
             _ => [0.0; 3],
         };
         let xyz = s.emitted(id, drive, uv)?;
@@ -583,9 +605,33 @@ impl PatternOutput for SimPatternOutput {
 
     fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError> {
         self.wall.set_for(display, check_drive(drive), |s| {
-            s.shown = Some((display, drive));
+            s.shown = Some((display, Shown::Uniform(drive)));
         })
     }
+
+    fn show_image(&mut self, display: DisplayId, image: &DriveImage) -> Result<(), DeviceError> {
+        let image = Arc::new(image.clone());
+        self.wall.set_for(display, check_image(&image), |s| {
+            s.shown = Some((display, Shown::Image(image)));
+        })
+    }
+}
+
+/// Fails unless the image has the pixels its size says, each drive in 0..=1.
+fn check_image(image: &DriveImage) -> Result<(), DeviceError> {
+    let n = u64::from(image.width_px) * u64::from(image.height_px);
+    if n == 0 || image.drive.len() as u64 != n {
+        return Err(DeviceError::Config(format!(
+            "pattern image {}×{} holds {} pixels",
+            image.width_px,
+            image.height_px,
+            image.drive.len()
+        )));
+    }
+    image
+        .drive
+        .iter()
+        .try_for_each(|d| check_drive(d.map(f64::from)))
 }
 
 /// Aims the simulated meter.

@@ -30,6 +30,9 @@ pub struct WallFile {
     /// Where the meter stands.
     #[serde(default)]
     pub meter: MeterPlacement,
+    /// The camera that sees the whole wall (`[camera]`; defaults: centred in front).
+    #[serde(default)]
+    pub camera: super::camera::CameraSpec,
     /// The projector model every projector is built from.
     pub projector: ProjectorSpec,
     /// Infitec comb filters (used when `stereo = "infitec"`).

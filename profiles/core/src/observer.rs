@@ -173,23 +173,37 @@ fn parse_observer() -> Result<Observer, String> {
 }
 
 fn parse_d65() -> Result<Spectrum, String> {
-    let mut pts = Vec::new();
-    for (no, line) in data_rows(D65_CSV) {
-        let v = parse_fields(no, line, 2)?;
-        pts.push((v[0], v[1]));
+    let mut columns = spectra_from_csv(D65_CSV, 1).map_err(|e| format!("D65 table: {e}"))?;
+    Ok(columns.remove(0))
+}
+
+/// Parses a spectral table (`#` comment lines, one header line, rows of wavelength in
+/// nm followed by `columns` values, wavelengths increasing, any step) onto the grid:
+/// linear interpolation inside the table's range, 0 outside it. One spectrum per
+/// column.
+pub fn spectra_from_csv(text: &str, columns: usize) -> Result<Vec<Spectrum>, String> {
+    let mut rows: Vec<Vec<f64>> = Vec::new();
+    for (no, line) in data_rows(text) {
+        rows.push(parse_fields(no, line, columns + 1)?);
     }
-    if pts.len() < 2 || pts.windows(2).any(|w| w[1].0 <= w[0].0) {
-        return Err("D65 table is empty or not increasing in wavelength".into());
+    if rows.len() < 2 || rows.windows(2).any(|w| w[1][0] <= w[0][0]) {
+        return Err("table is empty or not increasing in wavelength".into());
     }
-    let (lo, hi) = (pts[0].0, pts[pts.len() - 1].0);
-    Ok(Spectrum::from_fn(|wl| {
-        if wl < lo || wl > hi {
-            return 0.0;
-        }
-        let k = pts.partition_point(|p| p.0 <= wl).clamp(1, pts.len() - 1);
-        let (a, b) = (pts[k - 1], pts[k]);
-        a.1 + (b.1 - a.1) * (wl - a.0) / (b.0 - a.0)
-    }))
+    let (lo, hi) = (rows[0][0], rows[rows.len() - 1][0]);
+    Ok((1..=columns)
+        .map(|c| {
+            Spectrum::from_fn(|wl| {
+                if wl < lo || wl > hi {
+                    return 0.0;
+                }
+                let k = rows
+                    .partition_point(|r| r[0] <= wl)
+                    .clamp(1, rows.len() - 1);
+                let (a, b) = (&rows[k - 1], &rows[k]);
+                a[c] + (b[c] - a[c]) * (wl - a[0]) / (b[0] - a[0])
+            })
+        })
+        .collect())
 }
 
 /// The CIE 1931 2° observer (parsed once from the embedded table).
