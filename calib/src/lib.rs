@@ -5,6 +5,8 @@
 //! black of the wall (Kresse 2003, 3.3) and produces one `DisplayProfile` per display
 //! and eye; [`verify`] reads target colours back through the whole pipeline.
 
+#[cfg(feature = "camera")]
+pub mod camera;
 pub mod cli_values;
 pub mod colorimetry;
 pub mod commission;

@@ -17,6 +17,8 @@ pub mod xyz;
 pub mod serial;
 #[cfg(feature = "sim")]
 pub mod sim;
+#[cfg(feature = "camera-uvc")]
+pub mod uvc;
 
 pub use camera::{Camera, CameraInfo, DriveImage, Frame};
 pub use error::DeviceError;

@@ -224,7 +224,7 @@ pub struct PreparedFlat {
     pub width: u32,
     /// Height in texels (≥ 1).
     pub height: u32,
-    /// Row-major gains per channel, in (0, 1].
+    /// Row-major gains per channel, in (0, `FlatField::MAX_GAIN`].
     pub gain: Vec<[f32; 3]>,
 }
 

@@ -99,15 +99,24 @@ impl ToneCurve {
 /// Flat-field attenuation texture (Kresse 3.4.3), applied in linear light.
 ///
 /// `gain[row * width + col][c]` is the relative output of display channel `c` at that
-/// texel compared with the calibration spot; the post pass divides by it (bilinear).
+/// texel compared with the calibration spot (the meter's spot, gain 1); the post pass
+/// divides by it (bilinear, texel centres at `(i + 0.5) / size`). Texels brighter than
+/// the spot (a hotspot off the centre) have gains above 1.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FlatField {
     /// Texture width in texels.
     pub width: u32,
     /// Texture height in texels.
     pub height: u32,
-    /// Row-major gains per display channel, each in (0, 1].
+    /// Row-major gains per display channel, each in (0, [`FlatField::MAX_GAIN`]].
     pub gain: Vec<[f32; 3]>,
+}
+
+impl FlatField {
+    /// Largest gain a texel may have (four times the spot's output).
+    pub const MAX_GAIN: f32 = 4.0;
+    /// Largest texture side in texels.
+    pub const MAX_SIDE: u32 = 4096;
 }
 
 /// Facts about how a profile was measured.
@@ -273,14 +282,20 @@ impl DisplayProfile {
         Ok(())
     }
 
-    /// The flat-field texture, if any: its size matches its texels, gains in (0, 1].
+    /// The flat-field texture, if any: its size matches its texels, gains in
+    /// (0, [`FlatField::MAX_GAIN`]].
     fn check_flat_field(&self) -> Result<(), String> {
         let Some(ff) = &self.flat_field else {
             return Ok(());
         };
         // u32 × u32 always fits u64: exact on every platform.
         let n = u64::from(ff.width) * u64::from(ff.height);
-        if ff.width == 0 || ff.height == 0 || ff.gain.len() as u64 != n {
+        if ff.width == 0
+            || ff.height == 0
+            || ff.width > FlatField::MAX_SIDE
+            || ff.height > FlatField::MAX_SIDE
+            || ff.gain.len() as u64 != n
+        {
             return Err(format!(
                 "flat-field texture is {}×{} but holds {} texels",
                 ff.width,
@@ -292,9 +307,12 @@ impl DisplayProfile {
             .gain
             .iter()
             .flatten()
-            .any(|g| !g.is_finite() || *g <= 0.0 || *g > 1.0)
+            .any(|g| !g.is_finite() || *g <= 0.0 || *g > FlatField::MAX_GAIN)
         {
-            return Err("flat-field gain outside (0, 1]".into());
+            return Err(format!(
+                "flat-field gain outside (0, {}]",
+                FlatField::MAX_GAIN
+            ));
         }
         Ok(())
     }

@@ -101,7 +101,7 @@ impl Default for CameraSpec {
             k2: 0.008,
             vignetting: 0.12,
             response_gamma: [2.0, 2.2, 1.9],
-            response_shoulder: 0.25,
+            response_shoulder: 1.0,
             bits: 8,
             full_well_e: 20_000.0,
             read_noise_e: 8.0,
