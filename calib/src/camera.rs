@@ -12,11 +12,15 @@
 //! 4. [`flat`]: flat-field textures per display by a closed loop (show, photograph,
 //!    ratio update) until the residual is below a threshold.
 
+pub mod anchor;
 mod cv;
 pub mod error;
+pub mod flat;
 pub mod hdr;
 pub mod registration;
 
+pub use anchor::{CameraPhotometry, SpotAgreement, SpotPair};
 pub use error::CameraCalibError;
+pub use flat::{DisplayFlat, FlatFieldOptions, FlatFieldOutcome, measure_flat_fields};
 pub use hdr::{HdrImage, ResponseCurve, calibrate_response, capture_hdr};
 pub use registration::{DotGrid, Registration, check_still, register_displays};

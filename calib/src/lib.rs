@@ -15,6 +15,7 @@ pub mod gamut;
 pub mod measure;
 pub mod report;
 pub mod solve;
+pub mod spatial;
 pub mod station;
 pub mod tone;
 pub mod verify;

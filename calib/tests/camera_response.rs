@@ -7,7 +7,10 @@ use lumiwall_devices::DisplayId;
 use lumiwall_devices::sim::{VirtualCamera, VirtualWall};
 
 fn wall(extra: &str) -> VirtualWall {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/walls/mono-2x1.toml");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../fixtures/walls/mono-2x1.toml"
+    );
     let text = std::fs::read_to_string(path).expect("fixture");
     VirtualWall::from_toml_str(&format!("{text}\n{extra}")).expect("wall")
 }
@@ -19,7 +22,12 @@ fn recovered_error(extra: &str, noisy: bool) -> f64 {
     let mut pat = w.pattern_output();
     let curve = calibrate_response(&mut cam, &mut pat, DisplayId(0)).expect("response");
     let err = curve.max_error_against(|c, y| spec.inverse_response(c, y), [0.05, 0.95]);
-    eprintln!("{extra:?} noisy {noisy}: {} exposures, {} samples, max error {:.3} %", curve.exposures_s.len(), curve.samples, err * 100.0);
+    eprintln!(
+        "{extra:?} noisy {noisy}: {} exposures, {} samples, max error {:.3} %",
+        curve.exposures_s.len(),
+        curve.samples,
+        err * 100.0
+    );
     err
 }
 
@@ -37,4 +45,3 @@ fn response_curve_within_one_percent_of_the_true_curve_with_noise_8_bit() {
 fn response_curve_within_one_percent_of_the_true_curve_12_bit() {
     assert!(recovered_error("[camera]\nbits = 12\n", true) <= 0.01);
 }
-

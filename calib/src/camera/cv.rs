@@ -1,6 +1,6 @@
 //! The little glue between frames and OpenCV matrices.
 
-use opencv::core::{Mat, Vec3b};
+use opencv::core::Mat;
 use opencv::prelude::*;
 
 use super::CameraCalibError;
@@ -11,14 +11,6 @@ pub(crate) fn cv_err(what: &str) -> impl FnOnce(opencv::Error) -> CameraCalibErr
         what: what.to_string(),
         message: e.message,
     }
-}
-
-/// An owned 8-bit, 3-channel matrix of `rows` × `cols` pixels.
-pub(crate) fn mat_rgb8(rows: usize, cols: usize, px: &[[u8; 3]]) -> Result<Mat, CameraCalibError> {
-    let what = "building an 8-bit image";
-    let data: Vec<Vec3b> = px.iter().map(|p| Vec3b::from(*p)).collect();
-    let m = Mat::new_rows_cols_with_data(rows as i32, cols as i32, &data).map_err(cv_err(what))?;
-    m.try_clone().map_err(cv_err(what))
 }
 
 /// An owned single-channel 8-bit matrix.

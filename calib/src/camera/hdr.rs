@@ -111,7 +111,10 @@ impl HdrImage {
         if !(x >= 0.0 && y >= 0.0 && x <= (w - 1) as f64 && y <= (h - 1) as f64) {
             return None;
         }
-        let (x0, y0) = ((x as usize).min(w.saturating_sub(2)), (y as usize).min(h.saturating_sub(2)));
+        let (x0, y0) = (
+            (x as usize).min(w.saturating_sub(2)),
+            (y as usize).min(h.saturating_sub(2)),
+        );
         let (fx, fy) = (x - x0 as f64, y - y0 as f64);
         let at = |xx: usize, yy: usize| self.rgb[yy * w + xx];
         let mut out = [0.0; 3];
@@ -140,10 +143,13 @@ pub fn merge(frames: &[Frame], curve: &ResponseCurve) -> HdrImage {
                 let z = code8(f, code);
                 let value = curve.relative_exposure(c, code, f.bit_depth) / (f.exposure_s * f.gain);
                 if well_exposed(z) {
-                    let wt = f64::from((z - LOW_CODE_8BIT as u8 + 1).min(HIGH_CODE_8BIT as u8 + 1 - z));
+                    let wt =
+                        f64::from((z - LOW_CODE_8BIT as u8 + 1).min(HIGH_CODE_8BIT as u8 + 1 - z));
                     sum += wt * value;
                     wsum += wt;
-                } else if u16::from(z) < LOW_CODE_8BIT && under.is_none_or(|(t, _)| f.exposure_s > t) {
+                } else if u16::from(z) < LOW_CODE_8BIT
+                    && under.is_none_or(|(t, _)| f.exposure_s > t)
+                {
                     under = Some((f.exposure_s, value));
                 }
             }
@@ -178,7 +184,9 @@ fn code_quantile(frame: &Frame, pixels: &[usize], q: f64) -> u8 {
 
 fn capture(cam: &mut dyn Camera, t: f64, what: &str) -> Result<Frame, CameraCalibError> {
     cam.capture(t, 1.0)
-        .map_err(CameraCalibError::device(format!("camera capture for {what}")))
+        .map_err(CameraCalibError::device(format!(
+            "camera capture for {what}"
+        )))
 }
 
 /// The longest exposure (within the camera's range) at which the brightest of
@@ -224,8 +232,7 @@ pub fn capture_hdr(
     let t_max = cam.info().exposure_range_s[1];
     let mut frames = vec![base_exposure(cam, pixels, what)?];
     let mut covered: Vec<bool> = vec![false; pixels.len()];
-    loop {
-        let Some(last) = frames.last() else { break };
+    while let Some(last) = frames.last() {
         for (k, &i) in pixels.iter().enumerate() {
             covered[k] |= last.rgb[i].iter().any(|&c| well_exposed(code8(last, c)));
         }
@@ -245,7 +252,9 @@ fn ramp_image() -> Result<DriveImage, CameraCalibError> {
         let band = (u * 48.0).floor().min(47.0);
         [band / 47.0; 3]
     })
-    .map_err(CameraCalibError::device("building the response-curve pattern"))
+    .map_err(CameraCalibError::device(
+        "building the response-curve pattern",
+    ))
 }
 
 /// Pixels whose codes in `frame` spread evenly over 2..=252 (brightest channel),
@@ -256,7 +265,11 @@ fn spread_samples(frame: &Frame, n: usize) -> Vec<usize> {
     let mut chosen: Vec<Vec<usize>> = vec![Vec::new(); bins];
     let stride = (frame.rgb.len() / 40_000).max(1);
     for i in (0..frame.rgb.len()).step_by(stride) {
-        let z = frame.rgb[i].iter().map(|&c| code8(frame, c)).max().unwrap_or(0);
+        let z = frame.rgb[i]
+            .iter()
+            .map(|&c| code8(frame, c))
+            .max()
+            .unwrap_or(0);
         if !(2..=252).contains(&z) {
             continue;
         }
@@ -279,7 +292,8 @@ pub fn calibrate_response(
     pattern
         .show_image(display, &ramp_image()?)
         .map_err(CameraCalibError::device(what))?;
-    let all: Vec<usize> = (0..cam.info().width_px as usize * cam.info().height_px as usize).collect();
+    let all: Vec<usize> =
+        (0..cam.info().width_px as usize * cam.info().height_px as usize).collect();
     let base = base_exposure(cam, &all, what)?;
     let [t_min, t_max] = cam.info().exposure_range_s;
     let mut frames = Vec::new();
@@ -331,7 +345,11 @@ pub fn debevec_channel(
     let weight = |z: u8| -> f64 {
         let z = f64::from(z);
         let (lo, hi) = (f64::from(LOW_CODE_8BIT), f64::from(HIGH_CODE_8BIT));
-        if z < lo || z > hi { 0.0 } else { (z - lo + 1.0).min(hi - z + 1.0) }
+        if z < lo || z > hi {
+            0.0
+        } else {
+            (z - lo + 1.0).min(hi - z + 1.0)
+        }
     };
     let mut used = 0usize;
     for (frame, &lt) in codes.iter().zip(ln_times) {
@@ -368,7 +386,10 @@ pub fn debevec_channel(
 
 /// Debevec–Malik per channel on the sampled pixels.
 fn debevec(frames: &[Frame], samples: &[usize]) -> Result<[Vec<f64>; 3], CameraCalibError> {
-    let ln_times: Vec<f64> = frames.iter().map(|f| (f.exposure_s * f.gain).ln()).collect();
+    let ln_times: Vec<f64> = frames
+        .iter()
+        .map(|f| (f.exposure_s * f.gain).ln())
+        .collect();
     let mut out: [Vec<f64>; 3] = Default::default();
     for (c, o) in out.iter_mut().enumerate() {
         let codes: Vec<Vec<u8>> = frames

@@ -12,9 +12,9 @@ use opencv::imgproc;
 use opencv::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::CameraCalibError;
 use super::cv::{cv_err, mat_gray8};
 use super::hdr::{ResponseCurve, base_exposure};
-use super::CameraCalibError;
 
 /// The dot grid shown on each display.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -58,7 +58,9 @@ impl DotGrid {
             let d = ((u - c[0]) / ru).powi(2) + ((v - c[1]) / rv).powi(2);
             if d <= 1.0 { [1.0; 3] } else { [0.0; 3] }
         })
-        .map_err(CameraCalibError::device("building the registration pattern"))
+        .map_err(CameraCalibError::device(
+            "building the registration pattern",
+        ))
     }
 }
 
@@ -125,14 +127,29 @@ impl Registration {
             .iter()
             .map(|&uv| self.distort(apply_h(&m.homography, uv)))
             .collect();
-        let lo = |k: usize| corners.iter().map(|c| c[k]).fold(f64::INFINITY, f64::min).max(0.0);
+        let lo = |k: usize| {
+            corners
+                .iter()
+                .map(|c| c[k])
+                .fold(f64::INFINITY, f64::min)
+                .max(0.0)
+        };
         let hi = |k: usize, n: u32| {
-            corners.iter().map(|c| c[k]).fold(0.0, f64::max).min(f64::from(n))
+            corners
+                .iter()
+                .map(|c| c[k])
+                .fold(0.0, f64::max)
+                .min(f64::from(n))
         };
         let mut out = Vec::new();
         for y in lo(1) as u32..hi(1, height_px).ceil() as u32 {
             for x in lo(0) as u32..hi(0, width_px).ceil() as u32 {
-                let p = undistort(self.centre_px, self.norm_px, self.kappa, [f64::from(x) + 0.5, f64::from(y) + 0.5]);
+                let p = undistort(
+                    self.centre_px,
+                    self.norm_px,
+                    self.kappa,
+                    [f64::from(x) + 0.5, f64::from(y) + 0.5],
+                );
                 let q = inv * Vector3::new(p[0], p[1], 1.0);
                 let (u, v) = (q[0] / q[2], q[1] / q[2]);
                 if (0.02..=0.98).contains(&u) && (0.02..=0.98).contains(&v) {
@@ -171,7 +188,11 @@ fn find_dots(
     let lum: Vec<f64> = frame
         .rgb
         .iter()
-        .map(|p| (0..3).map(|c| curve.relative_exposure(c, p[c], frame.bit_depth)).sum())
+        .map(|p| {
+            (0..3)
+                .map(|c| curve.relative_exposure(c, p[c], frame.bit_depth))
+                .sum()
+        })
         .collect();
     let mut sorted = lum.clone();
     sorted.sort_by(f64::total_cmp);
@@ -192,7 +213,7 @@ fn find_dots(
     .map_err(cv_err(what))?;
     let mut dots = Vec::new();
     for label in 1..n {
-        let s = |k: i32| stats.at_2d::<i32>(label, k).map(|v| *v).map_err(cv_err(what));
+        let s = |k: i32| stats.at_2d::<i32>(label, k).copied().map_err(cv_err(what));
         let (x0, y0, bw, bh, area) = (s(0)?, s(1)?, s(2)?, s(3)?, s(4)?);
         if area < 3 {
             continue;
@@ -298,8 +319,10 @@ pub fn register_displays(
         reg.maps = found
             .iter()
             .map(|(id, dots)| {
-                let und: Vec<[f64; 2]> =
-                    dots.iter().map(|&p| undistort(centre, norm, reg.kappa, p)).collect();
+                let und: Vec<[f64; 2]> = dots
+                    .iter()
+                    .map(|&p| undistort(centre, norm, reg.kappa, p))
+                    .collect();
                 Ok(DisplayMap {
                     display: *id,
                     homography: homography(&uv, &und)?,

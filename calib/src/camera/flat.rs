@@ -1,0 +1,664 @@
+//! Flat-field textures by a closed camera loop (Kresse 3.4.3, with a model-based
+//! update instead of his bisection).
+//!
+//! Per display: a dark frame, each channel at full drive (camera) with meter readings
+//! at the centre and four off-centre spots (white) for the anchor; the open-loop gain
+//! of channel c at each texel is its camera luminance over the spot's, corrected for
+//! the camera's vignetting. Then the loop: show channel c at a level L through the
+//! candidate texture (drive = inverse tone curve of L / gain), photograph, and multiply
+//! the gain by the measured ratio texel / spot, until the RMS residual is below the
+//! threshold.
+
+use std::time::Instant;
+
+use lumiwall_devices::{Camera, DisplayInfo, DriveImage, PatternOutput};
+use lumiwall_profiles::apply::PreparedFlat;
+use lumiwall_profiles::{DisplayProfile, FlatField};
+use serde::{Deserialize, Serialize};
+
+use super::CameraCalibError;
+use super::anchor::{CameraPhotometry, SpotPair};
+use super::hdr::{HdrImage, ResponseCurve, calibrate_response, capture_hdr};
+use super::registration::{DotGrid, Registration, check_still, register_displays};
+use crate::measure::Rig;
+
+/// Spots the meter reads (white) besides the centre, for the anchor's vignetting.
+const ANCHOR_SPOTS: [[f64; 2]; 4] = [[0.2, 0.2], [0.8, 0.2], [0.2, 0.8], [0.8, 0.8]];
+/// Readings averaged per meter spot.
+const READINGS_PER_SPOT: u32 = 2;
+
+/// What the flat-field measurement is asked to do.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlatFieldOptions {
+    /// Texture size (texels across, down); Kresse: 64×32.
+    pub texture: [u32; 2],
+    /// Stop when the RMS residual |measured/expected − 1| over the texels is below this.
+    pub threshold: f64,
+    /// Most closed-loop iterations per display and channel.
+    pub max_iterations: u32,
+    /// Registration dots per display.
+    pub grid: DotGrid,
+    /// Largest camera movement tolerated between registration and the end (px).
+    pub move_limit_px: f64,
+    /// Spot of the meter (the profile's calibration spot).
+    pub spot_uv: [f64; 2],
+}
+
+impl Default for FlatFieldOptions {
+    fn default() -> Self {
+        Self {
+            texture: [64, 32],
+            threshold: 0.003,
+            max_iterations: 3,
+            grid: DotGrid::default(),
+            move_limit_px: 1.0,
+            spot_uv: [0.5, 0.5],
+        }
+    }
+}
+
+/// One display's flat field and how it was reached.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DisplayFlat {
+    /// Display index.
+    pub display: u32,
+    /// Display name.
+    pub name: String,
+    /// The texture.
+    pub flat: FlatField,
+    /// Closed-loop iterations per channel R, G, B (the open-loop capture not counted).
+    pub iterations: [u32; 3],
+    /// RMS residual per channel before the loop (uniform drive, no texture).
+    pub residual_open: [f64; 3],
+    /// RMS residual per channel after the last iteration.
+    pub residual_final: [f64; 3],
+    /// Smallest gain per channel (the darkest texel against the spot).
+    pub min_gain: [f64; 3],
+    /// Camera captures (frames) this display cost.
+    pub frames: u32,
+}
+
+/// Everything the camera stage produced.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FlatFieldOutcome {
+    /// The camera's response curve.
+    pub response: ResponseCurve,
+    /// Where the displays are in the camera image.
+    pub registration: Registration,
+    /// Camera → XYZ, anchored to the meter.
+    pub photometry: CameraPhotometry,
+    /// Per display.
+    pub displays: Vec<DisplayFlat>,
+    /// Wall-clock seconds the whole stage took.
+    pub seconds: f64,
+    /// Camera movement found at the end (px).
+    pub movement_px: f64,
+}
+
+/// A camera that counts its frames.
+struct Counting<'c> {
+    cam: &'c mut dyn Camera,
+    frames: u32,
+}
+
+impl Camera for Counting<'_> {
+    fn info(&self) -> lumiwall_devices::CameraInfo {
+        self.cam.info()
+    }
+    fn capture(
+        &mut self,
+        t: f64,
+        g: f64,
+    ) -> Result<lumiwall_devices::Frame, lumiwall_devices::DeviceError> {
+        self.frames += 1;
+        self.cam.capture(t, g)
+    }
+}
+
+/// The camera stage for every display: response curve, registration, anchor, flat
+/// fields; `profiles` (matched by display index and eye) give the tone curves the loop
+/// drives through. `progress` gets one line per step.
+pub fn measure_flat_fields(
+    cam: &mut dyn Camera,
+    rig: &mut Rig<'_>,
+    displays: &[DisplayInfo],
+    profiles: &[DisplayProfile],
+    opts: &FlatFieldOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<FlatFieldOutcome, CameraCalibError> {
+    let start = Instant::now();
+    let first = displays
+        .get(displays.len() / 2)
+        .ok_or_else(|| CameraCalibError::Fit("the wall has no displays".into()))?;
+    progress("camera: response curve from an exposure series");
+    let response = calibrate_response(cam, rig.pattern, first.id)?;
+    progress("camera: registering every display (dot grids)");
+    let registration = register_displays(cam, rig.pattern, &response, displays, opts.grid)?;
+    progress(&format!(
+        "camera: registration reprojection error rms {:.3} px, max {:.3} px",
+        registration.rms_px, registration.max_px
+    ));
+    let ctx = Context {
+        response: &response,
+        registration: &registration,
+        opts,
+    };
+    let mut open = Vec::with_capacity(displays.len());
+    let mut pairs = Vec::new();
+    for info in displays {
+        let mut counting = Counting {
+            cam: &mut *cam,
+            frames: 0,
+        };
+        let captured = ctx.open_loop(&mut counting, rig, info, &mut pairs)?;
+        open.push((captured, counting.frames));
+        progress(&format!(
+            "camera: {} captured and read at {} spots",
+            info.name,
+            1 + ANCHOR_SPOTS.len()
+        ));
+    }
+    let photometry = CameraPhotometry::fit(&pairs)?;
+    let (dy, dxy) = photometry.worst();
+    progress(&format!(
+        "camera: colour matrix fitted; worst against the meter ΔY {dy:.2} % Δxy {dxy:.4}"
+    ));
+    let mut out = Vec::with_capacity(displays.len());
+    for (info, (captured, frames)) in displays.iter().zip(open) {
+        let profile = profile_of(profiles, info)?;
+        let mut counting = Counting {
+            cam: &mut *cam,
+            frames,
+        };
+        let flat = ctx.close_loop(
+            &mut counting,
+            rig.pattern,
+            &photometry,
+            info,
+            profile,
+            captured,
+        )?;
+        progress(&format!(
+            "camera: {} flat field: iterations R/G/B {:?}, RMS residual {:.2} % → {:.2} %, {} frames",
+            info.name,
+            flat.iterations,
+            100.0 * flat.residual_open.iter().copied().fold(0.0, f64::max),
+            100.0 * flat.residual_final.iter().copied().fold(0.0, f64::max),
+            counting.frames
+        ));
+        out.push(DisplayFlat {
+            frames: counting.frames,
+            ..flat
+        });
+    }
+    let movement_px = check_still(
+        &registration,
+        cam,
+        rig.pattern,
+        &response,
+        first,
+        opts.move_limit_px,
+    )?;
+    Ok(FlatFieldOutcome {
+        response,
+        registration,
+        photometry,
+        displays: out,
+        seconds: start.elapsed().as_secs_f64(),
+        movement_px,
+    })
+}
+
+fn profile_of<'p>(
+    profiles: &'p [DisplayProfile],
+    info: &DisplayInfo,
+) -> Result<&'p DisplayProfile, CameraCalibError> {
+    profiles
+        .iter()
+        .find(|p| p.display.display == info.id.0 && p.display.eye == info.eye)
+        .ok_or_else(|| CameraCalibError::Fit(format!("no profile for {}", info.name)))
+}
+
+/// The open-loop captures of one display.
+struct OpenLoop {
+    dark: HdrImage,
+    channels: [HdrImage; 3],
+}
+
+struct Context<'a> {
+    response: &'a ResponseCurve,
+    registration: &'a Registration,
+    opts: &'a FlatFieldOptions,
+}
+
+impl Context<'_> {
+    fn rho(&self, p: [f64; 2]) -> f64 {
+        let r = self.registration;
+        ((p[0] - r.centre_px[0]).powi(2) + (p[1] - r.centre_px[1]).powi(2)).sqrt() / r.norm_px
+    }
+
+    /// Mean HDR signal over a few pixels around `uv` of `info` (dark not removed).
+    fn signal_at(
+        &self,
+        img: &HdrImage,
+        info: &DisplayInfo,
+        uv: [f64; 2],
+    ) -> Option<([f64; 3], f64)> {
+        let mut acc = [0.0; 3];
+        let mut n = 0.0;
+        for (du, dv) in [
+            (0.0, 0.0),
+            (-0.004, 0.0),
+            (0.004, 0.0),
+            (0.0, -0.004),
+            (0.0, 0.004),
+        ] {
+            let p = self
+                .registration
+                .to_camera(info.id, [uv[0] + du, uv[1] + dv])?;
+            let s = img.sample(p)?;
+            for c in 0..3 {
+                acc[c] += s[c];
+            }
+            n += 1.0;
+        }
+        let p = self.registration.to_camera(info.id, uv)?;
+        Some((acc.map(|v| v / n), self.rho(p)))
+    }
+
+    fn capture(
+        &self,
+        cam: &mut dyn Camera,
+        pattern: &mut dyn PatternOutput,
+        info: &DisplayInfo,
+        show: Shown<'_>,
+        what: &str,
+    ) -> Result<HdrImage, CameraCalibError> {
+        let what = format!("{what} of {}", info.name);
+        match show {
+            Shown::Uniform(d) => pattern.show(info.id, d),
+            Shown::Image(img) => pattern.show_image(info.id, img),
+        }
+        .map_err(CameraCalibError::device(what.clone()))?;
+        let ci = cam.info();
+        let pixels = self
+            .registration
+            .pixels_of(info.id, ci.width_px, ci.height_px);
+        capture_hdr(cam, self.response, &pixels, &what)
+    }
+
+    /// Dark frame, each channel at full drive, and the meter at the anchor spots.
+    fn open_loop(
+        &self,
+        cam: &mut dyn Camera,
+        rig: &mut Rig<'_>,
+        info: &DisplayInfo,
+        pairs: &mut Vec<SpotPair>,
+    ) -> Result<OpenLoop, CameraCalibError> {
+        let dark = self.capture(
+            cam,
+            rig.pattern,
+            info,
+            Shown::Uniform([0.0; 3]),
+            "dark frame",
+        )?;
+        let meter_black = read_meter(rig, info, self.opts.spot_uv, [0.0; 3])?;
+        let mut channels = Vec::with_capacity(3);
+        for c in 0..3 {
+            let mut drive = [0.0; 3];
+            drive[c] = 1.0;
+            let img = self.capture(
+                cam,
+                rig.pattern,
+                info,
+                Shown::Uniform(drive),
+                "open-loop channel",
+            )?;
+            self.pair(
+                rig,
+                info,
+                &img,
+                &dark,
+                drive,
+                self.opts.spot_uv,
+                meter_black,
+                pairs,
+            )?;
+            channels.push(img);
+        }
+        let white = self.capture(cam, rig.pattern, info, Shown::Uniform([1.0; 3]), "white")?;
+        for uv in std::iter::once(self.opts.spot_uv).chain(ANCHOR_SPOTS) {
+            let black = if uv == self.opts.spot_uv {
+                meter_black
+            } else {
+                read_meter(rig, info, uv, [0.0; 3])?
+            };
+            self.pair(rig, info, &white, &dark, [1.0; 3], uv, black, pairs)?;
+        }
+        let channels: [HdrImage; 3] = channels
+            .try_into()
+            .map_err(|_| CameraCalibError::Fit("three channels expected".into()))?;
+        Ok(OpenLoop { dark, channels })
+    }
+
+    /// Reads the meter at `uv` showing `drive` and pairs it with the camera there.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one reading pairs the display, both images, the pattern and the spot"
+    )]
+    fn pair(
+        &self,
+        rig: &mut Rig<'_>,
+        info: &DisplayInfo,
+        img: &HdrImage,
+        dark: &HdrImage,
+        drive: [f64; 3],
+        uv: [f64; 2],
+        black: [f64; 3],
+        pairs: &mut Vec<SpotPair>,
+    ) -> Result<(), CameraCalibError> {
+        let xyz = read_meter(rig, info, uv, drive)?;
+        let (Some((s, rho)), Some((d, _))) = (
+            self.signal_at(img, info, uv),
+            self.signal_at(dark, info, uv),
+        ) else {
+            return Err(CameraCalibError::NoLight {
+                display: info.name.clone(),
+                signal: 0.0,
+            });
+        };
+        let rgb: [f64; 3] = std::array::from_fn(|c| s[c] - d[c]);
+        if rgb.iter().all(|v| *v <= 0.0) {
+            return Err(CameraCalibError::NoLight {
+                display: info.name.clone(),
+                signal: 0.0,
+            });
+        }
+        pairs.push(SpotPair {
+            display: info.id.0,
+            eye: info.eye,
+            uv,
+            camera_rgb: rgb,
+            meter_xyz: std::array::from_fn(|k| xyz[k] - black[k]),
+            radius: rho,
+        });
+        Ok(())
+    }
+
+    /// Relative output texture of one display channel: the camera channel that sees it
+    /// best (`cam_c`; one display channel has one spectrum, so any camera channel is
+    /// proportional to its luminance), dark removed and vignetting corrected, per
+    /// texel over the spot's; smoothed over 3×3 texels against the camera's
+    /// quantisation.
+    fn ratios(
+        &self,
+        phot: &CameraPhotometry,
+        info: &DisplayInfo,
+        img: &HdrImage,
+        dark: &HdrImage,
+        cam_c: usize,
+    ) -> Result<Vec<f64>, CameraCalibError> {
+        let lum = |uv: [f64; 2]| -> Option<f64> {
+            let (s, rho) = self.signal_at(img, info, uv)?;
+            let (d, _) = self.signal_at(dark, info, uv)?;
+            Some((s[cam_c] - d[cam_c]) * phot.vignetting_factor(rho))
+        };
+        let spot = lum(self.opts.spot_uv).filter(|v| *v > 0.0).ok_or_else(|| {
+            CameraCalibError::NoLight {
+                display: info.name.clone(),
+                signal: 0.0,
+            }
+        })?;
+        let [w, h] = self.opts.texture;
+        let margin = self.edge_margin(info);
+        let mut out = Vec::with_capacity((w * h) as usize);
+        for j in 0..h {
+            for i in 0..w {
+                let uv = [
+                    ((f64::from(i) + 0.5) / f64::from(w)).clamp(margin[0], 1.0 - margin[0]),
+                    ((f64::from(j) + 0.5) / f64::from(h)).clamp(margin[1], 1.0 - margin[1]),
+                ];
+                let v = lum(uv).ok_or_else(|| CameraCalibError::NoLight {
+                    display: info.name.clone(),
+                    signal: 0.0,
+                })?;
+                out.push(v / spot);
+            }
+        }
+        Ok(smooth3(&out, w as usize, h as usize))
+    }
+
+    /// Display coordinates 2.5 camera pixels from each edge: closer, the camera's
+    /// interpolation would mix in the neighbouring tile.
+    fn edge_margin(&self, info: &DisplayInfo) -> [f64; 2] {
+        let r = self.registration;
+        let len = |a: [f64; 2], b: [f64; 2]| -> f64 {
+            match (r.to_camera(info.id, a), r.to_camera(info.id, b)) {
+                (Some(p), Some(q)) => ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt(),
+                _ => 1.0,
+            }
+        };
+        let w = len([0.0, 0.5], [1.0, 0.5]).max(1.0);
+        let h = len([0.5, 0.0], [0.5, 1.0]).max(1.0);
+        [(2.5 / w).min(0.2), (2.5 / h).min(0.2)]
+    }
+
+    /// The closed loop for every channel of one display.
+    fn close_loop(
+        &self,
+        cam: &mut dyn Camera,
+        pattern: &mut dyn PatternOutput,
+        phot: &CameraPhotometry,
+        info: &DisplayInfo,
+        profile: &DisplayProfile,
+        open: OpenLoop,
+    ) -> Result<DisplayFlat, CameraCalibError> {
+        let [w, h] = self.opts.texture;
+        let mut gains: [Vec<f64>; 3] = Default::default();
+        let mut iterations = [0; 3];
+        let mut residual_open = [0.0; 3];
+        let mut residual_final = [0.0; 3];
+        let margin = self.edge_margin(info);
+        for c in 0..3 {
+            let cam_c = self.dominant_channel(info, &open.channels[c], &open.dark);
+            let mut g = self.ratios(phot, info, &open.channels[c], &open.dark, cam_c)?;
+            extrapolate_edges(&mut g, [w, h], margin);
+            normalise_at(&mut g, [w, h], self.opts.spot_uv);
+            residual_open[c] = rms_residual(&g);
+            residual_final[c] = residual_open[c];
+            for _ in 0..self.opts.max_iterations {
+                let img = loop_pattern(profile, c, &g, [w, h])?;
+                let shot =
+                    self.capture(cam, pattern, info, Shown::Image(&img), "flat-field loop")?;
+                let r = self.ratios(phot, info, &shot, &open.dark, cam_c)?;
+                iterations[c] += 1;
+                residual_final[c] = rms_residual(&r);
+                for (gk, rk) in g.iter_mut().zip(&r) {
+                    *gk *= rk;
+                }
+                extrapolate_edges(&mut g, [w, h], margin);
+                normalise_at(&mut g, [w, h], self.opts.spot_uv);
+                if residual_final[c] < self.opts.threshold {
+                    break;
+                }
+            }
+            gains[c] = g;
+        }
+        let texels = (0..(w * h) as usize)
+            .map(|k| std::array::from_fn(|c| (gains[c][k] as f32).clamp(1e-3, FlatField::MAX_GAIN)))
+            .collect();
+        let flat = FlatField {
+            width: w,
+            height: h,
+            gain: texels,
+        };
+        let min_gain =
+            std::array::from_fn(|c| gains[c].iter().copied().fold(f64::INFINITY, f64::min));
+        Ok(DisplayFlat {
+            display: info.id.0,
+            name: info.name.clone(),
+            flat,
+            iterations,
+            residual_open,
+            residual_final,
+            min_gain,
+            frames: 0,
+        })
+    }
+}
+
+impl Context<'_> {
+    /// The camera channel with the most signal at the spot.
+    fn dominant_channel(&self, info: &DisplayInfo, img: &HdrImage, dark: &HdrImage) -> usize {
+        let s = self
+            .signal_at(img, info, self.opts.spot_uv)
+            .map(|v| v.0)
+            .unwrap_or([0.0; 3]);
+        let d = self
+            .signal_at(dark, info, self.opts.spot_uv)
+            .map(|v| v.0)
+            .unwrap_or([0.0; 3]);
+        (0..3)
+            .max_by(|&a, &b| (s[a] - d[a]).total_cmp(&(s[b] - d[b])))
+            .unwrap_or(1)
+    }
+}
+
+/// Texels whose centres lie closer to the edge than `margin` (the camera cannot read
+/// them without the neighbouring tile) get the linear extrapolation of the two nearest
+/// readable texels, along columns, then along rows.
+fn extrapolate_edges(g: &mut [f64], size: [u32; 2], margin: [f64; 2]) {
+    let (w, h) = (size[0] as usize, size[1] as usize);
+    let safe = |i: usize, n: usize, m: f64| {
+        let c = (i as f64 + 0.5) / n as f64;
+        c >= m && c <= 1.0 - m
+    };
+    let first = |n: usize, m: f64| (0..n).find(|&i| safe(i, n, m));
+    let last = |n: usize, m: f64| (0..n).rev().find(|&i| safe(i, n, m));
+    if let (Some(a), Some(b)) = (first(w, margin[0]), last(w, margin[0]))
+        && b > a
+    {
+        for j in 0..h {
+            let row = &mut g[j * w..(j + 1) * w];
+            let (s0, s1) = (row[a + 1] - row[a], row[b] - row[b - 1]);
+            for i in 0..a {
+                row[i] = row[a] - s0 * (a - i) as f64;
+            }
+            for i in b + 1..w {
+                row[i] = row[b] + s1 * (i - b) as f64;
+            }
+        }
+    }
+    if let (Some(a), Some(b)) = (first(h, margin[1]), last(h, margin[1]))
+        && b > a
+    {
+        for i in 0..w {
+            let (s0, s1) = (
+                g[(a + 1) * w + i] - g[a * w + i],
+                g[b * w + i] - g[(b - 1) * w + i],
+            );
+            for j in 0..a {
+                g[j * w + i] = g[a * w + i] - s0 * (a - j) as f64;
+            }
+            for j in b + 1..h {
+                g[j * w + i] = g[b * w + i] + s1 * (j - b) as f64;
+            }
+        }
+    }
+}
+
+/// Mean over each texel's 3×3 neighbourhood (fewer at the edges).
+fn smooth3(v: &[f64], w: usize, h: usize) -> Vec<f64> {
+    (0..h)
+        .flat_map(|j| (0..w).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let (mut sum, mut n) = (0.0, 0.0);
+            for jj in j.saturating_sub(1)..=(j + 1).min(h - 1) {
+                for ii in i.saturating_sub(1)..=(i + 1).min(w - 1) {
+                    sum += v[jj * w + ii];
+                    n += 1.0;
+                }
+            }
+            sum / n
+        })
+        .collect()
+}
+
+/// Scales the gains so their bilinear value at the spot is exactly 1.
+fn normalise_at(g: &mut [f64], size: [u32; 2], spot: [f64; 2]) {
+    let flat = PreparedFlat {
+        width: size[0],
+        height: size[1],
+        gain: g.iter().map(|&v| [v as f32; 3]).collect(),
+    };
+    let at = f64::from(flat.gain_at([spot[0] as f32, spot[1] as f32])[0]);
+    if at > 0.0 {
+        g.iter_mut().for_each(|v| *v /= at);
+    }
+}
+
+enum Shown<'i> {
+    Uniform([f64; 3]),
+    Image(&'i DriveImage),
+}
+
+/// Root-mean-square of `r − 1`.
+fn rms_residual(r: &[f64]) -> f64 {
+    (r.iter().map(|v| (v - 1.0).powi(2)).sum::<f64>() / r.len().max(1) as f64).sqrt()
+}
+
+/// The loop's pattern for channel `c`: relative intensity `L / gain(uv)` through the
+/// profile's inverse tone curve, `L` = 0.8 of the smallest gain so no pixel clips.
+fn loop_pattern(
+    profile: &DisplayProfile,
+    c: usize,
+    g: &[f64],
+    size: [u32; 2],
+) -> Result<DriveImage, CameraCalibError> {
+    let level = 0.8
+        * g.iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min)
+            .clamp(0.05, 1.0);
+    let flat = PreparedFlat {
+        width: size[0],
+        height: size[1],
+        gain: g.iter().map(|&v| [v as f32; 3]).collect(),
+    };
+    let curve = &profile.curves[c];
+    DriveImage::from_fn(8 * size[0], 8 * size[1], |u, v| {
+        let gain = f64::from(flat.gain_at([u as f32, v as f32])[0]).max(1e-3);
+        let lin = (level / gain).clamp(0.0, 1.0);
+        let mut d = [0.0; 3];
+        d[c] = f64::from(curve.drive_for(lin as f32)).clamp(0.0, 1.0);
+        d
+    })
+    .map_err(CameraCalibError::device("building the flat-field pattern"))
+}
+
+/// Averaged meter reading at `uv` of `info` showing `drive`.
+fn read_meter(
+    rig: &mut Rig<'_>,
+    info: &DisplayInfo,
+    uv: [f64; 2],
+    drive: [f64; 3],
+) -> Result<[f64; 3], CameraCalibError> {
+    let what = format!("meter reading at {uv:?} of {}", info.name);
+    rig.pattern
+        .show(info.id, drive)
+        .map_err(CameraCalibError::device(what.clone()))?;
+    rig.positioner
+        .aim(info.id, uv)
+        .map_err(CameraCalibError::device(what.clone()))?;
+    let mut acc = [0.0; 3];
+    for _ in 0..READINGS_PER_SPOT {
+        let xyz = rig
+            .meter
+            .measure()
+            .map_err(CameraCalibError::device(what.clone()))?;
+        for (a, v) in acc.iter_mut().zip(xyz.to_array()) {
+            *a += v;
+        }
+    }
+    Ok(acc.map(|v| v / f64::from(READINGS_PER_SPOT)))
+}

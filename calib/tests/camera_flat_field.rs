@@ -1,0 +1,137 @@
+//! The camera stage end to end on the virtual wall: commission with the meter, measure
+//! flat fields with the virtual camera, and judge the wall between the tile centres
+//! with the simulator's truth (not with the calibrated camera).
+#![cfg(feature = "camera")]
+
+use lumiwall_calib::camera::{FlatFieldOptions, measure_flat_fields};
+use lumiwall_calib::commission::CommissionOptions;
+use lumiwall_calib::measure::MeasureOptions;
+use lumiwall_calib::spatial::{
+    GridOptions, Truth, dense_truth, fit_white_to_flat_fields, verify_grid,
+};
+use lumiwall_calib::station::{MeterChoice, Noise, Station, StationOptions};
+use lumiwall_devices::sim::{VirtualCamera, VirtualWall};
+
+fn wall(name: &str, extra: &str) -> VirtualWall {
+    let path = format!(
+        "{}/../fixtures/walls/{name}.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let text = std::fs::read_to_string(path).expect("fixture");
+    VirtualWall::from_toml_str(&format!("{text}\n{extra}")).expect("wall")
+}
+
+struct Figures {
+    grid_before: (f64, f64),
+    grid_after: (f64, f64),
+    seams_after: f64,
+    dense_dy: f64,
+    dense_dxy: f64,
+    iterations: u32,
+    camera_vs_meter: (f64, f64),
+}
+
+fn run(name: &str, extra: &str, noise: Noise, camera_noise: bool) -> Figures {
+    let w = wall(name, extra);
+    let mut station =
+        Station::with_wall(w.clone(), &StationOptions::new(MeterChoice::Direct, noise))
+            .expect("station");
+    let dir = tempfile::tempdir().expect("tmp");
+    let opts = CommissionOptions {
+        measure: MeasureOptions::default(),
+        solve: Default::default(),
+        resume: false,
+        meter_correction: true,
+    };
+    let outcome = station
+        .commission(dir.path(), &opts, &mut |_| {})
+        .expect("commission");
+    let mut profiles = outcome.solution.profiles.clone();
+    let displays = w.displays();
+    let grid = GridOptions::default();
+    let before = verify_grid(&mut Truth(&w), &displays, &profiles, &grid).expect("grid before");
+    let mut cam = VirtualCamera::new(&w, camera_noise).expect("camera");
+    let flats = measure_flat_fields(
+        &mut cam,
+        &mut station.rig(),
+        &displays,
+        &profiles,
+        &FlatFieldOptions::default(),
+        &mut |l| eprintln!("{l}"),
+    )
+    .expect("flat fields");
+    for (p, f) in profiles.iter_mut().zip(&flats.displays) {
+        p.flat_field = Some(f.flat.clone());
+    }
+    let cost = fit_white_to_flat_fields(&mut profiles);
+    let after = verify_grid(&mut Truth(&w), &displays, &profiles, &grid).expect("grid after");
+    let dense = dense_truth(&w, &displays, &profiles, [64, 32]).expect("dense");
+    eprintln!("{name} {extra:?}: before {}", before.overall_line());
+    eprintln!("{name}: after  {}", after.overall_line());
+    eprintln!(
+        "white {:.2} → {:.2} cd/m²; frames per display {:?}; {:.1} s",
+        cost.before_cd_m2,
+        cost.after_cd_m2,
+        flats.displays.iter().map(|d| d.frames).collect::<Vec<_>>(),
+        flats.seconds
+    );
+    let stat = |r: &lumiwall_calib::spatial::SpatialReport| {
+        let mut v: Vec<f64> = r.cells.iter().map(|c| c.delta_e2000).collect();
+        v.sort_by(f64::total_cmp);
+        (v[v.len() / 2], v[v.len() - 1])
+    };
+    Figures {
+        grid_before: stat(&before),
+        grid_after: stat(&after),
+        seams_after: after
+            .seams
+            .iter()
+            .map(|s| s.delta_e2000)
+            .fold(0.0, f64::max),
+        dense_dy: dense.iter().map(|d| d.1).fold(0.0, f64::max),
+        dense_dxy: dense.iter().map(|d| d.2).fold(0.0, f64::max),
+        iterations: flats
+            .displays
+            .iter()
+            .flat_map(|d| d.iterations)
+            .max()
+            .unwrap_or(0),
+        camera_vs_meter: flats.photometry.worst(),
+    }
+}
+
+/// What the camera stage reaches today on a noiseless two-tile wall, judged by the
+/// simulator: the 5×5-grid median ΔE2000 falls from 4.3 to 0.8 and the seams from 7.1
+/// to 0.6 (median). The acceptance (median ≤ 0.5, max ≤ 1.5, seams ≤ 1.0,
+/// ±2 % on the dense grid) is not reached yet; these bounds hold the progress.
+#[test]
+fn flat_fields_cut_the_grid_and_seam_delta_e_fivefold_on_a_noiseless_two_tile_wall() {
+    let f = run("mono-2x1", "", Noise::None, false);
+    eprintln!(
+        "dense ΔY {:.2} % Δxy {:.4}; iterations {}; camera vs meter {:?}",
+        f.dense_dy, f.dense_dxy, f.iterations, f.camera_vs_meter
+    );
+    assert!(
+        f.grid_before.0 > 3.0,
+        "the wall was already uniform: {:?}",
+        f.grid_before
+    );
+    assert!(
+        f.grid_after.0 <= 1.0 && f.grid_after.1 <= 2.2,
+        "grid {:?}",
+        f.grid_after
+    );
+    assert!(f.seams_after <= 2.7, "seams {}", f.seams_after);
+    assert!(
+        f.dense_dy <= 5.5 && f.dense_dxy <= 0.004,
+        "dense {} % {}",
+        f.dense_dy,
+        f.dense_dxy
+    );
+    assert!(
+        f.camera_vs_meter.0 <= 1.5 && f.camera_vs_meter.1 <= 0.005,
+        "camera vs meter {:?}",
+        f.camera_vs_meter
+    );
+    assert!(f.iterations <= 3);
+}
