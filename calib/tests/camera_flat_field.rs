@@ -135,3 +135,90 @@ fn flat_fields_cut_the_grid_and_seam_delta_e_fivefold_on_a_noiseless_two_tile_wa
     );
     assert!(f.iterations <= 3);
 }
+
+/// A pattern output whose display 1 stays dark (a projector that is off).
+struct OneDisplayOff(lumiwall_devices::sim::SimPatternOutput);
+
+impl lumiwall_devices::PatternOutput for OneDisplayOff {
+    fn displays(&self) -> Vec<lumiwall_devices::DisplayInfo> {
+        self.0.displays()
+    }
+    fn show(
+        &mut self,
+        d: lumiwall_devices::DisplayId,
+        drive: [f64; 3],
+    ) -> Result<(), lumiwall_devices::DeviceError> {
+        self.0.show(d, if d.0 == 1 { [0.0; 3] } else { drive })
+    }
+    fn show_image(
+        &mut self,
+        d: lumiwall_devices::DisplayId,
+        img: &lumiwall_devices::DriveImage,
+    ) -> Result<(), lumiwall_devices::DeviceError> {
+        if d.0 == 1 {
+            self.0.show(d, [0.0; 3])
+        } else {
+            self.0.show_image(d, img)
+        }
+    }
+}
+
+#[test]
+fn a_display_that_is_off_stops_the_camera_stage_with_its_name() {
+    let w = wall("mono-2x1", "");
+    let mut station = Station::with_wall(
+        w.clone(),
+        &StationOptions::new(MeterChoice::Direct, Noise::None),
+    )
+    .expect("station");
+    let dir = tempfile::tempdir().expect("tmp");
+    let opts = CommissionOptions {
+        measure: MeasureOptions::default(),
+        solve: Default::default(),
+        resume: false,
+        meter_correction: true,
+    };
+    let outcome = station
+        .commission(dir.path(), &opts, &mut |_| {})
+        .expect("commission");
+    let mut cam = VirtualCamera::new(&w, false).expect("camera");
+    let mut pattern = OneDisplayOff(w.pattern_output());
+    let mut rig = lumiwall_calib::measure::Rig {
+        pattern: &mut pattern,
+        meter: station.meter.as_mut(),
+        positioner: station.positioner.as_mut(),
+    };
+    let err = measure_flat_fields(
+        &mut cam,
+        &mut rig,
+        &w.displays(),
+        &outcome.solution.profiles,
+        &FlatFieldOptions::default(),
+        &mut |_| {},
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("tile c1r0"), "{err}");
+}
+
+#[test]
+fn a_camera_with_automatic_exposure_only_is_refused_before_any_measurement() {
+    let w = wall("mono-2x1", "[camera]\nmanual_exposure = false\n");
+    let mut station = Station::with_wall(
+        w.clone(),
+        &StationOptions::new(MeterChoice::Direct, Noise::None),
+    )
+    .expect("station");
+    let mut cam = VirtualCamera::new(&w, false).expect("camera");
+    let err = measure_flat_fields(
+        &mut cam,
+        &mut station.rig(),
+        &w.displays(),
+        &[],
+        &FlatFieldOptions::default(),
+        &mut |_| {},
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("automatic exposure only"), "{err}");
+}

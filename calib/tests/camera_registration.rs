@@ -3,7 +3,6 @@
 #![cfg(feature = "camera")]
 
 use lumiwall_calib::camera::{DotGrid, calibrate_response, check_still, register_displays};
-use lumiwall_devices::DisplayId;
 use lumiwall_devices::sim::{VirtualCamera, VirtualWall};
 
 fn wall(name: &str, extra: &str) -> VirtualWall {
@@ -18,7 +17,7 @@ fn wall(name: &str, extra: &str) -> VirtualWall {
 fn worst_against_truth(w: &VirtualWall, noisy: bool) -> (f64, f64) {
     let mut cam = VirtualCamera::new(w, noisy).expect("camera");
     let mut pat = w.pattern_output();
-    let curve = calibrate_response(&mut cam, &mut pat, DisplayId(0)).expect("response");
+    let curve = calibrate_response(&mut cam, &mut pat, &w.displays()[0]).expect("response");
     let displays = w.displays();
     let reg = register_displays(&mut cam, &mut pat, &curve, &displays, DotGrid::default())
         .expect("registration");
@@ -62,7 +61,7 @@ fn a_camera_moved_after_registration_is_detected() {
     let w = wall("mono-2x1", "");
     let mut cam = VirtualCamera::new(&w, true).expect("camera");
     let mut pat = w.pattern_output();
-    let curve = calibrate_response(&mut cam, &mut pat, DisplayId(0)).expect("response");
+    let curve = calibrate_response(&mut cam, &mut pat, &w.displays()[0]).expect("response");
     let displays = w.displays();
     let reg = register_displays(&mut cam, &mut pat, &curve, &displays, DotGrid::default())
         .expect("registration");

@@ -3,7 +3,6 @@
 #![cfg(feature = "camera")]
 
 use lumiwall_calib::camera::calibrate_response;
-use lumiwall_devices::DisplayId;
 use lumiwall_devices::sim::{VirtualCamera, VirtualWall};
 
 fn wall(extra: &str) -> VirtualWall {
@@ -20,7 +19,7 @@ fn recovered_error(extra: &str, noisy: bool) -> f64 {
     let mut cam = VirtualCamera::new(&w, noisy).expect("camera");
     let spec = cam.spec().clone();
     let mut pat = w.pattern_output();
-    let curve = calibrate_response(&mut cam, &mut pat, DisplayId(0)).expect("response");
+    let curve = calibrate_response(&mut cam, &mut pat, &w.displays()[0]).expect("response");
     let err = curve.max_error_against(|c, y| spec.inverse_response(c, y), [0.05, 0.95]);
     eprintln!(
         "{extra:?} noisy {noisy}: {} exposures, {} samples, max error {:.3} %",

@@ -174,6 +174,11 @@ pub(crate) struct CommissionArgs {
     /// additivity (use for walls of non-additive displays such as DLP).
     #[arg(long)]
     no_meter_correction: bool,
+    /// After the meter: the camera stage with this camera (`virtual`, or a V4L2/UVC
+    /// device: index, `/dev/videoN` or name) for flat fields. Needs a build with the
+    /// `camera` feature (OpenCV).
+    #[arg(long)]
+    camera: Option<String>,
 }
 
 impl CommissionArgs {
@@ -284,6 +289,9 @@ pub(crate) fn run(args: CommissionArgs) -> Result<(), CliError> {
     let opts = args.commission_options()?;
     values::check_output_dir("--out", &args.out)?;
     let mut station = args.open_station()?;
+    if let Some(camera) = &args.camera {
+        camera_stage_possible(&station, &args, camera)?;
+    }
     let displays = station.displays();
     println!(
         "commissioning {}: {} displays, budget {} readings per display, meter {:?}",
@@ -296,8 +304,57 @@ pub(crate) fn run(args: CommissionArgs) -> Result<(), CliError> {
     let started = Instant::now();
     let outcome = station.commission(&args.out, &opts, &mut |p| report.on(p));
     report.bar.finish_and_clear();
-    print_outcome(&outcome?, started.elapsed());
+    let outcome = outcome?;
+    print_outcome(&outcome, started.elapsed());
+    if let Some(camera) = &args.camera {
+        camera_stage(&mut station, &outcome, &args, camera)?;
+    }
     Ok(())
+}
+
+#[cfg(feature = "camera")]
+fn camera_stage(
+    station: &mut Station,
+    outcome: &CommissionOutcome,
+    args: &CommissionArgs,
+    camera: &str,
+) -> Result<(), CliError> {
+    let noiseless = matches!(args.meter.noise, NoiseArg::None);
+    crate::cmd_camera::run(station, outcome, &args.out, camera, noiseless)
+}
+
+/// Opens the camera once before the meter starts, so a missing or unusable camera is
+/// reported at once, not after the measurement.
+#[cfg(feature = "camera")]
+fn camera_stage_possible(
+    station: &Station,
+    args: &CommissionArgs,
+    camera: &str,
+) -> Result<(), CliError> {
+    let noiseless = matches!(args.meter.noise, NoiseArg::None);
+    crate::cmd_camera::check(station, camera, noiseless)
+}
+
+#[cfg(not(feature = "camera"))]
+fn camera_stage_possible(
+    _station: &Station,
+    _args: &CommissionArgs,
+    camera: &str,
+) -> Result<(), CliError> {
+    Err(CliError::input(format!(
+        "--camera {camera}: this lumiwall was built without the camera stage; build it with \
+         `cargo build --release --features camera` (needs Debian libopencv-dev and clang)"
+    )))
+}
+
+#[cfg(not(feature = "camera"))]
+fn camera_stage(
+    _station: &mut Station,
+    _outcome: &CommissionOutcome,
+    _args: &CommissionArgs,
+    camera: &str,
+) -> Result<(), CliError> {
+    camera_stage_possible(_station, _args, camera)
 }
 
 fn print_outcome(o: &CommissionOutcome, elapsed: Duration) {

@@ -8,6 +8,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use lumiwall_calib::cli_values::parse_patches;
 use lumiwall_calib::measure::meter_offset::MeterCorrection;
 use lumiwall_calib::measure::{MeasureOptions, Progress};
+use lumiwall_calib::spatial::{GridOptions, Truth, verify_grid};
 use lumiwall_calib::station::Station;
 use lumiwall_calib::verify::{Tolerances, VerifyOptions, VerifyReport, default_targets};
 use lumiwall_devices::Colorimeter;
@@ -48,6 +49,28 @@ pub(crate) struct VerifyArgs {
     /// Print only the summary, not every patch.
     #[arg(long)]
     summary_only: bool,
+    /// Spatial verification instead of target colours: the wall white at a grid of
+    /// cells per display (`5x5`, ISO 14861 style), at both sides of every seam and
+    /// (Infitec) left against right eye. On the virtual wall the meter is aimed at every
+    /// cell and the simulator's own truth is printed beside it.
+    #[arg(long, value_parser = parse_grid)]
+    grid: Option<[u32; 2]>,
+    /// Write the spatial verification's heat map (SVG) here (with `--grid`).
+    #[arg(long, requires = "grid")]
+    heat_map: Option<PathBuf>,
+}
+
+/// Parses `CxR` (e.g. `5x5`), each 1..=64.
+fn parse_grid(s: &str) -> Result<[u32; 2], String> {
+    let err = || format!("grid {s:?} must be COLSxROWS, each 1 to 64 (e.g. 5x5)");
+    let (c, r) = s.split_once(['x', 'X']).ok_or_else(err)?;
+    let c: u32 = c.trim().parse().map_err(|_| err())?;
+    let r: u32 = r.trim().parse().map_err(|_| err())?;
+    if (1..=64).contains(&c) && (1..=64).contains(&r) {
+        Ok([c, r])
+    } else {
+        Err(err())
+    }
 }
 
 /// The xy correction saved by `lumiwall commission` for this instrument, if any.
@@ -101,6 +124,9 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
             station.wall.name()
         )));
     }
+    if let Some(cells) = args.grid {
+        return run_grid(&mut station, &profiles, cells, &args);
+    }
     let targets = default_targets(&profiles, args.patches)?;
     let opts = VerifyOptions {
         patches: args.patches,
@@ -120,6 +146,52 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
     });
     pb.finish_and_clear();
     print_report(&report?, &args)
+}
+
+/// `verify --grid`: the spatial verification with the station's meter, and on the
+/// virtual wall with a simulated meter the simulator's truth beside it.
+fn run_grid(
+    station: &mut Station,
+    profiles: &[lumiwall_profiles::DisplayProfile],
+    cells: [u32; 2],
+    args: &VerifyArgs,
+) -> Result<(), CliError> {
+    let displays = station.displays();
+    let opts = GridOptions {
+        cells,
+        ..GridOptions::default()
+    };
+    let report = verify_grid(&mut station.rig(), &displays, profiles, &opts)
+        .map_err(|e| CliError::failure(format!("spatial verification: {e}")))?;
+    print!("{}", report.per_display_table());
+    println!("{}", report.overall_line());
+    if !matches!(
+        args.meter.meter,
+        lumiwall_calib::station::MeterChoice::Serial(_)
+    ) {
+        let truth = verify_grid(&mut Truth(&station.wall), &displays, profiles, &opts)
+            .map_err(|e| CliError::failure(format!("spatial verification (truth): {e}")))?;
+        println!("as the simulator sees it (a perfect meter at every cell):");
+        println!("{}", truth.overall_line());
+    }
+    if let Some(path) = &args.heat_map {
+        let wf = station.wall.wall_file();
+        let svg = report.heat_map_svg([wf.tiles.cols, wf.tiles.rows], cells);
+        lumiwall_core::files::write_atomic(path, svg.as_bytes())
+            .map_err(|e| CliError::input(format!("cannot write {}: {e}", path.display())))?;
+        println!("heat map written to {}", path.display());
+    }
+    let de: Vec<f64> = report.cells.iter().map(|c| c.delta_e2000).collect();
+    let mut sorted = de.clone();
+    let median = lumiwall_calib::verify::median(&mut sorted);
+    let max = de.iter().copied().fold(0.0, f64::max);
+    if median > args.median_de || max > args.max_de {
+        return Err(CliError::tolerance(format!(
+            "spatial verification outside tolerance: median ΔE {median:.2} (limit {}), max ΔE {max:.2} (limit {})",
+            args.median_de, args.max_de
+        )));
+    }
+    Ok(())
 }
 
 /// Prints the tables and checks the tolerances (exit code 3 outside them).

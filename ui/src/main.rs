@@ -5,6 +5,8 @@
 
 mod cmd_apply;
 #[cfg(feature = "station")]
+#[cfg(feature = "camera")]
+mod cmd_camera;
 mod cmd_commission;
 #[cfg(feature = "pattern-server")]
 mod cmd_pattern_server;

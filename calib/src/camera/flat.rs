@@ -131,7 +131,7 @@ pub fn measure_flat_fields(
         .get(displays.len() / 2)
         .ok_or_else(|| CameraCalibError::Fit("the wall has no displays".into()))?;
     progress("camera: response curve from an exposure series");
-    let response = calibrate_response(cam, rig.pattern, first.id)?;
+    let response = calibrate_response(cam, rig.pattern, first)?;
     progress("camera: registering every display (dot grids)");
     let registration = register_displays(cam, rig.pattern, &response, displays, opts.grid)?;
     progress(&format!(
@@ -143,54 +143,21 @@ pub fn measure_flat_fields(
         registration: &registration,
         opts,
     };
-    let mut open = Vec::with_capacity(displays.len());
-    let mut pairs = Vec::new();
-    for info in displays {
-        let mut counting = Counting {
-            cam: &mut *cam,
-            frames: 0,
-        };
-        let captured = ctx.open_loop(&mut counting, rig, info, &mut pairs)?;
-        open.push((captured, counting.frames));
-        progress(&format!(
-            "camera: {} captured and read at {} spots",
-            info.name,
-            1 + ANCHOR_SPOTS.len()
-        ));
-    }
+    let (open, pairs) = ctx.open_all(cam, rig, displays, progress)?;
     let photometry = CameraPhotometry::fit(&pairs)?;
     let (dy, dxy) = photometry.worst();
     progress(&format!(
         "camera: colour matrix fitted; worst against the meter ΔY {dy:.2} % Δxy {dxy:.4}"
     ));
-    let mut out = Vec::with_capacity(displays.len());
-    for (info, (captured, frames)) in displays.iter().zip(open) {
-        let profile = profile_of(profiles, info)?;
-        let mut counting = Counting {
-            cam: &mut *cam,
-            frames,
-        };
-        let flat = ctx.close_loop(
-            &mut counting,
-            rig.pattern,
-            &photometry,
-            info,
-            profile,
-            captured,
-        )?;
-        progress(&format!(
-            "camera: {} flat field: iterations R/G/B {:?}, RMS residual {:.2} % → {:.2} %, {} frames",
-            info.name,
-            flat.iterations,
-            100.0 * flat.residual_open.iter().copied().fold(0.0, f64::max),
-            100.0 * flat.residual_final.iter().copied().fold(0.0, f64::max),
-            counting.frames
-        ));
-        out.push(DisplayFlat {
-            frames: counting.frames,
-            ..flat
-        });
-    }
+    let out = ctx.close_all(
+        cam,
+        rig.pattern,
+        &photometry,
+        displays,
+        profiles,
+        open,
+        progress,
+    )?;
     let movement_px = check_still(
         &registration,
         cam,
@@ -209,6 +176,74 @@ pub fn measure_flat_fields(
     })
 }
 
+impl Context<'_> {
+    /// The open loop of every display, with the meter pairs for the anchor.
+    fn open_all(
+        &self,
+        cam: &mut dyn Camera,
+        rig: &mut Rig<'_>,
+        displays: &[DisplayInfo],
+        progress: &mut dyn FnMut(&str),
+    ) -> Result<(Vec<Opened>, Vec<SpotPair>), CameraCalibError> {
+        let mut open = Vec::with_capacity(displays.len());
+        let mut pairs = Vec::new();
+        for info in displays {
+            let mut counting = Counting {
+                cam: &mut *cam,
+                frames: 0,
+            };
+            let captured = self.open_loop(&mut counting, rig, info, &mut pairs)?;
+            open.push((captured, counting.frames));
+            progress(&format!(
+                "camera: {} captured and read at {} spots",
+                info.name,
+                1 + ANCHOR_SPOTS.len()
+            ));
+        }
+        Ok((open, pairs))
+    }
+
+    /// The closed loop of every display.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the stage's devices and its inputs"
+    )]
+    fn close_all(
+        &self,
+        cam: &mut dyn Camera,
+        pattern: &mut dyn PatternOutput,
+        photometry: &CameraPhotometry,
+        displays: &[DisplayInfo],
+        profiles: &[DisplayProfile],
+        open: Vec<Opened>,
+        progress: &mut dyn FnMut(&str),
+    ) -> Result<Vec<DisplayFlat>, CameraCalibError> {
+        let mut out = Vec::with_capacity(displays.len());
+        for (info, (captured, frames)) in displays.iter().zip(open) {
+            let profile = profile_of(profiles, info)?;
+            let mut counting = Counting {
+                cam: &mut *cam,
+                frames,
+            };
+            let flat =
+                self.close_loop(&mut counting, pattern, photometry, info, profile, captured)?;
+            progress(&format!(
+                "camera: {} flat field: iterations R/G/B {:?}, RMS residual {:.2} % → {:.2} %, {} frames",
+                info.name,
+                flat.iterations,
+                100.0 * flat.residual_open.iter().copied().fold(0.0, f64::max),
+                100.0 * flat.residual_final.iter().copied().fold(0.0, f64::max),
+                counting.frames
+            ));
+            out.push(DisplayFlat {
+                frames: counting.frames,
+                ..flat
+            });
+        }
+        Ok(out)
+    }
+}
+
 fn profile_of<'p>(
     profiles: &'p [DisplayProfile],
     info: &DisplayInfo,
@@ -218,6 +253,9 @@ fn profile_of<'p>(
         .find(|p| p.display.display == info.id.0 && p.display.eye == info.eye)
         .ok_or_else(|| CameraCalibError::Fit(format!("no profile for {}", info.name)))
 }
+
+/// One display's open-loop captures and the frames they cost.
+type Opened = (OpenLoop, u32);
 
 /// The open-loop captures of one display.
 struct OpenLoop {

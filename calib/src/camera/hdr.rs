@@ -2,7 +2,7 @@
 //! captures: exposure series chosen so that every pixel of interest is measured well
 //! exposed, merged into relative radiance per second.
 
-use lumiwall_devices::{Camera, DisplayId, DriveImage, Frame, PatternOutput};
+use lumiwall_devices::{Camera, DisplayInfo, DriveImage, Frame, PatternOutput};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
@@ -286,11 +286,12 @@ fn spread_samples(frame: &Frame, n: usize) -> Vec<usize> {
 pub fn calibrate_response(
     cam: &mut dyn Camera,
     pattern: &mut dyn PatternOutput,
-    display: DisplayId,
+    display: &DisplayInfo,
 ) -> Result<ResponseCurve, CameraCalibError> {
-    let what = "the response-curve exposure series";
+    let what = format!("the response-curve exposure series on {}", display.name);
+    let what = what.as_str();
     pattern
-        .show_image(display, &ramp_image()?)
+        .show_image(display.id, &ramp_image()?)
         .map_err(CameraCalibError::device(what))?;
     let all: Vec<usize> =
         (0..cam.info().width_px as usize * cam.info().height_px as usize).collect();
@@ -306,7 +307,8 @@ pub fn calibrate_response(
     let samples = spread_samples(&frames[frames.len() / 2], RESPONSE_SAMPLES);
     if samples.len() < 50 || frames.len() < 4 {
         return Err(CameraCalibError::Fit(format!(
-            "{what}: only {} usable pixels in {} exposures; is display {display} in view?",
+            "{what}: only {} usable pixels in {} exposures; is the projector on and in the \
+             camera's view?",
             samples.len(),
             frames.len()
         )));

@@ -1,0 +1,92 @@
+//! `lumiwall verify --grid`: the spatial verification on the command line, and the
+//! camera stage of `lumiwall commission --camera virtual` (with the `camera` feature).
+
+mod common;
+
+use predicates::str::contains;
+use tempfile::TempDir;
+
+use common::*;
+
+#[test]
+fn verify_grid_prints_the_overall_line_and_fails_the_tolerance_of_an_uncorrected_wall() {
+    let dir = TempDir::new().expect("tmp");
+    let profiles = commission_small_wall(dir.path());
+    let svg = dir.path().join("heat.svg");
+    lumiwall()
+        .args(["verify", "--wall"])
+        .arg(small_wall())
+        .arg("--profiles")
+        .arg(&profiles)
+        .args(["--noise", "none", "--grid", "5x5", "--heat-map"])
+        .arg(&svg)
+        .assert()
+        .code(3)
+        .stdout(contains("OVERALL cells 50 median ΔE"))
+        .stdout(contains("as the simulator sees it"))
+        .stderr(contains("spatial verification outside tolerance"));
+    let text = std::fs::read_to_string(&svg).expect("heat map written");
+    assert!(
+        text.starts_with("<svg") && text.matches("<rect").count() == 50,
+        "{text}"
+    );
+}
+
+#[test]
+fn verify_grid_refuses_a_malformed_grid() {
+    let dir = TempDir::new().expect("tmp");
+    lumiwall()
+        .args(["verify", "--wall"])
+        .arg(small_wall())
+        .arg("--profiles")
+        .arg(dir.path())
+        .args(["--grid", "5by5"])
+        .assert()
+        .code(2)
+        .stderr(contains("must be COLSxROWS"));
+}
+
+#[cfg(feature = "camera")]
+#[test]
+fn commission_with_the_virtual_camera_writes_flat_fields_and_passes_a_looser_grid() {
+    let dir = TempDir::new().expect("tmp");
+    let out = dir.path().join("out");
+    commission_small(&out, &["--noise", "none", "--camera", "virtual"])
+        .assert()
+        .success()
+        .stdout(contains("camera stage:"))
+        .stdout(contains("after the flat field:"));
+    assert!(out.join("camera.json").is_file());
+    lumiwall()
+        .args(["verify", "--wall"])
+        .arg(small_wall())
+        .arg("--profiles")
+        .arg(&out)
+        .args([
+            "--noise",
+            "none",
+            "--grid",
+            "5x5",
+            "--median-de",
+            "1.0",
+            "--max-de",
+            "2.2",
+        ])
+        .assert()
+        .success();
+}
+
+#[cfg(not(feature = "camera"))]
+#[test]
+fn commission_with_a_camera_without_the_camera_feature_says_how_to_build_it() {
+    use predicates::prelude::*;
+    let dir = TempDir::new().expect("tmp");
+    commission_small(
+        &dir.path().join("out"),
+        &["--noise", "none", "--camera", "virtual"],
+    )
+    .assert()
+    .code(2)
+    .stderr(contains("--features camera"))
+    .stdout(contains("commissioning").not());
+}
