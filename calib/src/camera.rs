@@ -22,5 +22,7 @@ pub mod registration;
 pub use anchor::{CameraPhotometry, SpotAgreement, SpotPair};
 pub use error::CameraCalibError;
 pub use flat::{DisplayFlat, FlatFieldOptions, FlatFieldOutcome, measure_flat_fields};
-pub use hdr::{HdrImage, ResponseCurve, calibrate_response, capture_hdr};
+pub use hdr::{
+    HdrImage, ResponseCurve, calibrate_response, capture_hdr, response_from_series, response_series,
+};
 pub use registration::{DotGrid, Registration, check_still, register_displays};

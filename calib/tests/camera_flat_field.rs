@@ -100,12 +100,12 @@ fn run(name: &str, extra: &str, noise: Noise, camera_noise: bool) -> Figures {
     }
 }
 
-/// What the camera stage reaches today on a noiseless two-tile wall, judged by the
-/// simulator: the 5×5-grid median ΔE2000 falls from 4.3 to 0.8 and the seams from 7.1
-/// to 0.6 (median). The acceptance (median ≤ 0.5, max ≤ 1.5, seams ≤ 1.0,
-/// ±2 % on the dense grid) is not reached yet; these bounds hold the progress.
+/// The acceptance on a noiseless two-tile wall, judged by the simulator: 5×5
+/// grid median ΔE2000 ≤ 0.5 and max ≤ 1.5, seams ≤ 1.0, ±2 % and Δxy ≤ 0.003 at every
+/// texel centre of a 64×32 grid, camera vs meter ≤ 3 % and 0.004 at the white spots,
+/// at most 3 iterations; the wall was far from uniform before.
 #[test]
-fn flat_fields_cut_the_grid_and_seam_delta_e_fivefold_on_a_noiseless_two_tile_wall() {
+fn flat_fields_meet_the_acceptance_on_a_noiseless_two_tile_wall() {
     let f = run("mono-2x1", "", Noise::None, false);
     eprintln!(
         "dense ΔY {:.2} % Δxy {:.4}; iterations {}; camera vs meter {:?}",
@@ -117,19 +117,19 @@ fn flat_fields_cut_the_grid_and_seam_delta_e_fivefold_on_a_noiseless_two_tile_wa
         f.grid_before
     );
     assert!(
-        f.grid_after.0 <= 1.0 && f.grid_after.1 <= 2.2,
+        f.grid_after.0 <= 0.5 && f.grid_after.1 <= 1.5,
         "grid {:?}",
         f.grid_after
     );
-    assert!(f.seams_after <= 2.7, "seams {}", f.seams_after);
+    assert!(f.seams_after <= 1.0, "seams {}", f.seams_after);
     assert!(
-        f.dense_dy <= 5.5 && f.dense_dxy <= 0.004,
+        f.dense_dy <= 2.0 && f.dense_dxy <= 0.003,
         "dense {} % {}",
         f.dense_dy,
         f.dense_dxy
     );
     assert!(
-        f.camera_vs_meter.0 <= 1.5 && f.camera_vs_meter.1 <= 0.005,
+        f.camera_vs_meter.0 <= 3.0 && f.camera_vs_meter.1 <= 0.004,
         "camera vs meter {:?}",
         f.camera_vs_meter
     );

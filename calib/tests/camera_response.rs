@@ -44,3 +44,47 @@ fn response_curve_within_one_percent_of_the_true_curve_with_noise_8_bit() {
 fn response_curve_within_one_percent_of_the_true_curve_12_bit() {
     assert!(recovered_error("[camera]\nbits = 12\n", true) <= 0.01);
 }
+
+/// The exposure stack and the recovered curve for the OpenCV-Python cross-check
+/// (`tests/python/test_camera_response_opencv.py` runs this test with
+/// `LUMIWALL_STACK_DIR` set and compares OpenCV's `CalibrateDebevec` on the same
+/// frames); without the variable it checks the stack it would write.
+#[test]
+fn exposure_stack_for_the_opencv_cross_check() {
+    use lumiwall_calib::camera::{response_from_series, response_series};
+    let w = wall("");
+    let mut cam = VirtualCamera::new(&w, true).expect("camera");
+    let spec = cam.spec().clone();
+    let mut pat = w.pattern_output();
+    let d = &w.displays()[0];
+    let frames = response_series(&mut cam, &mut pat, d).expect("series");
+    let curve = response_from_series(&frames, &d.name).expect("curve");
+    assert!(frames.len() >= 8 && frames.windows(2).all(|f| f[1].exposure_s > f[0].exposure_s));
+    let Ok(dir) = std::env::var("LUMIWALL_STACK_DIR") else {
+        return;
+    };
+    let dir = std::path::PathBuf::from(dir);
+    std::fs::create_dir_all(&dir).expect("stack folder");
+    let mut names = Vec::new();
+    for (k, f) in frames.iter().enumerate() {
+        let bytes: Vec<u8> = f.rgb.iter().flat_map(|p| p.map(|c| c as u8)).collect();
+        let img = image::RgbImage::from_raw(f.width_px, f.height_px, bytes).expect("frame");
+        let name = format!("frame{k:02}.png");
+        img.save(dir.join(&name)).expect("png");
+        names.push(name);
+    }
+    let truth: Vec<Vec<f64>> = (0..3)
+        .map(|c| {
+            (0..256)
+                .map(|z| spec.inverse_response(c, f64::from(z) / 255.0))
+                .collect()
+        })
+        .collect();
+    let json = serde_json::json!({
+        "frames": names,
+        "exposures_s": frames.iter().map(|f| f.exposure_s).collect::<Vec<_>>(),
+        "ln_exposure": curve.ln_exposure,
+        "true_relative_exposure": truth,
+    });
+    std::fs::write(dir.join("stack.json"), json.to_string()).expect("json");
+}

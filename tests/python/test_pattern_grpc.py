@@ -10,6 +10,7 @@ the standard gRPC health service.
 """
 
 import json
+import os
 import pathlib
 import struct
 import subprocess
@@ -50,7 +51,11 @@ def stubs(tmp_path_factory):
 
 
 def lumiwall_binary():
-    subprocess.run(["cargo", "build", "-q", "-p", "lumiwall"], cwd=ROOT, check=True)
+    # The features scripts/test built with (the camera feature), so the binary is not
+    # rebuilt without them.
+    features = os.environ.get("LUMIWALL_CARGO_FEATURES", "")
+    extra = ["--features", features] if features else []
+    subprocess.run(["cargo", "build", "-q", "-p", "lumiwall", *extra], cwd=ROOT, check=True)
     meta = subprocess.run(
         ["cargo", "metadata", "--format-version", "1", "--no-deps"],
         cwd=ROOT,

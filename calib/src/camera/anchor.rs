@@ -28,6 +28,9 @@ pub struct SpotPair {
     pub meter_xyz: [f64; 3],
     /// Distance of the spot from the image centre over half the diagonal.
     pub radius: f64,
+    /// Which pattern was shown (its drive): pairs with the same display and pattern
+    /// share one spectrum.
+    pub drive: [f64; 3],
 }
 
 /// How well the camera agrees with the meter at one spot.
@@ -43,6 +46,8 @@ pub struct SpotAgreement {
     pub delta_y_percent: f64,
     /// Chromaticity distance (CIE 1931 xy).
     pub delta_xy: f64,
+    /// The pattern shown (drive per channel).
+    pub drive: [f64; 3],
 }
 
 /// The fitted camera photometry.
@@ -82,9 +87,20 @@ impl CameraPhotometry {
         }))
     }
 
-    /// Largest luminance (%) and xy disagreement with the meter over all spots.
+    /// Largest luminance (%) and xy disagreement with the meter over the white spots
+    /// (every channel on): the camera as a photometer of the wall white.
     pub fn worst(&self) -> (f64, f64) {
-        self.agreement.iter().fold((0.0, 0.0), |(y, d), a| {
+        Self::worst_of(self.agreement.iter().filter(|a| a.drive == [1.0; 3]))
+    }
+
+    /// Largest disagreement over every spot and pattern (single primaries included,
+    /// where a 3×3 matrix meets the camera's departure from the CIE observer).
+    pub fn worst_all(&self) -> (f64, f64) {
+        Self::worst_of(self.agreement.iter())
+    }
+
+    fn worst_of<'a>(spots: impl Iterator<Item = &'a SpotAgreement>) -> (f64, f64) {
+        spots.fold((0.0, 0.0), |(y, d), a| {
             (
                 f64::max(y, a.delta_y_percent.abs()),
                 f64::max(d, a.delta_xy),
@@ -118,6 +134,7 @@ impl CameraPhotometry {
                     display: p.display,
                     eye: p.eye,
                     uv: p.uv,
+                    drive: p.drive,
                     delta_y_percent: 100.0 * (cam[1] / p.meter_xyz[1] - 1.0),
                     delta_xy: {
                         let (a, b) = (xy(cam), xy(p.meter_xyz));
@@ -167,34 +184,37 @@ fn fit_matrix(
 }
 
 /// Vignetting from the luminance ratios meter / camera with the matrices fixed, one
-/// free factor per display (`ln ratio = c_d + β1ρ² + β2ρ⁴`): within one display the
-/// spectrum is the same at every spot, so the matrix's spectral mismatch drops out.
+/// free factor per display and pattern (`ln ratio = c_dp + β1ρ² + β2ρ⁴`): one pattern on
+/// one display has one spectrum at every spot, so the matrix's spectral mismatch drops
+/// out.
 fn fit_vignetting(pairs: &[SpotPair], fit: &CameraPhotometry) -> Option<[f64; 2]> {
     let uncorrected = CameraPhotometry {
         vignetting: [0.0; 2],
         ..fit.clone()
     };
-    let mut displays: Vec<u32> = pairs.iter().map(|p| p.display).collect();
-    displays.sort_unstable();
-    displays.dedup();
-    let n = 2 + displays.len();
+    // One free factor per display and pattern: the same spectrum at every spot.
+    let mut groups: Vec<(u32, [u64; 3])> = pairs
+        .iter()
+        .map(|p| (p.display, p.drive.map(f64::to_bits)))
+        .collect();
+    groups.sort_unstable();
+    groups.dedup();
+    let n = 2 + groups.len();
     let mut ata = nalgebra::DMatrix::<f64>::zeros(n, n);
     let mut atb = nalgebra::DVector::<f64>::zeros(n);
-    // White spots only: one spectrum per display.
-    for p in pairs
-        .iter()
-        .filter(|p| p.camera_rgb.iter().all(|v| *v > 0.0))
-    {
+    for p in pairs {
         let cam = uncorrected.xyz(p.eye, p.camera_rgb, p.radius)?;
-        if cam[1] <= 0.0 || p.meter_xyz[1] <= 0.0 || !is_white(p) {
+        if cam[1] <= 0.0 || p.meter_xyz[1] <= 0.0 {
             continue;
         }
         let r2 = p.radius * p.radius;
-        let d = displays.iter().position(|d| *d == p.display)?;
+        let g = groups
+            .iter()
+            .position(|g| *g == (p.display, p.drive.map(f64::to_bits)))?;
         let mut a = nalgebra::DVector::<f64>::zeros(n);
         a[0] = r2;
         a[1] = r2 * r2;
-        a[2 + d] = 1.0;
+        a[2 + g] = 1.0;
         ata += &a * a.transpose();
         atb += &a * (p.meter_xyz[1] / cam[1]).ln();
     }
@@ -203,14 +223,4 @@ fn fit_vignetting(pairs: &[SpotPair], fit: &CameraPhotometry) -> Option<[f64; 2]
     let (b1, b2) = (x[0], x[1]);
     // exp(β1ρ² + β2ρ⁴) as the polynomial 1 + b1ρ² + b2ρ⁴ (second order).
     Some([b1, b2 + 0.5 * b1 * b1])
-}
-
-/// Whether a pair is a white spot (all three display channels on).
-fn is_white(p: &SpotPair) -> bool {
-    let s = p.meter_xyz[0] + p.meter_xyz[1] + p.meter_xyz[2];
-    s > 0.0 && {
-        let x = p.meter_xyz[0] / s;
-        let y = p.meter_xyz[1] / s;
-        (0.22..0.42).contains(&x) && (0.22..0.42).contains(&y)
-    }
 }

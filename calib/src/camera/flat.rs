@@ -22,7 +22,8 @@ use super::hdr::{HdrImage, ResponseCurve, calibrate_response, capture_hdr};
 use super::registration::{DotGrid, Registration, check_still, register_displays};
 use crate::measure::Rig;
 
-/// Spots the meter reads (white) besides the centre, for the anchor's vignetting.
+/// Spots the meter reads besides the centre (each channel and white), for the anchor's
+/// vignetting.
 const ANCHOR_SPOTS: [[f64; 2]; 4] = [[0.2, 0.2], [0.8, 0.2], [0.2, 0.8], [0.8, 0.8]];
 /// Readings averaged per meter spot.
 const READINGS_PER_SPOT: u32 = 2;
@@ -146,8 +147,10 @@ pub fn measure_flat_fields(
     let (open, pairs) = ctx.open_all(cam, rig, displays, progress)?;
     let photometry = CameraPhotometry::fit(&pairs)?;
     let (dy, dxy) = photometry.worst();
+    let (ay, axy) = photometry.worst_all();
     progress(&format!(
-        "camera: colour matrix fitted; worst against the meter ΔY {dy:.2} % Δxy {dxy:.4}"
+        "camera: colour matrix fitted; camera vs meter at the white spots: worst ΔY {dy:.2} % \
+         Δxy {dxy:.4} (single primaries included: ΔY {ay:.2} % Δxy {axy:.4})"
     ));
     let out = ctx.close_all(
         cam,
@@ -282,18 +285,18 @@ impl Context<'_> {
         info: &DisplayInfo,
         uv: [f64; 2],
     ) -> Option<([f64; 3], f64)> {
+        // 4×4 samples over the texel's footprint, kept off the display's edges.
+        let margin = self.edge_margin(info);
+        let half = self.opts.texture.map(|n| 0.5 / f64::from(n.max(1)));
         let mut acc = [0.0; 3];
         let mut n = 0.0;
-        for (du, dv) in [
-            (0.0, 0.0),
-            (-0.004, 0.0),
-            (0.004, 0.0),
-            (0.0, -0.004),
-            (0.0, 0.004),
-        ] {
-            let p = self
-                .registration
-                .to_camera(info.id, [uv[0] + du, uv[1] + dv])?;
+        for k in 0..16 {
+            let (a, b) = (f64::from(k % 4) - 1.5, f64::from(k / 4) - 1.5);
+            let q = [
+                (uv[0] + a / 1.5 * half[0] * 0.75).clamp(margin[0], 1.0 - margin[0]),
+                (uv[1] + b / 1.5 * half[1] * 0.75).clamp(margin[1], 1.0 - margin[1]),
+            ];
+            let p = self.registration.to_camera(info.id, q)?;
             let s = img.sample(p)?;
             for c in 0..3 {
                 acc[c] += s[c];
@@ -340,38 +343,28 @@ impl Context<'_> {
             Shown::Uniform([0.0; 3]),
             "dark frame",
         )?;
-        let meter_black = read_meter(rig, info, self.opts.spot_uv, [0.0; 3])?;
+        let spots: Vec<[f64; 2]> = std::iter::once(self.opts.spot_uv)
+            .chain(ANCHOR_SPOTS)
+            .collect();
+        let blacks = spots
+            .iter()
+            .map(|&uv| read_meter(rig, info, uv, [0.0; 3]))
+            .collect::<Result<Vec<_>, _>>()?;
         let mut channels = Vec::with_capacity(3);
-        for c in 0..3 {
-            let mut drive = [0.0; 3];
-            drive[c] = 1.0;
+        for drive in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0; 3]] {
             let img = self.capture(
                 cam,
                 rig.pattern,
                 info,
                 Shown::Uniform(drive),
-                "open-loop channel",
+                "open-loop capture",
             )?;
-            self.pair(
-                rig,
-                info,
-                &img,
-                &dark,
-                drive,
-                self.opts.spot_uv,
-                meter_black,
-                pairs,
-            )?;
-            channels.push(img);
-        }
-        let white = self.capture(cam, rig.pattern, info, Shown::Uniform([1.0; 3]), "white")?;
-        for uv in std::iter::once(self.opts.spot_uv).chain(ANCHOR_SPOTS) {
-            let black = if uv == self.opts.spot_uv {
-                meter_black
-            } else {
-                read_meter(rig, info, uv, [0.0; 3])?
-            };
-            self.pair(rig, info, &white, &dark, [1.0; 3], uv, black, pairs)?;
+            for (&uv, &black) in spots.iter().zip(&blacks) {
+                self.pair(rig, info, &img, &dark, drive, uv, black, pairs)?;
+            }
+            if drive != [1.0; 3] {
+                channels.push(img);
+            }
         }
         let channels: [HdrImage; 3] = channels
             .try_into()
@@ -419,6 +412,7 @@ impl Context<'_> {
             camera_rgb: rgb,
             meter_xyz: std::array::from_fn(|k| xyz[k] - black[k]),
             radius: rho,
+            drive,
         });
         Ok(())
     }

@@ -221,7 +221,7 @@ pub fn base_exposure(
 }
 
 /// Captures `pixels` so that each is well exposed in at least one frame: the base
-/// exposure, then ×4 steps while more than 0.2 % of them are still below code 15, up to
+/// exposure (and one half a stop shorter), then ×4 steps while more than 0.2 % of them are still below code 15, up to
 /// the camera's longest exposure; merged with `curve`.
 pub fn capture_hdr(
     cam: &mut dyn Camera,
@@ -229,8 +229,16 @@ pub fn capture_hdr(
     pixels: &[usize],
     what: &str,
 ) -> Result<HdrImage, CameraCalibError> {
-    let t_max = cam.info().exposure_range_s[1];
-    let mut frames = vec![base_exposure(cam, pixels, what)?];
+    let [t_min, t_max] = cam.info().exposure_range_s;
+    let base = base_exposure(cam, pixels, what)?;
+    // A second frame half a stop shorter: its codes fall elsewhere on the response
+    // curve, which halves the 8-bit quantisation in the merged image.
+    let shorter = (base.exposure_s / std::f64::consts::SQRT_2).max(t_min);
+    let mut frames = Vec::with_capacity(4);
+    if shorter < base.exposure_s {
+        frames.push(capture(cam, shorter, what)?);
+    }
+    frames.push(base);
     let mut covered: Vec<bool> = vec![false; pixels.len()];
     while let Some(last) = frames.last() {
         for (k, &i) in pixels.iter().enumerate() {
@@ -282,12 +290,24 @@ fn spread_samples(frame: &Frame, n: usize) -> Vec<usize> {
 }
 
 /// Recovers the camera's response curve from an exposure series of a ramp shown on
-/// `display` (Debevec–Malik, OpenCV `CalibrateDebevec`).
+/// `display` (Debevec–Malik with Kresse's mask, [`debevec_channel`]).
 pub fn calibrate_response(
     cam: &mut dyn Camera,
     pattern: &mut dyn PatternOutput,
     display: &DisplayInfo,
 ) -> Result<ResponseCurve, CameraCalibError> {
+    let frames = response_series(cam, pattern, display)?;
+    response_from_series(&frames, &display.name)
+}
+
+/// The exposure series of the response curve: a ramp on `display`, half-stop steps
+/// from two stops below to six above the exposure where the brightest pixel is just
+/// well exposed.
+pub fn response_series(
+    cam: &mut dyn Camera,
+    pattern: &mut dyn PatternOutput,
+    display: &DisplayInfo,
+) -> Result<Vec<Frame>, CameraCalibError> {
     let what = format!("the response-curve exposure series on {}", display.name);
     let what = what.as_str();
     pattern
@@ -304,16 +324,28 @@ pub fn calibrate_response(
             frames.push(capture(cam, t, what)?);
         }
     }
-    let samples = spread_samples(&frames[frames.len() / 2], RESPONSE_SAMPLES);
+    Ok(frames)
+}
+
+/// The response curve of an exposure series (`name`: the display it shows, for
+/// messages).
+pub fn response_from_series(
+    frames: &[Frame],
+    name: &str,
+) -> Result<ResponseCurve, CameraCalibError> {
+    let samples = frames
+        .get(frames.len() / 2)
+        .map(|f| spread_samples(f, RESPONSE_SAMPLES))
+        .unwrap_or_default();
     if samples.len() < 50 || frames.len() < 4 {
         return Err(CameraCalibError::Fit(format!(
-            "{what}: only {} usable pixels in {} exposures; is the projector on and in the \
-             camera's view?",
+            "the response-curve exposure series on {name}: only {} usable pixels in {} \
+             exposures; is the projector on and in the camera's view?",
             samples.len(),
             frames.len()
         )));
     }
-    let ln_exposure = debevec(&frames, &samples)?;
+    let ln_exposure = debevec(frames, &samples)?;
     Ok(ResponseCurve {
         ln_exposure,
         exposures_s: frames.iter().map(|f| f.exposure_s).collect(),
