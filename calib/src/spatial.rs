@@ -53,6 +53,170 @@ pub fn fit_white_to_flat_fields(profiles: &mut [DisplayProfile]) -> WhiteCost {
     }
 }
 
+/// How uniform the wall white must be across the wall.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Uniformity {
+    /// The same luminance everywhere: the common white drops to the darkest texel.
+    Strict,
+    /// A smooth luminance gradient below the visibility threshold is allowed (Majumder
+    /// & Stevens, "perceptual photometric seamlessness"): the white at each point is
+    /// the brightest `T(x) ≤ 1` every display can show there with
+    /// `|Δ ln T| ≤ gradient_per_m · distance`, so bright centres keep their luminance.
+    Perceptual {
+        /// Largest relative luminance change per metre of wall.
+        gradient_per_m: f64,
+    },
+}
+
+impl Uniformity {
+    /// The default perceptual bound: 1.5 % per degree seen from 2.5 m (≈ 34 % per m).
+    pub const PERCEPTUAL_DEFAULT: Uniformity = Uniformity::Perceptual {
+        gradient_per_m: 0.015 / (2.5 * std::f64::consts::PI / 180.0),
+    };
+}
+
+/// What a uniformity choice keeps of the solved common white (cd/m²).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct UniformityCost {
+    /// The solved common white at the spots, before any flat field.
+    pub solved_cd_m2: f64,
+    /// Strict: the white everywhere.
+    pub strict_cd_m2: f64,
+    /// Perceptual: the mean white over the wall.
+    pub perceptual_mean_cd_m2: f64,
+    /// Perceptual: the darkest point's white.
+    pub perceptual_min_cd_m2: f64,
+}
+
+/// The fraction of the solved white each texel of each display can show
+/// (`min_c headroom · gain_c / usage_c`), laid out on one wall-wide grid of texels
+/// (both eyes of a tile share cells: the smaller counts). `None` without flat fields.
+fn achievable_map(
+    profiles: &[DisplayProfile],
+    tiles: [u32; 2],
+) -> Option<(Vec<f64>, [usize; 2], [u32; 2])> {
+    let ff0 = profiles.first()?.flat_field.as_ref()?;
+    let tex = [ff0.width, ff0.height];
+    let (w, h) = ((tiles[0] * tex[0]) as usize, (tiles[1] * tex[1]) as usize);
+    let mut a = vec![f64::INFINITY; w * h];
+    for p in profiles {
+        let ff = p
+            .flat_field
+            .as_ref()
+            .filter(|f| [f.width, f.height] == tex)?;
+        for (k, g) in ff.gain.iter().enumerate() {
+            let (i, j) = (k % tex[0] as usize, k / tex[0] as usize);
+            let x = p.display.tile_col as usize * tex[0] as usize + i;
+            let y = p.display.tile_row as usize * tex[1] as usize + j;
+            let can = (0..3)
+                .map(|c| p.headroom * f64::from(g[c]) / p.channel_usage[c].max(1e-9))
+                .fold(f64::INFINITY, f64::min);
+            let cell = a.get_mut(y * w + x)?;
+            *cell = cell.min(can);
+        }
+    }
+    Some((a, [w, h], tex))
+}
+
+/// `T(x) = min(1, min_y A(y)·exp(δ·|x − y|))` by a two-pass chamfer distance transform
+/// in the log domain (cell size `cell_m`).
+fn perceptual_envelope(
+    a: &[f64],
+    size: [usize; 2],
+    cell_m: [f64; 2],
+    delta_per_m: f64,
+) -> Vec<f64> {
+    let [w, h] = size;
+    let mut t: Vec<f64> = a.iter().map(|v| v.min(1.0).max(1e-9).ln()).collect();
+    let step = |dx: i64, dy: i64| {
+        delta_per_m * ((dx as f64 * cell_m[0]).powi(2) + (dy as f64 * cell_m[1]).powi(2)).sqrt()
+    };
+    let forward = [(-1, 0), (-1, -1), (0, -1), (1, -1)];
+    for pass in 0..2 {
+        let sign = if pass == 0 { 1 } else { -1 };
+        for n in 0..w * h {
+            let k = if pass == 0 { n } else { w * h - 1 - n };
+            let (x, y) = ((k % w) as i64, (k / w) as i64);
+            for (dx, dy) in forward {
+                let (nx, ny) = (x + sign * dx, y + sign * dy);
+                if nx >= 0 && ny >= 0 && (nx as usize) < w && (ny as usize) < h {
+                    let cand = t[ny as usize * w + nx as usize] + step(dx, dy);
+                    if cand < t[k] {
+                        t[k] = cand;
+                    }
+                }
+            }
+        }
+    }
+    t.into_iter().map(f64::exp).collect()
+}
+
+/// Applies a uniformity choice to profiles that carry flat fields (see
+/// [`Uniformity`]); returns what each choice keeps of the white. `tiles` and
+/// `tile_m` are the wall's tile grid and tile size (m).
+pub fn apply_uniformity(
+    profiles: &mut [DisplayProfile],
+    mode: Uniformity,
+    tiles: [u32; 2],
+    tile_m: [f64; 2],
+) -> UniformityCost {
+    let solved = profiles
+        .first()
+        .map_or(0.0, |p| p.target_white_xyz_cd_m2[1]);
+    let Some((a, size, tex)) = achievable_map(profiles, tiles) else {
+        return UniformityCost {
+            solved_cd_m2: solved,
+            strict_cd_m2: solved,
+            perceptual_mean_cd_m2: solved,
+            perceptual_min_cd_m2: solved,
+        };
+    };
+    let strict = a.iter().copied().fold(f64::INFINITY, f64::min).min(1.0);
+    let delta = match mode {
+        Uniformity::Perceptual { gradient_per_m } => gradient_per_m,
+        Uniformity::Strict => match Uniformity::PERCEPTUAL_DEFAULT {
+            Uniformity::Perceptual { gradient_per_m } => gradient_per_m,
+            Uniformity::Strict => 0.0,
+        },
+    };
+    let cell = [tile_m[0] / f64::from(tex[0]), tile_m[1] / f64::from(tex[1])];
+    let t = perceptual_envelope(&a, size, cell, delta);
+    let mean = t.iter().sum::<f64>() / t.len().max(1) as f64;
+    let min = t.iter().copied().fold(f64::INFINITY, f64::min);
+    let cost = UniformityCost {
+        solved_cd_m2: solved,
+        strict_cd_m2: solved * strict,
+        perceptual_mean_cd_m2: solved * mean,
+        perceptual_min_cd_m2: solved * min,
+    };
+    match mode {
+        Uniformity::Strict => {
+            fit_white_to_flat_fields(profiles);
+        }
+        Uniformity::Perceptual { .. } => shape_flat_fields(profiles, &t, size[0], tex),
+    }
+    cost
+}
+
+/// Divides every texel's gains by the wall's target fraction `T` there.
+fn shape_flat_fields(profiles: &mut [DisplayProfile], t: &[f64], w: usize, tex: [u32; 2]) {
+    for p in profiles.iter_mut() {
+        let (col, row) = (p.display.tile_col as usize, p.display.tile_row as usize);
+        let Some(ff) = p.flat_field.as_mut() else {
+            continue;
+        };
+        for (k, g) in ff.gain.iter_mut().enumerate() {
+            let (i, j) = (k % tex[0] as usize, k / tex[0] as usize);
+            let cell = (row * tex[1] as usize + j) * w + col * tex[0] as usize + i;
+            let f = t.get(cell).copied().unwrap_or(1.0).max(1e-6);
+            *g = g.map(|v| {
+                (f64::from(v) / f).clamp(1e-3, f64::from(lumiwall_profiles::FlatField::MAX_GAIN))
+                    as f32
+            });
+        }
+    }
+}
+
 /// The spatial verification's layout.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GridOptions {
@@ -386,4 +550,37 @@ pub fn dense_truth(
         out.push((p.info.id.0, dy, dxy));
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::perceptual_envelope;
+
+    #[test]
+    fn perceptual_envelope_stays_below_what_each_point_can_show_and_changes_no_faster_than_allowed()
+    {
+        let (w, h) = (40usize, 20usize);
+        let mut a = vec![1.2; w * h];
+        a[10 * w + 20] = 0.5; // one dark corner of a display
+        a[3 * w + 4] = 0.8;
+        let cell = [0.05, 0.05];
+        let delta = 2.0;
+        let t = perceptual_envelope(&a, [w, h], cell, delta);
+        for k in 0..w * h {
+            assert!(
+                t[k] <= a[k].min(1.0) + 1e-12,
+                "T above what cell {k} can show"
+            );
+        }
+        assert!((t[10 * w + 20] - 0.5).abs() < 1e-12);
+        for y in 0..h {
+            for x in 0..w - 1 {
+                let d = (t[y * w + x].ln() - t[y * w + x + 1].ln()).abs();
+                assert!(d <= delta * cell[0] + 1e-12, "gradient {d} at {x},{y}");
+            }
+        }
+        // Far from the dark point the white is kept: perceptual costs less than strict.
+        assert!((t[19 * w + 39] - 1.0).abs() < 1e-12);
+        assert!(t.iter().sum::<f64>() / t.len() as f64 > 0.9);
+    }
 }

@@ -54,7 +54,7 @@ def test_lumiwall_response_curve_agrees_with_opencv_on_the_same_exposure_stack(t
         # Codes whose true exposure is 5..95 % of saturation, and at most 240: above
         # that OpenCV's unmasked solve bends (clipped samples enter it).
         codes = np.nonzero((truth[c] >= 0.05) & (truth[c] <= 0.95) & (np.arange(256) <= 240))[0]
-        ln_truth = np.log(truth[c])
+        ln_truth = np.log(np.maximum(truth[c], 1e-12))
         between = max_relative_difference(ln_ours[c], ln_opencv[c], codes)
         ours_err = max_relative_difference(ln_ours[c], ln_truth, codes)
         opencv_err = max_relative_difference(ln_opencv[c], ln_truth, codes)

@@ -6,7 +6,9 @@ use std::path::Path;
 
 use lumiwall_calib::camera::{FlatFieldOptions, FlatFieldOutcome, measure_flat_fields};
 use lumiwall_calib::commission::CommissionOutcome;
-use lumiwall_calib::spatial::{GridOptions, Truth, fit_white_to_flat_fields, verify_grid};
+use lumiwall_calib::spatial::{
+    GridOptions, Truth, Uniformity, UniformityCost, apply_uniformity, verify_grid,
+};
 use lumiwall_calib::station::Station;
 use lumiwall_core::files::{FolderLock, write_atomic};
 use lumiwall_devices::Camera;
@@ -14,6 +16,7 @@ use lumiwall_devices::sim::VirtualCamera;
 use lumiwall_profiles::{DisplayProfile, ProfileSet};
 
 use crate::CliError;
+use crate::cmd_commission::UniformityArg;
 
 /// File of the camera stage's results in the profile folder.
 pub(crate) const CAMERA_FILE: &str = "camera.json";
@@ -55,6 +58,7 @@ pub(crate) fn run(
     out: &Path,
     choice: &str,
     noiseless: bool,
+    uniformity: UniformityArg,
 ) -> Result<(), CliError> {
     let _lock =
         FolderLock::acquire(out, "camera stage").map_err(|e| CliError::input(e.to_string()))?;
@@ -79,8 +83,18 @@ pub(crate) fn run(
     for (p, f) in profiles.iter_mut().zip(&flats.displays) {
         p.flat_field = Some(f.flat.clone());
     }
-    let cost = fit_white_to_flat_fields(&mut profiles);
-    print_stage(&flats, cost);
+    let wf = station.wall.wall_file();
+    let mode = match uniformity {
+        UniformityArg::Strict => Uniformity::Strict,
+        UniformityArg::Perceptual => Uniformity::PERCEPTUAL_DEFAULT,
+    };
+    let cost = apply_uniformity(
+        &mut profiles,
+        mode,
+        [wf.tiles.cols, wf.tiles.rows],
+        [wf.tiles.width_m, wf.tiles.height_m],
+    );
+    print_stage(&flats, cost, mode);
     if let Some(before) = before {
         let after = verify_grid(&mut Truth(&station.wall), &displays, &profiles, &grid)
             .map_err(CliError::failure)?;
@@ -96,7 +110,7 @@ pub(crate) fn run(
     save(out, &outcome.wall, &profiles, &flats)
 }
 
-fn print_stage(flats: &FlatFieldOutcome, cost: lumiwall_calib::spatial::WhiteCost) {
+fn print_stage(flats: &FlatFieldOutcome, cost: UniformityCost, mode: Uniformity) {
     let frames: Vec<u32> = flats.displays.iter().map(|d| d.frames).collect();
     let iters = flats
         .displays
@@ -114,13 +128,24 @@ fn print_stage(flats: &FlatFieldOutcome, cost: lumiwall_calib::spatial::WhiteCos
         flats.registration.rms_px,
         flats.movement_px
     );
+    let solved = cost.solved_cd_m2.max(1e-12);
     println!(
-        "strict uniformity: common white {:.2} → {:.2} cd/m² (costs {:.2} cd/m², {:.1} %)",
-        cost.before_cd_m2,
-        cost.after_cd_m2,
-        cost.before_cd_m2 - cost.after_cd_m2,
-        100.0 * (1.0 - cost.after_cd_m2 / cost.before_cd_m2.max(1e-12))
+        "uniformity: solved white {:.2} cd/m²; strict keeps {:.2} cd/m² everywhere (costs {:.2} cd/m², {:.1} %); \
+         perceptual keeps {:.2} cd/m² on average, {:.2} at the darkest point (costs {:.2} cd/m² on average)",
+        cost.solved_cd_m2,
+        cost.strict_cd_m2,
+        cost.solved_cd_m2 - cost.strict_cd_m2,
+        100.0 * (1.0 - cost.strict_cd_m2 / solved),
+        cost.perceptual_mean_cd_m2,
+        cost.perceptual_min_cd_m2,
+        cost.solved_cd_m2 - cost.perceptual_mean_cd_m2
     );
+    match mode {
+        Uniformity::Strict => println!("applied: strict"),
+        Uniformity::Perceptual { .. } => println!(
+            "applied: perceptual (verify --grid compares with one uniform white, so it shows the designed gradient as ΔE)"
+        ),
+    }
 }
 
 fn save(

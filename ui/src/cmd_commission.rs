@@ -143,6 +143,15 @@ impl SolveArgs {
     }
 }
 
+/// `--uniformity`.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub(crate) enum UniformityArg {
+    /// The same luminance everywhere.
+    Strict,
+    /// A smooth gradient below the visibility threshold.
+    Perceptual,
+}
+
 /// Arguments of `lumiwall commission`.
 #[derive(Debug, clap::Args)]
 pub(crate) struct CommissionArgs {
@@ -179,6 +188,11 @@ pub(crate) struct CommissionArgs {
     /// `camera` feature (OpenCV).
     #[arg(long)]
     camera: Option<String>,
+    /// With `--camera`: `strict` (one luminance everywhere: the common white drops to
+    /// the darkest point of the wall) or `perceptual` (a smooth gradient below the
+    /// visibility threshold, 1.5 % per degree at 2.5 m, keeps the bright centres).
+    #[arg(long, value_enum, default_value = "strict", requires = "camera")]
+    pub(crate) uniformity: UniformityArg,
 }
 
 impl CommissionArgs {
@@ -320,7 +334,14 @@ fn camera_stage(
     camera: &str,
 ) -> Result<(), CliError> {
     let noiseless = matches!(args.meter.noise, NoiseArg::None);
-    crate::cmd_camera::run(station, outcome, &args.out, camera, noiseless)
+    crate::cmd_camera::run(
+        station,
+        outcome,
+        &args.out,
+        camera,
+        noiseless,
+        args.uniformity,
+    )
 }
 
 /// Opens the camera once before the meter starts, so a missing or unusable camera is

@@ -90,3 +90,44 @@ fn commission_with_a_camera_without_the_camera_feature_says_how_to_build_it() {
     .stderr(contains("--features camera"))
     .stdout(contains("commissioning").not());
 }
+
+#[cfg(feature = "camera")]
+#[test]
+fn perceptual_uniformity_keeps_more_of_the_white_than_strict_and_says_so() {
+    let dir = TempDir::new().expect("tmp");
+    let out = dir.path().join("out");
+    let assert = commission_small(
+        &out,
+        &[
+            "--noise",
+            "none",
+            "--camera",
+            "virtual",
+            "--uniformity",
+            "perceptual",
+        ],
+    )
+    .assert()
+    .success()
+    .stdout(contains("applied: perceptual"));
+    let stdout = String::from_utf8_lossy(&assert.get_output().stdout).to_string();
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("uniformity:"))
+        .expect("uniformity line");
+    let num = |after: &str| -> f64 {
+        let rest = &line[line.find(after).expect(after) + after.len()..];
+        rest.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    let (strict, perceptual) = (num("strict keeps "), num("perceptual keeps "));
+    assert!(perceptual > strict, "{line}");
+}
+
+#[test]
+fn uniformity_without_a_camera_is_refused() {
+    let dir = TempDir::new().expect("tmp");
+    commission_small(&dir.path().join("out"), &["--uniformity", "perceptual"])
+        .assert()
+        .code(2)
+        .stderr(contains("--camera"));
+}
