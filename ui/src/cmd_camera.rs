@@ -7,7 +7,7 @@ use std::path::Path;
 use lumiwall_calib::camera::{FlatFieldOptions, FlatFieldOutcome, measure_flat_fields};
 use lumiwall_calib::commission::CommissionOutcome;
 use lumiwall_calib::spatial::{
-    GridOptions, Truth, Uniformity, UniformityCost, apply_uniformity, verify_grid,
+    GridOptions, SpatialReport, Truth, Uniformity, UniformityCost, apply_uniformity, verify_grid,
 };
 use lumiwall_calib::station::Station;
 use lumiwall_core::files::{FolderLock, write_atomic};
@@ -95,19 +95,135 @@ pub(crate) fn run(
         [wf.tiles.width_m, wf.tiles.height_m],
     );
     print_stage(&flats, cost, mode);
-    if let Some(before) = before {
-        let after = verify_grid(&mut Truth(&station.wall), &displays, &profiles, &grid)
-            .map_err(CliError::failure)?;
+    let after = virtual_wall
+        .then(|| verify_grid(&mut Truth(&station.wall), &displays, &profiles, &grid))
+        .transpose()
+        .map_err(CliError::failure)?;
+    if let (Some(b), Some(a)) = (&before, &after) {
         println!(
             "5x5 grid as the simulator sees it, before the flat field: {}",
-            before.overall_line()
+            b.overall_line()
         );
         println!(
             "5x5 grid as the simulator sees it, after the flat field:  {}",
-            after.overall_line()
+            a.overall_line()
         );
     }
-    save(out, &outcome.wall, &profiles, &flats)
+    save(out, &outcome.wall, &profiles, &flats)?;
+    let tiles = [wf.tiles.cols, wf.tiles.rows];
+    append_report(
+        out,
+        &flats,
+        cost,
+        mode,
+        before.as_ref().zip(after.as_ref()),
+        tiles,
+    )
+}
+
+/// Appends the camera stage to `report.md` and writes its pictures beside it: the
+/// response curves and (virtual wall) the 5×5 heat maps before and after.
+fn append_report(
+    out: &Path,
+    flats: &FlatFieldOutcome,
+    cost: UniformityCost,
+    mode: Uniformity,
+    grids: Option<(&SpatialReport, &SpatialReport)>,
+    tiles: [u32; 2],
+) -> Result<(), CliError> {
+    let write = |name: &str, text: &str| {
+        write_atomic(&out.join(name), text.as_bytes())
+            .map_err(|e| CliError::failure(format!("cannot write {name}: {e}")))
+    };
+    write("response-curve.svg", &response_svg(&flats.response))?;
+    let (dy, dxy) = flats.photometry.worst();
+    let (ay, axy) = flats.photometry.worst_all();
+    let mut md = format!(
+        "\n## Camera stage\n\n![response curves](response-curve.svg)\n\n\
+         - response curve: {} exposures, {} sampled pixels (Debevec–Malik, codes 15..250)\n\
+         - registration: reprojection error rms {:.3} px, max {:.3} px; distortion κ {:?}\n\
+         - camera vs meter at the white spots: worst ΔY {dy:.2} %, Δxy {dxy:.4}; all patterns ΔY {ay:.2} %, Δxy {axy:.4}\n\
+         - camera vignetting correction 1 + {:.4}ρ² + {:.4}ρ⁴; camera moved {:.2} px during the stage\n\
+         - uniformity {mode:?}: solved white {:.2} cd/m², strict {:.2}, perceptual mean {:.2} (min {:.2})\n\
+         - the flat fields are right for the camera's position; on a gain screen another viewer sees another hotspot\n\
+         - {:.1} s\n\n| display | iterations R/G/B | RMS residual before → after | frames |\n|---|---|---|---|\n",
+        flats.response.exposures_s.len(),
+        flats.response.samples,
+        flats.registration.rms_px,
+        flats.registration.max_px,
+        flats.registration.kappa,
+        flats.photometry.vignetting[0],
+        flats.photometry.vignetting[1],
+        flats.movement_px,
+        cost.solved_cd_m2,
+        cost.strict_cd_m2,
+        cost.perceptual_mean_cd_m2,
+        cost.perceptual_min_cd_m2,
+        flats.seconds,
+    );
+    for d in &flats.displays {
+        let worst = |r: [f64; 3]| 100.0 * r.iter().copied().fold(0.0, f64::max);
+        md.push_str(&format!(
+            "| {} | {:?} | {:.2} % → {:.2} % | {} |\n",
+            d.name,
+            d.iterations,
+            worst(d.residual_open),
+            worst(d.residual_final),
+            d.frames
+        ));
+    }
+    if let Some((b, a)) = grids {
+        write("uniformity-before.svg", &b.heat_map_svg(tiles, [5, 5]))?;
+        write("uniformity-after.svg", &a.heat_map_svg(tiles, [5, 5]))?;
+        md.push_str(&format!(
+            "\nAs the simulator sees it (5×5 grid per display):\n\n- before: `{}`\n- after: `{}`\n\n\
+             ![before](uniformity-before.svg) ![after](uniformity-after.svg)\n",
+            b.overall_line(),
+            a.overall_line()
+        ));
+    }
+    let path = out.join("report.md");
+    let mut text = std::fs::read_to_string(&path).unwrap_or_default();
+    text.push_str(&md);
+    write("report.md", &text)
+}
+
+/// The response curves as an SVG plot: ln relative exposure against code, R, G, B.
+fn response_svg(r: &lumiwall_calib::camera::ResponseCurve) -> String {
+    let (w, h) = (420.0, 260.0);
+    let all: Vec<f64> = r
+        .ln_exposure
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|v| v.is_finite())
+        .collect();
+    let lo = all.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = all.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let span = (hi - lo).max(1e-9);
+    let mut svg = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"11\">\n\
+         <text x=\"30\" y=\"14\">camera response: ln relative exposure (up) against code 0..255</text>\n"
+    );
+    for (c, colour) in ["#c00", "#080", "#00c"].iter().enumerate() {
+        let pts: Vec<String> = r.ln_exposure[c]
+            .iter()
+            .enumerate()
+            .map(|(z, v)| {
+                format!(
+                    "{:.1},{:.1}",
+                    30.0 + z as f64 * (w - 40.0) / 255.0,
+                    h - 20.0 - (v - lo) / span * (h - 40.0)
+                )
+            })
+            .collect();
+        svg.push_str(&format!(
+            "<polyline fill=\"none\" stroke=\"{colour}\" points=\"{}\"/>\n",
+            pts.join(" ")
+        ));
+    }
+    svg.push_str("</svg>\n");
+    svg
 }
 
 fn print_stage(flats: &FlatFieldOutcome, cost: UniformityCost, mode: Uniformity) {
