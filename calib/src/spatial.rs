@@ -127,7 +127,7 @@ fn perceptual_envelope(
     delta_per_m: f64,
 ) -> Vec<f64> {
     let [w, h] = size;
-    let mut t: Vec<f64> = a.iter().map(|v| v.min(1.0).max(1e-9).ln()).collect();
+    let mut t: Vec<f64> = a.iter().map(|v| v.clamp(1e-9, 1.0).ln()).collect();
     let step = |dx: i64, dy: i64| {
         delta_per_m * ((dx as f64 * cell_m[0]).powi(2) + (dy as f64 * cell_m[1]).powi(2)).sqrt()
     };
