@@ -222,3 +222,63 @@ fn a_camera_with_automatic_exposure_only_is_refused_before_any_measurement() {
     .to_string();
     assert!(err.contains("automatic exposure only"), "{err}");
 }
+
+/// A gain screen (specular lobe) seen from one place: the flat field is right for the
+/// camera's position (where the meter also stands); seen head-on from 2 m at every spot
+/// instead, the hotspot moves and the same profiles are visibly less uniform.
+#[test]
+fn on_a_gain_screen_the_flat_field_is_right_for_the_camera_position_only() {
+    let screen = "[screen]\ndiffuse_gain = 0.8\nspecular_gain = 0.6\nspecular_width_deg = 25.0\n";
+    let place = "position_m = [1.6, 0.6, 3.6]";
+    let seen_from_camera = format!("{screen}[meter]\n{place}\n[camera]\n{place}\n");
+    let w = wall("mono-2x1", &seen_from_camera);
+    let mut station = Station::with_wall(
+        w.clone(),
+        &StationOptions::new(MeterChoice::Direct, Noise::None),
+    )
+    .expect("station");
+    let dir = tempfile::tempdir().expect("tmp");
+    let opts = CommissionOptions {
+        measure: MeasureOptions::default(),
+        solve: Default::default(),
+        resume: false,
+        meter_correction: true,
+    };
+    let outcome = station
+        .commission(dir.path(), &opts, &mut |_| {})
+        .expect("commission");
+    let mut profiles = outcome.solution.profiles.clone();
+    let displays = w.displays();
+    let mut cam = VirtualCamera::new(&w, false).expect("camera");
+    let flats = measure_flat_fields(
+        &mut cam,
+        &mut station.rig(),
+        &displays,
+        &profiles,
+        &FlatFieldOptions::default(),
+        &mut |_| {},
+    )
+    .expect("flat fields");
+    for (p, f) in profiles.iter_mut().zip(&flats.displays) {
+        p.flat_field = Some(f.flat.clone());
+    }
+    fit_white_to_flat_fields(&mut profiles);
+    let from_camera = dense_truth(&w, &displays, &profiles, [64, 32]).expect("dense");
+    let head_on = wall("mono-2x1", &format!("{screen}[camera]\n{place}\n"));
+    let from_front = dense_truth(&head_on, &displays, &profiles, [64, 32]).expect("dense");
+    let worst = |d: &[(u32, f64, f64)]| d.iter().map(|v| v.1).fold(0.0, f64::max);
+    eprintln!(
+        "gain screen: worst ΔY from the camera position {:.2} %, head-on {:.2} %",
+        worst(&from_camera),
+        worst(&from_front)
+    );
+    assert!(
+        worst(&from_camera) <= 2.5,
+        "from the camera position {}",
+        worst(&from_camera)
+    );
+    assert!(
+        worst(&from_front) > 2.0 * worst(&from_camera),
+        "the viewer position made no difference"
+    );
+}
