@@ -286,7 +286,28 @@ fn stats(v: &[f64]) -> (f64, f64) {
 }
 
 impl SpatialReport {
-    /// `OVERALL cells N median ΔE M max ΔE X seams median S max T` (and the eyes).
+    /// ΔE2000 of every cell against the cell nearest its display's centre, as measured:
+    /// the display's uniformity alone, without the error its centre already has (which
+    /// the meter calibration, not the flat field, decides).
+    pub fn uniformity_delta_e(&self) -> Vec<f64> {
+        self.cells
+            .iter()
+            .filter_map(|c| {
+                let centre = self
+                    .cells
+                    .iter()
+                    .filter(|o| o.display == c.display)
+                    .min_by(|a, b| {
+                        let d = |x: &CellResult| (x.uv[0] - 0.5).powi(2) + (x.uv[1] - 0.5).powi(2);
+                        d(a).total_cmp(&d(b))
+                    })?;
+                Some(delta_e2000_xyz(centre.measured, c.measured, c.expected))
+            })
+            .collect()
+    }
+
+    /// `OVERALL cells N median ΔE M max ΔE X seams median S max T` (and the eyes), then
+    /// the uniformity against each display's centre.
     pub fn overall_line(&self) -> String {
         let de: Vec<f64> = self.cells.iter().map(|c| c.delta_e2000).collect();
         let seams: Vec<f64> = self.seams.iter().map(|s| s.delta_e2000).collect();
@@ -300,6 +321,10 @@ impl SpatialReport {
             let (em, ex) = stats(&self.eyes_delta_e2000);
             line.push_str(&format!(" eyes median {em:.2} max {ex:.2}"));
         }
+        let (um, ux) = stats(&self.uniformity_delta_e());
+        line.push_str(&format!(
+            " | against each display's centre: median {um:.2} max {ux:.2}"
+        ));
         line
     }
 
@@ -365,7 +390,19 @@ impl SpatialReport {
 pub trait SpotReader {
     /// XYZ at `uv` of `info` showing `drive`.
     fn read(&mut self, info: &DisplayInfo, uv: [f64; 2], drive: [f64; 3]) -> Result<Xyz, String>;
+
+    /// Half-width (display coordinates) of the field a reading averages over, when the
+    /// reader reads points and the field must be sampled (0: the reading is the field).
+    fn field_half_uv(&self) -> f64 {
+        0.0
+    }
 }
+
+/// Half-width of a spot meter's measuring field in display coordinates for the
+/// simulator's truth: 1 % of the display each way, about a 1° field at 2 m on a
+/// 1.6 m tile. A real meter averages the display's pixels and their code steps over
+/// such a field; a point would see one code.
+pub const METER_FIELD_HALF_UV: f64 = 0.01;
 
 impl SpotReader for Rig<'_> {
     fn read(&mut self, info: &DisplayInfo, uv: [f64; 2], drive: [f64; 3]) -> Result<Xyz, String> {
@@ -391,6 +428,10 @@ impl SpotReader for Truth<'_> {
             .emitted_xyz(info.id, drive, uv)
             .map_err(|e| e.to_string())
     }
+
+    fn field_half_uv(&self) -> f64 {
+        METER_FIELD_HALF_UV
+    }
 }
 
 struct Prepared<'p> {
@@ -402,8 +443,23 @@ struct Prepared<'p> {
 }
 
 impl Prepared<'_> {
+    /// Reads the wall white at `uv` (averaged over the reader's field, 5×5 points,
+    /// each shown through the post pass at its own position).
     fn read(&self, r: &mut dyn SpotReader, uv: [f64; 2]) -> Result<Xyz, String> {
-        r.read(self.info, uv, drive_for(&self.prep, self.white, uv))
+        let half = r.field_half_uv();
+        if half <= 0.0 {
+            return r.read(self.info, uv, drive_for(&self.prep, self.white, uv));
+        }
+        let mut sum = Xyz::default();
+        for k in 0..25 {
+            let d = [f64::from(k % 5) - 2.0, f64::from(k / 5) - 2.0].map(|v| v / 2.0 * half);
+            let q = [
+                (uv[0] + d[0]).clamp(0.0, 1.0),
+                (uv[1] + d[1]).clamp(0.0, 1.0),
+            ];
+            sum = sum + r.read(self.info, q, drive_for(&self.prep, self.white, q))?;
+        }
+        Ok(sum * (1.0 / 25.0))
     }
 }
 

@@ -49,7 +49,7 @@ impl Default for FlatFieldOptions {
     fn default() -> Self {
         Self {
             texture: [64, 32],
-            threshold: 0.003,
+            threshold: 0.002,
             max_iterations: 3,
             grid: DotGrid::default(),
             move_limit_px: 1.0,
@@ -221,15 +221,29 @@ impl Context<'_> {
         open: Vec<Opened>,
         progress: &mut dyn FnMut(&str),
     ) -> Result<Vec<DisplayFlat>, CameraCalibError> {
+        let starts = displays
+            .iter()
+            .zip(&open)
+            .map(|(info, (captured, _))| self.start(photometry, info, captured))
+            .collect::<Result<Vec<_>, _>>()?;
+        let scale = white_scale(displays, profiles, &starts)?;
         let mut out = Vec::with_capacity(displays.len());
-        for (info, (captured, frames)) in displays.iter().zip(open) {
+        for ((info, (captured, frames)), mut start) in displays.iter().zip(open).zip(starts) {
             let profile = profile_of(profiles, info)?;
+            start.level = profile.channel_usage.map(|u| (u * scale).clamp(0.01, 1.0));
             let mut counting = Counting {
                 cam: &mut *cam,
                 frames,
             };
-            let flat =
-                self.close_loop(&mut counting, pattern, photometry, info, profile, captured)?;
+            let flat = self.close_loop(
+                &mut counting,
+                pattern,
+                photometry,
+                info,
+                profile,
+                captured,
+                start,
+            )?;
             progress(&format!(
                 "camera: {} flat field: iterations R/G/B {:?}, RMS residual {:.2} % → {:.2} %, {} frames",
                 info.name,
@@ -255,6 +269,32 @@ fn profile_of<'p>(
         .iter()
         .find(|p| p.display.display == info.id.0 && p.display.eye == info.eye)
         .ok_or_else(|| CameraCalibError::Fit(format!("no profile for {}", info.name)))
+}
+
+/// Where one display's loop starts: the open-loop gains, the camera channel that sees
+/// each display channel best, and the level to run at.
+struct Start {
+    gains: [Vec<f64>; 3],
+    cam_channels: [usize; 3],
+    level: [f64; 3],
+}
+
+/// The strict white's expected scale: the smallest `headroom · gain / usage` over every
+/// display, channel and texel (the open-loop gains).
+fn white_scale(
+    displays: &[DisplayInfo],
+    profiles: &[DisplayProfile],
+    starts: &[Start],
+) -> Result<f64, CameraCalibError> {
+    let mut scale: f64 = 1.0;
+    for (info, start) in displays.iter().zip(starts) {
+        let p = profile_of(profiles, info)?;
+        for c in 0..3 {
+            let min_g = start.gains[c].iter().copied().fold(f64::INFINITY, f64::min);
+            scale = scale.min(p.headroom * min_g / p.channel_usage[c].max(1e-9));
+        }
+    }
+    Ok(scale.clamp(0.05, 1.0))
 }
 
 /// One display's open-loop captures and the frames they cost.
@@ -476,6 +516,10 @@ impl Context<'_> {
     }
 
     /// The closed loop for every channel of one display.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the loop's devices, the anchor, the display, its profile and its start"
+    )]
     fn close_loop(
         &self,
         cam: &mut dyn Camera,
@@ -484,22 +528,25 @@ impl Context<'_> {
         info: &DisplayInfo,
         profile: &DisplayProfile,
         open: OpenLoop,
+        start: Start,
     ) -> Result<DisplayFlat, CameraCalibError> {
         let [w, h] = self.opts.texture;
+        let Start {
+            gains: initial,
+            cam_channels,
+            level,
+        } = start;
         let mut gains: [Vec<f64>; 3] = Default::default();
         let mut iterations = [0; 3];
         let mut residual_open = [0.0; 3];
         let mut residual_final = [0.0; 3];
         let margin = self.edge_margin(info);
-        for c in 0..3 {
-            let cam_c = self.dominant_channel(info, &open.channels[c], &open.dark);
-            let mut g = self.ratios(phot, info, &open.channels[c], &open.dark, cam_c)?;
-            extrapolate_edges(&mut g, [w, h], margin);
-            normalise_at(&mut g, [w, h], self.opts.spot_uv);
+        for (c, mut g) in initial.into_iter().enumerate() {
+            let cam_c = cam_channels[c];
             residual_open[c] = rms_residual(&g);
             residual_final[c] = residual_open[c];
             for _ in 0..self.opts.max_iterations {
-                let img = loop_pattern(profile, c, &g, [w, h])?;
+                let img = loop_pattern(profile, c, &g, [w, h], level[c])?;
                 let shot =
                     self.capture(cam, pattern, info, Shown::Image(&img), "flat-field loop")?;
                 let r = self.ratios(phot, info, &shot, &open.dark, cam_c)?;
@@ -540,6 +587,31 @@ impl Context<'_> {
 }
 
 impl Context<'_> {
+    /// The open-loop gains of one display (edges extrapolated, 1 at the spot).
+    fn start(
+        &self,
+        phot: &CameraPhotometry,
+        info: &DisplayInfo,
+        open: &OpenLoop,
+    ) -> Result<Start, CameraCalibError> {
+        let [w, h] = self.opts.texture;
+        let margin = self.edge_margin(info);
+        let mut gains: [Vec<f64>; 3] = Default::default();
+        let mut cam_channels = [1; 3];
+        for c in 0..3 {
+            cam_channels[c] = self.dominant_channel(info, &open.channels[c], &open.dark);
+            let mut g = self.ratios(phot, info, &open.channels[c], &open.dark, cam_channels[c])?;
+            extrapolate_edges(&mut g, [w, h], margin);
+            normalise_at(&mut g, [w, h], self.opts.spot_uv);
+            gains[c] = g;
+        }
+        Ok(Start {
+            gains,
+            cam_channels,
+            level: [1.0; 3],
+        })
+    }
+
     /// The camera channel with the most signal at the spot.
     fn dominant_channel(&self, info: &DisplayInfo, img: &HdrImage, dark: &HdrImage) -> usize {
         let s = self
@@ -640,29 +712,40 @@ fn rms_residual(r: &[f64]) -> f64 {
 }
 
 /// The loop's pattern for channel `c`: relative intensity `L / gain(uv)` through the
-/// profile's inverse tone curve, `L` = 0.8 of the smallest gain so no pixel clips.
+/// profile's inverse tone curve; `L` is the level the wall white will ask of this
+/// channel at the spot (so the tone curve is exercised where it will be used), at most
+/// the smallest gain so no pixel clips.
+/// The 4×4 Bayer ordered-dither matrix.
+const BAYER4: [u8; 16] = [0, 8, 2, 10, 12, 4, 14, 6, 3, 11, 1, 9, 15, 7, 13, 5];
+
 fn loop_pattern(
     profile: &DisplayProfile,
     c: usize,
     g: &[f64],
     size: [u32; 2],
+    level: f64,
 ) -> Result<DriveImage, CameraCalibError> {
-    let level = 0.8
-        * g.iter()
-            .copied()
-            .fold(f64::INFINITY, f64::min)
-            .clamp(0.05, 1.0);
+    let level = level
+        .min(g.iter().copied().fold(f64::INFINITY, f64::min))
+        .clamp(0.01, 1.0);
     let flat = PreparedFlat {
         width: size[0],
         height: size[1],
         gain: g.iter().map(|&v| [v as f32; 3]).collect(),
     };
     let curve = &profile.curves[c];
-    DriveImage::from_fn(8 * size[0], 8 * size[1], |u, v| {
+    let max = f64::from((1u32 << profile.bit_depth.clamp(1, 16)) - 1);
+    let (pw, ph) = (8 * size[0], 8 * size[1]);
+    DriveImage::from_fn(pw, ph, |u, v| {
         let gain = f64::from(flat.gain_at([u as f32, v as f32])[0]).max(1e-3);
         let lin = (level / gain).clamp(0.0, 1.0);
+        let drive = f64::from(curve.drive_for(lin as f32)).clamp(0.0, 1.0);
+        // Ordered dither to the display's codes: the mean over a few pixels is the
+        // continuous drive, so the camera measures the flat field, not the code steps.
+        let (x, y) = ((u * f64::from(pw)) as usize, (v * f64::from(ph)) as usize);
+        let t = (f64::from(BAYER4[(y % 4) * 4 + x % 4]) + 0.5) / 16.0;
         let mut d = [0.0; 3];
-        d[c] = f64::from(curve.drive_for(lin as f32)).clamp(0.0, 1.0);
+        d[c] = ((drive * max + t).floor() / max).clamp(0.0, 1.0);
         d
     })
     .map_err(CameraCalibError::device("building the flat-field pattern"))
