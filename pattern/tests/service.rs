@@ -91,6 +91,30 @@ fn uniform_codes_are_presented_exactly_and_the_other_outputs_are_black() {
 }
 
 #[test]
+fn a_drive_image_is_resampled_to_the_output_and_presented_at_its_codes() {
+    let s = start(&["L=8x4@10"], 0);
+    let mut out = RemotePatternOutput::connect(
+        vec![display(0, 10)],
+        &[route(0, &s, "L")],
+        &opts("station-a"),
+    )
+    .unwrap();
+    // Left half 0, right half full red; a 2×1 image becomes the 8×4 output's halves.
+    let img = lumiwall_devices::DriveImage::from_fn(2, 1, |u, _| {
+        if u < 0.5 { [0.0; 3] } else { [1.0, 0.0, 0.0] }
+    })
+    .unwrap();
+    PatternOutput::show_image(&mut out, DisplayId(0), &img).unwrap();
+    let f = out.read_back(DisplayId(0)).unwrap();
+    for y in 0..4 {
+        for x in 0..8 {
+            let want = if x < 4 { [0, 0, 0] } else { [1023, 0, 0] };
+            assert_eq!(f.codes[y * 8 + x], want, "pixel {x},{y}");
+        }
+    }
+}
+
+#[test]
 fn a_second_station_is_told_who_holds_the_node_and_gets_it_after_release() {
     let s = start(&["0=4x4@8"], 0);
     let routes = vec![route(0, &s, "0")];

@@ -4,7 +4,7 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 use lumiwall_devices::traits::check_drive;
-use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, PatternOutput};
+use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, DriveImage, PatternOutput};
 
 use crate::address::OutputAddress;
 use crate::framebuffer::{Framebuffer, max_code};
@@ -221,6 +221,21 @@ impl PatternOutput for RemotePatternOutput {
         self.show_image(display, png)
     }
 
+    /// The image resampled (nearest pixel) to the output's size and codes, sent as PNG.
+    fn show_image(&mut self, display: DisplayId, image: &DriveImage) -> Result<(), DeviceError> {
+        let (n, output) = self.route(display)?;
+        let o = self.nodes[n]
+            .outputs()
+            .iter()
+            .find(|o| o.name == output)
+            .cloned()
+            .ok_or_else(|| DeviceError::NoSuchDisplay(display.to_string()))?;
+        let png = framebuffer_of(image, o.width_px, o.height_px, o.bit_depth)
+            .to_png()
+            .map_err(|e| DeviceError::Config(format!("pattern image: {e}")))?;
+        RemotePatternOutput::show_image(self, display, png)
+    }
+
     fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError> {
         check_drive(drive)?;
         let bits = self.info(display)?.bit_depth;
@@ -231,6 +246,34 @@ impl PatternOutput for RemotePatternOutput {
         self.blank_previous(n)?;
         self.nodes[n].show_uniform(&output, code, bits).map(|_| ())
     }
+}
+
+/// `image` at `width` × `height` pixels (nearest pixel) in `bits`-bit codes.
+pub(super) fn framebuffer_of(image: &DriveImage, width: u32, height: u32, bits: u32) -> Framebuffer {
+    let mut f = Framebuffer::black(width, height, bits);
+    let top = f64::from(max_code(bits));
+    for y in 0..height {
+        for x in 0..width {
+            let uv = [
+                (f64::from(x) + 0.5) / f64::from(width),
+                (f64::from(y) + 0.5) / f64::from(height),
+            ];
+            let d = image.sample(uv);
+            f.codes[(y * width + x) as usize] = d.map(|c| (c.clamp(0.0, 1.0) * top).round() as u16);
+        }
+    }
+    f
+}
+
+/// The codes of a presented frame as a drive image.
+pub(super) fn drive_image_of(frame: &Framebuffer) -> Result<DriveImage, DeviceError> {
+    let top = f64::from(max_code(frame.bits));
+    let w = frame.width;
+    DriveImage::from_fn(frame.width, frame.height, |u, v| {
+        let x = ((u * f64::from(w)) as u32).min(w - 1);
+        let y = ((v * f64::from(frame.height)) as u32).min(frame.height - 1);
+        frame.codes[(y * w + x) as usize].map(|c| (f64::from(c) / top).min(1.0))
+    })
 }
 
 /// A white crosshair through `uv` on black, at `bits` bits per channel.

@@ -3,7 +3,7 @@
 //! through the network, the servers and their presentation while the (simulated) meter
 //! reads the virtual wall.
 
-use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, PatternOutput};
+use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, DriveImage, PatternOutput};
 
 use crate::framebuffer::max_code;
 
@@ -33,6 +33,14 @@ impl<S: PatternOutput> PatternOutput for SimulatorSink<S> {
     fn show_aim_marker(&mut self, display: DisplayId, uv: [f64; 2]) -> Result<(), DeviceError> {
         self.remote.show_aim_marker(display, uv)?;
         self.simulator.show(display, [1.0; 3])
+    }
+
+    /// The image on the node; the simulator shows the frame the node presented.
+    fn show_image(&mut self, display: DisplayId, image: &DriveImage) -> Result<(), DeviceError> {
+        PatternOutput::show_image(&mut self.remote, display, image)?;
+        let frame = self.remote.read_back(display)?;
+        self.simulator
+            .show_image(display, &super::remote::drive_image_of(&frame)?)
     }
 
     fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError> {
