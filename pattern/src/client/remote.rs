@@ -249,7 +249,12 @@ impl PatternOutput for RemotePatternOutput {
 }
 
 /// `image` at `width` × `height` pixels (nearest pixel) in `bits`-bit codes.
-pub(super) fn framebuffer_of(image: &DriveImage, width: u32, height: u32, bits: u32) -> Framebuffer {
+pub(super) fn framebuffer_of(
+    image: &DriveImage,
+    width: u32,
+    height: u32,
+    bits: u32,
+) -> Framebuffer {
     let mut f = Framebuffer::black(width, height, bits);
     let top = f64::from(max_code(bits));
     for y in 0..height {
