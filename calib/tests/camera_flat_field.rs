@@ -46,6 +46,24 @@ fn commission_options() -> CommissionOptions {
     }
 }
 
+/// The three worst cells, for the log.
+fn print_worst(after: &lumiwall_calib::spatial::SpatialReport) {
+    let mut worst: Vec<_> = after.cells.iter().collect();
+    worst.sort_by(|a, b| b.delta_e2000.total_cmp(&a.delta_e2000));
+    for c in worst.iter().take(3) {
+        let (e, m) = (c.expected, c.measured);
+        eprintln!(
+            "worst cell #{} {:?}: ΔY {:+.2} % Δx {:+.4} Δy {:+.4} ΔE {:.2}",
+            c.display,
+            c.uv,
+            100.0 * (m.y / e.y - 1.0),
+            m.xy().unwrap()[0] - e.xy().unwrap()[0],
+            m.xy().unwrap()[1] - e.xy().unwrap()[1],
+            c.delta_e2000
+        );
+    }
+}
+
 fn run(name: &str, extra: &str, noise: Noise, camera_noise: bool) -> Figures {
     let w = wall(name, extra);
     let mut station =
@@ -76,20 +94,7 @@ fn run(name: &str, extra: &str, noise: Noise, camera_noise: bool) -> Figures {
     let cost = fit_white_to_flat_fields(&mut profiles);
     let after = verify_grid(&mut Truth(&w), &displays, &profiles, &grid).expect("grid after");
     let dense = dense_truth(&w, &displays, &profiles, [64, 32]).expect("dense");
-    let mut worst: Vec<_> = after.cells.iter().collect();
-    worst.sort_by(|a, b| b.delta_e2000.total_cmp(&a.delta_e2000));
-    for c in worst.iter().take(3) {
-        let (e, m) = (c.expected, c.measured);
-        eprintln!(
-            "worst cell #{} {:?}: ΔY {:+.2} % Δx {:+.4} Δy {:+.4} ΔE {:.2}",
-            c.display,
-            c.uv,
-            100.0 * (m.y / e.y - 1.0),
-            m.xy().unwrap()[0] - e.xy().unwrap()[0],
-            m.xy().unwrap()[1] - e.xy().unwrap()[1],
-            c.delta_e2000
-        );
-    }
+    print_worst(&after);
     eprintln!("{name} {extra:?}: before {}", before.overall_line());
     eprintln!("{name}: after  {}", after.overall_line());
     eprintln!(
