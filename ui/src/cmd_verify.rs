@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 
 use indicatif::{ProgressBar, ProgressStyle};
 use lumiwall_calib::cli_values::parse_patches;
-use lumiwall_calib::measure::meter_offset::MeterCorrection;
+use lumiwall_calib::measure::Rig;
+use lumiwall_calib::measure::meter_offset::{CorrectedMeter, MeterCorrection};
 use lumiwall_calib::measure::{MeasureOptions, Progress};
 use lumiwall_calib::spatial::{GridOptions, Truth, verify_grid};
 use lumiwall_calib::station::Station;
@@ -161,7 +162,17 @@ fn run_grid(
         cells,
         ..GridOptions::default()
     };
-    let report = verify_grid(&mut station.rig(), &displays, profiles, &opts)
+    let offset = load_meter_correction(&args.profiles, station.meter.as_ref())?;
+    let mut corrected = CorrectedMeter {
+        inner: station.meter.as_mut(),
+        xy_offset: offset.unwrap_or([0.0; 2]),
+    };
+    let mut rig = Rig {
+        pattern: station.pattern.as_mut(),
+        meter: &mut corrected,
+        positioner: station.positioner.as_mut(),
+    };
+    let report = verify_grid(&mut rig, &displays, profiles, &opts)
         .map_err(|e| CliError::failure(format!("spatial verification: {e}")))?;
     print!("{}", report.per_display_table());
     println!("{}", report.overall_line());
