@@ -88,3 +88,55 @@ fn exposure_stack_for_the_opencv_cross_check() {
     });
     std::fs::write(dir.join("stack.json"), json.to_string()).expect("json");
 }
+
+/// An HDR capture of a scene with saturating white and black bands: every band is
+/// measured (no saturated pixel left unmeasured, the black bands from the longer
+/// exposures), the bands come out in the order of their drive, and the white-to-grey
+/// ratio matches the simulator's.
+#[test]
+fn hdr_capture_measures_saturated_and_black_bands_in_order() {
+    use lumiwall_calib::camera::capture_hdr;
+    use lumiwall_devices::{DriveImage, PatternOutput};
+    let w = wall("");
+    let mut cam = VirtualCamera::new(&w, true).expect("camera");
+    let mut pat = w.pattern_output();
+    let d = w.displays()[0].clone();
+    let curve = calibrate_response(&mut cam, &mut pat, &d).expect("response");
+    let drives = [0.0, 0.02, 0.1, 0.3, 0.6, 1.0];
+    let img =
+        DriveImage::from_fn(600, 100, |u, _| [drives[((u * 6.0) as usize).min(5)]; 3]).unwrap();
+    pat.show_image(d.id, &img).unwrap();
+    let all: Vec<usize> = (0..(cam.spec().width_px * cam.spec().height_px) as usize).collect();
+    let hdr = capture_hdr(&mut cam, &curve, &all, "bands").expect("hdr");
+    assert!(
+        hdr.exposures_s.len() >= 3,
+        "one exposure cannot hold black and white: {:?}",
+        hdr.exposures_s
+    );
+    // The camera's own lens vignetting (the simulator's model) divided out.
+    let spec = cam.spec().clone();
+    let (cx, cy) = (
+        0.5 * f64::from(spec.width_px),
+        0.5 * f64::from(spec.height_px),
+    );
+    let band = |k: usize| {
+        let uv = [(k as f64 + 0.5) / 6.0, 0.5];
+        let p = cam.project(d.id, uv).unwrap();
+        let rho2 = ((p[0] - cx).powi(2) + (p[1] - cy).powi(2)) / (cx * cx + cy * cy);
+        hdr.sample(p).expect("measured")[1] * (1.0 + spec.vignetting * rho2).powi(2)
+    };
+    let values: Vec<f64> = (0..6).map(band).collect();
+    assert!(
+        values.windows(2).all(|v| v[1] > v[0]),
+        "bands out of order: {values:?}"
+    );
+    let truth = |k: usize| {
+        let uv = [(k as f64 + 0.5) / 6.0, 0.5];
+        w.emitted_xyz(d.id, [drives[k]; 3], uv).unwrap().y
+    };
+    let (ratio, true_ratio) = (values[5] / values[3], truth(5) / truth(3));
+    assert!(
+        (ratio / true_ratio - 1.0).abs() < 0.02,
+        "white/grey {ratio} against {true_ratio}"
+    );
+}
