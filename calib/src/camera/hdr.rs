@@ -133,12 +133,14 @@ impl HdrImage {
 pub fn merge(frames: &[Frame], curve: &ResponseCurve) -> HdrImage {
     let (w, h) = frames.first().map_or((0, 0), |f| (f.width_px, f.height_px));
     let n = (w as usize) * (h as usize);
+    // Frames of another size (a camera that changed its mode) cannot be merged.
+    let frames: Vec<&Frame> = frames.iter().filter(|f| f.rgb.len() == n).collect();
     let mut rgb = vec![[f32::NAN; 3]; n];
     for (i, px) in rgb.iter_mut().enumerate() {
         for (c, out) in px.iter_mut().enumerate() {
             let (mut sum, mut wsum) = (0.0, 0.0);
             let mut under: Option<(f64, f64)> = None;
-            for f in frames {
+            for f in &frames {
                 let code = f.rgb[i][c];
                 let z = code8(f, code);
                 let value = curve.relative_exposure(c, code, f.bit_depth) / (f.exposure_s * f.gain);
@@ -242,7 +244,10 @@ pub fn capture_hdr(
     let mut covered: Vec<bool> = vec![false; pixels.len()];
     while let Some(last) = frames.last() {
         for (k, &i) in pixels.iter().enumerate() {
-            covered[k] |= last.rgb[i].iter().any(|&c| well_exposed(code8(last, c)));
+            covered[k] |= last
+                .rgb
+                .get(i)
+                .is_some_and(|p| p.iter().any(|&c| well_exposed(code8(last, c))));
         }
         let open = covered.iter().filter(|c| !**c).count();
         if (open as f64) <= UNCOVERED_FRACTION * pixels.len() as f64 || last.exposure_s >= t_max {
@@ -333,6 +338,12 @@ pub fn response_from_series(
     frames: &[Frame],
     name: &str,
 ) -> Result<ResponseCurve, CameraCalibError> {
+    if frames.windows(2).any(|f| f[0].rgb.len() != f[1].rgb.len()) {
+        return Err(CameraCalibError::Fit(format!(
+            "the response-curve exposure series on {name}: the camera changed its frame size \
+             between exposures"
+        )));
+    }
     let samples = frames
         .get(frames.len() / 2)
         .map(|f| spread_samples(f, RESPONSE_SAMPLES))
