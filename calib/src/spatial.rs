@@ -363,6 +363,7 @@ impl SpatialReport {
             "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{height}\" font-family=\"sans-serif\" font-size=\"11\">\n",
             panel_w * eyes.len() as f64
         );
+        svg.push_str("<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n");
         for (k, eye) in eyes.iter().enumerate() {
             let x0 = panel_w * k as f64;
             svg.push_str(&format!("<text x=\"{}\" y=\"14\">{eye} eye: ΔE2000 per cell (green 0, yellow 1, red ≥ 2)</text>\n", x0 + 2.0));

@@ -203,6 +203,7 @@ fn response_svg(r: &lumiwall_calib::camera::ResponseCurve) -> String {
     let span = (hi - lo).max(1e-9);
     let mut svg = format!(
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"11\">\n\
+         <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n\
          <text x=\"30\" y=\"14\">camera response: ln relative exposure (up) against code 0..255</text>\n"
     );
     for (c, colour) in ["#c00", "#080", "#00c"].iter().enumerate() {

@@ -27,7 +27,7 @@ fn verify_grid_prints_the_overall_line_and_fails_the_tolerance_of_an_uncorrected
         .stderr(contains("spatial verification outside tolerance"));
     let text = std::fs::read_to_string(&svg).expect("heat map written");
     assert!(
-        text.starts_with("<svg") && text.matches("<rect").count() == 50,
+        text.starts_with("<svg") && text.matches("<rect x=").count() == 50,
         "{text}"
     );
 }
