@@ -3,6 +3,9 @@
 //! with the simulator's truth (not with the calibrated camera).
 #![cfg(feature = "camera")]
 
+mod camera_common;
+
+use camera_common::wall;
 use lumiwall_calib::camera::{FlatFieldOptions, measure_flat_fields};
 use lumiwall_calib::commission::CommissionOptions;
 use lumiwall_calib::measure::MeasureOptions;
@@ -11,15 +14,7 @@ use lumiwall_calib::spatial::{
 };
 use lumiwall_calib::station::{MeterChoice, Noise, Station, StationOptions};
 use lumiwall_devices::sim::{VirtualCamera, VirtualWall};
-
-fn wall(name: &str, extra: &str) -> VirtualWall {
-    let path = format!(
-        "{}/../fixtures/walls/{name}.toml",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let text = std::fs::read_to_string(path).expect("fixture");
-    VirtualWall::from_toml_str(&format!("{text}\n{extra}")).expect("wall")
-}
+use lumiwall_profiles::DisplayProfile;
 
 struct Figures {
     grid_before: (f64, f64),
@@ -64,17 +59,22 @@ fn print_worst(after: &lumiwall_calib::spatial::SpatialReport) {
     }
 }
 
-fn run(name: &str, extra: &str, noise: Noise, camera_noise: bool) -> Figures {
-    let w = wall(name, extra);
+/// A station on `w` with the direct meter (`noise`) and the wall commissioned with
+/// [`commission_options`] into a temporary folder: the station and its profiles.
+fn commissioned(w: &VirtualWall, noise: Noise) -> (Station, Vec<DisplayProfile>) {
     let mut station =
         Station::with_wall(w.clone(), &StationOptions::new(MeterChoice::Direct, noise))
             .expect("station");
     let dir = tempfile::tempdir().expect("tmp");
-    let opts = commission_options();
     let outcome = station
-        .commission(dir.path(), &opts, &mut |_| {})
+        .commission(dir.path(), &commission_options(), &mut |_| {})
         .expect("commission");
-    let mut profiles = outcome.solution.profiles.clone();
+    (station, outcome.solution.profiles)
+}
+
+fn run(name: &str, extra: &str, noise: Noise, camera_noise: bool) -> Figures {
+    let w = wall(name, extra);
+    let (mut station, mut profiles) = commissioned(&w, noise);
     let displays = w.displays();
     let grid = GridOptions::default();
     let before = verify_grid(&mut Truth(&w), &displays, &profiles, &grid).expect("grid before");
@@ -207,16 +207,7 @@ impl lumiwall_devices::PatternOutput for OneDisplayOff {
 #[test]
 fn a_display_that_is_off_stops_the_camera_stage_with_its_name() {
     let w = wall("mono-2x1", "");
-    let mut station = Station::with_wall(
-        w.clone(),
-        &StationOptions::new(MeterChoice::Direct, Noise::None),
-    )
-    .expect("station");
-    let dir = tempfile::tempdir().expect("tmp");
-    let opts = commission_options();
-    let outcome = station
-        .commission(dir.path(), &opts, &mut |_| {})
-        .expect("commission");
+    let (mut station, profiles) = commissioned(&w, Noise::None);
     let mut cam = VirtualCamera::new(&w, false).expect("camera");
     let mut pattern = OneDisplayOff(w.pattern_output());
     let mut rig = lumiwall_calib::measure::Rig {
@@ -228,7 +219,7 @@ fn a_display_that_is_off_stops_the_camera_stage_with_its_name() {
         &mut cam,
         &mut rig,
         &w.displays(),
-        &outcome.solution.profiles,
+        &profiles,
         &FlatFieldOptions::default(),
         &mut |_| {},
     )
@@ -268,17 +259,7 @@ fn on_a_gain_screen_the_flat_field_is_right_for_the_camera_position_only() {
     let place = "position_m = [1.6, 0.6, 3.6]";
     let seen_from_camera = format!("{screen}[meter]\n{place}\n[camera]\n{place}\n");
     let w = wall("mono-2x1", &seen_from_camera);
-    let mut station = Station::with_wall(
-        w.clone(),
-        &StationOptions::new(MeterChoice::Direct, Noise::None),
-    )
-    .expect("station");
-    let dir = tempfile::tempdir().expect("tmp");
-    let opts = commission_options();
-    let outcome = station
-        .commission(dir.path(), &opts, &mut |_| {})
-        .expect("commission");
-    let mut profiles = outcome.solution.profiles.clone();
+    let (mut station, mut profiles) = commissioned(&w, Noise::None);
     let displays = w.displays();
     let mut cam = VirtualCamera::new(&w, false).expect("camera");
     let flats = measure_flat_fields(

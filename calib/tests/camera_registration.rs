@@ -2,17 +2,11 @@
 //! projection (the simulator's pinhole and distortion, not the fitted model).
 #![cfg(feature = "camera")]
 
+mod camera_common;
+
+use camera_common::wall;
 use lumiwall_calib::camera::{DotGrid, calibrate_response, check_still, register_displays};
 use lumiwall_devices::sim::{VirtualCamera, VirtualWall};
-
-fn wall(name: &str, extra: &str) -> VirtualWall {
-    let path = format!(
-        "{}/../fixtures/walls/{name}.toml",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let text = std::fs::read_to_string(path).expect("fixture");
-    VirtualWall::from_toml_str(&format!("{text}\n{extra}")).expect("wall")
-}
 
 fn worst_against_truth(w: &VirtualWall, noisy: bool) -> (f64, f64) {
     let mut cam = VirtualCamera::new(w, noisy).expect("camera");

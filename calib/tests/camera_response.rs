@@ -2,20 +2,14 @@
 //! against the virtual camera's true curve (the simulator's, not the calibration's).
 #![cfg(feature = "camera")]
 
-use lumiwall_calib::camera::calibrate_response;
-use lumiwall_devices::sim::{VirtualCamera, VirtualWall};
+mod camera_common;
 
-fn wall(extra: &str) -> VirtualWall {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../fixtures/walls/mono-2x1.toml"
-    );
-    let text = std::fs::read_to_string(path).expect("fixture");
-    VirtualWall::from_toml_str(&format!("{text}\n{extra}")).expect("wall")
-}
+use camera_common::wall;
+use lumiwall_calib::camera::calibrate_response;
+use lumiwall_devices::sim::VirtualCamera;
 
 fn recovered_error(extra: &str, noisy: bool) -> f64 {
-    let w = wall(extra);
+    let w = wall("mono-2x1", extra);
     let mut cam = VirtualCamera::new(&w, noisy).expect("camera");
     let spec = cam.spec().clone();
     let mut pat = w.pattern_output();
@@ -52,7 +46,7 @@ fn response_curve_within_one_percent_of_the_true_curve_12_bit() {
 #[test]
 fn exposure_stack_for_the_opencv_cross_check() {
     use lumiwall_calib::camera::{response_from_series, response_series};
-    let w = wall("");
+    let w = wall("mono-2x1", "");
     let mut cam = VirtualCamera::new(&w, true).expect("camera");
     let spec = cam.spec().clone();
     let mut pat = w.pattern_output();
@@ -97,7 +91,7 @@ fn exposure_stack_for_the_opencv_cross_check() {
 fn hdr_capture_measures_saturated_and_black_bands_in_order() {
     use lumiwall_calib::camera::capture_hdr;
     use lumiwall_devices::{DriveImage, PatternOutput};
-    let w = wall("");
+    let w = wall("mono-2x1", "");
     let mut cam = VirtualCamera::new(&w, true).expect("camera");
     let mut pat = w.pattern_output();
     let d = w.displays()[0].clone();
