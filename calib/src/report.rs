@@ -504,6 +504,33 @@ fn md_to_html(md: &str) -> String {
     out
 }
 
+/// `page` (a report from [`html`]) with one more section before its end: `md`, its
+/// picture lines (`![..](..)`) left out, and `figures` (caption, inline SVG) as one row
+/// of plots. This is how a later stage (the camera's) extends the report.
+pub fn html_with_section(page: &str, md: &str, figures: &[(&str, &str)]) -> String {
+    let text: String = md
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("!["))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let mut section = md_to_html(&text);
+    if !figures.is_empty() {
+        section.push_str("<div class=\"plots\">");
+        for (caption, svg) in figures {
+            let _ = write!(
+                section,
+                "<figure>{svg}<figcaption>{}</figcaption></figure>",
+                escape(caption)
+            );
+        }
+        section.push_str("</div>");
+    }
+    match page.rfind("</body>") {
+        Some(end) => format!("{}{section}{}", &page[..end], &page[end..]),
+        None => format!("{page}{section}"),
+    }
+}
+
 /// The report as one self-contained HTML page with inline SVG plots.
 pub fn html(r: &ReportInputs<'_>) -> String {
     let mut s = String::from("<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\">");

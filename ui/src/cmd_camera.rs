@@ -135,7 +135,12 @@ fn append_report(
         write_atomic(&out.join(name), text.as_bytes())
             .map_err(|e| CliError::failure(format!("cannot write {name}: {e}")))
     };
-    write("response-curve.svg", &response_svg(&flats.response))?;
+    let response = response_svg(&flats.response);
+    write("response-curve.svg", &response)?;
+    let mut figures = vec![(
+        "camera response curves (ln exposure against code)".to_string(),
+        response,
+    )];
     let (dy, dxy) = flats.photometry.worst();
     let (ay, axy) = flats.photometry.worst_all();
     let mut md = format!(
@@ -173,8 +178,11 @@ fn append_report(
         ));
     }
     if let Some((b, a)) = grids {
-        write("uniformity-before.svg", &b.heat_map_svg(tiles, [5, 5]))?;
-        write("uniformity-after.svg", &a.heat_map_svg(tiles, [5, 5]))?;
+        let (before, after) = (b.heat_map_svg(tiles, [5, 5]), a.heat_map_svg(tiles, [5, 5]));
+        write("uniformity-before.svg", &before)?;
+        write("uniformity-after.svg", &after)?;
+        figures.push(("ΔE2000 per 5×5 cell before the flat field".into(), before));
+        figures.push(("ΔE2000 per 5×5 cell after the flat field".into(), after));
         md.push_str(&format!(
             "\nAs the simulator sees it (5×5 grid per display):\n\n- before: `{}`\n- after: `{}`\n\n\
              ![before](uniformity-before.svg) ![after](uniformity-after.svg)\n",
@@ -185,7 +193,16 @@ fn append_report(
     let path = out.join("report.md");
     let mut text = std::fs::read_to_string(&path).unwrap_or_default();
     text.push_str(&md);
-    write("report.md", &text)
+    write("report.md", &text)?;
+    let page = std::fs::read_to_string(out.join("report.html")).unwrap_or_default();
+    let figures: Vec<(&str, &str)> = figures
+        .iter()
+        .map(|(c, s)| (c.as_str(), s.as_str()))
+        .collect();
+    write(
+        "report.html",
+        &lumiwall_calib::report::html_with_section(&page, &md, &figures),
+    )
 }
 
 /// The response curves as an SVG plot: ln relative exposure against code, R, G, B.

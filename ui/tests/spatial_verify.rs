@@ -57,6 +57,14 @@ fn commission_with_the_virtual_camera_writes_flat_fields_and_passes_a_looser_gri
         .stdout(contains("camera stage:"))
         .stdout(contains("after the flat field:"));
     assert!(out.join("camera.json").is_file());
+    let html = std::fs::read_to_string(out.join("report.html")).expect("report.html");
+    let camera = html
+        .find("<h2>Camera stage</h2>")
+        .expect("camera section in report.html");
+    assert!(
+        html[camera..].matches("<svg").count() == 3 && html.trim_end().ends_with("</html>"),
+        "the camera section inlines the response curves and both heat maps, inside the page"
+    );
     lumiwall()
         .args(["verify", "--wall"])
         .arg(small_wall())
