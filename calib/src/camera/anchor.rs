@@ -1,11 +1,14 @@
 //! Meter-anchored camera photometry: camera RGB → XYZ (one 3×3 matrix per eye) and the
 //! camera lens's vignetting, fitted to spot-meter readings of the same spots.
 //!
-//! Model: `XYZ = M_eye · rgb · (1 + b1·ρ² + b2·ρ⁴)`, `rgb` the dark-subtracted camera
+//! Model: `XYZ = M_eye · rgb · exp(β1·ρ² + β2·ρ⁴)`, `rgb` the dark-subtracted camera
 //! signal per second, ρ the spot's distance from the image centre over half the
 //! diagonal. Alternating least squares: the matrices with the vignetting fixed
 //! (relative residuals, so dark and bright spots count alike), then the vignetting from
-//! the luminance ratios with the matrices fixed.
+//! the luminance ratios with the matrices fixed. The vignetting has as many terms as
+//! the spots' distances allow: each display and pattern has its own free factor, so
+//! only distances within one display count (two terms need three distances, one term
+//! two; with one, the camera's vignetting cannot be seen and is left at none).
 
 use lumiwall_core::Eye;
 use nalgebra::{Matrix3, Vector3};
@@ -55,7 +58,7 @@ pub struct SpotAgreement {
 pub struct CameraPhotometry {
     /// Camera RGB → XYZ per eye (row-major).
     pub matrices: Vec<(Eye, [[f64; 3]; 3])>,
-    /// Vignetting correction `[b1, b2]`.
+    /// Vignetting correction `[β1, β2]`: the factor is `exp(β1·ρ² + β2·ρ⁴)`.
     pub vignetting: [f64; 2],
     /// Agreement at every spot used.
     pub agreement: Vec<SpotAgreement>,
@@ -74,7 +77,7 @@ impl CameraPhotometry {
     /// The vignetting correction factor at radius `rho`.
     pub fn vignetting_factor(&self, rho: f64) -> f64 {
         let r2 = rho * rho;
-        1.0 + self.vignetting[0] * r2 + self.vignetting[1] * r2 * r2
+        (self.vignetting[0] * r2 + self.vignetting[1] * r2 * r2).exp()
     }
 
     /// XYZ (cd/m²) of a camera signal at radius `rho` for `eye`; `None` for an eye
@@ -183,11 +186,57 @@ fn fit_matrix(
     }))
 }
 
+/// How many distinct values `v` holds (closer than 0.02 counts as one).
+pub(crate) fn distinct_levels(v: &[f64]) -> usize {
+    let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    s.sort_by(f64::total_cmp);
+    s.windows(2).filter(|w| w[1] - w[0] > 0.02).count() + usize::from(!s.is_empty())
+}
+
+/// How many vignetting terms the spots can carry: distances within one display and
+/// pattern count (each has its own free factor), so the largest number of distinct
+/// distances in one group, less one, at most two.
+fn vignetting_terms(pairs: &[SpotPair]) -> usize {
+    let mut best = 0;
+    for p in pairs {
+        let radii: Vec<f64> = pairs
+            .iter()
+            .filter(|q| q.display == p.display && q.drive == p.drive)
+            .map(|q| q.radius * q.radius)
+            .collect();
+        best = best.max(distinct_levels(&radii));
+    }
+    best.saturating_sub(1).min(2)
+}
+
 /// Vignetting from the luminance ratios meter / camera with the matrices fixed, one
 /// free factor per display and pattern (`ln ratio = c_dp + β1ρ² + β2ρ⁴`): one pattern on
 /// one display has one spectrum at every spot, so the matrix's spectral mismatch drops
-/// out.
+/// out. Fits as many terms as [`vignetting_terms`] allows.
 fn fit_vignetting(pairs: &[SpotPair], fit: &CameraPhotometry) -> Option<[f64; 2]> {
+    // A lens loses light towards the edge: a correction that does not grow from the
+    // centre to the corner (ρ = 1) is the screen's view dependence or noise, not the
+    // lens, and drops to fewer terms.
+    let lens_like = |b: &[f64; 2]| {
+        (1..=20).all(|k| {
+            let r2 = (f64::from(k) / 20.0).powi(2);
+            b[0] + 2.0 * b[1] * r2 >= 0.0
+        })
+    };
+    for terms in (1..=vignetting_terms(pairs)).rev() {
+        if let Some(b) = fit_vignetting_terms(pairs, fit, terms).filter(lens_like) {
+            return Some(b);
+        }
+    }
+    Some([0.0; 2])
+}
+
+/// [`fit_vignetting`] with `terms` (1 or 2) terms.
+fn fit_vignetting_terms(
+    pairs: &[SpotPair],
+    fit: &CameraPhotometry,
+    terms: usize,
+) -> Option<[f64; 2]> {
     let uncorrected = CameraPhotometry {
         vignetting: [0.0; 2],
         ..fit.clone()
@@ -199,7 +248,7 @@ fn fit_vignetting(pairs: &[SpotPair], fit: &CameraPhotometry) -> Option<[f64; 2]
         .collect();
     groups.sort_unstable();
     groups.dedup();
-    let n = 2 + groups.len();
+    let n = terms + groups.len();
     let mut ata = nalgebra::DMatrix::<f64>::zeros(n, n);
     let mut atb = nalgebra::DVector::<f64>::zeros(n);
     for p in pairs {
@@ -213,14 +262,83 @@ fn fit_vignetting(pairs: &[SpotPair], fit: &CameraPhotometry) -> Option<[f64; 2]
             .position(|g| *g == (p.display, p.drive.map(f64::to_bits)))?;
         let mut a = nalgebra::DVector::<f64>::zeros(n);
         a[0] = r2;
-        a[1] = r2 * r2;
-        a[2 + g] = 1.0;
+        if terms == 2 {
+            a[1] = r2 * r2;
+        }
+        a[terms + g] = 1.0;
         ata += &a * a.transpose();
         atb += &a * (p.meter_xyz[1] / cam[1]).ln();
     }
     // Spots all at one radius cannot separate vignetting from the matrix.
     let x = ata.try_inverse().map(|inv| inv * atb)?;
-    let (b1, b2) = (x[0], x[1]);
-    // exp(β1ρ² + β2ρ⁴) as the polynomial 1 + b1ρ² + b2ρ⁴ (second order).
-    Some([b1, b2 + 0.5 * b1 * b1])
+    Some(if terms == 2 {
+        [x[0], x[1]]
+    } else {
+        [x[0], 0.0]
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The virtual camera's lens law (`devices::sim::camera`): it keeps
+    /// `1/(1 + a·ρ²)²` of the light, so the correction is its inverse.
+    fn lens_correction(a: f64, rho: f64) -> f64 {
+        (1.0 + a * rho * rho).powi(2)
+    }
+
+    /// Spot pairs of one display at `radii`: the meter sees `XYZ = M·rgb_true`, the
+    /// camera `rgb_true` darkened by the lens law with `a`.
+    fn pairs_at(radii: &[f64], a: f64) -> Vec<SpotPair> {
+        let m = Matrix3::new(0.41, 0.36, 0.18, 0.21, 0.72, 0.07, 0.02, 0.12, 0.95);
+        let mut out = Vec::new();
+        for drive in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0; 3]] {
+            for &rho in radii {
+                // The display is darker away from its centre too; meter and camera
+                // both see that, so none of it may end up in the camera's vignetting.
+                let screen = 100.0 * (1.0 - 0.2 * rho * rho);
+                let rgb_true = Vector3::from(drive) * screen;
+                let xyz = m * rgb_true;
+                let cam = rgb_true / lens_correction(a, rho);
+                out.push(SpotPair {
+                    display: 0,
+                    eye: Eye::Mono,
+                    uv: [0.5, 0.5],
+                    camera_rgb: [cam[0], cam[1], cam[2]],
+                    meter_xyz: [xyz[0], xyz[1], xyz[2]],
+                    radius: rho,
+                    drive,
+                });
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn spots_at_five_distances_recover_the_lens_law_within_0_2_percent() {
+        let fit = CameraPhotometry::fit(&pairs_at(&[0.0, 0.3, 0.55, 0.8, 1.0], 0.12)).unwrap();
+        for k in 0..=20 {
+            let rho = f64::from(k) / 20.0;
+            let err = fit.vignetting_factor(rho) / lens_correction(0.12, rho) - 1.0;
+            assert!(err.abs() < 0.002, "ρ {rho}: {:.4} %", 100.0 * err);
+        }
+    }
+
+    #[test]
+    fn spots_at_two_distances_fit_one_term_that_stays_near_the_lens_law() {
+        // One centred display: the centre and four corners at one distance.
+        let fit = CameraPhotometry::fit(&pairs_at(&[0.0, 0.485], 0.12)).unwrap();
+        assert_eq!(fit.vignetting[1], 0.0, "{:?}", fit.vignetting);
+        let err = fit.vignetting_factor(1.0) / lens_correction(0.12, 1.0) - 1.0;
+        assert!(err.abs() < 0.02, "at the corner {:.3} %", 100.0 * err);
+        let (dy, dxy) = fit.worst_all();
+        assert!(dy < 0.01 && dxy < 1e-6, "{dy} {dxy}");
+    }
+
+    #[test]
+    fn spots_at_one_distance_leave_the_vignetting_at_none() {
+        let fit = CameraPhotometry::fit(&pairs_at(&[0.4], 0.12)).unwrap();
+        assert_eq!(fit.vignetting, [0.0; 2]);
+    }
 }

@@ -25,6 +25,20 @@ use crate::measure::Rig;
 /// Spots the meter reads besides the centre (each channel and white), for the anchor's
 /// vignetting.
 const ANCHOR_SPOTS: [[f64; 2]; 4] = [[0.2, 0.2], [0.8, 0.2], [0.2, 0.8], [0.8, 0.8]];
+/// Further spots for walls where [`ANCHOR_SPOTS`] lie at too few distances from the
+/// image centre to separate the camera's vignetting (one display, centred): near the
+/// corners, so that the fit reaches the image's edge instead of extrapolating to it,
+/// and at the middle of each edge.
+const EDGE_SPOTS: [[f64; 2]; 8] = [
+    [0.08, 0.08],
+    [0.92, 0.08],
+    [0.08, 0.92],
+    [0.92, 0.92],
+    [0.5, 0.1],
+    [0.1, 0.5],
+    [0.9, 0.5],
+    [0.5, 0.9],
+];
 /// Readings averaged per meter spot.
 const READINGS_PER_SPOT: u32 = 2;
 
@@ -200,7 +214,7 @@ impl Context<'_> {
             progress(&format!(
                 "camera: {} captured and read at {} spots",
                 info.name,
-                1 + ANCHOR_SPOTS.len()
+                self.meter_spots(info).len()
             ));
         }
         Ok((open, pairs))
@@ -318,6 +332,25 @@ impl Context<'_> {
         ((p[0] - r.centre_px[0]).powi(2) + (p[1] - r.centre_px[1]).powi(2)).sqrt() / r.norm_px
     }
 
+    /// Where the meter reads `info`: its centre and [`ANCHOR_SPOTS`], plus
+    /// [`EDGE_SPOTS`] when those lie at fewer than three distances from the image
+    /// centre (the vignetting's two terms need three, since each display and pattern
+    /// has its own free factor).
+    fn meter_spots(&self, info: &DisplayInfo) -> Vec<[f64; 2]> {
+        let mut spots: Vec<[f64; 2]> = std::iter::once(self.opts.spot_uv)
+            .chain(ANCHOR_SPOTS)
+            .collect();
+        let radii: Vec<f64> = spots
+            .iter()
+            .filter_map(|&uv| self.registration.to_camera(info.id, uv))
+            .map(|p| self.rho(p))
+            .collect();
+        if crate::camera::anchor::distinct_levels(&radii) < 3 {
+            spots.extend(EDGE_SPOTS);
+        }
+        spots
+    }
+
     /// Mean HDR signal over a few pixels around `uv` of `info` (dark not removed).
     fn signal_at(
         &self,
@@ -383,9 +416,7 @@ impl Context<'_> {
             Shown::Uniform([0.0; 3]),
             "dark frame",
         )?;
-        let spots: Vec<[f64; 2]> = std::iter::once(self.opts.spot_uv)
-            .chain(ANCHOR_SPOTS)
-            .collect();
+        let spots = self.meter_spots(info);
         let blacks = spots
             .iter()
             .map(|&uv| read_meter(rig, info, uv, [0.0; 3]))
