@@ -165,15 +165,51 @@ fn median(mut v: Vec<f64>) -> f64 {
     crate::verify::median(&mut v)
 }
 
+/// Whether the meter offset `offset` explains one display's additivity error: the
+/// residual left after it is within meter noise (χ² with 3 degrees of freedom below
+/// `max_chi2`, the noise model of [`fuse_with_white`], one reading each). A white
+/// segment (single-chip DLP) or any other display property leaves a residual an
+/// offset cannot remove, and such a display is no evidence about the meter.
+pub fn offset_explains(
+    black: Xyz,
+    primaries: &[Xyz; 3],
+    white: Xyz,
+    offset: [f64; 2],
+    max_chi2: f64,
+) -> bool {
+    let (sxy, sy) = (0.001, 0.002);
+    let c = |v: Xyz| correct(v, offset);
+    let sum = c(primaries[0]) + c(primaries[1]) + c(primaries[2]) - c(black) * 2.0;
+    let res = (c(white) - sum).to_array();
+    let mut var = reading_variance(c(white), 1.0, sxy, sy);
+    for p in primaries {
+        let v = reading_variance(c(*p), 1.0, sxy, sy);
+        for j in 0..3 {
+            var[j] += v[j];
+        }
+    }
+    let chi2: f64 = (0..3)
+        .filter(|&j| var[j] > 0.0)
+        .map(|j| res[j] * res[j] / var[j])
+        .sum();
+    chi2.is_finite() && chi2 <= max_chi2
+}
+
 /// Wall-level estimate: the component-wise median of the per-display estimates of
-/// displays with a white reading. `None` when no display has one.
+/// displays with a white reading whose additivity error the offset explains
+/// ([`offset_explains`] with [`crate::commission::MAX_FUSION_CHI2`]). `None` when no
+/// display qualifies: on a wall of non-additive displays the readings stay as read.
 pub fn estimate_wall(
     instrument: &str,
     displays: &[(Xyz, [Xyz; 3], Option<Xyz>)],
 ) -> Option<MeterCorrection> {
     let est: Vec<([f64; 2], f64, f64)> = displays
         .iter()
-        .filter_map(|(k, p, w)| estimate_offset(*k, p, (*w)?))
+        .filter_map(|(k, p, w)| {
+            let w = (*w)?;
+            let e = estimate_offset(*k, p, w)?;
+            offset_explains(*k, p, w, e.0, crate::commission::MAX_FUSION_CHI2).then_some(e)
+        })
         .collect();
     if est.is_empty() {
         return None;
@@ -262,6 +298,25 @@ mod tests {
         let c = |v: Xyz| correct(read(v), d);
         let r = c(w) - (c(p[0]) + c(p[1]) + c(p[2]) - c(k) * 2.0);
         assert!(r.x.abs().max(r.z.abs()) < 1e-3 * w.y, "{r:?}");
+    }
+
+    /// A single-chip DLP: white = R + G + B − 2·K plus a white segment (20 % of the
+    /// white). Its additivity error is a display property: no offset explains it, so a
+    /// wall of such displays gets no correction, and in a mixed wall only the additive
+    /// displays (read through a meter off by δy = −0.0035) decide the offset.
+    #[test]
+    fn a_white_segment_is_no_evidence_of_a_meter_offset() {
+        let (k, p, w) = additive_display();
+        let segment = Xyz::from_xy_luminance(0.30, 0.32, 0.25 * w.y);
+        let dlp = (k, p, Some(w + segment));
+        assert!(estimate_wall("m", &[dlp, dlp, dlp]).is_none());
+        let off = [0.0, -0.0035];
+        let read = |v: Xyz| correct(v, [-off[0], -off[1]]);
+        let lcd = (read(k), p.map(read), Some(read(w)));
+        let dlp_read = (read(k), p.map(read), Some(read(w + segment)));
+        let c = estimate_wall("m", &[dlp_read, dlp_read, dlp_read, lcd]).expect("one LCD");
+        assert_eq!(c.displays_used, 1);
+        assert!((c.xy_offset[1] - off[1]).abs() < 2e-5, "{:?}", c.xy_offset);
     }
 
     #[test]
