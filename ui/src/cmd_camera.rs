@@ -147,7 +147,7 @@ fn append_report(
         "\n## Camera stage\n\n![response curves](response-curve.svg)\n\n\
          - response curve: {} exposures, {} sampled pixels (Debevec–Malik, codes 15..250)\n\
          - registration: reprojection error rms {:.3} px, max {:.3} px; distortion κ {:?}\n\
-         - camera vs meter at the white spots: worst ΔY {dy:.2} %, Δxy {dxy:.4}; all patterns ΔY {ay:.2} %, Δxy {axy:.4}\n\
+         - camera vs meter at the white spots (each predicted from its display's other spots): worst ΔY {dy:.2} %, Δxy {dxy:.4}; all patterns ΔY {ay:.2} %, Δxy {axy:.4}\n\
          - camera vignetting correction exp({:.4}ρ² + {:.4}ρ⁴); camera moved {:.2} px during the stage\n\
          - uniformity {mode:?}: solved white {:.2} cd/m², strict {:.2}, perceptual mean {:.2} (min {:.2})\n\
          - the flat fields are right for the camera's position; on a gain screen another viewer sees another hotspot\n\

@@ -1,5 +1,6 @@
-//! Meter-anchored camera photometry: camera RGB → XYZ (one 3×3 matrix per eye) and the
-//! camera lens's vignetting, fitted to spot-meter readings of the same spots.
+//! Meter-anchored camera photometry: camera RGB → XYZ (one 3×3 matrix per eye, and per
+//! display for the agreement, each spot predicted from its display's other spots) and
+//! the camera lens's vignetting, fitted to spot-meter readings of the same spots.
 //!
 //! Model: `XYZ = M_eye · rgb · exp(β1·ρ² + β2·ρ⁴)`, `rgb` the dark-subtracted camera
 //! signal per second, ρ the spot's distance from the image centre over half the
@@ -132,7 +133,7 @@ impl CameraPhotometry {
         fit.agreement = pairs
             .iter()
             .filter_map(|p| {
-                let cam = fit.xyz(p.eye, p.camera_rgb, p.radius)?;
+                let cam = fit.held_out_xyz(pairs, p)?;
                 Some(SpotAgreement {
                     display: p.display,
                     eye: p.eye,
@@ -150,19 +151,53 @@ impl CameraPhotometry {
     }
 }
 
+impl CameraPhotometry {
+    /// The camera's XYZ at spot `p` through a matrix of `p`'s own display fitted to
+    /// that display's other spots (one display has one set of primary spectra, so
+    /// its own matrix is exact where one matrix per eye is not); the eye's matrix where
+    /// the display has too few other spots. Held out, so the agreement it gives is a
+    /// prediction, not a fit residual.
+    fn held_out_xyz(&self, pairs: &[SpotPair], p: &SpotPair) -> Option<[f64; 3]> {
+        let own = fit_matrix_where(pairs, self, |q| {
+            q.display == p.display && q.eye == p.eye && q.uv != p.uv
+        })
+        .ok();
+        let Some(m) = own else {
+            return self.xyz(p.eye, p.camera_rgb, p.radius);
+        };
+        let k = self.vignetting_factor(p.radius);
+        let rgb = p.camera_rgb;
+        Some(std::array::from_fn(|r| {
+            k * (m[r][0] * rgb[0] + m[r][1] * rgb[1] + m[r][2] * rgb[2])
+        }))
+    }
+}
+
 /// One eye's matrix by relative least squares, vignetting fixed.
 fn fit_matrix(
     pairs: &[SpotPair],
     eye: Eye,
     fit: &CameraPhotometry,
 ) -> Result<[[f64; 3]; 3], CameraCalibError> {
+    fit_matrix_where(pairs, fit, |p| p.eye == eye).map_err(|n| {
+        CameraCalibError::Fit(format!(
+            "camera colour matrix ({eye} eye): {n} spots with light, or too few different \
+             colours; the meter and camera need at least red, green, blue and white"
+        ))
+    })
+}
+
+/// The matrix by relative least squares over the pairs `keep` selects, vignetting
+/// fixed; `Err(n)` with the number of usable pairs when they cannot determine it.
+fn fit_matrix_where(
+    pairs: &[SpotPair],
+    fit: &CameraPhotometry,
+    keep: impl Fn(&SpotPair) -> bool,
+) -> Result<[[f64; 3]; 3], usize> {
     let mut ata = Matrix3::<f64>::zeros();
     let mut atb = [Vector3::<f64>::zeros(); 3];
-    let mut n = 0;
-    for p in pairs
-        .iter()
-        .filter(|p| p.eye == eye && p.meter_xyz[1] > 0.0)
-    {
+    let mut n: usize = 0;
+    for p in pairs.iter().filter(|p| keep(p) && p.meter_xyz[1] > 0.0) {
         let w = 1.0 / p.meter_xyz[1];
         let a = Vector3::from(p.camera_rgb) * fit.vignetting_factor(p.radius) * w;
         ata += a * a.transpose();
@@ -171,15 +206,7 @@ fn fit_matrix(
         }
         n += 1;
     }
-    let inv = (n >= 4)
-        .then(|| ata.try_inverse())
-        .flatten()
-        .ok_or_else(|| {
-            CameraCalibError::Fit(format!(
-                "camera colour matrix ({eye} eye): {n} spots with light, or too few different \
-             colours; the meter and camera need at least red, green, blue and white"
-            ))
-        })?;
+    let inv = (n >= 4).then(|| ata.try_inverse()).flatten().ok_or(n)?;
     Ok(std::array::from_fn(|r| {
         let m = inv * atb[r];
         [m[0], m[1], m[2]]
