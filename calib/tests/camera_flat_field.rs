@@ -233,6 +233,50 @@ fn flat_fields_meet_the_acceptance_on_a_noiseless_two_tile_wall() {
     assert!(f.iterations <= 3);
 }
 
+/// The loop's convergence with more iterations than the default, on the Lambertian
+/// one-tile wall: the residual per iteration and channel, printed.
+#[test]
+#[ignore = "a probe: prints how the residual falls over eight iterations"]
+fn closed_loop_residual_over_eight_iterations() {
+    let path = format!(
+        "{}/../fixtures/walls/infitec-pair.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let text = std::fs::read_to_string(path).expect("fixture");
+    let w =
+        VirtualWall::from_toml_str(&text.replace("specular_gain = 0.35", "specular_gain = 0.0"))
+            .expect("wall");
+    let (mut station, profiles) = commissioned(&w, Noise::None);
+    let mut cam = VirtualCamera::new(&w, false).expect("camera");
+    let opts = FlatFieldOptions {
+        max_iterations: 8,
+        threshold: 1e-6,
+        ..FlatFieldOptions::default()
+    };
+    let flats = measure_flat_fields(
+        &mut cam,
+        &mut station.rig(),
+        &w.displays(),
+        &profiles,
+        &opts,
+        &mut |_| {},
+    )
+    .expect("flat fields");
+    for d in &flats.displays {
+        for (c, h) in d.residual_history.iter().enumerate() {
+            eprintln!("{} channel {c}: {:.5?}", d.name, h);
+        }
+    }
+    let grid = GridOptions::default();
+    let mut profiles = profiles;
+    for (p, f) in profiles.iter_mut().zip(&flats.displays) {
+        p.flat_field = Some(f.flat.clone());
+    }
+    fit_white_to_flat_fields(&mut profiles);
+    let after = verify_grid(&mut Truth(&w), &w.displays(), &profiles, &grid).expect("grid");
+    eprintln!("{}", after.overall_line());
+}
+
 /// heyewall-48 noiseless (about 10 minutes in a debug build): the figures the issue's
 /// acceptance names, printed; run with `--ignored --nocapture` and
 /// `LUMIWALL_CAMERA_DIAG=1` for a line per display.

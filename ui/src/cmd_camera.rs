@@ -166,17 +166,7 @@ fn append_report(
         cost.perceptual_min_cd_m2,
         flats.seconds,
     );
-    for d in &flats.displays {
-        let worst = |r: [f64; 3]| 100.0 * r.iter().copied().fold(0.0, f64::max);
-        md.push_str(&format!(
-            "| {} | {:?} | {:.2} % → {:.2} % | {} |\n",
-            d.name,
-            d.iterations,
-            worst(d.residual_open),
-            worst(d.residual_final),
-            d.frames
-        ));
-    }
+    md.push_str(&display_rows(flats));
     if let Some((b, a)) = grids {
         let (before, after) = (b.heat_map_svg(tiles, [5, 5]), a.heat_map_svg(tiles, [5, 5]));
         write("uniformity-before.svg", &before)?;
@@ -203,6 +193,25 @@ fn append_report(
         "report.html",
         &lumiwall_calib::report::html_with_section(&page, &md, &figures),
     )
+}
+
+/// The report table's rows: per display its iterations, residuals and frames.
+fn display_rows(flats: &FlatFieldOutcome) -> String {
+    let worst = |r: [f64; 3]| 100.0 * r.iter().copied().fold(0.0, f64::max);
+    flats
+        .displays
+        .iter()
+        .map(|d| {
+            format!(
+                "| {} | {:?} | {:.2} % → {:.2} % | {} |\n",
+                d.name,
+                d.iterations,
+                worst(d.residual_open),
+                worst(d.residual_final),
+                d.frames
+            )
+        })
+        .collect()
 }
 
 /// The response curves as an SVG plot: ln relative exposure against code, R, G, B.

@@ -87,6 +87,10 @@ pub struct DisplayFlat {
     pub residual_open: [f64; 3],
     /// RMS residual per channel after the last iteration.
     pub residual_final: [f64; 3],
+    /// RMS residual per channel at every closed-loop iteration, in order: the
+    /// loop's error against its captures.
+    #[serde(default)]
+    pub residual_history: [Vec<f64>; 3],
     /// Smallest gain per channel (the darkest texel against the spot).
     pub min_gain: [f64; 3],
     /// Camera captures (frames) this display cost.
@@ -571,6 +575,7 @@ impl Context<'_> {
         let mut iterations = [0; 3];
         let mut residual_open = [0.0; 3];
         let mut residual_final = [0.0; 3];
+        let mut residual_history: [Vec<f64>; 3] = Default::default();
         let margin = self.edge_margin(info);
         for (c, mut g) in initial.into_iter().enumerate() {
             let cam_c = cam_channels[c];
@@ -583,6 +588,7 @@ impl Context<'_> {
                 let r = self.ratios(phot, info, &shot, &open.dark, cam_c)?;
                 iterations[c] += 1;
                 residual_final[c] = rms_residual(&r);
+                residual_history[c].push(residual_final[c]);
                 for (gk, rk) in g.iter_mut().zip(&r) {
                     *gk *= rk;
                 }
@@ -611,6 +617,7 @@ impl Context<'_> {
             iterations,
             residual_open,
             residual_final,
+            residual_history,
             min_gain,
             frames: 0,
         })
