@@ -26,6 +26,7 @@ use serde::{Deserialize, Serialize};
 use crate::colorimetry::delta_e2000_xyz;
 use crate::measure::meter_offset::CorrectedMeter;
 use crate::measure::{MeasureError, MeasureOptions, Patch, Progress, Rig, Session};
+use lumiwall_core::lab::delta_c2000_xyz;
 
 /// One target colour.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -111,6 +112,18 @@ pub struct PatchResult {
     pub delta_xy: f64,
     /// CIEDE2000 relative to the wall white.
     pub delta_e2000: f64,
+    /// Its chroma term ΔC'/S_C (signed: positive when more chromatic than expected).
+    #[serde(default)]
+    pub delta_c2000: f64,
+}
+
+impl PatchResult {
+    /// A neutral target (white, a grey or a dark grey): counts for the grey balance.
+    pub fn is_neutral(&self) -> bool {
+        self.target == "white"
+            || self.target.starts_with("grey")
+            || self.target.starts_with("dark grey")
+    }
 }
 
 /// Median and maximum of the errors of a group of patches.
@@ -122,6 +135,19 @@ pub struct Summary {
     pub median_de: f64,
     /// Largest ΔE2000.
     pub max_de: f64,
+    /// Mean ΔE2000.
+    #[serde(default)]
+    pub mean_de: f64,
+    /// 95th percentile of ΔE2000 (nearest rank).
+    #[serde(default)]
+    pub p95_de: f64,
+    /// ΔE2000 of the white patch, when the targets have one.
+    #[serde(default)]
+    pub white_de: Option<f64>,
+    /// Grey balance: mean |ΔC'| (CIEDE2000 chroma term) over the neutral patches, when
+    /// there are any.
+    #[serde(default)]
+    pub grey_balance: Option<f64>,
     /// Median |ΔL| in percent.
     pub median_abs_dl_percent: f64,
     /// Largest |ΔL| in percent.
@@ -138,20 +164,56 @@ impl Summary {
         let mut de = Vec::new();
         let mut dl = Vec::new();
         let mut dxy = Vec::new();
+        let mut white_de = None;
+        let mut grey = Vec::new();
         for p in patches {
             de.push(p.delta_e2000);
             dl.push(p.delta_l_percent.abs());
             dxy.push(p.delta_xy);
+            if p.target == "white" {
+                white_de = Some(white_de.map_or(p.delta_e2000, |w: f64| w.max(p.delta_e2000)));
+            }
+            if p.is_neutral() {
+                grey.push(p.delta_c2000.abs());
+            }
         }
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
         Self {
             patches: de.len(),
+            mean_de: mean(&de),
+            white_de,
+            grey_balance: (!grey.is_empty()).then(|| mean(&grey)),
             median_de: median(&mut de),
+            p95_de: percentile(&de, 0.95),
             max_de: max(&de),
             median_abs_dl_percent: median(&mut dl),
             max_abs_dl_percent: max(&dl),
             median_dxy: median(&mut dxy),
             max_dxy: max(&dxy),
         }
+    }
+}
+
+impl Summary {
+    /// The mean, white and grey-balance limits, one line each where exceeded.
+    fn displaycal_violations(&self, key: &DisplayKey, tol: &Tolerances) -> Vec<String> {
+        let mut v = Vec::new();
+        if self.mean_de > tol.mean_de {
+            v.push(format!(
+                "{key}: mean ΔE2000 {:.2} > {:.2}",
+                self.mean_de, tol.mean_de
+            ));
+        }
+        if let Some(w) = self.white_de.filter(|w| *w > tol.white_de) {
+            v.push(format!("{key}: white ΔE2000 {w:.2} > {:.2}", tol.white_de));
+        }
+        if let Some(g) = self.grey_balance.filter(|g| *g > tol.grey_balance) {
+            v.push(format!(
+                "{key}: grey balance |ΔC'| {g:.2} > {:.2}",
+                tol.grey_balance
+            ));
+        }
+        v
     }
 }
 
@@ -167,6 +229,14 @@ pub fn median(v: &mut [f64]) -> f64 {
     } else {
         0.5 * (v[n / 2 - 1] + v[n / 2])
     }
+}
+
+/// The `q` quantile of `v` by nearest rank; 0 when empty.
+fn percentile(v: &[f64], q: f64) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let rank = (q * s.len() as f64).ceil() as usize;
+    s.get(rank.saturating_sub(1)).copied().unwrap_or(0.0)
 }
 
 fn max(v: &[f64]) -> f64 {
@@ -195,6 +265,12 @@ pub struct Tolerances {
     pub max_de: f64,
     /// Largest median ΔE2000 allowed, per display and overall.
     pub median_de: f64,
+    /// Largest mean ΔE2000 allowed, per display (DisplayCAL's recommended: 1).
+    pub mean_de: f64,
+    /// Largest ΔE2000 of the white patch (DisplayCAL: 1), where the targets have one.
+    pub white_de: f64,
+    /// Largest grey balance, mean |ΔC'| over the neutral patches.
+    pub grey_balance: f64,
     /// Largest black luminance difference (percent) between a display and the common
     /// black (`Common` mode only).
     pub black_dl_percent: f64,
@@ -203,11 +279,16 @@ pub struct Tolerances {
 }
 
 impl Default for Tolerances {
-    /// 1.5 / 0.5 ΔE2000; black within a CS-100A's low-light error (5 %, 0.008 xy).
+    /// 1.5 / 0.5 ΔE2000 (max, median); mean and white 1 (DisplayCAL's recommended
+    /// values), grey balance 0.5; black within a CS-100A's low-light error (5 %, 0.008
+    /// xy).
     fn default() -> Self {
         Self {
             max_de: 1.5,
             median_de: 0.5,
+            mean_de: 1.0,
+            white_de: 1.0,
+            grey_balance: 0.5,
             black_dl_percent: 5.0,
             black_dxy: 0.008,
         }
@@ -248,6 +329,7 @@ impl VerifyReport {
                     s.median_de, tol.median_de
                 ));
             }
+            v.extend(s.displaycal_violations(key, tol));
         }
         if self.overall.median_de > tol.median_de {
             v.push(format!(
@@ -289,11 +371,12 @@ impl VerifyReport {
     /// Summary table (plain text): per display and overall, then the black check.
     pub fn summary_table(&self) -> String {
         let mut s = String::from(
-            "display          patches  median ΔE  max ΔE  median |ΔL| %  max |ΔL| %  median Δxy  max Δxy\n",
+            "display          patches  median ΔE  max ΔE  median |ΔL| %  max |ΔL| %  median Δxy  max Δxy  mean ΔE  p95 ΔE  white ΔE  grey |ΔC'|\n",
         );
+        let opt = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.3}"));
         let row = |name: &str, m: &Summary| {
             format!(
-                "{:<16} {:>7} {:>10.3} {:>7.3} {:>14.2} {:>11.2} {:>11.4} {:>8.4}\n",
+                "{:<16} {:>7} {:>10.3} {:>7.3} {:>14.2} {:>11.2} {:>11.4} {:>8.4} {:>8.3} {:>7.3} {:>9} {:>11}\n",
                 name,
                 m.patches,
                 m.median_de,
@@ -301,7 +384,11 @@ impl VerifyReport {
                 m.median_abs_dl_percent,
                 m.max_abs_dl_percent,
                 m.median_dxy,
-                m.max_dxy
+                m.max_dxy,
+                m.mean_de,
+                m.p95_de,
+                opt(m.white_de),
+                opt(m.grey_balance)
             )
         };
         for (key, m) in &self.per_display {
@@ -402,6 +489,52 @@ const DARK_TARGETS: [(&str, [f64; 3], f64); 4] = [
     ("dark blue 1.5", [0.15, 0.2, 0.6], 1.5),
 ];
 
+/// The 51-patch chart (`verify --chart 51`), in the spirit of DisplayCAL's
+/// verification charts: white, eleven greys, the primaries and secondaries at full and
+/// half intensity, memory colours, and the dark patches of [`DARK_TARGETS`]; the rest
+/// of the 51 from the quasi-random mixes.
+const CHART_51: [(&str, [f64; 3]); 30] = [
+    ("white", [1.0, 1.0, 1.0]),
+    ("grey 95 %", [0.95, 0.95, 0.95]),
+    ("grey 90 %", [0.9, 0.9, 0.9]),
+    ("grey 80 %", [0.8, 0.8, 0.8]),
+    ("grey 65 %", [0.65, 0.65, 0.65]),
+    ("grey 50 %", [0.5, 0.5, 0.5]),
+    ("grey 35 %", [0.35, 0.35, 0.35]),
+    ("grey 20 %", [0.2, 0.2, 0.2]),
+    ("grey 10 %", [0.1, 0.1, 0.1]),
+    ("grey 5 %", [0.05, 0.05, 0.05]),
+    ("grey 2 %", [0.02, 0.02, 0.02]),
+    ("red", [1.0, 0.0, 0.0]),
+    ("green", [0.0, 1.0, 0.0]),
+    ("blue", [0.0, 0.0, 1.0]),
+    ("cyan", [0.0, 1.0, 1.0]),
+    ("magenta", [1.0, 0.0, 1.0]),
+    ("yellow", [1.0, 1.0, 0.0]),
+    ("red 50 %", [0.5, 0.0, 0.0]),
+    ("green 50 %", [0.0, 0.5, 0.0]),
+    ("blue 50 %", [0.0, 0.0, 0.5]),
+    ("cyan 50 %", [0.0, 0.5, 0.5]),
+    ("magenta 50 %", [0.5, 0.0, 0.5]),
+    ("yellow 50 %", [0.5, 0.5, 0.0]),
+    ("skin light", [0.7, 0.45, 0.33]),
+    ("skin medium", [0.5, 0.3, 0.2]),
+    ("skin dark", [0.32, 0.18, 0.12]),
+    ("foliage", [0.12, 0.25, 0.05]),
+    ("sky", [0.3, 0.45, 0.75]),
+    ("orange", [0.8, 0.35, 0.05]),
+    ("violet", [0.3, 0.1, 0.5]),
+];
+
+/// Patches of the chart `verify --chart` names.
+pub const CHART_PATCHES: usize = 51;
+
+/// The 51-patch chart for a wall ([`CHART_51`], then dark patches, then mixes), each
+/// checked as [`default_targets`] checks its own.
+pub fn chart_targets(profiles: &[DisplayProfile]) -> Result<Vec<Target>, VerifyError> {
+    targets_from(profiles, &CHART_51, CHART_PATCHES)
+}
+
 /// Van der Corput radical inverse, for deterministic extra targets.
 fn radical_inverse(mut i: u32, base: u32) -> f64 {
     let mut f = 1.0;
@@ -430,6 +563,15 @@ fn showable(profiles: &[DisplayProfile], xyz: Xyz) -> bool {
 /// display; a target that is not (e.g. a dark colour below a display's black in
 /// `Individual` mode) is replaced by a brighter one.
 pub fn default_targets(profiles: &[DisplayProfile], n: usize) -> Result<Vec<Target>, VerifyError> {
+    targets_from(profiles, &RGB_TARGETS, n)
+}
+
+/// `n` targets: `named` first, then the dark ones, then quasi-random mixes.
+fn targets_from(
+    profiles: &[DisplayProfile],
+    named: &[(&str, [f64; 3])],
+    n: usize,
+) -> Result<Vec<Target>, VerifyError> {
     let first = profiles.first().ok_or(VerifyError::NoProfiles)?;
     for p in profiles {
         let same = p
@@ -452,7 +594,7 @@ pub fn default_targets(profiles: &[DisplayProfile], n: usize) -> Result<Vec<Targ
             out.push(Target { name, xyz });
         }
     };
-    for (name, rgb) in RGB_TARGETS {
+    for &(name, rgb) in named {
         push(name.to_string(), to_xyz(rgb), &mut out);
     }
     let white_y = first.target_white_xyz_cd_m2[1];
@@ -537,6 +679,7 @@ impl DisplayUnderTest<'_> {
             delta_l_percent: delta_l_percent(expected, measured),
             delta_xy: delta_xy(expected, measured),
             delta_e2000: delta_e2000_xyz(expected, measured, self.reference_white),
+            delta_c2000: delta_c2000_xyz(expected, measured, self.reference_white),
         })
     }
 

@@ -11,7 +11,9 @@ use lumiwall_calib::measure::meter_offset::{CorrectedMeter, MeterCorrection};
 use lumiwall_calib::measure::{MeasureOptions, Progress};
 use lumiwall_calib::spatial::{GridOptions, Truth, verify_grid};
 use lumiwall_calib::station::Station;
-use lumiwall_calib::verify::{Tolerances, VerifyOptions, VerifyReport, default_targets};
+use lumiwall_calib::verify::{
+    Tolerances, VerifyOptions, VerifyReport, chart_targets, default_targets,
+};
 use lumiwall_devices::Colorimeter;
 use lumiwall_profiles::ProfileSet;
 
@@ -31,12 +33,27 @@ pub(crate) struct VerifyArgs {
     /// Number of target colours per display (1 to 100 000).
     #[arg(long, default_value_t = 20, value_parser = parse_patches)]
     patches: usize,
+    /// A verification chart instead of `--patches`: `51` (white, eleven greys,
+    /// primaries and secondaries at full and half intensity, memory colours, dark
+    /// patches, mixes), judged by mean, 95th percentile and max ΔE2000, white ΔE2000
+    /// and grey balance.
+    #[arg(long, value_parser = parse_chart, conflicts_with = "patches")]
+    chart: Option<usize>,
     /// Largest ΔE2000 allowed on any patch (a finite number greater than 0).
     #[arg(long, allow_negative_numbers = true, default_value_t = 1.5, value_parser = values::positive_finite)]
     max_de: f64,
     /// Largest median ΔE2000 allowed (per display and overall; greater than 0).
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.5, value_parser = values::positive_finite)]
     median_de: f64,
+    /// Largest mean ΔE2000 allowed per display (DisplayCAL's recommended value: 1).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0, value_parser = values::positive_finite)]
+    mean_de: f64,
+    /// Largest ΔE2000 of the white patch (DisplayCAL: 1; with a chart that has one).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0, value_parser = values::positive_finite)]
+    white_de: f64,
+    /// Largest grey balance, mean |ΔC'| (CIEDE2000 chroma term) over the neutral patches.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5, value_parser = values::positive_finite)]
+    grey_balance: f64,
     /// Largest black luminance difference (%) from the common black (common mode;
     /// greater than 0).
     #[arg(long, allow_negative_numbers = true, default_value_t = 5.0, value_parser = values::positive_finite)]
@@ -128,9 +145,12 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
     if let Some(cells) = args.grid {
         return run_grid(&mut station, &profiles, cells, &args);
     }
-    let targets = default_targets(&profiles, args.patches)?;
+    let targets = match args.chart {
+        Some(_) => chart_targets(&profiles)?,
+        None => default_targets(&profiles, args.patches)?,
+    };
     let opts = VerifyOptions {
-        patches: args.patches,
+        patches: targets.len(),
         meter_xy_offset: load_meter_correction(&args.profiles, station.meter.as_ref())?,
         measure: MeasureOptions::default(),
         ..VerifyOptions::default()
@@ -205,6 +225,17 @@ fn run_grid(
     Ok(())
 }
 
+/// `--chart`: the charts there are (51).
+fn parse_chart(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(n) if n == lumiwall_calib::verify::CHART_PATCHES => Ok(n),
+        _ => Err(format!(
+            "unknown chart '{s}'; the chart there is: {}",
+            lumiwall_calib::verify::CHART_PATCHES
+        )),
+    }
+}
+
 /// Prints the tables and checks the tolerances (exit code 3 outside them).
 fn print_report(report: &VerifyReport, args: &VerifyArgs) -> Result<(), CliError> {
     if !args.summary_only {
@@ -216,14 +247,17 @@ fn print_report(report: &VerifyReport, args: &VerifyArgs) -> Result<(), CliError
     let tol = Tolerances {
         max_de: args.max_de,
         median_de: args.median_de,
+        mean_de: args.mean_de,
+        white_de: args.white_de,
+        grey_balance: args.grey_balance,
         black_dl_percent: args.black_dl,
         black_dxy: args.black_dxy,
     };
     let violations = report.violations(&tol);
     if violations.is_empty() {
         println!(
-            "PASS: within max ΔE2000 {} and median ΔE2000 {}",
-            tol.max_de, tol.median_de
+            "PASS: within max ΔE2000 {}, median {}, mean {}, white {}, grey balance {}",
+            tol.max_de, tol.median_de, tol.mean_de, tol.white_de, tol.grey_balance
         );
         Ok(())
     } else {

@@ -161,6 +161,28 @@ pub fn delta_e2000(lab1: Lab, lab2: Lab) -> f64 {
     (tl * tl + tc * tc + th * th + r_t * tc * th).sqrt()
 }
 
+/// The chroma term of CIEDE2000, `ΔC'/S_C` (k_C = 1), from `lab1` to `lab2`: positive
+/// when `lab2` is more chromatic. Its magnitude over greys is the grey balance a
+/// verification reports (DisplayCAL's "gray balance ΔC'").
+pub fn delta_c2000(lab1: Lab, lab2: Lab) -> f64 {
+    const POW25_7: f64 = 6_103_515_625.0; // 25^7
+    let c_bar = 0.5 * (lab1.a.hypot(lab1.b) + lab2.a.hypot(lab2.b));
+    let c_bar7 = c_bar.powi(7);
+    let g = 0.5 * (1.0 - (c_bar7 / (c_bar7 + POW25_7)).sqrt());
+    let c1p = ((1.0 + g) * lab1.a).hypot(lab1.b);
+    let c2p = ((1.0 + g) * lab2.a).hypot(lab2.b);
+    (c2p - c1p) / (1.0 + 0.045 * 0.5 * (c1p + c2p))
+}
+
+/// [`delta_c2000`] between a target and a measured absolute colour, in CIELAB relative
+/// to `reference_white` as [`delta_e2000_xyz`].
+pub fn delta_c2000_xyz(target: Xyz, measured: Xyz, reference_white: Xyz) -> f64 {
+    delta_c2000(
+        xyz_to_lab(target, reference_white),
+        xyz_to_lab(measured, reference_white),
+    )
+}
+
 /// CIEDE2000 between a target and a measured absolute colour, both converted to
 /// CIELAB relative to `reference_white` (absolute, e.g. the wall's white in cd/m²), so
 /// that luminance errors count as lightness errors.
@@ -175,6 +197,28 @@ pub fn delta_e2000_xyz(target: Xyz, measured: Xyz, reference_white: Xyz) -> f64 
 mod tests {
     use super::*;
     use crate::Xy;
+
+    /// Two colours of equal lightness and hue differ only in chroma: then CIEDE2000 is
+    /// exactly its chroma term (ΔL' = ΔH' = 0 and the rotation term vanishes).
+    #[test]
+    fn the_chroma_term_is_the_whole_de2000_at_equal_lightness_and_hue() {
+        for (h_deg, c1, c2) in [(30.0_f64, 2.0, 5.0), (200.0, 20.0, 24.0), (275.0, 0.5, 1.5)] {
+            let (c, s) = (h_deg.to_radians().cos(), h_deg.to_radians().sin());
+            let lab = |ch: f64| Lab {
+                l: 60.0,
+                a: ch * c,
+                b: ch * s,
+            };
+            let (a, b) = (lab(c1), lab(c2));
+            let dc = delta_c2000(a, b);
+            assert!(
+                dc > 0.0 && (dc - delta_e2000(a, b)).abs() < 1e-9,
+                "{dc} {}",
+                delta_e2000(a, b)
+            );
+            assert!((delta_c2000(b, a) + dc).abs() < 1e-12);
+        }
+    }
 
     #[test]
     fn lab_round_trip_and_white() {
