@@ -529,8 +529,9 @@ const CHART_51: [(&str, [f64; 3]); 30] = [
 /// Patches of the chart `verify --chart` names.
 pub const CHART_PATCHES: usize = 51;
 
-/// The 51-patch chart for a wall ([`CHART_51`], then dark patches, then mixes), each
-/// checked as [`default_targets`] checks its own.
+/// The 51-patch chart for a wall (white, greys, primaries and secondaries at full and
+/// half intensity, memory colours, then dark patches, then mixes), each checked as
+/// [`default_targets`] checks its own.
 pub fn chart_targets(profiles: &[DisplayProfile]) -> Result<Vec<Target>, VerifyError> {
     targets_from(profiles, &CHART_51, CHART_PATCHES)
 }
