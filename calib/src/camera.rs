@@ -13,6 +13,7 @@
 //!    ratio update) until the residual is below a threshold.
 
 pub mod anchor;
+pub mod checkpoint;
 mod cv;
 pub mod error;
 pub mod flat;
@@ -20,6 +21,7 @@ pub mod hdr;
 pub mod registration;
 
 pub use anchor::{CameraPhotometry, SpotAgreement, SpotPair};
+pub use checkpoint::{Checkpoint, SavedCalibration};
 pub use error::CameraCalibError;
 pub use flat::{DisplayFlat, FlatFieldOptions, FlatFieldOutcome, measure_flat_fields};
 pub use hdr::{

@@ -6,7 +6,7 @@
 mod camera_common;
 
 use camera_common::wall;
-use lumiwall_calib::camera::{FlatFieldOptions, measure_flat_fields};
+use lumiwall_calib::camera::{Checkpoint, FlatFieldOptions, measure_flat_fields};
 use lumiwall_calib::commission::CommissionOptions;
 use lumiwall_calib::measure::MeasureOptions;
 use lumiwall_calib::spatial::{
@@ -231,6 +231,122 @@ fn flat_fields_meet_the_acceptance_on_a_noiseless_two_tile_wall() {
         f.camera_vs_meter
     );
     assert!(f.iterations <= 3);
+}
+
+/// A camera that stops answering after `limit` captures (a cable pulled), counting.
+struct StopsAfter<C> {
+    inner: C,
+    captures: u32,
+    limit: u32,
+}
+
+impl<C: lumiwall_devices::Camera> lumiwall_devices::Camera for StopsAfter<C> {
+    fn info(&self) -> lumiwall_devices::CameraInfo {
+        self.inner.info()
+    }
+    fn capture(
+        &mut self,
+        t: f64,
+        g: f64,
+    ) -> Result<lumiwall_devices::Frame, lumiwall_devices::DeviceError> {
+        if self.captures >= self.limit {
+            return Err(lumiwall_devices::DeviceError::Timeout {
+                device: "test camera".into(),
+                timeout_ms: 5000,
+            });
+        }
+        self.captures += 1;
+        self.inner.capture(t, g)
+    }
+}
+
+/// One camera stage on `w` with a camera that stops after `limit` captures: the
+/// outcome, the captures taken and the progress lines.
+fn stage_stopping_after(
+    w: &VirtualWall,
+    station: &mut Station,
+    profiles: &[DisplayProfile],
+    limit: u32,
+    opts: &FlatFieldOptions,
+) -> (
+    Result<lumiwall_calib::camera::FlatFieldOutcome, lumiwall_calib::camera::CameraCalibError>,
+    u32,
+    Vec<String>,
+) {
+    let mut cam = StopsAfter {
+        inner: VirtualCamera::new(w, false).expect("camera"),
+        captures: 0,
+        limit,
+    };
+    let mut lines = Vec::new();
+    let outcome = measure_flat_fields(
+        &mut cam,
+        &mut station.rig(),
+        &w.displays(),
+        profiles,
+        opts,
+        &mut |l| lines.push(l.to_string()),
+    );
+    (outcome, cam.captures, lines)
+}
+
+/// A camera stage stopped halfway through the last display's loop resumes from its
+/// checkpoint: the calibration and the first display come from the stopped run
+/// (fewer captures, no meter), and every flat field matches an uninterrupted run's.
+#[test]
+fn a_camera_stage_stopped_in_the_last_loop_resumes_to_the_same_flat_fields() {
+    let w = wall("mono-2x1", "");
+    let (mut station, profiles) = commissioned(&w, Noise::None);
+    let plain = FlatFieldOptions::default();
+    let (whole, total, _) = stage_stopping_after(&w, &mut station, &profiles, u32::MAX, &plain);
+    let whole = whole.expect("uninterrupted");
+    let last = whole.displays.last().expect("displays").frames;
+    let dir = tempfile::tempdir().expect("tmp");
+    let opts = FlatFieldOptions {
+        checkpoint: Some(Checkpoint::new(dir.path().join("camera-run"))),
+        ..FlatFieldOptions::default()
+    };
+    let (stopped, _, _) =
+        stage_stopping_after(&w, &mut station, &profiles, total - last / 2, &opts);
+    let err = stopped.expect_err("the camera stops");
+    assert!(
+        err.to_string().contains("test camera did not answer"),
+        "{err}"
+    );
+    let resume = FlatFieldOptions {
+        resume: true,
+        ..opts
+    };
+    let (resumed, captures, lines) =
+        stage_stopping_after(&w, &mut station, &profiles, u32::MAX, &resume);
+    let resumed = resumed.expect("resumed");
+    let first = format!("{} flat field from the stopped run", w.displays()[0].name);
+    assert!(
+        lines.iter().any(|l| l.contains("resuming from"))
+            && lines.iter().any(|l| l.contains(&first)),
+        "{lines:#?}"
+    );
+    assert!(
+        captures < last + total / 4,
+        "resumed with {captures} captures, the whole stage took {total}"
+    );
+    // The virtual wall keeps warming up between the runs, so the same loop lands a
+    // little differently: every texel within the loop's own residual of 0.5 %.
+    for (a, b) in resumed.displays.iter().zip(&whole.displays) {
+        let worst = a
+            .flat
+            .gain
+            .iter()
+            .zip(&b.flat.gain)
+            .flat_map(|(p, q)| (0..3).map(move |c| (p[c] / q[c] - 1.0).abs()))
+            .fold(0.0_f32, f32::max);
+        eprintln!(
+            "{}: largest texel difference {:.3} %",
+            a.name,
+            100.0 * worst
+        );
+        assert!(a.flat.gain.len() == b.flat.gain.len() && worst < 0.005);
+    }
 }
 
 /// The loop's convergence with more iterations than the default, on the Lambertian

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use lumiwall_calib::camera::{FlatFieldOptions, FlatFieldOutcome, measure_flat_fields};
+use lumiwall_calib::camera::{Checkpoint, FlatFieldOptions, FlatFieldOutcome, measure_flat_fields};
 use lumiwall_calib::commission::CommissionOutcome;
 use lumiwall_calib::spatial::{
     GridOptions, SpatialReport, Truth, Uniformity, UniformityCost, apply_uniformity, verify_grid,
@@ -51,7 +51,12 @@ pub(crate) fn check(station: &Station, choice: &str, noiseless: bool) -> Result<
     Ok(())
 }
 
-/// Runs the camera stage on a commissioned wall and rewrites its profiles.
+/// Folder (inside the profile folder) where the camera stage keeps what it has
+/// finished, for `--resume`.
+pub(crate) const CAMERA_RUN_DIR: &str = "camera-run";
+
+/// Runs the camera stage on a commissioned wall and rewrites its profiles; with
+/// `resume`, continues a stopped camera stage from its checkpoint.
 pub(crate) fn run(
     station: &mut Station,
     outcome: &CommissionOutcome,
@@ -59,6 +64,7 @@ pub(crate) fn run(
     choice: &str,
     noiseless: bool,
     uniformity: UniformityArg,
+    resume: bool,
 ) -> Result<(), CliError> {
     let _lock =
         FolderLock::acquire(out, "camera stage").map_err(|e| CliError::input(e.to_string()))?;
@@ -76,10 +82,19 @@ pub(crate) fn run(
         &mut station.rig(),
         &displays,
         &profiles,
-        &FlatFieldOptions::default(),
+        &FlatFieldOptions {
+            checkpoint: Some(Checkpoint::new(out.join(CAMERA_RUN_DIR))),
+            resume,
+            ..FlatFieldOptions::default()
+        },
         &mut |line| println!("{line}"),
     )
-    .map_err(|e| CliError::failure(e.to_string()))?;
+    .map_err(|e| {
+        CliError::failure(format!(
+            "{e}\n(what the camera stage finished is kept in {}; re-run with --resume)",
+            out.join(CAMERA_RUN_DIR).display()
+        ))
+    })?;
     for (p, f) in profiles.iter_mut().zip(&flats.displays) {
         p.flat_field = Some(f.flat.clone());
     }

@@ -341,6 +341,7 @@ fn camera_stage(
         camera,
         noiseless,
         args.uniformity,
+        args.resume,
     )
 }
 

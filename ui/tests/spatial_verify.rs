@@ -57,6 +57,17 @@ fn commission_with_the_virtual_camera_writes_flat_fields_and_passes_a_looser_gri
         .stdout(contains("camera stage:"))
         .stdout(contains("after the flat field:"));
     assert!(out.join("camera.json").is_file());
+    // `--resume` takes the finished camera stage from its checkpoint: no capture for
+    // either display's loop.
+    commission_small(
+        &out,
+        &["--noise", "none", "--camera", "virtual", "--resume"],
+    )
+    .assert()
+    .success()
+    .stdout(contains("camera: resuming from"))
+    .stdout(contains("tile c0r0 mono flat field from the stopped run"))
+    .stdout(contains("tile c1r0 mono flat field from the stopped run"));
     let html = std::fs::read_to_string(out.join("report.html")).expect("report.html");
     let camera = html
         .find("<h2>Camera stage</h2>")

@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 
 use super::CameraCalibError;
 use super::anchor::{CameraPhotometry, SpotPair};
+use super::checkpoint::{Checkpoint, SavedCalibration};
 use super::hdr::{HdrImage, ResponseCurve, calibrate_response, capture_hdr};
 use super::registration::{DotGrid, Registration, check_still, register_displays};
 use crate::measure::Rig;
@@ -57,6 +58,11 @@ pub struct FlatFieldOptions {
     pub move_limit_px: f64,
     /// Spot of the meter (the profile's calibration spot).
     pub spot_uv: [f64; 2],
+    /// Where finished steps are kept (`None`: nowhere).
+    pub checkpoint: Option<Checkpoint>,
+    /// Continue from the checkpoint of a stopped run (if the camera has not moved);
+    /// without it the checkpoint is cleared first.
+    pub resume: bool,
 }
 
 impl Default for FlatFieldOptions {
@@ -68,6 +74,8 @@ impl Default for FlatFieldOptions {
             grid: DotGrid::default(),
             move_limit_px: 1.0,
             spot_uv: [0.5, 0.5],
+            checkpoint: None,
+            resume: false,
         }
     }
 }
@@ -149,6 +157,97 @@ pub fn measure_flat_fields(
     let first = displays
         .get(displays.len() / 2)
         .ok_or_else(|| CameraCalibError::Fit("the wall has no displays".into()))?;
+    let (calib, open) = match resumable(cam, rig.pattern, first, opts, progress)? {
+        Some(saved) => (saved, None),
+        None => {
+            let (calib, open) = calibrate(cam, rig, displays, profiles, opts, progress)?;
+            if let Some(cp) = &opts.checkpoint {
+                cp.save_calibration(&calib)?;
+            }
+            (calib, Some(open))
+        }
+    };
+    let ctx = Context {
+        response: &calib.response,
+        registration: &calib.registration,
+        opts,
+    };
+    let out = ctx.close_all(cam, rig.pattern, &calib, displays, profiles, open, progress)?;
+    let movement_px = check_still(
+        &calib.registration,
+        cam,
+        rig.pattern,
+        &calib.response,
+        first,
+        opts.move_limit_px,
+    )?;
+    Ok(FlatFieldOutcome {
+        response: calib.response,
+        registration: calib.registration,
+        photometry: calib.photometry,
+        displays: out,
+        seconds: start.elapsed().as_secs_f64(),
+        movement_px,
+    })
+}
+
+/// The saved calibration of a stopped run when `opts` asks to resume, the checkpoint
+/// has one and the camera has not moved since (checked on `first`); otherwise `None`,
+/// with the checkpoint cleared.
+fn resumable(
+    cam: &mut dyn Camera,
+    pattern: &mut dyn PatternOutput,
+    first: &DisplayInfo,
+    opts: &FlatFieldOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Option<SavedCalibration>, CameraCalibError> {
+    let Some(cp) = &opts.checkpoint else {
+        return Ok(None);
+    };
+    let saved = if opts.resume { cp.calibration() } else { None };
+    let Some(saved) = saved else {
+        cp.clear()?;
+        return Ok(None);
+    };
+    match check_still(
+        &saved.registration,
+        cam,
+        pattern,
+        &saved.response,
+        first,
+        opts.move_limit_px,
+    ) {
+        Ok(px) => {
+            progress(&format!(
+                "camera: resuming from {}: calibration of the stopped run kept (camera within {px:.2} px)",
+                cp.dir().display()
+            ));
+            Ok(Some(saved))
+        }
+        Err(CameraCalibError::Moved { shift_px, .. }) => {
+            progress(&format!(
+                "camera: moved {shift_px:.2} px since the stopped run; starting the camera stage again"
+            ));
+            cp.clear()?;
+            Ok(None)
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// Response curve, registration, every display's open loop with the meter, the
+/// anchor's fit and the loop level: everything the loops of all displays share.
+fn calibrate(
+    cam: &mut dyn Camera,
+    rig: &mut Rig<'_>,
+    displays: &[DisplayInfo],
+    profiles: &[DisplayProfile],
+    opts: &FlatFieldOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(SavedCalibration, Vec<Opened>), CameraCalibError> {
+    let first = displays
+        .get(displays.len() / 2)
+        .ok_or_else(|| CameraCalibError::Fit("the wall has no displays".into()))?;
     progress("camera: response curve from an exposure series");
     let response = calibrate_response(cam, rig.pattern, first)?;
     progress("camera: registering every display (dot grids)");
@@ -170,31 +269,19 @@ pub fn measure_flat_fields(
         "camera: colour matrix fitted; camera vs meter at the white spots: worst ΔY {dy:.2} % \
          Δxy {dxy:.4} (single primaries included: ΔY {ay:.2} % Δxy {axy:.4})"
     ));
-    let out = ctx.close_all(
-        cam,
-        rig.pattern,
-        &photometry,
-        displays,
-        profiles,
-        open,
-        progress,
-    )?;
-    let movement_px = check_still(
-        &registration,
-        cam,
-        rig.pattern,
-        &response,
-        first,
-        opts.move_limit_px,
-    )?;
-    Ok(FlatFieldOutcome {
+    let starts = displays
+        .iter()
+        .zip(&open)
+        .map(|(info, (captured, _))| ctx.start(&photometry, info, captured))
+        .collect::<Result<Vec<_>, _>>()?;
+    let scale = white_scale(displays, profiles, &starts)?;
+    let calib = SavedCalibration {
         response,
         registration,
         photometry,
-        displays: out,
-        seconds: start.elapsed().as_secs_f64(),
-        movement_px,
-    })
+        scale,
+    };
+    Ok((calib, open))
 }
 
 impl Context<'_> {
@@ -224,7 +311,9 @@ impl Context<'_> {
         Ok((open, pairs))
     }
 
-    /// The closed loop of every display.
+    /// The closed loop of every display: from `open` (this run's open loops) or, on a
+    /// resumed run, from the checkpoint where a display is done and from a new
+    /// camera-only open loop where it is not. Each display is saved as it ends.
     #[expect(
         clippy::too_many_arguments,
         reason = "the stage's devices and its inputs"
@@ -233,49 +322,82 @@ impl Context<'_> {
         &self,
         cam: &mut dyn Camera,
         pattern: &mut dyn PatternOutput,
-        photometry: &CameraPhotometry,
+        calib: &SavedCalibration,
         displays: &[DisplayInfo],
         profiles: &[DisplayProfile],
-        open: Vec<Opened>,
+        open: Option<Vec<Opened>>,
         progress: &mut dyn FnMut(&str),
     ) -> Result<Vec<DisplayFlat>, CameraCalibError> {
-        let starts = displays
-            .iter()
-            .zip(&open)
-            .map(|(info, (captured, _))| self.start(photometry, info, captured))
-            .collect::<Result<Vec<_>, _>>()?;
-        let scale = white_scale(displays, profiles, &starts)?;
+        let mut open = open.map(|v| v.into_iter());
         let mut out = Vec::with_capacity(displays.len());
-        for ((info, (captured, frames)), mut start) in displays.iter().zip(open).zip(starts) {
-            let profile = profile_of(profiles, info)?;
-            start.level = profile.channel_usage.map(|u| (u * scale).clamp(0.01, 1.0));
-            let mut counting = Counting {
-                cam: &mut *cam,
-                frames,
-            };
-            let flat = self.close_loop(
-                &mut counting,
-                pattern,
-                photometry,
-                info,
-                profile,
-                captured,
-                start,
-            )?;
+        for info in displays {
+            let opened = open.as_mut().and_then(Iterator::next);
+            let saved = self
+                .opts
+                .checkpoint
+                .as_ref()
+                .and_then(|cp| cp.display(info.id.0, info.eye));
+            if let Some(flat) = saved.filter(|_| opened.is_none()) {
+                progress(&format!(
+                    "camera: {} flat field from the stopped run",
+                    info.name
+                ));
+                out.push(flat);
+                continue;
+            }
+            let flat = self.close_one(cam, pattern, calib, info, profiles, opened)?;
             progress(&format!(
                 "camera: {} flat field: iterations R/G/B {:?}, RMS residual {:.2} % → {:.2} %, {} frames",
                 info.name,
                 flat.iterations,
                 100.0 * flat.residual_open.iter().copied().fold(0.0, f64::max),
                 100.0 * flat.residual_final.iter().copied().fold(0.0, f64::max),
-                counting.frames
+                flat.frames
             ));
-            out.push(DisplayFlat {
-                frames: counting.frames,
-                ..flat
-            });
+            if let Some(cp) = &self.opts.checkpoint {
+                cp.save_display(info.eye, &flat)?;
+            }
+            out.push(flat);
         }
         Ok(out)
+    }
+
+    /// One display's closed loop, from its open loop (captured now if not given).
+    fn close_one(
+        &self,
+        cam: &mut dyn Camera,
+        pattern: &mut dyn PatternOutput,
+        calib: &SavedCalibration,
+        info: &DisplayInfo,
+        profiles: &[DisplayProfile],
+        opened: Option<Opened>,
+    ) -> Result<DisplayFlat, CameraCalibError> {
+        let profile = profile_of(profiles, info)?;
+        let mut counting = Counting {
+            cam: &mut *cam,
+            frames: opened.as_ref().map_or(0, |o| o.1),
+        };
+        let captured = match opened {
+            Some((captured, _)) => captured,
+            None => self.open_camera(&mut counting, pattern, info)?,
+        };
+        let mut start = self.start(&calib.photometry, info, &captured)?;
+        start.level = profile
+            .channel_usage
+            .map(|u| (u * calib.scale).clamp(0.01, 1.0));
+        let flat = self.close_loop(
+            &mut counting,
+            pattern,
+            &calib.photometry,
+            info,
+            profile,
+            captured,
+            start,
+        )?;
+        Ok(DisplayFlat {
+            frames: counting.frames,
+            ..flat
+        })
     }
 }
 
@@ -403,6 +525,27 @@ impl Context<'_> {
             .registration
             .pixels_of(info.id, ci.width_px, ci.height_px);
         capture_hdr(cam, self.response, &pixels, &what)
+    }
+
+    /// Dark frame and each channel at full drive, without the meter (a resumed run has
+    /// the meter's anchor already).
+    fn open_camera(
+        &self,
+        cam: &mut dyn Camera,
+        pattern: &mut dyn PatternOutput,
+        info: &DisplayInfo,
+    ) -> Result<OpenLoop, CameraCalibError> {
+        let shot = |cam: &mut dyn Camera, pattern: &mut dyn PatternOutput, d: [f64; 3]| {
+            self.capture(cam, pattern, info, Shown::Uniform(d), "open-loop capture")
+        };
+        Ok(OpenLoop {
+            dark: shot(cam, pattern, [0.0; 3])?,
+            channels: [
+                shot(cam, pattern, [1.0, 0.0, 0.0])?,
+                shot(cam, pattern, [0.0, 1.0, 0.0])?,
+                shot(cam, pattern, [0.0, 0.0, 1.0])?,
+            ],
+        })
     }
 
     /// Dark frame, each channel at full drive, and the meter at the anchor spots.
