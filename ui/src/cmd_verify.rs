@@ -166,7 +166,63 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
         }
     });
     pb.finish_and_clear();
-    print_report(&report?, &args)
+    let report = report?;
+    let truth = truth_report(&args, &profiles, &targets)?;
+    let verdict = print_report(&report, &args);
+    if let Some(t) = truth {
+        print_truth(&t, &args);
+    }
+    verdict
+}
+
+/// On the virtual wall with a noisy simulated meter: the same verification with a
+/// perfect meter (the simulator's truth), so the station meter's own error does not
+/// vanish from the verdict. `None` for a real meter or `--noise none`.
+fn truth_report(
+    args: &VerifyArgs,
+    profiles: &[lumiwall_profiles::DisplayProfile],
+    targets: &[lumiwall_calib::verify::Target],
+) -> Result<Option<VerifyReport>, CliError> {
+    use lumiwall_calib::station::{MeterChoice, Noise, StationOptions};
+    let simulated = !matches!(args.meter.meter, MeterChoice::Serial(_));
+    if !simulated || matches!(args.meter.noise, crate::cmd_commission::NoiseArg::None) {
+        return Ok(None);
+    }
+    let mut truth = Station::open(
+        &args.wall,
+        &StationOptions::new(MeterChoice::Direct, Noise::None),
+    )?;
+    let opts = VerifyOptions {
+        patches: targets.len(),
+        ..VerifyOptions::default()
+    };
+    Ok(Some(truth.verify(profiles, targets, &opts, &mut |_| {})?))
+}
+
+/// The truth's summary and its verdict against the same tolerances (printed; the exit
+/// code stays the station meter's).
+fn print_truth(report: &VerifyReport, args: &VerifyArgs) {
+    println!("\nas a perfect meter sees it (the simulator's truth, noiseless):");
+    print!("{}", report.summary_table());
+    let violations = report.violations(&tolerances(args));
+    if violations.is_empty() {
+        println!("truth: PASS");
+    } else {
+        println!("truth: outside tolerance:\n  {}", violations.join("\n  "));
+    }
+}
+
+/// The tolerances the arguments set.
+fn tolerances(args: &VerifyArgs) -> Tolerances {
+    Tolerances {
+        max_de: args.max_de,
+        median_de: args.median_de,
+        mean_de: args.mean_de,
+        white_de: args.white_de,
+        grey_balance: args.grey_balance,
+        black_dl_percent: args.black_dl,
+        black_dxy: args.black_dxy,
+    }
 }
 
 /// `verify --grid`: the spatial verification with the station's meter, and on the
@@ -244,15 +300,7 @@ fn print_report(report: &VerifyReport, args: &VerifyArgs) -> Result<(), CliError
     }
     print!("{}", report.summary_table());
     println!("{} meter readings", report.readings);
-    let tol = Tolerances {
-        max_de: args.max_de,
-        median_de: args.median_de,
-        mean_de: args.mean_de,
-        white_de: args.white_de,
-        grey_balance: args.grey_balance,
-        black_dl_percent: args.black_dl,
-        black_dxy: args.black_dxy,
-    };
+    let tol = tolerances(args);
     let violations = report.violations(&tol);
     if violations.is_empty() {
         println!(

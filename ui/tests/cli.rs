@@ -190,6 +190,55 @@ fn verify_chart_51_prints_mean_p95_white_and_grey_balance_and_judges_them() {
     );
 }
 
+/// With a simulated meter that errs like a real one, verify also reads the wall with
+/// a perfect meter and prints that verdict; with `--noise none` (already the truth)
+/// it does not.
+#[test]
+fn verify_with_a_realistic_simulated_meter_also_prints_the_truth() {
+    let tmp = TempDir::new().unwrap();
+    let profiles = commission_small_wall(tmp.path());
+    let mut realistic = lumiwall();
+    realistic
+        .args([
+            "verify",
+            "--meter",
+            "direct",
+            "--patches",
+            "5",
+            "--summary-only",
+        ])
+        .args(["--max-de", "50", "--median-de", "50", "--mean-de", "50"])
+        .args(["--grey-balance", "50", "--white-de", "50", "--wall"])
+        .arg(small_wall())
+        .arg("--profiles")
+        .arg(&profiles)
+        .assert()
+        .success()
+        .stdout(contains("as a perfect meter sees it"))
+        .stdout(contains("truth: PASS"));
+    verify(&small_wall(), &profiles)
+        .args([
+            "--patches",
+            "5",
+            "--summary-only",
+            "--max-de",
+            "50",
+            "--median-de",
+            "50",
+        ])
+        .args([
+            "--mean-de",
+            "50",
+            "--grey-balance",
+            "50",
+            "--white-de",
+            "50",
+        ])
+        .assert()
+        .success()
+        .stdout(contains("perfect meter").not());
+}
+
 #[test]
 fn verify_outside_tolerance_exits_with_3() {
     let tmp = TempDir::new().unwrap();
