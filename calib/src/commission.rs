@@ -333,14 +333,11 @@ pub fn measure_wall(
     };
     prepare_run_dir(&run_dir, &manifest, opts.resume)?;
 
+    warm_up_if_asked(wall, displays, rig, &run_dir, &keys, opts, progress)?;
     let mut measured: Vec<MeasuredDisplay> = Vec::with_capacity(displays.len());
     let mut resumed = Vec::new();
     let mut skipped: Vec<String> = Vec::new();
-    let white_xy = match opts.solve.white {
-        WhiteTarget::Xy(xy) => Some(xy),
-        WhiteTarget::Cct(k) => cct_to_xy(k).ok(),
-        WhiteTarget::NativeOf(_) => None,
-    };
+    let white_xy = target_white_xy(opts);
     for (i, (info, key)) in displays.iter().zip(&keys).enumerate() {
         // Focus the ramps on the part of each channel the common white will use; the
         // wall white can be no brighter than what every display measured so far reaches.
@@ -391,6 +388,46 @@ pub fn measure_wall(
         });
     }
     Ok((measured, resumed))
+}
+
+/// The target white's chromaticity when it is known before measuring.
+fn target_white_xy(opts: &CommissionOptions) -> Option<[f64; 2]> {
+    match opts.solve.white {
+        WhiteTarget::Xy(xy) => Some(xy),
+        WhiteTarget::Cct(k) => cct_to_xy(k).ok(),
+        WhiteTarget::NativeOf(_) => None,
+    }
+}
+
+/// [`MeasureOptions::warm_up`]: waits for the wall on its first display, unless every
+/// display is taken from an earlier run.
+fn warm_up_if_asked(
+    wall: &str,
+    displays: &[DisplayInfo],
+    rig: &mut Rig<'_>,
+    run_dir: &Path,
+    keys: &[DisplayKey],
+    opts: &CommissionOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(), CommissionError> {
+    let (Some(w), Some(first)) = (&opts.measure.warm_up, displays.first()) else {
+        return Ok(());
+    };
+    let all_saved = opts.resume
+        && keys
+            .iter()
+            .all(|k| load_measurement(&measurement_path(run_dir, k)).is_ok_and(|m| m.is_some()));
+    if all_saved {
+        return Ok(());
+    }
+    crate::measure::warm_up::wait_for_warm_up(rig, wall, first, &opts.measure, w, progress)
+        .map_err(|source| CommissionError::Interrupted {
+            source,
+            saved: 0,
+            total: displays.len(),
+            run_dir: run_dir.to_path_buf(),
+        })?;
+    Ok(())
 }
 
 /// The solving half of [`commission`]: solve, write profiles and report.

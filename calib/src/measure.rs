@@ -37,6 +37,7 @@
 )]
 
 pub mod meter_offset;
+pub mod warm_up;
 
 use lumiwall_core::{BitDepth, Channel};
 use lumiwall_devices::{
@@ -107,6 +108,10 @@ pub struct MeasureOptions {
     /// Where the ramps should be dense: the part of each channel that the common white
     /// will use. `None` spreads samples over the whole ramp.
     pub focus: Option<RampFocus>,
+    /// Before the first display: wait until the wall has warmed up ([`warm_up`]);
+    /// `None` starts at once.
+    #[serde(default)]
+    pub warm_up: Option<warm_up::WarmUp>,
 }
 
 /// Information to concentrate ramp samples on the used part of each channel.
@@ -141,6 +146,7 @@ impl Default for MeasureOptions {
             measure_white: true,
             primary_repeats: None,
             focus: None,
+            warm_up: None,
         }
     }
 }
@@ -276,6 +282,16 @@ pub enum Progress {
         /// Readings it cost.
         readings: u32,
     },
+    /// Waiting for a cold wall ([`warm_up`]): the white's luminance trend over the last
+    /// window of readings.
+    WarmingUp {
+        /// Readings so far.
+        readings: u32,
+        /// Luminance change over the window (percent).
+        change_percent: f64,
+    },
+    /// The wall is warm: the wait is over.
+    WarmedUp(warm_up::WarmUpReport),
     /// A display's measurement was taken from an earlier, interrupted run.
     Resumed {
         /// The display.
@@ -380,6 +396,20 @@ pub enum MeasureError {
         /// The device error.
         #[source]
         source: DeviceError,
+    },
+    /// The wall did not settle while waiting for it to warm up.
+    #[error(
+        "{display}: still drifting after {readings} readings of its white (the luminance \
+         changed {change_percent:+.2} % over the last window); check the lamp mode (eco, \
+         dynamic iris), room temperature and ventilation, or wait longer"
+    )]
+    NotWarm {
+        /// Display watched.
+        display: String,
+        /// Readings taken.
+        readings: u32,
+        /// The last window's change (percent).
+        change_percent: f64,
     },
     /// The reading budget cannot cover a calibration.
     #[error(

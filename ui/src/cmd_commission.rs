@@ -175,6 +175,11 @@ pub(crate) struct CommissionArgs {
     /// Continue an interrupted run from the measurements saved in OUT/run.
     #[arg(long)]
     resume: bool,
+    /// A cold wall: before measuring, read the first display's white until its
+    /// luminance changes by less than 0.05 % over 120 readings (printed as it goes), so
+    /// that the first and the last display are measured at the same lamp state.
+    #[arg(long)]
+    warm_up: bool,
     /// Fault injection for demonstrations and tests: the emulated meter stops answering
     /// after this many readings (`--meter emulated` only).
     #[arg(long, hide = true)]
@@ -213,6 +218,9 @@ impl CommissionArgs {
             measure: MeasureOptions {
                 budget: self.budget,
                 low_light: self.low_light,
+                warm_up: self
+                    .warm_up
+                    .then(lumiwall_calib::measure::warm_up::WarmUp::default),
                 ..MeasureOptions::default()
             },
             solve: self.solve.solve_options()?,
@@ -282,6 +290,26 @@ impl ProgressReport {
                     self.name_of(display.0)
                 ));
             }
+            Progress::WarmingUp {
+                readings,
+                change_percent,
+            } => {
+                if readings % 120 == 0 {
+                    say(
+                        &self.bar,
+                        format!(
+                            "warming up: {readings} readings of the white, luminance still changing {change_percent:+.2} % per 120 readings"
+                        ),
+                    );
+                }
+            }
+            Progress::WarmedUp(r) => say(
+                &self.bar,
+                format!(
+                    "warm: after {} readings of the white the luminance changes {:+.3} % per 120 readings (it changed {:+.2} % at first)",
+                    r.readings, r.last_change_percent, r.first_change_percent
+                ),
+            ),
             Progress::Resumed { display, readings } => {
                 self.display_finished(format!(
                     "{:<28} {readings:>3} readings (saved by the interrupted run)",

@@ -113,6 +113,30 @@ fn commission_reports_a_meter_that_stops_and_resume_completes() {
         .stdout(contains("saved by the interrupted run"));
 }
 
+/// `--warm-up` on a wall switched on two minutes ago: the wait is printed as it goes
+/// and when the wall is warm.
+#[test]
+fn commission_warm_up_prints_the_drift_until_the_wall_is_warm() {
+    let tmp = TempDir::new().unwrap();
+    lumiwall()
+        .args([
+            "commission",
+            "--meter",
+            "direct",
+            "--noise",
+            "none",
+            "--warm-up",
+        ])
+        .arg("--wall")
+        .arg(fixture("walls/cold-start-2x2.toml"))
+        .arg("--out")
+        .arg(tmp.path().join("out"))
+        .assert()
+        .success()
+        .stdout(contains("warming up: 120 readings of the white"))
+        .stdout(contains("warm: after"));
+}
+
 /// `lumiwall verify` of `profiles` on `wall` with the exact, direct meter.
 fn verify(wall: &Path, profiles: &Path) -> Command {
     let mut cmd = lumiwall();
