@@ -310,6 +310,10 @@ pub struct VerifyReport {
     pub black: Vec<BlackResult>,
     /// Meter readings taken.
     pub readings: u32,
+    /// Infitec walls: ΔE2000 between the left and the right eye's readings of the same
+    /// target on the same tile (what a viewer sees as a stereo colour mismatch).
+    #[serde(default)]
+    pub eyes_delta_e2000: Vec<f64>,
 }
 
 impl VerifyReport {
@@ -395,6 +399,15 @@ impl VerifyReport {
             s.push_str(&row(&key.file_stem(), m));
         }
         s.push_str(&row("OVERALL", &self.overall));
+        if !self.eyes_delta_e2000.is_empty() {
+            let mut v = self.eyes_delta_e2000.clone();
+            s.push_str(&format!(
+                "left/right eyes at the same patches: median ΔE2000 {:.3}, max {:.3} ({} pairs)\n",
+                median(&mut v),
+                max(&v),
+                v.len()
+            ));
+        }
         if !self.black.is_empty() {
             s.push_str("\ncommon black check (input 0 on every display)\n");
             s.push_str("display          exp Y cd/m²  meas Y cd/m²    ΔL %     Δxy\n");
@@ -723,6 +736,7 @@ pub fn verify_wall(
     let mut patches = Vec::new();
     let mut per_display = Vec::new();
     let mut black = Vec::new();
+    let mut whites = Vec::new();
     let mut readings = 0;
     let mut mopts = opts.measure.clone();
     mopts.budget = u32::MAX;
@@ -751,6 +765,7 @@ pub fn verify_wall(
                 Xyz::from_array(profile.target_white_xyz_cd_m2),
             ),
         };
+        whites.push((key.clone(), display.reference_white));
         let mut s = Session::start(rig, key, info.id, opts.spot_uv, &mopts)?;
         let start = patches.len();
         for t in targets {
@@ -767,6 +782,7 @@ pub fn verify_wall(
         });
     }
     let overall = Summary::of(&patches);
+    let eyes_delta_e2000 = eye_differences(&patches, &whites);
     Ok(VerifyReport {
         targets: targets.to_vec(),
         patches,
@@ -774,5 +790,26 @@ pub fn verify_wall(
         overall,
         black,
         readings,
+        eyes_delta_e2000,
     })
+}
+
+/// ΔE2000 between each left-eye patch and the right-eye patch of the same target on the
+/// same tile, in CIELAB of the left display's reference white (`whites`).
+fn eye_differences(patches: &[PatchResult], whites: &[(DisplayKey, Xyz)]) -> Vec<f64> {
+    let same_tile =
+        |a: &DisplayKey, b: &DisplayKey| a.tile_col == b.tile_col && a.tile_row == b.tile_row;
+    patches
+        .iter()
+        .filter(|l| l.display.eye == lumiwall_core::Eye::Left)
+        .filter_map(|l| {
+            let r = patches.iter().find(|r| {
+                r.display.eye == lumiwall_core::Eye::Right
+                    && same_tile(&r.display, &l.display)
+                    && r.target == l.target
+            })?;
+            let white = whites.iter().find(|(k, _)| *k == l.display)?.1;
+            Some(delta_e2000_xyz(l.measured, r.measured, white))
+        })
+        .collect()
 }

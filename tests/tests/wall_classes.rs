@@ -41,6 +41,41 @@ fn additivity_warnings(w: &[SolveWarning]) -> usize {
         .count()
 }
 
+/// On an Infitec wall verify pairs every left-eye patch with the right eye's on the
+/// same tile (the stereo colour mismatch a viewer sees); a mono wall has no pairs.
+#[test]
+fn verify_compares_the_eyes_on_infitec_walls_only() {
+    for (file, pairs) in [("dlp-infitec-2x1.toml", 2 * 51), ("cold-start-2x2.toml", 0)] {
+        let mut station = support::direct_station(file, Noise::None);
+        let out = tempfile::tempdir().expect("tmp");
+        let opts = support::options_8500k(MeasureOptions::default(), BlackMode::Individual, false);
+        let o = station
+            .commission(out.path(), &opts, &mut |_| {})
+            .expect("commission");
+        let targets = chart_targets(&o.solution.profiles).expect("chart");
+        let report = station
+            .verify(
+                &o.solution.profiles,
+                &targets,
+                &VerifyOptions::default(),
+                &mut |_| {},
+            )
+            .expect("verify");
+        assert_eq!(report.eyes_delta_e2000.len(), pairs, "{file}");
+        assert!(
+            report
+                .eyes_delta_e2000
+                .iter()
+                .all(|d| d.is_finite() && *d >= 0.0)
+        );
+        assert_eq!(
+            report.summary_table().contains("left/right eyes"),
+            pairs > 0,
+            "{file}"
+        );
+    }
+}
+
 #[test]
 fn the_white_segment_dlp_wall_is_flagged_non_additive_on_every_display() {
     let w = commission_and_verify("dlp-infitec-2x1.toml");
