@@ -167,6 +167,9 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
     });
     pb.finish_and_clear();
     let report = report?;
+    // The truth opens the wall again: let go of its outputs first (a networked wall's
+    // pattern servers serve one station at a time).
+    drop(station);
     let truth = truth_report(&args, &profiles, &targets)?;
     let verdict = print_report(&report, &args);
     if let Some(t) = truth {
