@@ -411,6 +411,17 @@ pub enum MeasureError {
         /// The last window's change (percent).
         change_percent: f64,
     },
+    /// While waiting for the wall to warm up, its white showed no light.
+    #[error(
+        "{display}: its white reads no light while waiting for the wall to warm up \
+         ({readings} readings); is the projector on, its shutter open and the meter aimed at it?"
+    )]
+    DarkWhileWarming {
+        /// Display watched.
+        display: String,
+        /// Readings taken.
+        readings: u32,
+    },
     /// The reading budget cannot cover a calibration.
     #[error(
         "a budget of {budget} readings per display is too small: at least {min} are needed \

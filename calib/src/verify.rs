@@ -797,18 +797,25 @@ pub fn verify_wall(
 /// ΔE2000 between each left-eye patch and the right-eye patch of the same target on the
 /// same tile, in CIELAB of the left display's reference white (`whites`).
 fn eye_differences(patches: &[PatchResult], whites: &[(DisplayKey, Xyz)]) -> Vec<f64> {
-    let same_tile =
-        |a: &DisplayKey, b: &DisplayKey| a.tile_col == b.tile_col && a.tile_row == b.tile_row;
+    use lumiwall_core::Eye;
+    let right: std::collections::HashMap<(u32, u32, &str), &PatchResult> = patches
+        .iter()
+        .filter(|r| r.display.eye == Eye::Right)
+        .map(|r| {
+            (
+                (r.display.tile_col, r.display.tile_row, r.target.as_str()),
+                r,
+            )
+        })
+        .collect();
+    let whites: std::collections::HashMap<&DisplayKey, Xyz> =
+        whites.iter().map(|(k, w)| (k, *w)).collect();
     patches
         .iter()
-        .filter(|l| l.display.eye == lumiwall_core::Eye::Left)
+        .filter(|l| l.display.eye == Eye::Left)
         .filter_map(|l| {
-            let r = patches.iter().find(|r| {
-                r.display.eye == lumiwall_core::Eye::Right
-                    && same_tile(&r.display, &l.display)
-                    && r.target == l.target
-            })?;
-            let white = whites.iter().find(|(k, _)| *k == l.display)?.1;
+            let r = right.get(&(l.display.tile_col, l.display.tile_row, l.target.as_str()))?;
+            let white = *whites.get(&l.display)?;
             Some(delta_e2000_xyz(l.measured, r.measured, white))
         })
         .collect()

@@ -347,6 +347,18 @@ fn a_camera_stage_stopped_in_the_last_loop_resumes_to_the_same_flat_fields() {
         );
         assert!(a.flat.gain.len() == b.flat.gain.len() && worst < 0.005);
     }
+    // Profiles solved anew (another white): the checkpoint is not theirs.
+    let mut other = profiles.clone();
+    for p in &mut other {
+        p.channel_usage = p.channel_usage.map(|u| 0.9 * u);
+    }
+    let (_, _, lines) = stage_stopping_after(&w, &mut station, &other, u32::MAX, &resume);
+    assert!(
+        lines
+            .iter()
+            .any(|l| l.contains("belongs to other profiles")),
+        "{lines:#?}"
+    );
 }
 
 /// The loop's convergence with more iterations than the default, on the Lambertian

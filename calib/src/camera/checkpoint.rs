@@ -27,6 +27,9 @@ pub struct SavedCalibration {
     pub photometry: CameraPhotometry,
     /// The strict white's scale the loop runs at (from every display's open loop).
     pub scale: f64,
+    /// Fingerprint of the profiles the loop ran for (see `measure_flat_fields`).
+    #[serde(default)]
+    pub profiles: String,
 }
 
 /// The checkpoint folder of one camera stage.

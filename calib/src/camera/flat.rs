@@ -157,7 +157,7 @@ pub fn measure_flat_fields(
     let first = displays
         .get(displays.len() / 2)
         .ok_or_else(|| CameraCalibError::Fit("the wall has no displays".into()))?;
-    let (calib, open) = match resumable(cam, rig.pattern, first, opts, progress)? {
+    let (calib, open) = match resumable(cam, rig.pattern, first, profiles, opts, progress)? {
         Some(saved) => (saved, None),
         None => {
             let (calib, open) = calibrate(cam, rig, displays, profiles, opts, progress)?;
@@ -198,6 +198,7 @@ fn resumable(
     cam: &mut dyn Camera,
     pattern: &mut dyn PatternOutput,
     first: &DisplayInfo,
+    profiles: &[DisplayProfile],
     opts: &FlatFieldOptions,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Option<SavedCalibration>, CameraCalibError> {
@@ -209,6 +210,13 @@ fn resumable(
         cp.clear()?;
         return Ok(None);
     };
+    if saved.profiles != profiles_fingerprint(profiles) {
+        progress(
+            "camera: the stopped run's checkpoint belongs to other profiles; starting the camera stage again",
+        );
+        cp.clear()?;
+        return Ok(None);
+    }
     match check_still(
         &saved.registration,
         cam,
@@ -231,8 +239,31 @@ fn resumable(
             cp.clear()?;
             Ok(None)
         }
-        Err(e) => Err(e),
+        Err(CameraCalibError::Device { what, source }) => {
+            Err(CameraCalibError::Device { what, source })
+        }
+        Err(e) => {
+            progress(&format!(
+                "camera: the stopped run's registration no longer fits ({e}); starting the camera stage again"
+            ));
+            cp.clear()?;
+            Ok(None)
+        }
     }
+}
+
+/// What the camera stage's loop depends on in the profiles (display, eye, channel
+/// usage, white), as a short text: a checkpoint made for other profiles is not reused.
+fn profiles_fingerprint(profiles: &[DisplayProfile]) -> String {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for p in profiles {
+        p.display.hash(&mut h);
+        for v in p.channel_usage.iter().chain(&p.target_white_xyz_cd_m2) {
+            v.to_bits().hash(&mut h);
+        }
+    }
+    format!("{:016x}", h.finish())
 }
 
 /// Response curve, registration, every display's open loop with the meter, the
@@ -280,6 +311,7 @@ fn calibrate(
         registration,
         photometry,
         scale,
+        profiles: profiles_fingerprint(profiles),
     };
     Ok((calib, open))
 }
@@ -469,8 +501,9 @@ impl Context<'_> {
         let radii: Vec<f64> = spots
             .iter()
             .filter_map(|&uv| self.registration.to_camera(info.id, uv))
-            .map(|p| self.rho(p))
+            .map(|p| self.rho(p).powi(2))
             .collect();
+        // ρ², as the anchor's fit counts them (`vignetting_terms`).
         if crate::camera::anchor::distinct_levels(&radii) < 3 {
             spots.extend(EDGE_SPOTS);
         }

@@ -84,10 +84,20 @@ pub fn wait_for_warm_up(
     let mut s = Session::start(rig, &key, info.id, opts.spot_uv, &session_opts)?;
     let mut y: Vec<f64> = Vec::with_capacity(window * 4);
     let mut first = None;
+    let mut dark = 0;
     while s.remaining() > 0 {
-        let Some(x) = s.sample(Patch::White, false, &mut |_| {})? else {
+        let reading = s.sample(Patch::White, false, &mut |_| {})?;
+        let Some(x) = reading.filter(|x| x.y > 0.0) else {
+            dark += 1;
+            if dark >= window {
+                return Err(MeasureError::DarkWhileWarming {
+                    display: info.name.clone(),
+                    readings: s.log.readings,
+                });
+            }
             continue;
         };
+        dark = 0;
         y.push(x.y);
         if y.len() < window {
             continue;
