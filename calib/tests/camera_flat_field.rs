@@ -112,6 +112,19 @@ fn print_per_display(
     }
 }
 
+/// The one-tile `infitec-pair` wall with its painted-wood highlight removed (a
+/// Lambertian screen), with `extra` TOML appended.
+fn lambertian_infitec_pair(extra: &str) -> VirtualWall {
+    let path = format!(
+        "{}/../fixtures/walls/infitec-pair.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let text = std::fs::read_to_string(path).expect("fixture");
+    assert!(text.contains("specular_gain = 0.35"));
+    let lambertian = text.replace("specular_gain = 0.35", "specular_gain = 0.0");
+    VirtualWall::from_toml_str(&format!("{lambertian}\n{extra}")).expect("wall")
+}
+
 /// A station on `w` with the direct meter (`noise`) and the wall commissioned with
 /// [`commission_options`] into a temporary folder: the station and its profiles.
 fn commissioned(w: &VirtualWall, noise: Noise) -> (Station, Vec<DisplayProfile>) {
@@ -366,18 +379,9 @@ fn a_camera_stage_stopped_in_the_last_loop_resumes_to_the_same_flat_fields() {
 #[test]
 #[ignore = "a probe: prints how the residual falls over eight iterations"]
 fn closed_loop_residual_over_eight_iterations() {
-    let path = format!(
-        "{}/../fixtures/walls/infitec-pair.toml",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let text = std::fs::read_to_string(path).expect("fixture");
     // LUMIWALL_PROBE_TOML adds to the wall file (e.g. "[camera]\nbits = 12").
     let extra = std::env::var("LUMIWALL_PROBE_TOML").unwrap_or_default();
-    let w = VirtualWall::from_toml_str(&format!(
-        "{}\n{extra}",
-        text.replace("specular_gain = 0.35", "specular_gain = 0.0")
-    ))
-    .expect("wall");
+    let w = lambertian_infitec_pair(&extra);
     let (mut station, profiles) = commissioned(&w, Noise::None);
     let mut cam = VirtualCamera::new(&w, false).expect("camera");
     let opts = FlatFieldOptions {
@@ -420,15 +424,7 @@ fn closed_loop_residual_over_eight_iterations() {
 /// lens (an open limit, noted in the closing note).
 #[test]
 fn a_one_tile_wall_gets_more_meter_spots_and_a_sound_vignetting_fit() {
-    let path = format!(
-        "{}/../fixtures/walls/infitec-pair.toml",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    let text = std::fs::read_to_string(path).expect("fixture");
-    assert!(text.contains("specular_gain = 0.35"));
-    let w =
-        VirtualWall::from_toml_str(&text.replace("specular_gain = 0.35", "specular_gain = 0.0"))
-            .expect("wall");
+    let w = lambertian_infitec_pair("");
     let (mut station, profiles) = commissioned(&w, Noise::None);
     let mut cam = VirtualCamera::new(&w, false).expect("camera");
     let mut lines = Vec::new();

@@ -9,12 +9,12 @@ mod support;
 use lumiwall_calib::measure::MeasureOptions;
 use lumiwall_calib::solve::SolveWarning;
 use lumiwall_calib::station::Noise;
-use lumiwall_calib::verify::{VerifyOptions, chart_targets};
+use lumiwall_calib::verify::{VerifyOptions, VerifyReport, chart_targets};
 use lumiwall_profiles::BlackMode;
 
 /// Commissions `file` noiseless and verifies it with the 51-patch chart: the solve's
-/// warnings, printed with the verification's OVERALL row.
-fn commission_and_verify(file: &str) -> Vec<SolveWarning> {
+/// warnings and the verification, whose OVERALL row is printed.
+fn commission_and_verify(file: &str) -> (Vec<SolveWarning>, VerifyReport) {
     let mut station = support::direct_station(file, Noise::None);
     let out = tempfile::tempdir().expect("tmp");
     let opts = support::options_8500k(MeasureOptions::default(), BlackMode::Individual, false);
@@ -32,7 +32,7 @@ fn commission_and_verify(file: &str) -> Vec<SolveWarning> {
         .find(|l| l.starts_with("OVERALL"))
         .unwrap_or("");
     eprintln!("{file}: {overall}");
-    o.solution.warnings
+    (o.solution.warnings, report)
 }
 
 fn additivity_warnings(w: &[SolveWarning]) -> usize {
@@ -46,21 +46,7 @@ fn additivity_warnings(w: &[SolveWarning]) -> usize {
 #[test]
 fn verify_compares_the_eyes_on_infitec_walls_only() {
     for (file, pairs) in [("dlp-infitec-2x1.toml", 2 * 51), ("cold-start-2x2.toml", 0)] {
-        let mut station = support::direct_station(file, Noise::None);
-        let out = tempfile::tempdir().expect("tmp");
-        let opts = support::options_8500k(MeasureOptions::default(), BlackMode::Individual, false);
-        let o = station
-            .commission(out.path(), &opts, &mut |_| {})
-            .expect("commission");
-        let targets = chart_targets(&o.solution.profiles).expect("chart");
-        let report = station
-            .verify(
-                &o.solution.profiles,
-                &targets,
-                &VerifyOptions::default(),
-                &mut |_| {},
-            )
-            .expect("verify");
+        let (_, report) = commission_and_verify(file);
         assert_eq!(report.eyes_delta_e2000.len(), pairs, "{file}");
         assert!(
             report
@@ -78,7 +64,7 @@ fn verify_compares_the_eyes_on_infitec_walls_only() {
 
 #[test]
 fn the_white_segment_dlp_wall_is_flagged_non_additive_on_every_display() {
-    let w = commission_and_verify("dlp-infitec-2x1.toml");
+    let (w, _) = commission_and_verify("dlp-infitec-2x1.toml");
     assert_eq!(additivity_warnings(&w), 4, "{w:?}");
 }
 
@@ -89,14 +75,14 @@ fn the_additive_wall_classes_commission_without_an_additivity_warning() {
         "offaxis-gain-2x1.toml",
         "weak-channel-3x1.toml",
     ] {
-        let w = commission_and_verify(file);
+        let (w, _) = commission_and_verify(file);
         assert_eq!(additivity_warnings(&w), 0, "{file}: {w:?}");
     }
 }
 
 #[test]
 fn a_very_weak_blue_limits_the_white_and_says_which_channels_are_barely_used() {
-    let w = commission_and_verify("weak-channel-3x1.toml");
+    let (w, _) = commission_and_verify("weak-channel-3x1.toml");
     let low = w
         .iter()
         .filter(|w| w.to_string().contains("used for the white"))

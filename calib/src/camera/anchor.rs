@@ -85,10 +85,13 @@ impl CameraPhotometry {
     /// without a matrix.
     pub fn xyz(&self, eye: Eye, rgb: [f64; 3], rho: f64) -> Option<[f64; 3]> {
         let m = self.matrices.iter().find(|(e, _)| *e == eye)?.1;
+        Some(self.through(&m, rgb, rho))
+    }
+
+    /// `rgb` at radius `rho` through matrix `m`, vignetting corrected.
+    fn through(&self, m: &[[f64; 3]; 3], rgb: [f64; 3], rho: f64) -> [f64; 3] {
         let k = self.vignetting_factor(rho);
-        Some(std::array::from_fn(|r| {
-            k * (m[r][0] * rgb[0] + m[r][1] * rgb[1] + m[r][2] * rgb[2])
-        }))
+        std::array::from_fn(|r| k * (m[r][0] * rgb[0] + m[r][1] * rgb[1] + m[r][2] * rgb[2]))
     }
 
     /// Largest luminance (%) and xy disagreement with the meter over the white spots
@@ -162,14 +165,10 @@ impl CameraPhotometry {
             q.display == p.display && q.eye == p.eye && q.uv != p.uv
         })
         .ok();
-        let Some(m) = own else {
-            return self.xyz(p.eye, p.camera_rgb, p.radius);
-        };
-        let k = self.vignetting_factor(p.radius);
-        let rgb = p.camera_rgb;
-        Some(std::array::from_fn(|r| {
-            k * (m[r][0] * rgb[0] + m[r][1] * rgb[1] + m[r][2] * rgb[2])
-        }))
+        match own {
+            Some(m) => Some(self.through(&m, p.camera_rgb, p.radius)),
+            None => self.xyz(p.eye, p.camera_rgb, p.radius),
+        }
     }
 }
 

@@ -160,7 +160,7 @@ pub fn measure_flat_fields(
     let (calib, open) = match resumable(cam, rig.pattern, first, profiles, opts, progress)? {
         Some(saved) => (saved, None),
         None => {
-            let (calib, open) = calibrate(cam, rig, displays, profiles, opts, progress)?;
+            let (calib, open) = calibrate(cam, rig, first, displays, profiles, opts, progress)?;
             if let Some(cp) = &opts.checkpoint {
                 cp.save_calibration(&calib)?;
             }
@@ -268,17 +268,16 @@ fn profiles_fingerprint(profiles: &[DisplayProfile]) -> String {
 
 /// Response curve, registration, every display's open loop with the meter, the
 /// anchor's fit and the loop level: everything the loops of all displays share.
+/// `first` is the display the response curve is measured on.
 fn calibrate(
     cam: &mut dyn Camera,
     rig: &mut Rig<'_>,
+    first: &DisplayInfo,
     displays: &[DisplayInfo],
     profiles: &[DisplayProfile],
     opts: &FlatFieldOptions,
     progress: &mut dyn FnMut(&str),
 ) -> Result<(SavedCalibration, Vec<Opened>), CameraCalibError> {
-    let first = displays
-        .get(displays.len() / 2)
-        .ok_or_else(|| CameraCalibError::Fit("the wall has no displays".into()))?;
     progress("camera: response curve from an exposure series");
     let response = calibrate_response(cam, rig.pattern, first)?;
     progress("camera: registering every display (dot grids)");
@@ -560,8 +559,8 @@ impl Context<'_> {
         capture_hdr(cam, self.response, &pixels, &what)
     }
 
-    /// Dark frame and each channel at full drive, without the meter (a resumed run has
-    /// the meter's anchor already).
+    /// Dark frame and each channel at full drive, without the meter (what a resumed
+    /// run needs; [`Self::open_loop`] adds the meter).
     fn open_camera(
         &self,
         cam: &mut dyn Camera,
@@ -572,7 +571,7 @@ impl Context<'_> {
             self.capture(cam, pattern, info, Shown::Uniform(d), "open-loop capture")
         };
         Ok(OpenLoop {
-            dark: shot(cam, pattern, [0.0; 3])?,
+            dark: self.capture(cam, pattern, info, Shown::Uniform([0.0; 3]), "dark frame")?,
             channels: [
                 shot(cam, pattern, [1.0, 0.0, 0.0])?,
                 shot(cam, pattern, [0.0, 1.0, 0.0])?,
@@ -581,7 +580,8 @@ impl Context<'_> {
         })
     }
 
-    /// Dark frame, each channel at full drive, and the meter at the anchor spots.
+    /// The camera's open loop ([`Self::open_camera`]) plus white, and the meter at the
+    /// anchor spots showing black, each channel and white.
     fn open_loop(
         &self,
         cam: &mut dyn Camera,
@@ -589,38 +589,31 @@ impl Context<'_> {
         info: &DisplayInfo,
         pairs: &mut Vec<SpotPair>,
     ) -> Result<OpenLoop, CameraCalibError> {
-        let dark = self.capture(
+        let open = self.open_camera(cam, rig.pattern, info)?;
+        let white = self.capture(
             cam,
             rig.pattern,
             info,
-            Shown::Uniform([0.0; 3]),
-            "dark frame",
+            Shown::Uniform([1.0; 3]),
+            "open-loop capture",
         )?;
         let spots = self.meter_spots(info);
         let blacks = spots
             .iter()
             .map(|&uv| read_meter(rig, info, uv, [0.0; 3]))
             .collect::<Result<Vec<_>, _>>()?;
-        let mut channels = Vec::with_capacity(3);
-        for drive in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0; 3]] {
-            let img = self.capture(
-                cam,
-                rig.pattern,
-                info,
-                Shown::Uniform(drive),
-                "open-loop capture",
-            )?;
+        let shots = [
+            ([1.0, 0.0, 0.0], &open.channels[0]),
+            ([0.0, 1.0, 0.0], &open.channels[1]),
+            ([0.0, 0.0, 1.0], &open.channels[2]),
+            ([1.0; 3], &white),
+        ];
+        for (drive, img) in shots {
             for (&uv, &black) in spots.iter().zip(&blacks) {
-                self.pair(rig, info, &img, &dark, drive, uv, black, pairs)?;
-            }
-            if drive != [1.0; 3] {
-                channels.push(img);
+                self.pair(rig, info, img, &open.dark, drive, uv, black, pairs)?;
             }
         }
-        let channels: [HdrImage; 3] = channels
-            .try_into()
-            .map_err(|_| CameraCalibError::Fit("three channels expected".into()))?;
-        Ok(OpenLoop { dark, channels })
+        Ok(open)
     }
 
     /// Reads the meter at `uv` showing `drive` and pairs it with the camera there.
