@@ -27,8 +27,8 @@ use std::fmt;
 use lumiwall_core::{BitDepth, Channel, Headroom, Xy};
 use lumiwall_devices::Xyz;
 use lumiwall_profiles::{
-    BlackMode, DisplayKey, DisplayProfile, FORMAT_VERSION, MIN_LUT_ENTRIES, MeasurementInfo,
-    OutOfGamut, ToneCurve,
+    BlackMode, DisplayKey, DisplayModel, DisplayProfile, FORMAT_VERSION, MIN_LUT_ENTRIES,
+    MeasurementInfo, OutOfGamut, ToneCurve,
 };
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -45,6 +45,17 @@ const LOW_USAGE_FRACTION: f64 = 0.25;
 /// A display's own black counts as outside its gamut when a channel intensity of it is
 /// below `−BLACK_OUTSIDE_TOLERANCE` (rounding of the matrix inverse).
 const BLACK_OUTSIDE_TOLERANCE: f64 = 1e-9;
+
+/// Smallest white-segment luminance, as a share of the full white's, that the solve
+/// models ([`DisplayModel::WhiteSegment`]); below it the display counts as additive (a
+/// residual of about meter noise must not become a model term).
+pub const MIN_WHITE_SEGMENT_SHARE: f64 = 0.01;
+
+/// Largest negative component of a white segment in channel intensities, relative to its
+/// largest one, still taken for a white segment (a clear segment passes the lamp's
+/// light, a positive mixture of the primaries; noise may push one component slightly
+/// below zero).
+const WHITE_SEGMENT_NEGATIVE_SHARE: f64 = 0.1;
 
 /// Everything measured on one display (one projector, one eye) for the solve.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -155,7 +166,16 @@ pub enum SolveWarning {
         /// Channel intensities of the black.
         intensities: [f64; 3],
     },
-    /// The additivity error exceeds [`SolveOptions::max_additivity_error`].
+    /// The display is not additive and its white reading was modelled as a single-chip
+    /// DLP's white segment ([`DisplayModel::WhiteSegment`]).
+    WhiteSegment {
+        /// Display name.
+        display: String,
+        /// Luminance of the white segment as a share of the full white's.
+        share: f64,
+    },
+    /// The additivity error exceeds [`SolveOptions::max_additivity_error`] and is not a
+    /// white segment.
     Additivity {
         /// Display name.
         display: String,
@@ -194,6 +214,11 @@ impl fmt::Display for SolveWarning {
                 f,
                 "{display}: black lies outside its own gamut (channel intensities {:.4}, {:.4}, {:.4})",
                 own[0], own[1], own[2]
+            ),
+            SolveWarning::WhiteSegment { display, share } => write!(
+                f,
+                "{display}: not additive: a white segment of {:.1} % of the full white's luminance (single-chip DLP); modelled as white ∝ min(R, G, B) and inverted by the profile",
+                100.0 * share
             ),
             SolveWarning::Additivity {
                 display,
@@ -236,6 +261,58 @@ struct Prepared {
     black: Vector3<f64>,
     curves: Option<[ToneCurve; 3]>,
     additivity_error: Option<f64>,
+    /// How the channels mix (a white segment when the white reading shows one).
+    model: DisplayModel,
+}
+
+impl Prepared {
+    /// Channel intensities that show `XYZ − black = P·m` on this display
+    /// ([`DisplayModel::channels_for`]).
+    fn channels_for(&self, m: Vector3<f64>) -> Vector3<f64> {
+        Vector3::from(self.model.channels_for(&rows(&self.p_inv), arr(&m)))
+    }
+
+    /// Share of the full white's luminance that the white segment gives (0 additive).
+    fn white_segment_share(&self) -> f64 {
+        match self.model {
+            DisplayModel::Additive => 0.0,
+            DisplayModel::WhiteSegment { white_xyz_cd_m2: w } => {
+                let full = self.p.row(1).sum() + w[1];
+                if full > 0.0 { w[1] / full } else { 0.0 }
+            }
+        }
+    }
+}
+
+/// The display model the white reading asks for: a white segment when the white holds
+/// more light than R + G + B (at least [`MIN_WHITE_SEGMENT_SHARE`] of its luminance)
+/// and that light is a positive mix of the primaries; otherwise additive (and a
+/// remaining additivity error is the solve's warning).
+fn display_model(white: Option<Xyz>, sum: Vector3<f64>, p_inv: &Matrix3<f64>) -> DisplayModel {
+    let Some(w) = white else {
+        return DisplayModel::Additive;
+    };
+    let residual = w.to_vector() - sum;
+    if !(w.y > 0.0 && residual[1] >= MIN_WHITE_SEGMENT_SHARE * w.y) {
+        return DisplayModel::Additive;
+    }
+    let u = p_inv * residual;
+    let largest = u.max();
+    let positive_mix = largest > 0.0
+        && u.iter()
+            .all(|v| *v >= -WHITE_SEGMENT_NEGATIVE_SHARE * largest);
+    let model = DisplayModel::WhiteSegment {
+        white_xyz_cd_m2: arr(&residual),
+    };
+    let invertible = model
+        .white_in_channels(&rows(p_inv))
+        .iter()
+        .all(|v| 1.0 + v >= DisplayModel::MIN_ONE_PLUS_U);
+    if positive_mix && invertible {
+        model
+    } else {
+        DisplayModel::Additive
+    }
 }
 
 fn check_xyz(what: &str, v: Xyz) -> Result<(), CalibError> {
@@ -363,17 +440,19 @@ fn prepare(m: &DisplayMeasurement, lut_entries: Option<usize>) -> Result<Prepare
         Some(entries) => Some(fit_curves(m, &name, &cols, entries)?),
         None => None,
     };
+    let sum = cols[0] + cols[1] + cols[2] + black;
     let additivity_error = m.white.and_then(|w| {
-        let sum = cols[0] + cols[1] + cols[2] + black;
         let wy = w.y;
         (wy > 0.0).then(|| (w.to_vector() - sum).norm() / wy)
     });
+    let model = display_model(m.white, sum, &p_inv);
     Ok(Prepared {
         p,
         p_inv,
         black,
         curves,
         additivity_error,
+        model,
     })
 }
 
@@ -516,7 +595,7 @@ pub fn solve_wall_in_gamut_at(
     let mut profiles = Vec::with_capacity(measurements.len());
     for ((m, p), offset) in measurements.iter().zip(&prepared).zip(&ws.drive_offsets) {
         let offset = Vector3::from(*offset);
-        let usage = p.p_inv * wall.white + offset;
+        let usage = p.channels_for(p.p_inv * wall.white + offset);
         warnings.extend(display_warnings(m, p, &usage, options));
         profiles.push(display_profile(m, p, options, &wall, &offset, &usage)?);
     }
@@ -565,7 +644,13 @@ fn display_warnings(
             intensities: arr(&own),
         });
     }
-    if let Some(e) = p.additivity_error
+    let share = p.white_segment_share();
+    if share > 0.0 {
+        warnings.push(SolveWarning::WhiteSegment {
+            display: name,
+            share,
+        });
+    } else if let Some(e) = p.additivity_error
         && e > options.max_additivity_error
     {
         warnings.push(SolveWarning::Additivity {
@@ -597,6 +682,7 @@ fn display_profile(
         created_utc: wall.created_utc.to_string(),
         primaries_xyz_cd_m2: primaries,
         black_xyz_cd_m2: arr(&p.black),
+        display_model: p.model,
         black_mode: options.black_mode,
         shown_black_xyz_cd_m2: arr(&shown_black),
         target_white_xyz_cd_m2: arr(&wall.white),
@@ -680,7 +766,7 @@ fn white_from_prepared(
     let channel_usage = prepared
         .iter()
         .zip(&offsets)
-        .map(|(p, o)| arr(&(p.p_inv * white + o)))
+        .map(|(p, o)| arr(&p.channels_for(p.p_inv * white + o)))
         .collect();
     Ok(WhiteSolution {
         white_xy,
@@ -791,17 +877,59 @@ impl WhiteScale<'_> {
                         ),
                     });
                 }
-                let y = room / need;
-                if y < y_white {
-                    y_white = y;
-                    limiting = Limiting {
-                        display: i,
-                        channel: c,
-                    };
-                }
+            }
+            let (y, channel) = self.display_limit(p, per_cd, self.offsets[i], headroom);
+            if y < y_white {
+                y_white = y;
+                limiting = Limiting {
+                    display: i,
+                    channel,
+                };
             }
         }
         Ok((y_white, limiting))
+    }
+
+    /// Largest white luminance one display shows with every channel at most `headroom`
+    /// (offsets and `need > 0` checked by the caller), and the channel that limits it.
+    /// Additive: `min_c (headroom − offset_c) / need_c`. With a white segment the channel
+    /// intensities are piecewise linear and increasing in the luminance: found by
+    /// bisection from the additive value.
+    fn display_limit(
+        &self,
+        p: &Prepared,
+        per_cd: Vector3<f64>,
+        offset: Vector3<f64>,
+        headroom: f64,
+    ) -> (f64, Channel) {
+        let additive = Channel::ALL
+            .map(|c| ((headroom - offset[c.index()]) / per_cd[c.index()], c))
+            .into_iter()
+            .fold(
+                (f64::INFINITY, Channel::Red),
+                |a, b| if b.0 < a.0 { b } else { a },
+            );
+        if matches!(p.model, DisplayModel::Additive) {
+            return additive;
+        }
+        let usage = |y: f64| p.channels_for(per_cd * y + offset);
+        let over = |y: f64| usage(y).max() > headroom;
+        let (mut lo, mut hi) = (0.0, additive.0);
+        for _ in 0..64 {
+            if over(hi) {
+                break;
+            }
+            (lo, hi) = (hi, hi * 2.0);
+        }
+        for _ in 0..100 {
+            let mid = 0.5 * (lo + hi);
+            if over(mid) { hi = mid } else { lo = mid }
+        }
+        let at = usage(lo);
+        let channel = Channel::ALL.into_iter().fold(Channel::Red, |a, b| {
+            if at[b.index()] > at[a.index()] { b } else { a }
+        });
+        (lo, channel)
     }
 
     /// In Individual mode the white must also be bright enough that no channel goes

@@ -455,13 +455,15 @@ pub fn expected_shown(profile: &DisplayProfile, xyz: Xyz) -> Xyz {
 }
 
 /// Linear relative channel intensities the profile asks for input `xyz`
-/// (`xyz_to_drive · xyz + drive_offset`, no flat field at the calibration spot).
+/// (`xyz_to_drive · xyz + drive_offset`, then the display model's white segment taken
+/// out; no flat field at the calibration spot).
 pub fn linear_intensity(profile: &DisplayProfile, xyz: Xyz) -> [f64; 3] {
     let m = &profile.xyz_to_drive;
     let v = xyz.to_array();
-    std::array::from_fn(|r| {
+    let lin = std::array::from_fn(|r| {
         m[r][0] * v[0] + m[r][1] * v[1] + m[r][2] * v[2] + profile.drive_offset[r]
-    })
+    });
+    profile.display_model.channels_for(m, lin)
 }
 
 /// Drive values (0..=1) for input `xyz` at spot `uv` through the post pass

@@ -16,7 +16,7 @@ use lumiwall_calib::solve::{
 use lumiwall_calib::tone::suggest_next_drive;
 use lumiwall_core::Channel;
 use lumiwall_devices::Xyz;
-use lumiwall_profiles::{BlackMode, DisplayKey, DisplayProfile, Eye, OutOfGamut};
+use lumiwall_profiles::{BlackMode, DisplayKey, DisplayModel, DisplayProfile, Eye, OutOfGamut};
 use nalgebra::{Matrix3, Vector3};
 
 #[derive(Clone, Copy)]
@@ -38,13 +38,16 @@ impl Curve {
     }
 }
 
-/// An additive display: reading(drive) = black + Σ_c P_c · curve_c(drive_c).
+/// A display: reading(drive) = black + Σ_c P_c · curve_c(drive_c) + W · min_c curve_c
+/// (additive when the white segment `W` is zero).
 #[derive(Clone)]
 struct Model {
     /// Black-subtracted full-drive XYZ of R, G, B (cd/m²).
     p: [Xyz; 3],
     black: Xyz,
     curves: [Curve; 3],
+    /// A single-chip DLP's white segment at full drive (cd/m²).
+    white_segment: Xyz,
 }
 
 impl Model {
@@ -54,15 +57,19 @@ impl Model {
             p: prim.map(x),
             black: x(black),
             curves,
+            white_segment: Xyz::default(),
         }
     }
 
     fn show(&self, drive: [f64; 3]) -> Xyz {
         let mut out = self.black;
+        let mut least = f64::INFINITY;
         for ((p, curve), d) in self.p.iter().zip(&self.curves).zip(drive) {
-            out = out + *p * curve.eval(d.clamp(0.0, 1.0));
+            let i = curve.eval(d.clamp(0.0, 1.0));
+            out = out + *p * i;
+            least = least.min(i);
         }
-        out
+        out + self.white_segment * least
     }
 
     fn measure(&self, index: u32, ramp_samples: usize) -> DisplayMeasurement {
@@ -147,14 +154,39 @@ fn measure_all(models: &[Model], ramp_samples: usize) -> Vec<DisplayMeasurement>
         .collect()
 }
 
-/// The post pass of profiles/src/profile.rs, written out here: lin = M·xyz + offset,
-/// clamp, then the inverse LUT.
+/// The post pass of profiles/src/profile.rs, written out here: m = M·xyz + offset;
+/// with a white segment W (u = M·W) the `a` with `a + u·min(a) = m`, found by trying
+/// each channel as the minimum and solving the linear system of that region (not the
+/// closed form of the code under test); clamp, then the inverse LUT.
 fn post_pass(p: &DisplayProfile, xyz: Xyz) -> ([f64; 3], [f64; 3]) {
     let v = [xyz.x, xyz.y, xyz.z];
-    let mut lin = [0.0; 3];
+    let m: [f64; 3] = std::array::from_fn(|c| {
+        (0..3).map(|k| p.xyz_to_drive[c][k] * v[k]).sum::<f64>() + p.drive_offset[c]
+    });
+    let lin = match p.display_model {
+        DisplayModel::Additive => m,
+        DisplayModel::WhiteSegment { white_xyz_cd_m2: w } => {
+            let mm = Matrix3::from_fn(|r, c| p.xyz_to_drive[r][c]);
+            let u = mm * Vector3::from(w);
+            let mv = Vector3::from(m);
+            let region = |k: usize| {
+                let mut a = Matrix3::identity();
+                for r in 0..3 {
+                    a[(r, k)] += u[r];
+                }
+                a.try_inverse().unwrap() * mv
+            };
+            // Region k is consistent when channel k is the smallest there.
+            let a = (0..3)
+                .map(|k| (k, region(k)))
+                .find(|(k, a)| (0..3).all(|j| a[*k] <= a[j] + 1e-12))
+                .map(|(_, a)| a)
+                .expect("one region is consistent");
+            [a[0], a[1], a[2]]
+        }
+    };
     let mut drive = [0.0; 3];
     for c in 0..3 {
-        lin[c] = (0..3).map(|k| p.xyz_to_drive[c][k] * v[k]).sum::<f64>() + p.drive_offset[c];
         drive[c] = f64::from(p.curves[c].drive_for(lin[c].clamp(0.0, 1.0) as f32));
     }
     (lin, drive)
@@ -484,9 +516,9 @@ fn white_targets_and_additivity() {
             .map(|e| e < 1e-12),
         Some(true)
     );
-    // A DLP-like white segment: W 10 % brighter than R+G+B.
+    // A white 10 % darker than R+G+B (no white segment explains that).
     let w = meas[0].white.unwrap();
-    meas[0].white = Some(w + (w - meas[0].black) * 0.1);
+    meas[0].white = Some(w - (w - meas[0].black) * 0.1);
     let sol = solve_wall(&meas, &o).unwrap();
     let e = sol.profiles[0].measurement.additivity_error.unwrap();
     let expected = ((w - meas[0].black) * 0.1)
@@ -502,6 +534,44 @@ fn white_targets_and_additivity() {
         w,
         SolveWarning::Additivity { display, .. } if *display == display_0
     )));
+    assert_eq!(sol.profiles[0].display_model, DisplayModel::Additive);
+}
+
+/// Issue 12 item 1: single-chip DLPs with white segments of different sizes (and one
+/// additive projector beside them) are recognised from the white reading and the
+/// profiles invert them exactly; a white within 0.5 % of R+G+B (meter-noise size)
+/// stays additive.
+#[test]
+fn white_segment_displays_are_modelled_and_inverted_in_every_black_mode() {
+    let curves = [
+        [Curve::Power(2.2), Curve::Power(2.4), Curve::Power(2.0)],
+        [Curve::Power(2.6), Curve::Power(2.1), Curve::Power(2.3)],
+        [Curve::Power(1.8), Curve::Power(2.5), Curve::Power(2.2)],
+    ];
+    let mut models = wall(curves);
+    let native = |m: &Model| m.p[0] + m.p[1] + m.p[2];
+    models[0].white_segment = native(&models[0]) * 0.25;
+    models[1].white_segment = Xyz::from_xy_luminance(0.30, 0.34, 0.1 * native(&models[1]).y);
+    for mode in [BlackMode::Individual, BlackMode::Common, BlackMode::Ignore] {
+        let sol = solve_wall(&measure_all(&models, 5), &options(mode, 0.95)).unwrap();
+        for (i, want) in [(0, true), (1, true), (2, false)] {
+            let got = matches!(
+                sol.profiles[i].display_model,
+                DisplayModel::WhiteSegment { .. }
+            );
+            assert_eq!(got, want, "display {i}");
+        }
+        check_usage(&sol, 0.95);
+        let de = max_delta_e(&models, &sol, mode);
+        eprintln!("{mode:?}: max ΔE2000 {de:.4} with white segments of 25 % and 10 %");
+        assert!(de < 0.05, "{mode:?}: {de}");
+    }
+    // Meter-noise-sized excess light is not a white segment.
+    let mut meas = measure_all(&wall([[Curve::Power(2.2); 3]; 3]), 6);
+    let w = meas[1].white.unwrap();
+    meas[1].white = Some(w + (w - meas[1].black) * 0.005);
+    let sol = solve_wall(&meas, &options(BlackMode::Individual, 1.0)).unwrap();
+    assert_eq!(sol.profiles[1].display_model, DisplayModel::Additive);
 }
 
 #[test]

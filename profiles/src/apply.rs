@@ -5,6 +5,12 @@
 //! 1. `m = (xyz_to_drive · xyz) / flat_gain(u, v)` and `a = m + drive_offset`
 //!    (linear relative channel intensity, black handled by the offset of the profile's
 //!    [`BlackMode`](crate::BlackMode)).
+//!    A display with a white segment ([`DisplayModel::WhiteSegment`](crate::DisplayModel))
+//!    then takes it out: `s = max(0, min_c a_c·k_c)` and `a_c ← a_c − u_c·s`, with
+//!    `u = P⁻¹·W` the white segment in channel intensities and `k_c = 1 / (1 + u_c)`:
+//!    the exact inverse of `a + u·min(a)`. For an additive display `u = 0` and the step
+//!    is skipped. A channel below 0 means `s = 0`, so the gamut mapping of step 2 works
+//!    on the additive part alone, which is what the display shows there.
 //! 2. Out of gamut (a channel `a_c < 0` although the grey of the same luminance is
 //!    displayable): in [`OutOfGamut::Clip`] mode the colour moves toward the target white
 //!    in xy at constant luminance, `m(t) = (1 − t)·m + t·Y·w`, with the smallest `t` that
@@ -12,7 +18,10 @@
 //!    own black (grey of that luminance not displayable, [`BlackMode::Individual`](crate::BlackMode::Individual))
 //!    clip at 0 (Kresse 3.3.6 b).
 //! 3. Over range (a channel `a_c > 1`): `m` is scaled by the largest `s ≤ 1` that brings
-//!    every channel to ≤ 1, which keeps the chromaticity of the shown colour.
+//!    every channel to ≤ 1, which keeps the chromaticity of the shown colour. With a
+//!    white segment the scaling runs on the linear form of the white-segment step in the region of `a`
+//!    (`m_c − u_c·k_j·m_j`, offset likewise, `j` the channel of the minimum), which is
+//!    exact because the inverse is linear in each region.
 //! 4. `drive_c = curves[c].drive_for(a_c)` (linear interpolation in the inverse LUT).
 //! 5. Quantisation to the bit depth with [`quantise`], optionally with the ordered
 //!    dither of [`dither_threshold`].
@@ -274,6 +283,13 @@ pub struct PreparedProfile {
     pub offset: [f32; 3],
     /// Linear relative drive per cd/m² of the target white (`matrix · W / Y_W`).
     pub white_dir: [f32; 3],
+    /// The display's white segment in channel intensities, `u = P⁻¹·W` (zero when
+    /// additive).
+    pub white_u: [f32; 3],
+    /// `1 / (1 + u_c)` per channel (one when additive).
+    pub white_k: [f32; 3],
+    /// True when the display has a white segment (the white-segment step of step 1 runs).
+    pub white_segment: bool,
     /// Inverse LUTs of R, G, B.
     pub luts: [PreparedLut; 3],
     /// Flat-field texture; `None`: no texture fetch at all.
@@ -315,7 +331,12 @@ impl PreparedProfile {
             return Err(ApplyError::BitDepth(bit_depth));
         }
         let f = |v: f64| v as f32;
+        let u = profile.display_model.white_in_channels(m).map(f);
+        let white_segment = u != [0.0; 3];
         Ok(PreparedProfile {
+            white_u: u,
+            white_k: u.map(|v| 1.0 / (1.0 + v)),
+            white_segment,
             display: profile.display.clone(),
             matrix: m.map(|row| row.map(f)),
             offset: profile.drive_offset.map(f),
@@ -369,7 +390,7 @@ impl PreparedProfile {
                 flags: PixelFlags::INVALID,
             },
             OutOfGamut::Clip => {
-                let a = self.offset.map(|o| o.clamp(0.0, 1.0));
+                let a = self.white_step(self.offset).map(|o| o.clamp(0.0, 1.0));
                 PixelOut {
                     drive: self.drives(a),
                     flags: PixelFlags::INVALID,
@@ -397,7 +418,7 @@ impl PreparedProfile {
         }
         let xyz = limit_input(xyz_cd_m2);
         let m = self.linear(xyz, gain);
-        let a = self.with_offset(m);
+        let a = self.white_step(self.with_offset(m));
         let fast =
             a[0] >= 0.0 && a[1] >= 0.0 && a[2] >= 0.0 && a[0] <= 1.0 && a[1] <= 1.0 && a[2] <= 1.0;
         if fast {
@@ -430,6 +451,46 @@ impl PreparedProfile {
         [m[0] + off[0], m[1] + off[1], m[2] + off[2]]
     }
 
+    /// The white-segment step: the white segment taken out of the channel intensities `a` (identity for
+    /// an additive display).
+    #[inline(always)]
+    pub fn white_step(&self, a: [f32; 3]) -> [f32; 3] {
+        if !self.white_segment {
+            return a;
+        }
+        let (u, k) = (self.white_u, self.white_k);
+        let s = (a[0] * k[0]).min(a[1] * k[1]).min(a[2] * k[2]).max(0.0);
+        [a[0] - u[0] * s, a[1] - u[1] * s, a[2] - u[2] * s]
+    }
+
+    /// The linear part and offset of the white-segment step in the region of `a = m + offset`: `(m', o')`
+    /// with `white_step(m + o) = m' + o'` for every `m` whose minimum `m_j·k_j` is in
+    /// the same channel and positive (the identity for an additive display or `s = 0`).
+    #[inline(always)]
+    fn white_region(&self, m: [f32; 3], a: [f32; 3]) -> ([f32; 3], [f32; 3]) {
+        let off = self.offset;
+        if !self.white_segment {
+            return (m, off);
+        }
+        let (u, k) = (self.white_u, self.white_k);
+        let t = [a[0] * k[0], a[1] * k[1], a[2] * k[2]];
+        let j = if t[0] <= t[1] && t[0] <= t[2] {
+            0
+        } else if t[1] <= t[2] {
+            1
+        } else {
+            2
+        };
+        if t[j] <= 0.0 {
+            return (m, off);
+        }
+        let f = |v: [f32; 3]| {
+            let r = v[j] * k[j];
+            [v[0] - u[0] * r, v[1] - u[1] * r, v[2] - u[2] * r]
+        };
+        (f(m), f(off))
+    }
+
     /// A pixel whose drives `a` (linear part `m`) are not all in 0..=1: gamut mapping,
     /// range scaling, clamping and, in false-colour mode, the markers.
     #[inline]
@@ -443,7 +504,7 @@ impl PreparedProfile {
         let mut flags = PixelFlags::NONE;
         if a.iter().any(|v| *v < -GAMUT_TOLERANCE) {
             m = self.toward_white(xyz, gain, m, a, &mut flags);
-            a = self.with_offset(m);
+            a = self.white_step(self.with_offset(m));
         }
         if a.iter().any(|v| *v > 1.0 + GAMUT_TOLERANCE) {
             flags |= PixelFlags::OVER_RANGE;
@@ -525,7 +586,7 @@ impl PreparedProfile {
     /// Range: the drives scaled at constant chromaticity until every channel ≤ 1.
     #[inline]
     fn scale_into_range(&self, m: [f32; 3], a: [f32; 3]) -> [f32; 3] {
-        let off = self.offset;
+        let (m, off) = self.white_region(m, self.with_offset(m));
         let mut s = 1.0f32;
         for c in 0..3 {
             if a[c] > 1.0 {

@@ -12,7 +12,12 @@ use crate::ProfileError;
 pub use lumiwall_core::files::remove_stale_temp_files;
 
 /// Version of the profile file format this build reads and writes.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
+
+/// Oldest format version this build still reads; older documents are upgraded on reading
+/// (version 1 had no [`DisplayModel`]: every display was additive, which is exactly
+/// [`DisplayModel::Additive`]).
+pub const OLDEST_READABLE_VERSION: u32 = 1;
 
 /// Smallest number of entries an inverse LUT may have.
 pub const MIN_LUT_ENTRIES: usize = 1024;
@@ -119,6 +124,58 @@ impl FlatField {
     pub const MAX_SIDE: u32 = 4096;
 }
 
+/// How a display mixes its three channels into light.
+///
+/// With `a` the linear relative channel intensities, `P` the primaries (columns) and `b`
+/// the black, a display shows `XYZ = b + P·a` ([`DisplayModel::Additive`], Kresse
+/// 2003, 3.3) or `XYZ = b + P·a + W·min(a)` ([`DisplayModel::WhiteSegment`]): a
+/// single-chip DLP whose colour wheel has a clear segment adds white light in proportion
+/// to the smallest channel (Wyble & Zhang 2003; Wyble & Rosen 2004 found the white
+/// channel of DLP projectors driven by the minimum of R, G and B). The post pass applies
+/// the exact inverse of either (`apply`, step 1).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum DisplayModel {
+    /// Light of the channels adds: `XYZ = b + P·a`.
+    #[default]
+    Additive,
+    /// A white (clear) colour-wheel segment adds `W·min(a)`.
+    WhiteSegment {
+        /// XYZ (cd/m²) of the white segment at full drive of all three channels.
+        white_xyz_cd_m2: [f64; 3],
+    },
+}
+
+impl DisplayModel {
+    /// Smallest `1 + u_c` accepted, with `u = P⁻¹·W` the white segment in channel
+    /// intensities: below it the white segment would cancel a whole channel and the
+    /// model could not be inverted.
+    pub const MIN_ONE_PLUS_U: f64 = 0.05;
+
+    /// The white segment in linear relative channel intensities, `u = P⁻¹·W` (zero for
+    /// an additive display); `xyz_to_drive` is `P⁻¹`.
+    pub fn white_in_channels(&self, xyz_to_drive: &[[f64; 3]; 3]) -> [f64; 3] {
+        match self {
+            DisplayModel::Additive => [0.0; 3],
+            DisplayModel::WhiteSegment { white_xyz_cd_m2: w } => {
+                std::array::from_fn(|r| (0..3).map(|k| xyz_to_drive[r][k] * w[k]).sum())
+            }
+        }
+    }
+
+    /// Linear channel intensities `a` that show `m = P⁻¹·(XYZ − b)`: `a = m` for an
+    /// additive display; with a white segment `a = m − u·s`, `s = max(0, min_c
+    /// m_c / (1 + u_c))` (the closed-form inverse of `m = a + u·min(a)`).
+    pub fn channels_for(&self, xyz_to_drive: &[[f64; 3]; 3], m: [f64; 3]) -> [f64; 3] {
+        let u = self.white_in_channels(xyz_to_drive);
+        let s = (0..3)
+            .map(|c| m[c] / (1.0 + u[c]))
+            .fold(f64::INFINITY, f64::min)
+            .max(0.0);
+        std::array::from_fn(|c| m[c] - u[c] * s)
+    }
+}
+
 /// Facts about how a profile was measured.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct MeasurementInfo {
@@ -147,6 +204,9 @@ pub struct DisplayProfile {
     pub primaries_xyz_cd_m2: [[f64; 3]; 3],
     /// Measured black (all channels at drive 0), XYZ in cd/m².
     pub black_xyz_cd_m2: [f64; 3],
+    /// How the channels mix (format version 2; version 1 profiles are additive).
+    #[serde(default)]
+    pub display_model: DisplayModel,
     /// Black handling chosen for the wall.
     pub black_mode: BlackMode,
     /// XYZ (cd/m²) the wall shows for input 0: the common black in `Common` mode, the
@@ -219,8 +279,10 @@ impl DisplayProfile {
         Ok(())
     }
 
-    /// Wall name, common primaries, additivity error, headroom and bit depth.
+    /// Wall name, common primaries, display model, additivity error, headroom and bit
+    /// depth.
     fn check_settings(&self) -> Result<(), String> {
+        self.check_display_model()?;
         if self.display.wall.is_empty() {
             return Err("display.wall (the wall name) is empty".into());
         }
@@ -244,6 +306,28 @@ impl DisplayProfile {
             return Err(format!(
                 "bit depth {} is not 8, 10, 12 or 16",
                 self.bit_depth
+            ));
+        }
+        Ok(())
+    }
+
+    /// A white segment: finite, not negative in luminance, and invertible
+    /// (`1 + u_c ≥ DisplayModel::MIN_ONE_PLUS_U`).
+    fn check_display_model(&self) -> Result<(), String> {
+        let DisplayModel::WhiteSegment { white_xyz_cd_m2: w } = self.display_model else {
+            return Ok(());
+        };
+        if !finite3(&w) || w[1] < 0.0 {
+            return Err(format!(
+                "display_model.white_xyz_cd_m2 {w:?} must be finite with Y ≥ 0"
+            ));
+        }
+        let u = self.display_model.white_in_channels(&self.xyz_to_drive);
+        if !u.iter().all(|v| 1.0 + v >= DisplayModel::MIN_ONE_PLUS_U) {
+            return Err(format!(
+                "display_model: the white segment in channel intensities {u:?} would cancel a \
+                 channel (1 + u must be ≥ {}); re-measure the display's white",
+                DisplayModel::MIN_ONE_PLUS_U
             ));
         }
         Ok(())
@@ -337,14 +421,16 @@ impl DisplayProfile {
                 path: origin.to_path_buf(),
                 message: "missing `format_version`".into(),
             })?;
-        if found != u64::from(FORMAT_VERSION) {
+        if !(u64::from(OLDEST_READABLE_VERSION)..=u64::from(FORMAT_VERSION)).contains(&found) {
             return Err(ProfileError::Version {
                 path: origin.to_path_buf(),
                 found: u32::try_from(found).unwrap_or(u32::MAX),
                 expected: FORMAT_VERSION,
             });
         }
-        let profile: DisplayProfile = serde_json::from_value(value).map_err(parse)?;
+        let mut profile: DisplayProfile = serde_json::from_value(value).map_err(parse)?;
+        // Version 1 → 2: no `display_model` field, i.e. additive (the serde default).
+        profile.format_version = FORMAT_VERSION;
         profile.validate()?;
         Ok(profile)
     }
@@ -456,7 +542,7 @@ impl ProfileSet {
             path: path.clone(),
             message: e.to_string(),
         })?;
-        if set.format_version != FORMAT_VERSION {
+        if !(OLDEST_READABLE_VERSION..=FORMAT_VERSION).contains(&set.format_version) {
             return Err(ProfileError::Version {
                 path,
                 found: set.format_version,

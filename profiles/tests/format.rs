@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 
 use common::{power_curve, profile};
 use lumiwall_profiles::{
-    BlackMode, DisplayProfile, Eye, FORMAT_VERSION, FlatField, MIN_LUT_ENTRIES, OutOfGamut,
-    ProfileError, ProfileSet, ToneCurve,
+    BlackMode, DisplayModel, DisplayProfile, Eye, FORMAT_VERSION, FlatField, MIN_LUT_ENTRIES,
+    OutOfGamut, ProfileError, ProfileSet, ToneCurve,
 };
 use proptest::prelude::*;
 
@@ -48,6 +48,7 @@ fn the_json_document_has_the_documented_field_names() {
         "created_utc",
         "primaries_xyz_cd_m2",
         "black_xyz_cd_m2",
+        "display_model",
         "black_mode",
         "shown_black_xyz_cd_m2",
         "target_white_xyz_cd_m2",
@@ -69,7 +70,8 @@ fn the_json_document_has_the_documented_field_names() {
             "{k} is not documented in FORMAT.md"
         );
     }
-    assert_eq!(keys.len(), 18, "undocumented field in {keys:?}");
+    assert_eq!(keys.len(), 19, "undocumented field in {keys:?}");
+    assert_eq!(v["display_model"]["kind"], "additive");
     assert_eq!(v["display"]["eye"], "mono");
     assert_eq!(v["black_mode"], "individual");
     assert_eq!(v["out_of_gamut"], "clip");
@@ -97,24 +99,58 @@ fn other_format_version_is_refused_with_found_and_expected() {
     // And from a file on disk, naming the file.
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("old.json");
-    std::fs::write(&path, json_with_version(&p, 2)).unwrap();
+    std::fs::write(&path, json_with_version(&p, 7)).unwrap();
     let err = DisplayProfile::load(&path).unwrap_err();
     let msg = err.to_string();
     assert!(
         matches!(
             err,
             ProfileError::Version {
-                found: 2,
-                expected: 1,
+                found: 7,
+                expected: FORMAT_VERSION,
                 ..
             }
         ),
         "{err:?}"
     );
     assert!(
-        msg.contains("old.json") && msg.contains('2') && msg.contains('1'),
+        msg.contains("old.json") && msg.contains('7') && msg.contains(&FORMAT_VERSION.to_string()),
         "{msg}"
     );
+}
+
+#[test]
+fn a_version_1_profile_is_read_as_an_additive_version_2_profile() {
+    let p = profile("hall-a", 3);
+    let mut v: serde_json::Value = serde_json::from_str(&json_with_version(&p, 1)).unwrap();
+    v.as_object_mut().unwrap().remove("display_model");
+    let read = DisplayProfile::from_json(&v.to_string(), Path::new("v1.json")).unwrap();
+    assert_eq!(read.format_version, FORMAT_VERSION);
+    assert_eq!(read.display_model, DisplayModel::Additive);
+    assert_eq!(read, p);
+}
+
+#[test]
+fn a_white_segment_profile_round_trips_and_an_uninvertible_one_is_refused() {
+    let mut p = profile("hall-a", 4);
+    let white = [0, 1, 2].map(|k| p.primaries_xyz_cd_m2.iter().map(|c| c[k]).sum::<f64>() * 0.2);
+    p.display_model = DisplayModel::WhiteSegment {
+        white_xyz_cd_m2: white,
+    };
+    p.validate().unwrap();
+    let read = DisplayProfile::from_json(&p.to_json(), Path::new("w.json")).unwrap();
+    assert_eq!(read, p);
+    // Negative luminance, or a "segment" that takes away more than the whole red
+    // channel (u = (−1.5, 3, 0)): refused, naming the field.
+    let [r, g, _] = p.primaries_xyz_cd_m2;
+    for w in [
+        [0.0, -1.0, 0.0],
+        [0, 1, 2].map(|k| -1.5 * r[k] + 3.0 * g[k]),
+    ] {
+        p.display_model = DisplayModel::WhiteSegment { white_xyz_cd_m2: w };
+        let err = p.validate().unwrap_err().to_string();
+        assert!(err.contains("display_model"), "{w:?}: {err}");
+    }
 }
 
 #[test]

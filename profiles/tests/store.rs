@@ -521,12 +521,26 @@ fn hand_edited_profile_row_is_reported_with_its_run() {
         )
         .unwrap();
     let text = document::decompress(&blob).unwrap();
-    assert!(
-        text.starts_with("{\"format_version\":1,"),
-        "{}",
-        &text[..40]
+    let current = format!(
+        "{{\"format_version\":{},",
+        lumiwall_profiles::FORMAT_VERSION
     );
-    let edited = text.replacen("\"format_version\":1", "\"format_version\":9", 1);
+    assert!(text.starts_with(&current), "{}", &text[..40]);
+    // A version-1 document (no display model) still reads: the upgrade on reading is
+    // the store's migration of profile JSON.
+    let mut v1: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v1["format_version"] = serde_json::json!(1);
+    v1.as_object_mut().unwrap().remove("display_model");
+    raw.execute(
+        "UPDATE profiles SET document = ?1 WHERE display = 1 AND eye = 'right'",
+        [document::compress(&v1.to_string()).unwrap()],
+    )
+    .unwrap();
+    let read = store.latest(WALL).unwrap();
+    assert!(read.iter().any(|p| p.display.display == 1
+        && p.display_model == lumiwall_profiles::DisplayModel::Additive
+        && p.format_version == lumiwall_profiles::FORMAT_VERSION));
+    let edited = text.replacen(&current, "{\"format_version\":9,", 1);
     raw.execute(
         "UPDATE profiles SET document = ?1 WHERE display = 1 AND eye = 'right'",
         [document::compress(&edited).unwrap()],

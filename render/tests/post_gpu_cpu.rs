@@ -30,14 +30,17 @@ fn frame(n_side: u32, seed: u64) -> XyzFrame {
 
 #[test]
 fn cpu_image_path_is_bit_identical_to_the_scalar_reference() {
-    let d = infitec_display();
+    let additive = infitec_display();
+    let dlp = infitec_display().with_white_segment(0.25);
     let f = frame(300, 7);
-    for (flat, dither, mode) in [
-        (None, false, OutOfGamut::Clip),
-        (Some(vignette()), true, OutOfGamut::Clip),
-        (Some(vignette()), false, OutOfGamut::FalseColour),
+    for (d, flat, dither, mode) in [
+        (&additive, None, false, OutOfGamut::Clip),
+        (&additive, Some(vignette()), true, OutOfGamut::Clip),
+        (&additive, Some(vignette()), false, OutOfGamut::FalseColour),
+        (&dlp, None, false, OutOfGamut::Clip),
+        (&dlp, Some(vignette()), true, OutOfGamut::Clip),
     ] {
-        let prof = profile(&d, BlackMode::Individual, flat, 10);
+        let prof = profile(d, BlackMode::Individual, flat, 10);
         let pp = PreparedProfile::new(
             &prof,
             &ApplyOptions {
@@ -82,16 +85,20 @@ fn gpu_matches_cpu_within_one_code_at_10_bit() {
         Err(e) => panic!("GPU unavailable: {e}"),
     };
     eprintln!("adapter: {}", gpu.adapter_name());
-    let d = infitec_display();
+    let additive = infitec_display();
+    let dlp = infitec_display().with_white_segment(0.25);
     let f = frame(1000, 11); // 10^6 pixels
     let cases = [
-        (BlackMode::Individual, None, false),
-        (BlackMode::Common, Some(vignette()), true),
-        (BlackMode::Ignore, Some(vignette()), false),
+        (&additive, BlackMode::Individual, None, false),
+        (&additive, BlackMode::Common, Some(vignette()), true),
+        (&additive, BlackMode::Ignore, Some(vignette()), false),
+        (&dlp, BlackMode::Individual, None, false),
+        (&dlp, BlackMode::Common, Some(vignette()), true),
     ];
-    for (mode, flat, dither) in cases {
+    for (d, mode, flat, dither) in cases {
         let has_flat = flat.is_some();
-        let prof = profile(&d, mode, flat, 10);
+        let white_segment = d.white_segment_xyz_cd_m2 != [0.0; 3];
+        let prof = profile(d, mode, flat, 10);
         for fc in [false, true] {
             let opts = ApplyOptions {
                 dither,
@@ -111,7 +118,7 @@ fn gpu_matches_cpu_within_one_code_at_10_bit() {
                 flag_diff += usize::from(cpu.flags[i] != g.flags[i]);
             }
             eprintln!(
-                "{mode:?} flat={has_flat} dither={dither} false-colour={fc}: max |Δcode| = {worst}, \
+                "{mode:?} white segment={white_segment} flat={has_flat} dither={dither} false-colour={fc}: max |Δcode| = {worst}, \
                  flag mismatches {flag_diff} of {}",
                 cpu.codes.len()
             );

@@ -73,6 +73,7 @@ fn true_profile(wall: &VirtualWall, id: DisplayId, bit_depth: u32) -> DisplayPro
         created_utc: "2026-11-22T00:00:00Z".into(),
         primaries_xyz_cd_m2: prim,
         black_xyz_cd_m2: black,
+        display_model: Default::default(),
         black_mode: BlackMode::Individual,
         shown_black_xyz_cd_m2: black,
         target_white_xyz_cd_m2: white,

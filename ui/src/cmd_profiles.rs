@@ -406,6 +406,7 @@ mod tests {
             // Each primary a third of the white, so the native white is (Y, Y, Y).
             primaries_xyz_cd_m2: [[k, k, k]; 3],
             black_xyz_cd_m2: [0.1, 0.1, 0.1],
+            display_model: Default::default(),
             black_mode: BlackMode::Ignore,
             shown_black_xyz_cd_m2: [0.1, 0.1, 0.1],
             target_white_xyz_cd_m2: [90.0, 90.0, 90.0],

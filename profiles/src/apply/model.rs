@@ -4,12 +4,15 @@
 //! S-shaped per-channel tone curves, the light it emits for a drive, and the profile a
 //! perfect calibration of it would produce. The flat-field gain scales everything the
 //! lens passes, the black included (`emitted = P · diag(g) · (I(drive) + M·black)`),
-//! which is what the post-pass contract `lin = M·xyz / g + offset` assumes.
+//! which is what the post-pass contract `lin = M·xyz / g + offset` assumes. A display
+//! with a white segment adds `u·min(I)` to the channel intensities before the gain
+//! (`u = M·W`, the white light passing the lens with the channels), the model the post
+//! pass inverts ([`crate::DisplayModel::WhiteSegment`]).
 
 use super::{ApplyError, lut, mat3};
 use crate::{
-    BlackMode, DisplayKey, DisplayProfile, FORMAT_VERSION, FlatField, MeasurementInfo, OutOfGamut,
-    ToneCurve,
+    BlackMode, DisplayKey, DisplayModel, DisplayProfile, FORMAT_VERSION, FlatField,
+    MeasurementInfo, OutOfGamut, ToneCurve,
 };
 
 /// One channel's tone curve: `I(d) = (1 − s)·d^γ + s·(3d² − 2d³)^γ`, monotone, `I(0) = 0`,
@@ -40,6 +43,9 @@ pub struct AnalyticDisplay {
     pub black_xyz_cd_m2: [f64; 3],
     /// Tone curves of R, G, B.
     pub tone: [ToneShape; 3],
+    /// XYZ (cd/m²) of a single-chip DLP's white segment at full drive (all zero: an
+    /// additive display).
+    pub white_segment_xyz_cd_m2: [f64; 3],
 }
 
 /// What a profile made from an [`AnalyticDisplay`] should hold besides the display.
@@ -111,6 +117,28 @@ impl AnalyticDisplay {
                     s_mix: 0.2,
                 },
             ],
+            white_segment_xyz_cd_m2: [0.0; 3],
+        }
+    }
+
+    /// The same display as a single-chip DLP whose white segment adds `share` of the
+    /// full R+G+B white (e.g. 0.2), at the white's chromaticity.
+    pub fn with_white_segment(self, share: f64) -> Self {
+        let w = self.full_white_xyz().map(|v| v * share);
+        AnalyticDisplay {
+            white_segment_xyz_cd_m2: w,
+            ..self
+        }
+    }
+
+    /// How the display mixes its channels.
+    pub fn display_model(&self) -> DisplayModel {
+        if self.white_segment_xyz_cd_m2 == [0.0; 3] {
+            DisplayModel::Additive
+        } else {
+            DisplayModel::WhiteSegment {
+                white_xyz_cd_m2: self.white_segment_xyz_cd_m2,
+            }
         }
     }
 
@@ -132,7 +160,10 @@ impl AnalyticDisplay {
             reason: "primaries are collinear".into(),
         })?;
         let b = mat3::mul_vec(&m, &self.black_xyz_cd_m2);
-        let lin = [0, 1, 2].map(|c| gain[c] * (self.tone[c].intensity(drive[c]) + b[c]));
+        let u = self.display_model().white_in_channels(&m);
+        let i = [0, 1, 2].map(|c| self.tone[c].intensity(drive[c]));
+        let least = i[0].min(i[1]).min(i[2]);
+        let lin = [0, 1, 2].map(|c| gain[c] * (i[c] + u[c] * least + b[c]));
         Ok(mat3::mul_vec(&p, &lin))
     }
 
@@ -181,13 +212,16 @@ impl AnalyticDisplay {
             created_utc: "1970-01-01T00:00:00Z".into(),
             primaries_xyz_cd_m2: self.primaries_xyz_cd_m2,
             black_xyz_cd_m2: black,
+            display_model: self.display_model(),
             black_mode: spec.black_mode,
             shown_black_xyz_cd_m2: shown_black,
             target_white_xyz_cd_m2: spec.target_white_xyz_cd_m2,
             common_primaries_xy: self.primaries_xyz_cd_m2.map(|v| xy(&v)),
             xyz_to_drive: m,
             drive_offset,
-            channel_usage: mat3::mul_vec(&m, &spec.target_white_xyz_cd_m2),
+            channel_usage: self
+                .display_model()
+                .channels_for(&m, mat3::mul_vec(&m, &spec.target_white_xyz_cd_m2)),
             headroom: 1.0,
             curves: [curve(c0)?, curve(c1)?, curve(c2)?],
             flat_field: spec.flat_field.clone(),

@@ -24,6 +24,7 @@ fn display(gamma: f64) -> AnalyticDisplay {
         primaries_xyz_cd_m2: infitec_primaries([20.0, 52.0, 6.0]),
         black_xyz_cd_m2: xyz_of(0.30, 0.32, 0.4),
         tone: [ToneShape { gamma, s_mix: 0.0 }; 3],
+        white_segment_xyz_cd_m2: [0.0; 3],
     }
 }
 
@@ -352,4 +353,126 @@ fn colours_on_the_gamut_boundary_are_not_marked() {
     // Just beyond the tolerance it is marked.
     let xyz = mat3::mul_vec(&d.primaries_matrix(), &[-1e-3, 0.4, 0.7]).map(|v| v as f32);
     assert_eq!(pp.apply(xyz, [0.5, 0.5]).drive, MARKER_OUT_OF_GAMUT);
+}
+
+/// A single-chip DLP: the display of the tests with a white segment of 25 % of R+G+B.
+fn dlp(gamma: f64) -> AnalyticDisplay {
+    display(gamma).with_white_segment(0.25)
+}
+
+/// The input that asks `d` for the shown colour `emitted` (black included) at a texel
+/// of flat-field gain `gain`, per black mode (Kresse 3.3.6; common black of `spec`).
+/// The lens attenuates the black like everything else it passes.
+fn input_for(d: &AnalyticDisplay, mode: BlackMode, emitted: [f64; 3], gain: [f64; 3]) -> [f64; 3] {
+    let p = d.primaries_matrix();
+    let m = mat3::inverse(&p).unwrap();
+    let through_lens = |xyz: [f64; 3]| {
+        let lin = mat3::mul_vec(&m, &xyz);
+        mat3::mul_vec(&p, &[0, 1, 2].map(|c| gain[c] * lin[c]))
+    };
+    let black_here = match mode {
+        BlackMode::Ignore => through_lens(d.black_xyz_cd_m2),
+        BlackMode::Individual => [0.0; 3],
+        BlackMode::Common => through_lens([0.6, 0.6, 0.7]),
+    };
+    [0, 1, 2].map(|c| emitted[c] - black_here[c])
+}
+
+#[test]
+fn a_white_segment_display_shows_every_colour_it_can_show_exactly_in_every_black_mode() {
+    let d = dlp(2.2);
+    let flat = Some(FlatField {
+        width: 2,
+        height: 1,
+        gain: vec![[0.8, 0.7, 0.9], [0.8, 0.7, 0.9]],
+    });
+    for mode in [BlackMode::Ignore, BlackMode::Individual, BlackMode::Common] {
+        for (ff, gain) in [(None, [1.0; 3]), (flat.clone(), [0.8, 0.7, 0.9])] {
+            let mut s = spec(mode, OutOfGamut::Clip, ff);
+            s.target_white_xyz_cd_m2 = d.full_white_xyz();
+            let (_, pp) = prepared(&d, s);
+            let mut checked = 0;
+            for k in 0..400u32 {
+                // Drives spread over the cube, including greys and pure secondaries,
+                // where the white segment is all or nothing.
+                let drive = [
+                    f64::from((k * 37) % 101) / 100.0,
+                    f64::from((k * 53 + 11) % 101) / 100.0,
+                    if k % 5 == 0 {
+                        f64::from((k * 37) % 101) / 100.0
+                    } else {
+                        f64::from((k * 71 + 29) % 101) / 100.0
+                    },
+                ];
+                let target = d.emitted_xyz(drive, gain).unwrap();
+                let input = input_for(&d, mode, target, gain);
+                let out = pp.apply(input.map(|v| v as f32), [0.5, 0.5]);
+                if !out.flags.is_empty() {
+                    continue; // the raised common black is not below every colour
+                }
+                let shown = d.emitted_xyz(out.drive.map(f64::from), gain).unwrap();
+                for c in 0..3 {
+                    let rel = (shown[c] - target[c]).abs() / target[1].max(1.0);
+                    assert!(
+                        rel < 2e-3,
+                        "{mode:?} gain {gain:?} drive {drive:?}: {shown:?} vs {target:?}"
+                    );
+                }
+                checked += 1;
+            }
+            assert!(checked > 300, "{mode:?}: only {checked} colours in range");
+        }
+    }
+}
+
+#[test]
+fn a_white_segment_display_scales_over_range_colours_at_constant_chromaticity() {
+    let d = dlp(1.0);
+    let (_, pp) = prepared(&d, spec(BlackMode::Individual, OutOfGamut::Clip, None));
+    // Greys, a secondary (no white segment light) and a desaturated colour, far too bright.
+    for (x, y) in [(0.3127, 0.329), (0.42, 0.5), (0.35, 0.3)] {
+        let xyz = xyz_of(x, y, 500.0);
+        let out = pp.apply(xyz.map(|v| v as f32), [0.5, 0.5]);
+        assert!(out.flags.contains(PixelFlags::OVER_RANGE), "{x} {y}");
+        let max = out.drive.iter().cloned().fold(0.0f32, f32::max);
+        assert!((max - 1.0).abs() < 1e-5, "{:?}", out.drive);
+        let shown = d.emitted_xyz(out.drive.map(f64::from), [1.0; 3]).unwrap();
+        let s = xy_of(shown);
+        assert!(
+            (s[0] - x).abs() < 2e-4 && (s[1] - y).abs() < 2e-4,
+            "({x}, {y}) shown at {s:?}"
+        );
+    }
+}
+
+#[test]
+fn a_white_segment_display_maps_out_of_gamut_colours_to_the_boundary_at_constant_luminance() {
+    let d = dlp(1.0);
+    let (prof, pp) = prepared(&d, spec(BlackMode::Individual, OutOfGamut::Clip, None));
+    let (x, y, lum) = (0.08, 0.5, 10.0);
+    let xyz = xyz_of(x, y, lum);
+    let out = pp.apply(xyz.map(|v| v as f32), [0.5, 0.5]);
+    assert!(out.flags.contains(PixelFlags::OUT_OF_GAMUT));
+    let shown = d.emitted_xyz(out.drive.map(f64::from), [1.0; 3]).unwrap();
+    assert!((shown[1] - lum).abs() < 2e-3 * lum, "luminance {shown:?}");
+    let (p, w, s) = (xy_of(xyz), xy_of(prof.target_white_xyz_cd_m2), xy_of(shown));
+    let cross = (w[0] - p[0]) * (s[1] - p[1]) - (w[1] - p[1]) * (s[0] - p[0]);
+    assert!(cross.abs() < 2e-4, "not collinear: {p:?} {w:?} {s:?}");
+    let min = out.drive.iter().cloned().fold(f32::INFINITY, f32::min);
+    assert!(min.abs() < 1e-4, "{:?}", out.drive);
+}
+
+#[test]
+fn the_additive_inverse_on_a_white_segment_display_is_off_by_the_segment() {
+    // Guard for the tests above: without the white-segment step the same grey comes out far too
+    // bright, so they can fail.
+    let d = dlp(1.0);
+    let (mut prof, _) = prepared(&d, spec(BlackMode::Ignore, OutOfGamut::Clip, None));
+    prof.display_model = crate::DisplayModel::Additive;
+    let pp = PreparedProfile::new(&prof, &ApplyOptions::default()).unwrap();
+    let target = d.emitted_xyz([0.5; 3], [1.0; 3]).unwrap();
+    let input = input_for(&d, BlackMode::Ignore, target, [1.0; 3]);
+    let out = pp.apply(input.map(|v| v as f32), [0.5, 0.5]);
+    let shown = d.emitted_xyz(out.drive.map(f64::from), [1.0; 3]).unwrap();
+    assert!(shown[1] > 1.1 * target[1], "{shown:?} vs {target:?}");
 }

@@ -46,6 +46,7 @@ pub(crate) fn profile_with(
         created_utc: "2026-11-20T02:00:00Z".into(),
         primaries_xyz_cd_m2: primaries,
         black_xyz_cd_m2: black,
+        display_model: Default::default(),
         black_mode: BlackMode::Individual,
         shown_black_xyz_cd_m2: black,
         target_white_xyz_cd_m2: [76.0, 80.0, 87.0],

@@ -99,6 +99,12 @@ fn linear_block(
             *v += off;
         }
     }
+    if pp.white_segment {
+        let [a0, a1, a2] = &mut a;
+        for ((x, y), z) in a0.iter_mut().zip(a1.iter_mut()).zip(a2.iter_mut()) {
+            [*x, *y, *z] = pp.white_step([*x, *y, *z]);
+        }
+    }
     let mut slow = [false; BLOCK];
     for j in 0..BLOCK {
         let inside = ok[j]

@@ -145,6 +145,28 @@ unsafe fn scale_over_range(pp: &PreparedProfile, lin: &mut Linear8) {
     }
 }
 
+/// The white-segment step of the reference (a display's white segment taken out of `lin.a`) and the
+/// over-range mask again; lanes below zero have `s = 0`, so the gamut mask stands.
+///
+/// # Safety
+/// AVX2 must be available.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn white_step8(pp: &PreparedProfile, lin: &mut Linear8) {
+    let (u, k) = (pp.white_u, pp.white_k);
+    let t = |c: usize| _mm256_mul_ps(lin.a[c], _mm256_set1_ps(k[c]));
+    let s = _mm256_max_ps(
+        _mm256_min_ps(_mm256_min_ps(t(0), t(1)), t(2)),
+        _mm256_setzero_ps(),
+    );
+    let hi = _mm256_set1_ps(1.0 + GAMUT_TOLERANCE);
+    lin.over = _mm256_setzero_ps();
+    for (c, uc) in u.into_iter().enumerate() {
+        lin.a[c] = _mm256_sub_ps(lin.a[c], _mm256_mul_ps(_mm256_set1_ps(uc), s));
+        lin.over = _mm256_or_ps(lin.over, _mm256_cmp_ps::<_CMP_GT_OQ>(lin.a[c], hi));
+    }
+}
+
 /// Codes of one channel of eight pixels: LUT segment, interpolation, quantisation
 /// with thresholds `th` to `0..=max_code`.
 ///
@@ -210,12 +232,16 @@ unsafe fn fast8(
         let xyz = load_xyz(xyz);
         let ok = input_ok(xyz);
         let mut lin = linear8(pp, xyz, gain);
+        if pp.white_segment {
+            white_step8(pp, &mut lin);
+        }
         // lanes for the reference: invalid or huge input, a gamut clip, or a marker
         let mut scalar = _mm256_or_ps(
             _mm256_xor_ps(ok, _mm256_castsi256_ps(_mm256_set1_epi32(-1))),
             lin.gamut,
         );
-        if pp.out_of_gamut == OutOfGamut::FalseColour {
+        // over range with a white segment: the reference's region-wise scaling
+        if pp.out_of_gamut == OutOfGamut::FalseColour || pp.white_segment {
             scalar = _mm256_or_ps(scalar, lin.over);
         }
         let slow = _mm256_movemask_ps(scalar) as u32;

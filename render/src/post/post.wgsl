@@ -11,6 +11,8 @@ struct Params {
     m2: vec4<f32>,
     offset: vec4<f32>,
     white_dir: vec4<f32>,
+    white_u: vec4<f32>,
+    white_k: vec4<f32>,
     lut_scale: vec4<f32>,
     lut_len: vec4<u32>,
     lut_base: vec4<u32>,
@@ -78,11 +80,38 @@ struct Out {
     flags: u32,
 }
 
+// The white-segment step: a display's white segment taken out of the channel intensities (u = 0,
+// k = 1 for an additive display: then a − 0·s = a exactly).
+fn white_step(a: vec3<f32>) -> vec3<f32> {
+    let u = p.white_u.xyz;
+    let k = p.white_k.xyz;
+    let s = max(min(min(a.x * k.x, a.y * k.y), a.z * k.z), 0.0);
+    return vec3<f32>(a.x - u.x * s, a.y - u.y * s, a.z - u.z * s);
+}
+
+// The linear form of white_step in the region of a = v + offset, applied to v.
+fn white_region(v: vec3<f32>, a: vec3<f32>) -> vec3<f32> {
+    let u = p.white_u.xyz;
+    let k = p.white_k.xyz;
+    let t = vec3<f32>(a.x * k.x, a.y * k.y, a.z * k.z);
+    var j = 2u;
+    if (t.x <= t.y && t.x <= t.z) {
+        j = 0u;
+    } else if (t.y <= t.z) {
+        j = 1u;
+    }
+    if (t[j] <= 0.0) {
+        return v;
+    }
+    let r = v[j] * k[j];
+    return vec3<f32>(v.x - u.x * r, v.y - u.y * r, v.z - u.z * r);
+}
+
 fn invalid_out() -> Out {
     if (p.false_colour != 0u) {
         return Out(vec3<f32>(1.0, 1.0, 0.0), F_INVALID);
     }
-    return Out(drives(clamp(p.offset.xyz, vec3<f32>(0.0), vec3<f32>(1.0))), F_INVALID);
+    return Out(drives(clamp(white_step(p.offset.xyz), vec3<f32>(0.0), vec3<f32>(1.0))), F_INVALID);
 }
 
 fn post(xyz_raw: vec3<f32>, g: vec3<f32>) -> Out {
@@ -103,7 +132,7 @@ fn post(xyz_raw: vec3<f32>, g: vec3<f32>) -> Out {
     );
     m = div_gain(m, g);
     let off = p.offset.xyz;
-    var a = m + off;
+    var a = white_step(m + off);
     let fast = all(a >= vec3<f32>(0.0)) && all(a <= vec3<f32>(1.0));
     if (!fast) {
         if (any(a < vec3<f32>(-TOL))) {
@@ -135,21 +164,24 @@ fn post(xyz_raw: vec3<f32>, g: vec3<f32>) -> Out {
                 }
                 m = vec3<f32>(0.0);
             }
-            a = m + off;
+            a = white_step(m + off);
         }
         if (any(a > vec3<f32>(1.0 + TOL))) {
             flags = flags | F_OVER;
+            let a_pre = m + off;
+            let mr = white_region(m, a_pre);
+            let offr = white_region(off, a_pre);
             var s = 1.0;
             for (var c = 0u; c < 3u; c = c + 1u) {
                 if (a[c] > 1.0) {
                     var sc = 0.0;
-                    if (m[c] > 0.0) {
-                        sc = max((1.0 - off[c]) / m[c], 0.0);
+                    if (mr[c] > 0.0) {
+                        sc = max((1.0 - offr[c]) / mr[c], 0.0);
                     }
                     s = min(s, sc);
                 }
             }
-            a = s * m + off;
+            a = s * mr + offr;
         }
         a = clamp(a, vec3<f32>(0.0), vec3<f32>(1.0));
         if (p.false_colour != 0u) {
