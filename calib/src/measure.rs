@@ -36,6 +36,7 @@
     reason = "errors carry the display, the reading and the device error and occur at most once per run"
 )]
 
+pub mod meter_matrix;
 pub mod meter_offset;
 pub mod warm_up;
 
@@ -112,6 +113,11 @@ pub struct MeasureOptions {
     /// `None` starts at once.
     #[serde(default)]
     pub warm_up: Option<warm_up::WarmUp>,
+    /// The meter's display-type correction ([`meter_matrix`]): every reading of a
+    /// display goes through the matrix of its eye. `None`: readings as the meter gives
+    /// them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub meter_matrix: Option<meter_matrix::MeterMatrices>,
 }
 
 /// Information to concentrate ramp samples on the used part of each channel.
@@ -147,6 +153,7 @@ impl Default for MeasureOptions {
             primary_repeats: None,
             focus: None,
             warm_up: None,
+            meter_matrix: None,
         }
     }
 }
@@ -563,6 +570,8 @@ pub struct Session<'r, 'a> {
     rig: &'r mut Rig<'a>,
     id: DisplayId,
     name: String,
+    /// The meter's correction for this display's type, if any.
+    correction: Option<nalgebra::Matrix3<f64>>,
     budget: u32,
     max_retries: u32,
     limit_cd_m2: f64,
@@ -602,6 +611,10 @@ impl<'r, 'a> Session<'r, 'a> {
             rig,
             id,
             name,
+            correction: opts
+                .meter_matrix
+                .as_ref()
+                .and_then(|m| m.for_display(display.display, display.eye)),
             budget: opts.budget,
             max_retries: opts.max_retries,
             limit_cd_m2,
@@ -639,7 +652,10 @@ impl<'r, 'a> Session<'r, 'a> {
                         xyz,
                     });
                 }
-                Ok(xyz) => Some(xyz),
+                Ok(xyz) => Some(match &self.correction {
+                    Some(m) => meter_matrix::apply(m, xyz),
+                    None => xyz,
+                }),
                 Err(DeviceError::TooDark { .. }) => None,
                 Err(e) if e.is_transient() && attempts <= self.max_retries => {
                     tracing::warn!(display = %self.name, %patch, "transient meter error, retrying: {e}");

@@ -26,6 +26,7 @@ use lumiwall_pattern::{OutputAddress, Token};
 use lumiwall_profiles::DisplayProfile;
 
 use crate::commission::{CommissionError, CommissionOptions, CommissionOutcome, commission};
+use crate::measure::meter_matrix::{MeterMatrices, MeterMatrixError};
 use crate::measure::{Progress, Rig};
 use crate::verify::{Target, VerifyError, VerifyOptions, VerifyReport, verify_wall};
 
@@ -320,6 +321,28 @@ impl Station {
     /// The pty emulator behind the meter (`MeterChoice::Emulated` only).
     pub fn emulator(&self) -> Option<&Emulator> {
         self.emulator.as_ref()
+    }
+
+    /// Matches the station's meter to a simulated reference spectroradiometer
+    /// (seeded with `reference_seed`) on the virtual wall: one correction matrix per
+    /// eye ([`crate::measure::meter_matrix`]), and with `per_display` one per display.
+    pub fn meter_matrices(
+        &mut self,
+        reference_seed: u64,
+        uv: [f64; 2],
+        per_display: bool,
+    ) -> Result<MeterMatrices, MeterMatrixError> {
+        let mut reference = self
+            .wall
+            .meter(MeterModel::spectroradiometer(reference_seed));
+        let displays = self.displays();
+        crate::measure::meter_matrix::make(
+            &mut self.rig(),
+            &mut reference,
+            &displays,
+            uv,
+            per_display,
+        )
     }
 
     /// Commissions every display of the wall into `out_dir` (see [`commission`]).

@@ -108,10 +108,14 @@ fn cs100a_statistics_at_100_cd_m2_match_the_datasheet() {
             sy / ly
         );
         assert!(sx < 0.001 && sy2 < 0.001 && sx > 0.0002);
-        // Systematic error within the accuracy spec and not zero.
-        assert!((ly / truth.y - 1.0).abs() < 0.02);
-        assert!((mx - t[0]).abs() < 0.004 + 3.0 * sx / 500f64.sqrt());
-        assert!((my - t[1]).abs() < 0.004 + 3.0 * sy2 / 500f64.sqrt());
+        // Systematic error not zero and about the accuracy spec: the datasheet's ±2 %
+        // and ±0.004 hold for illuminant A; on a UHP lamp's spiky white the filters'
+        // spectral mismatch adds to them (1.5 nm filter shifts give up to ~0.006).
+        println!("  truth x {:.4} y {:.4}", t[0], t[1]);
+        assert!((ly / truth.y - 1.0).abs() < 0.03);
+        assert!((mx - t[0]).abs() < 0.008 + 3.0 * sx / 500f64.sqrt());
+        assert!((my - t[1]).abs() < 0.008 + 3.0 * sy2 / 500f64.sqrt());
+        assert!((mx - t[0]).abs() + (my - t[1]).abs() > 1e-4);
         assert!(r.windows(2).any(|p| p[0] != p[1]));
     }
     // Instruments differ (seeded systematic error), the same instrument repeats.
@@ -253,4 +257,69 @@ fn show_aim_and_reading_take_under_200_us() {
     let per = t.elapsed().as_secs_f64() / n as f64;
     println!("{:.2} µs per show+aim+reading", per * 1e6);
     assert!(per < 200e-6, "{per} s per reading");
+}
+
+/// A CS-100A's systematic error alone (no noise, no display rounding).
+fn systematic_only(seed: u64) -> MeterModel {
+    MeterModel {
+        lum_noise_rel: 0.0,
+        lum_low_light_rel: 0.0,
+        xy_noise: 0.0,
+        xy_low_light: 0.0,
+        display_digits: None,
+        ..MeterModel::cs100a(seed)
+    }
+}
+
+/// Issue 12 item 6: the simulated colorimeter errs as a filter colorimeter does. Its
+/// filters deviate from the CIE functions, so the error depends on the spectrum
+/// (narrow-band Infitec primaries differ from the lamp white), and it is linear in the
+/// light, so R + G + B − 2·black = white holds in its readings (no additivity test
+/// can see it).
+#[test]
+fn a_filter_colorimeter_errs_by_spectrum_and_keeps_additivity() {
+    let w = wall("heyewall-48.toml");
+    let patches = [
+        ("black", [0.0; 3]),
+        ("red", [1.0, 0.0, 0.0]),
+        ("green", [0.0, 1.0, 0.0]),
+        ("blue", [0.0, 0.0, 1.0]),
+        ("white", [1.0; 3]),
+    ];
+    for seed in [1, 2, 3, 4] {
+        let mut rig = Rig::on(&w, systematic_only(seed));
+        let mut seen = Vec::new();
+        let mut dxy = Vec::new();
+        for (name, drive) in patches {
+            let truth = w.emitted_xyz(DisplayId(0), drive, C).unwrap();
+            let r = rig.read(DisplayId(0), drive, C).unwrap();
+            let (t, m) = (truth.xy().unwrap(), r.xy().unwrap());
+            dxy.push([m[0] - t[0], m[1] - t[1]]);
+            println!(
+                "seed {seed} {name:5}: ΔY {:+.2} %, Δx {:+.4}, Δy {:+.4}",
+                100.0 * (r.y / truth.y - 1.0),
+                m[0] - t[0],
+                m[1] - t[1]
+            );
+            seen.push(r);
+        }
+        let sum = seen[1] + seen[2] + seen[3] - seen[0] * 2.0;
+        let add = (seen[4] - sum)
+            .to_array()
+            .iter()
+            .map(|v| v.abs())
+            .sum::<f64>()
+            / seen[4].y;
+        // (The lamp ages by the 4 s between the readings: 1e-6.)
+        assert!(add < 1e-5, "seed {seed}: additivity error {add}");
+        let spread = (1..4)
+            .map(|i| (dxy[i][0] - dxy[4][0]).hypot(dxy[i][1] - dxy[4][1]))
+            .fold(0.0, f64::max);
+        assert!(
+            spread > 5e-4,
+            "seed {seed}: the error does not depend on the spectrum"
+        );
+        let white = dxy[4][0].hypot(dxy[4][1]);
+        assert!(white < 0.006, "seed {seed}: white off by {white}");
+    }
 }

@@ -15,6 +15,7 @@ use lumiwall_bench::readings::{self, ReadingsBench, ReadingsRow};
 use lumiwall_calib::cli_values::{parse_budget, parse_patches};
 use lumiwall_calib::colorimetry::cct_to_xy;
 use lumiwall_calib::commission::{CommissionOptions, CommissionOutcome};
+use lumiwall_calib::measure::meter_matrix::MeterMatrices;
 use lumiwall_calib::measure::{LowLight, MeasureOptions, Progress};
 use lumiwall_calib::solve::{SolveOptions, WhiteTarget};
 use lumiwall_calib::station::{AimChoice, MeterChoice, Noise, Station, StationOptions};
@@ -86,12 +87,28 @@ pub(crate) struct MeterArgs {
     /// q = stop; --resume continues) or simulated.
     #[arg(long, default_value = "auto")]
     pub(crate) aim: AimChoice,
+    /// The meter's display-type correction matrices (from `lumiwall meter-matrix`),
+    /// applied to every reading of a display of the matrix's eye. `commission` keeps a
+    /// copy in the profile folder, which `verify` then uses when this is not given.
+    #[arg(long)]
+    pub(crate) meter_matrix: Option<PathBuf>,
 }
 
 /// Largest `--time-scale`: ten times slower than a real K-10A.
 const MAX_TIME_SCALE: f64 = 10.0;
 
+/// Name of the copy of the meter matrices in a profile folder.
+pub(crate) const METER_MATRIX_FILE: &str = "meter-matrix.json";
+
 impl MeterArgs {
+    /// The matrices of `--meter-matrix`, if given.
+    pub(crate) fn meter_matrices(&self) -> Result<Option<MeterMatrices>, CliError> {
+        self.meter_matrix
+            .as_ref()
+            .map(|p| MeterMatrices::load(p).map_err(|e| CliError::input(e.to_string())))
+            .transpose()
+    }
+
     /// The station's meter as these options name it.
     pub(crate) fn station_options(&self) -> StationOptions {
         StationOptions {
@@ -221,6 +238,7 @@ impl CommissionArgs {
                 warm_up: self
                     .warm_up
                     .then(lumiwall_calib::measure::warm_up::WarmUp::default),
+                meter_matrix: self.meter.meter_matrices()?,
                 ..MeasureOptions::default()
             },
             solve: self.solve.solve_options()?,
@@ -347,6 +365,10 @@ pub(crate) fn run(args: CommissionArgs) -> Result<(), CliError> {
     let outcome = station.commission(&args.out, &opts, &mut |p| report.on(p));
     report.bar.finish_and_clear();
     let outcome = outcome?;
+    if let Some(m) = &opts.measure.meter_matrix {
+        m.save(&args.out.join(METER_MATRIX_FILE))
+            .map_err(|e| CliError::failure(e.to_string()))?;
+    }
     print_outcome(&outcome, started.elapsed());
     if let Some(camera) = &args.camera {
         camera_stage(&mut station, &outcome, &args, camera)?;
@@ -517,4 +539,97 @@ fn print_readings_row(r: &ReadingsRow) {
         r.max_abs_dl_percent,
         r.elapsed.as_secs_f64()
     );
+}
+
+/// Options of `lumiwall meter-matrix`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct MeterMatrixArgs {
+    /// Wall description (TOML).
+    #[arg(long)]
+    wall: PathBuf,
+    #[command(flatten)]
+    meter: MeterArgs,
+    /// Output file (JSON), e.g. meter-matrix.json.
+    #[arg(long)]
+    out: PathBuf,
+    /// Serial number of the simulated reference spectroradiometer.
+    #[arg(long, default_value_t = 2000)]
+    reference_seed: u64,
+    /// Also one matrix per display (the reference reads every display): for walls
+    /// whose displays of one eye differ in spectrum, e.g. Infitec comb filters.
+    #[arg(long)]
+    per_display: bool,
+}
+
+/// Runs `lumiwall meter-matrix`: reads black, red, green, blue and white of the middle
+/// display of each eye with the station's meter and a reference spectroradiometer and
+/// fits one correction matrix per eye. The reference exists only on the virtual wall.
+pub(crate) fn meter_matrix(args: MeterMatrixArgs) -> Result<(), CliError> {
+    if let MeterChoice::Serial(port) = &args.meter.meter {
+        return Err(CliError::input(format!(
+            "a meter matrix needs a reference spectroradiometer beside the meter on {port}; \
+             lumiwall drives none yet (only the virtual wall's): make a CCMX with ArgyllCMS \
+             ccxxmake and load it into the K-10A, or use --meter emulated on the virtual wall"
+        )));
+    }
+    if args.meter.meter_matrix.is_some() {
+        return Err(CliError::input(
+            "--meter-matrix is what this command makes; leave it out".to_string(),
+        ));
+    }
+    if args.out.is_dir() {
+        return Err(CliError::input(format!(
+            "--out {} is a folder; give a file name, e.g. {}",
+            args.out.display(),
+            args.out.join("meter-matrix.json").display()
+        )));
+    }
+    let parent = args
+        .out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .map(PathBuf::from);
+    if let Some(parent) = &parent {
+        values::check_output_dir("--out's folder", parent)?;
+    }
+    let mut station = Station::open(&args.wall, &args.meter.station_options())?;
+    let matrices = station
+        .meter_matrices(args.reference_seed, [0.5, 0.5], args.per_display)
+        .map_err(|e| CliError::failure(e.to_string()))?;
+    println!(
+        "{} matched to {} on {}:",
+        matrices.instrument,
+        matrices.reference,
+        station.wall.name()
+    );
+    for m in matrices.matrices.iter().filter(|m| m.display.is_none()) {
+        println!(
+            "  {} eye: fit residual {:.3} %, matrix {:?}",
+            m.eye,
+            100.0 * m.fit_residual,
+            m.matrix.map(|r| r.map(|v| (v * 1e4).round() / 1e4))
+        );
+    }
+    let own: Vec<f64> = matrices
+        .matrices
+        .iter()
+        .filter(|m| m.display.is_some())
+        .map(|m| m.fit_residual)
+        .collect();
+    if !own.is_empty() {
+        println!(
+            "  and {} displays' own matrices: largest fit residual {:.3} %",
+            own.len(),
+            100.0 * own.iter().cloned().fold(0.0, f64::max)
+        );
+    }
+    if let Some(parent) = &parent {
+        std::fs::create_dir_all(parent)
+            .map_err(|e| CliError::failure(format!("cannot create {}: {e}", parent.display())))?;
+    }
+    matrices
+        .save(&args.out)
+        .map_err(|e| CliError::failure(e.to_string()))?;
+    println!("written: {}", args.out.display());
+    Ok(())
 }

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use indicatif::{ProgressBar, ProgressStyle};
 use lumiwall_calib::cli_values::parse_patches;
 use lumiwall_calib::measure::Rig;
+use lumiwall_calib::measure::meter_matrix::MeterMatrices;
 use lumiwall_calib::measure::meter_offset::{CorrectedMeter, MeterCorrection};
 use lumiwall_calib::measure::{MeasureOptions, Progress};
 use lumiwall_calib::spatial::{GridOptions, Truth, verify_grid};
@@ -126,6 +127,36 @@ fn load_meter_correction(
     Ok(Some(c.xy_offset))
 }
 
+/// The meter matrices of `--meter-matrix`, or else the copy `commission` kept in the
+/// profile folder when it was made for this instrument.
+fn meter_matrices(
+    args: &VerifyArgs,
+    meter: &dyn lumiwall_devices::Colorimeter,
+) -> Result<Option<MeterMatrices>, CliError> {
+    if let Some(m) = args.meter.meter_matrices()? {
+        return Ok(Some(m));
+    }
+    let path = args.profiles.join(crate::cmd_commission::METER_MATRIX_FILE);
+    if !path.exists() {
+        return Ok(None);
+    }
+    let m = MeterMatrices::load(&path).map_err(|e| CliError::input(e.to_string()))?;
+    if m.instrument != meter.info().model {
+        eprintln!(
+            "lumiwall: note: the meter matrices in {} are for '{}', this meter is '{}'; not applied",
+            path.display(),
+            m.instrument,
+            meter.info().model
+        );
+        return Ok(None);
+    }
+    println!(
+        "applying the meter matrices from commissioning ({})",
+        path.display()
+    );
+    Ok(Some(m))
+}
+
 /// Runs `lumiwall verify`.
 pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
     let (wall_name, profiles) = ProfileSet::load_dir(&args.profiles).map_err(|e| {
@@ -152,7 +183,10 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
     let opts = VerifyOptions {
         patches: targets.len(),
         meter_xy_offset: load_meter_correction(&args.profiles, station.meter.as_ref())?,
-        measure: MeasureOptions::default(),
+        measure: MeasureOptions {
+            meter_matrix: meter_matrices(&args, station.meter.as_ref())?,
+            ..MeasureOptions::default()
+        },
         ..VerifyOptions::default()
     };
     let pb = ProgressBar::new((station.displays().len() * targets.len()) as u64);

@@ -40,6 +40,10 @@ enum Command {
     /// Show target colours through the profiles and read them back with the meter.
     #[cfg(feature = "station")]
     Verify(cmd_verify::VerifyArgs),
+    /// Match the meter to a reference spectroradiometer: one correction matrix per
+    /// display type (eye), for `commission` and `verify --meter-matrix`.
+    #[cfg(feature = "station")]
+    MeterMatrix(cmd_commission::MeterMatrixArgs),
     /// Apply display profiles to an XYZ (cd/m²) frame: one output per display and eye.
     Apply(cmd_apply::ApplyArgs),
     /// Render a scene to an XYZ float image in cd/m².
@@ -88,6 +92,8 @@ fn main() {
         Command::Commission(a) => cmd_commission::run(a),
         #[cfg(feature = "station")]
         Command::Verify(a) => cmd_verify::run(a),
+        #[cfg(feature = "station")]
+        Command::MeterMatrix(a) => cmd_commission::meter_matrix(a),
         Command::Apply(a) => cmd_apply::run(a),
         Command::Render(a) => cmd_render::run(a),
         Command::Profiles(a) => cmd_profiles::run(a),

@@ -1,6 +1,12 @@
 //! The simulated spot colorimeter and its error model.
 //!
-//! Errors are applied in xyY: a per-instrument systematic luminance gain and xy
+//! The instrument sees the displays' spectra through its own three filters: the CIE
+//! 1931 functions, each shifted in wavelength by a per-instrument amount and calibrated
+//! by the maker on illuminant A (one gain per filter, with a small calibration error).
+//! So its systematic error depends on the spectrum, as a real filter colorimeter's
+//! does: small on a lamp white, larger on narrow-band (Infitec) primaries, and linear
+//! in the light (it keeps additivity; no reading of R, G, B and white reveals it).
+//! Then, in xyY: a per-instrument absolute luminance gain and (optionally) an xy
 //! offset (drawn once from the instrument seed), per-reading Gaussian noise whose
 //! standard deviation grows as luminance falls below `low_light_cd_m2`, and display
 //! rounding. Limits: over `max_cd_m2` → [`DeviceError::OverRange`]; below
@@ -12,6 +18,8 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
+use super::observer::{Spectrum, cie1931};
+use super::spectra::planck;
 use super::wall::VirtualWall;
 use crate::{Colorimeter, DeviceError, MeterInfo, Xyz};
 use lumiwall_core::Xy;
@@ -26,8 +34,19 @@ pub struct MeterModel {
     pub seed: u64,
     /// Bound of the systematic luminance gain error (drawn uniformly in ±bound).
     pub lum_systematic_rel: f64,
-    /// Bound of the systematic x and y offsets (each drawn uniformly in ±bound).
+    /// Bound of the systematic x and y offsets (each drawn uniformly in ±bound), the
+    /// same for every spectrum. Not how a filter colorimeter errs (see
+    /// `filter_shift_nm`); kept for what-if studies.
     pub xy_systematic: f64,
+    /// Bound of the wavelength shift of each of the three filters against the CIE
+    /// 1931 functions (nm, each drawn uniformly in ±bound): the instrument's spectral
+    /// mismatch. 0: the CIE observer exactly.
+    #[serde(default)]
+    pub filter_shift_nm: f64,
+    /// Bound of the relative error of each filter's calibration gain (the maker
+    /// calibrates on illuminant A; each drawn uniformly in ±bound).
+    #[serde(default)]
+    pub filter_gain_rel: f64,
     /// 1σ relative luminance noise per reading at high luminance.
     pub lum_noise_rel: f64,
     /// Added 1σ relative luminance noise at `low_light_cd_m2`, growing ∝ 1/Y below.
@@ -58,6 +77,8 @@ impl MeterModel {
             seed: 0,
             lum_systematic_rel: 0.0,
             xy_systematic: 0.0,
+            filter_shift_nm: 0.0,
+            filter_gain_rel: 0.0,
             lum_noise_rel: 0.0,
             lum_low_light_rel: 0.0,
             xy_noise: 0.0,
@@ -70,17 +91,21 @@ impl MeterModel {
         }
     }
 
-    /// Konica Minolta CS-100A per its datasheet: luminance accuracy ±2 % and xy
-    /// ±0.004 (illuminant A) as the bounds of the per-instrument error; repeatability
-    /// 0.2 % + 1 digit and xy 0.001 (2σ) per reading; range 0.01–299 900 cd/m²,
-    /// unreliable below ~1 cd/m² (Kresse 3.3.7); 4-digit display. `seed` plays the
-    /// serial number.
+    /// Konica Minolta CS-100A per its datasheet: luminance accuracy ±2 % as the bound
+    /// of the per-instrument gain; the xy accuracy ±0.004 (illuminant A) comes from the
+    /// filters: each shifted up to ±1.5 nm from the CIE functions and calibrated on
+    /// illuminant A with up to ±0.3 % gain error per filter (about ±0.002 in xy on
+    /// illuminant A, more on narrow-band primaries); repeatability 0.2 % + 1 digit and
+    /// xy 0.001 (2σ) per reading; range 0.01–299 900 cd/m², unreliable below ~1 cd/m²
+    /// (Kresse 3.3.7); 4-digit display. `seed` plays the serial number.
     pub fn cs100a(seed: u64) -> Self {
         Self {
             model: "Konica Minolta CS-100A (simulated)".into(),
             seed,
             lum_systematic_rel: 0.02,
-            xy_systematic: 0.004,
+            xy_systematic: 0.0,
+            filter_shift_nm: 1.5,
+            filter_gain_rel: 0.003,
             lum_noise_rel: 0.001,
             lum_low_light_rel: 0.004,
             xy_noise: 0.0005,
@@ -90,6 +115,31 @@ impl MeterModel {
             floor_cd_m2: 0.01,
             max_cd_m2: 299_900.0,
             display_digits: Some(4),
+        }
+    }
+
+    /// A reference spectroradiometer of the Konica Minolta CS-2000 class, to match a
+    /// filter colorimeter to (`lumiwall meter-matrix`): luminance ±2 % absolute,
+    /// wavelength accuracy ±0.3 nm (modelled as the CIE functions shifted up to
+    /// 0.3 nm) and ±0.1 % per tristimulus channel; repeatability 0.15 % and xy 0.0002;
+    /// 0.003–500 000 cd/m². `seed` plays the serial number.
+    pub fn spectroradiometer(seed: u64) -> Self {
+        Self {
+            model: "Konica Minolta CS-2000 (simulated reference)".into(),
+            seed,
+            lum_systematic_rel: 0.02,
+            xy_systematic: 0.0,
+            filter_shift_nm: 0.3,
+            filter_gain_rel: 0.001,
+            lum_noise_rel: 0.00075,
+            lum_low_light_rel: 0.002,
+            xy_noise: 0.0001,
+            xy_low_light: 0.0005,
+            low_light_cd_m2: 0.1,
+            min_reliable_cd_m2: 0.05,
+            floor_cd_m2: 0.003,
+            max_cd_m2: 500_000.0,
+            display_digits: Some(5),
         }
     }
 
@@ -112,7 +162,46 @@ pub struct SimMeter {
     model: MeterModel,
     systematic_gain: f64,
     systematic_xy: [f64; 2],
+    /// Each display's spectra through this instrument's filters (`None`: the CIE
+    /// observer exactly).
+    filters: Option<Filters>,
     rng: ChaCha8Rng,
+}
+
+/// One instrument's three filters: shifts against the CIE 1931 functions and the
+/// calibration gains, with each display's five spectra integrated through them.
+#[derive(Debug, Clone)]
+struct Filters {
+    /// Wavelength shift of the x̄, ȳ, z̄ filters (nm).
+    shift_nm: [f64; 3],
+    /// `basis[display]`: `[R, G, B, black, white segment]` as this instrument reads them.
+    basis: Vec<[[f64; 3]; 5]>,
+}
+
+impl Filters {
+    /// The filters for shifts `shift_nm` and calibration errors `gain_error`, and the
+    /// wall's displays integrated through them. The maker's calibration makes
+    /// illuminant A (Planck 2856 K) read as the CIE observer reads it, up to
+    /// `gain_error`.
+    fn new(
+        wall: &VirtualWall,
+        shift_nm: [f64; 3],
+        gain_error: [f64; 3],
+    ) -> Result<Self, crate::DeviceError> {
+        let obs = cie1931().map_err(|e| crate::DeviceError::Config(e.to_string()))?;
+        let cmf = [&obs.x_bar, &obs.y_bar, &obs.z_bar];
+        let illuminant_a = Spectrum::from_fn(|wl| planck(wl, 2856.0));
+        let dot = |a: &Spectrum, b: &Spectrum| -> f64 {
+            a.values.iter().zip(&b.values).map(|(x, y)| x * y).sum()
+        };
+        let sens: [Spectrum; 3] = std::array::from_fn(|c| {
+            let shifted = Spectrum::from_fn(|wl| cmf[c].at(wl - shift_nm[c]));
+            let gain = dot(&illuminant_a, cmf[c]) / dot(&illuminant_a, &shifted);
+            shifted.scaled(gain * (1.0 + gain_error[c]))
+        });
+        let basis = wall.integrated_spectra(|s| std::array::from_fn(|c| dot(s, &sens[c])));
+        Ok(Filters { shift_nm, basis })
+    }
 }
 
 fn round_sig(v: f64, digits: u32) -> f64 {
@@ -137,14 +226,25 @@ impl SimMeter {
         };
         let systematic_gain = 1.0 + draw(model.lum_systematic_rel);
         let systematic_xy = [draw(model.xy_systematic), draw(model.xy_systematic)];
+        let shift_nm = [0; 3].map(|_| draw(model.filter_shift_nm));
+        let gain_error = [0; 3].map(|_| draw(model.filter_gain_rel));
+        let filters = (shift_nm != [0.0; 3] || gain_error != [0.0; 3])
+            .then(|| Filters::new(&wall, shift_nm, gain_error).ok())
+            .flatten();
         let rng = ChaCha8Rng::seed_from_u64(wall.seed() ^ model.seed.rotate_left(32));
         Self {
             wall,
             model,
             systematic_gain,
             systematic_xy,
+            filters,
             rng,
         }
+    }
+
+    /// This instrument's filter shifts against the CIE 1931 functions (nm).
+    pub fn filter_shifts_nm(&self) -> [f64; 3] {
+        self.filters.as_ref().map_or([0.0; 3], |f| f.shift_nm)
     }
 
     /// The error model.
@@ -208,6 +308,7 @@ impl SimMeter {
             && m.xy_low_light == 0.0
             && self.systematic_gain == 1.0
             && self.systematic_xy == [0.0, 0.0]
+            && self.filters.is_none()
             && m.display_digits.is_none()
         {
             // Perfect meter: hand back the exact tristimulus values (no xyY round trip).
@@ -228,7 +329,9 @@ impl Colorimeter for SimMeter {
     }
 
     fn measure(&mut self) -> Result<Xyz, DeviceError> {
-        let truth = self.wall.read_spot()?;
-        self.apply_errors(truth)
+        let seen = self
+            .wall
+            .read_spot_in(self.filters.as_ref().map(|f| f.basis.as_slice()))?;
+        self.apply_errors(seen)
     }
 }

@@ -66,10 +66,25 @@ impl WallState {
     }
 
     fn emitted(&self, id: DisplayId, drive: [f64; 3], uv: [f64; 2]) -> Result<Xyz, DeviceError> {
+        self.emitted_in(id, drive, uv, None)
+    }
+
+    /// [`WallState::emitted`] as an instrument whose integration of each display's five
+    /// spectra is `basis[display]` sees it (`None`: the CIE 1931 observer, cd/m²).
+    fn emitted_in(
+        &self,
+        id: DisplayId,
+        drive: [f64; 3],
+        uv: [f64; 2],
+        basis: Option<&[[[f64; 3]; 5]]>,
+    ) -> Result<Xyz, DeviceError> {
         let d = self.display(id)?;
         check_drive(drive)?;
         check_uv(uv)?;
-        let xyz = d.emitted(drive, uv, self.conditions(d));
+        let xyz = match basis.and_then(|b| b.get(id.0 as usize)) {
+            Some(b) => d.emitted_in(b, drive, uv, self.conditions(d)),
+            None => d.emitted(drive, uv, self.conditions(d)),
+        };
         let spot = d.spot_m(uv);
         let meter = screen::meter_position_m(&self.file.meter, spot);
         let g = screen::gain(&self.file.screen, d.lens_m(), spot, meter);
@@ -558,8 +573,24 @@ impl VirtualWall {
         }
     }
 
-    /// What the meter sees now (noiseless); advances the clock by one reading.
-    pub(crate) fn read_spot(&self) -> Result<Xyz, DeviceError> {
+    /// Each display's five spectra (`[R, G, B, black, white segment]`) integrated by
+    /// `integrate`: an instrument's view of the displays (see
+    /// [`VirtualWall::read_spot_in`]).
+    pub(crate) fn integrated_spectra(
+        &self,
+        integrate: impl Fn(&super::observer::Spectrum) -> [f64; 3],
+    ) -> Vec<[[f64; 3]; 5]> {
+        let s = self.lock();
+        s.displays
+            .iter()
+            .map(|d| d.spectra.integrated(&integrate))
+            .collect()
+    }
+
+    /// What the meter sees now, noiseless, through an instrument whose integration of
+    /// display `i`'s spectra is `basis[i]` (`None`: the CIE 1931 observer, the truth);
+    /// advances the clock by one reading.
+    pub(crate) fn read_spot_in(&self, basis: Option<&[[[f64; 3]; 5]]>) -> Result<Xyz, DeviceError> {
         let mut s = self.lock();
         let (id, uv) = s.aimed.ok_or_else(|| {
             DeviceError::Config(
@@ -571,7 +602,7 @@ impl VirtualWall {
             Some((shown, pattern)) if *shown == id => pattern.drive_at(uv),
             _ => [0.0; 3],
         };
-        let xyz = s.emitted(id, drive, uv)?;
+        let xyz = s.emitted_in(id, drive, uv, basis)?;
         s.clock_s += s.file.clock.seconds_per_reading;
         Ok(xyz)
     }

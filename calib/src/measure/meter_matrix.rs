@@ -1,0 +1,348 @@
+//! Display-type correction matrices for a filter colorimeter (ArgyllCMS's CCMX idea).
+//!
+//! A filter colorimeter's filters deviate from the CIE 1931 functions, so its error
+//! depends on the spectrum: each display type (lamp, colour filters, Infitec comb of
+//! one eye) has its own. The error is linear in the light, so no additivity test can
+//! reveal it (R + G + B − 2·black = white holds in its readings). What corrects it is
+//! a reference: a spectroradiometer reads the same patches, and a 3×3 matrix `M` with
+//! `reference ≈ M · meter` is fitted by least squares on the black-subtracted red,
+//! green, blue and white of one display of the type (as ArgyllCMS's `ccxxmake` does,
+//! Gill 2009). The matrix then applies to every reading of every display of that type:
+//! here, of that eye. Where the displays of one type still differ in spectrum (an
+//! Infitec comb filter shifted by a few nm from projector to projector moves a filter
+//! colorimeter's error a lot), one matrix per display is made instead
+//! (`lumiwall meter-matrix --per-display`: the reference reads every display).
+//!
+//! [`MeterMatrices`] is saved as JSON (`lumiwall meter-matrix` writes it; `commission`
+//! and `verify` take it with `--meter-matrix`). Readings go through it in
+//! [`crate::measure::Session`], so commissioning, the warm-up wait and verification all
+//! see corrected readings.
+
+use std::path::Path;
+
+use lumiwall_core::Eye;
+use lumiwall_devices::{Colorimeter, DeviceError, DisplayInfo, Xyz};
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use super::Rig;
+
+/// Readings averaged per patch and instrument (a filter colorimeter's xy noise is a
+/// large relative error in Z on an Infitec blue of y ≈ 0.03).
+pub const REPEATS: u32 = 8;
+
+/// Version of the matrices file.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// Largest relative residual of the fit (|reference − M·meter| / |reference| over the
+/// four patches) accepted: a few times what the meter's noise leaves on a saturated
+/// blue; above it the display is not one display type (e.g. a white segment the matrix
+/// cannot carry) or a reading was wrong (aim, warm-up).
+pub const MAX_FIT_RESIDUAL: f64 = 0.05;
+
+/// Why a matrix could not be made or read.
+#[derive(Debug, thiserror::Error)]
+pub enum MeterMatrixError {
+    /// The patches do not determine a matrix.
+    #[error(
+        "the {eye} display's readings of red, green and blue are (nearly) collinear in the \
+         meter's readings: no correction matrix can be fitted; check the patterns reach \
+         the display"
+    )]
+    Singular {
+        /// Display type.
+        eye: Eye,
+    },
+    /// The fit leaves too large a residual.
+    #[error(
+        "the {eye} correction matrix leaves a {:.1} % residual on the patches it was \
+         fitted to (at most {:.1} %): the meter and the reference did not read the same \
+         light (aim, warm-up) or the display is not additive",
+        100.0 * residual,
+        100.0 * MAX_FIT_RESIDUAL
+    )]
+    Residual {
+        /// Display type.
+        eye: Eye,
+        /// The residual.
+        residual: f64,
+    },
+    /// A device failed while the patches were read.
+    #[error("reading the {eye} display's patches for the meter matrix: {source}")]
+    Device {
+        /// Display type.
+        eye: Eye,
+        /// What the device reported.
+        #[source]
+        source: DeviceError,
+    },
+    /// The file could not be read or written.
+    #[error("meter matrix file {path}: {message}")]
+    File {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// The correction of one instrument for one display type (one eye of the wall).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MeterMatrix {
+    /// The display type: the eye whose displays it corrects.
+    pub eye: Eye,
+    /// The one display (index in the wall file) it was made on and corrects; `None`:
+    /// every display of `eye` without a matrix of its own.
+    #[serde(default)]
+    pub display: Option<u32>,
+    /// Row-major `M`: corrected XYZ = `M` · meter XYZ.
+    pub matrix: [[f64; 3]; 3],
+    /// Largest relative residual `|reference − M·meter| / |reference|` of the fit on
+    /// its four patches.
+    pub fit_residual: f64,
+}
+
+/// The corrections of one instrument, per display type.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MeterMatrices {
+    /// [`FORMAT_VERSION`].
+    pub format_version: u32,
+    /// The instrument corrected ("model serial").
+    pub instrument: String,
+    /// The reference it was matched to.
+    pub reference: String,
+    /// One matrix per eye of the wall.
+    pub matrices: Vec<MeterMatrix>,
+}
+
+impl MeterMatrices {
+    /// The matrix for display `display` of `eye`: its own if one was made, else the
+    /// one of its eye, if any.
+    pub fn for_display(&self, display: u32, eye: Eye) -> Option<Matrix3<f64>> {
+        let own = self
+            .matrices
+            .iter()
+            .find(|m| m.eye == eye && m.display == Some(display));
+        own.or_else(|| {
+            self.matrices
+                .iter()
+                .find(|m| m.eye == eye && m.display.is_none())
+        })
+        .map(|m| Matrix3::from_fn(|r, c| m.matrix[r][c]))
+    }
+
+    /// Reads and checks a matrices file.
+    pub fn load(path: &Path) -> Result<Self, MeterMatrixError> {
+        let err = |message: String| MeterMatrixError::File {
+            path: path.display().to_string(),
+            message,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| err(e.to_string()))?;
+        let m: MeterMatrices = serde_json::from_str(&text).map_err(|e| err(e.to_string()))?;
+        if m.format_version != FORMAT_VERSION {
+            return Err(err(format!(
+                "format version {} (this lumiwall reads {FORMAT_VERSION})",
+                m.format_version
+            )));
+        }
+        let finite = m
+            .matrices
+            .iter()
+            .all(|x| x.matrix.iter().flatten().all(|v| v.is_finite()));
+        if m.matrices.is_empty() || !finite {
+            return Err(err("no matrix, or a matrix with a non-finite entry".into()));
+        }
+        Ok(m)
+    }
+
+    /// Writes the file atomically.
+    pub fn save(&self, path: &Path) -> Result<(), MeterMatrixError> {
+        let text = serde_json::to_string_pretty(self).unwrap_or_default();
+        lumiwall_profiles::write_atomic(path, text.as_bytes()).map_err(|e| MeterMatrixError::File {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })
+    }
+}
+
+/// Black, red, green, blue and white of one display, read by the meter and by the
+/// reference.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PatchPairs {
+    /// Meter readings `[black, R, G, B, W]`.
+    pub meter: [Xyz; 5],
+    /// Reference readings of the same patches.
+    pub reference: [Xyz; 5],
+}
+
+/// Fits `M` with `reference ≈ M · meter` on the readings of R, G, B and W as read,
+/// black included (the error is linear in all light, and the dark black's large
+/// low-light noise would only add to the primaries'), each pair weighted by
+/// `1 / |reference|²` so that relative errors count alike: weighted least squares,
+/// `M = (Σ w·r·mᵀ)(Σ w·m·mᵀ)⁻¹`.
+pub fn fit(eye: Eye, p: &PatchPairs) -> Result<MeterMatrix, MeterMatrixError> {
+    let v = |x: Xyz| Vector3::new(x.x, x.y, x.z);
+    let pairs: Vec<(Vector3<f64>, Vector3<f64>)> =
+        (1..5).map(|i| (v(p.meter[i]), v(p.reference[i]))).collect();
+    let mut mm = Matrix3::zeros();
+    let mut rm = Matrix3::zeros();
+    for (m, r) in &pairs {
+        let w = 1.0 / r.norm_squared().max(f64::MIN_POSITIVE);
+        mm += m * m.transpose() * w;
+        rm += r * m.transpose() * w;
+    }
+    let inv = mm
+        .try_inverse()
+        .filter(|i| i.iter().all(|x| x.is_finite()))
+        .ok_or(MeterMatrixError::Singular { eye })?;
+    let matrix = rm * inv;
+    let fit_residual = pairs
+        .iter()
+        .map(|(m, r)| (r - matrix * m).norm() / r.norm().max(f64::MIN_POSITIVE))
+        .fold(0.0, f64::max);
+    if fit_residual.is_nan() || fit_residual > MAX_FIT_RESIDUAL {
+        return Err(MeterMatrixError::Residual {
+            eye,
+            residual: fit_residual,
+        });
+    }
+    Ok(MeterMatrix {
+        eye,
+        display: None,
+        matrix: std::array::from_fn(|r| std::array::from_fn(|c| matrix[(r, c)])),
+        fit_residual,
+    })
+}
+
+/// The drives of black, red, green, blue and white.
+const PATCHES: [[f64; 3]; 5] = [
+    [0.0; 3],
+    [1.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [1.0; 3],
+];
+
+/// Mean of `n` readings; a patch too dark for the instrument reads as zero light.
+fn averaged(meter: &mut dyn Colorimeter, n: u32) -> Result<Xyz, DeviceError> {
+    let mut sum = Xyz::default();
+    for _ in 0..n {
+        match meter.measure() {
+            Ok(v) => sum = sum + v,
+            Err(DeviceError::TooDark { .. }) => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(sum * (1.0 / f64::from(n.max(1))))
+}
+
+/// Black, R, G, B and W of `display` at `uv`, read with the station's meter (through
+/// `rig`) and with `reference`, which reads the spot the rig's positioner aims at.
+pub fn measure_pairs(
+    rig: &mut Rig<'_>,
+    reference: &mut dyn Colorimeter,
+    display: &DisplayInfo,
+    uv: [f64; 2],
+) -> Result<PatchPairs, DeviceError> {
+    rig.positioner.aim(display.id, uv)?;
+    let mut meter = [Xyz::default(); 5];
+    let mut refr = [Xyz::default(); 5];
+    for (i, drive) in PATCHES.iter().enumerate() {
+        rig.pattern.show(display.id, *drive)?;
+        meter[i] = averaged(rig.meter, REPEATS)?;
+        refr[i] = averaged(reference, REPEATS)?;
+    }
+    Ok(PatchPairs {
+        meter,
+        reference: refr,
+    })
+}
+
+/// One matrix per eye of the wall, each from the middle display of that eye (in wall
+/// order), read at `uv`; with `per_display` also one for every display.
+pub fn make(
+    rig: &mut Rig<'_>,
+    reference: &mut dyn Colorimeter,
+    displays: &[DisplayInfo],
+    uv: [f64; 2],
+    per_display: bool,
+) -> Result<MeterMatrices, MeterMatrixError> {
+    let mut eyes: Vec<Eye> = Vec::new();
+    for d in displays {
+        if !eyes.contains(&d.eye) {
+            eyes.push(d.eye);
+        }
+    }
+    let mut matrices = Vec::with_capacity(eyes.len());
+    for eye in eyes {
+        let of_eye: Vec<&DisplayInfo> = displays.iter().filter(|d| d.eye == eye).collect();
+        let display = of_eye[of_eye.len() / 2];
+        let pairs = measure_pairs(rig, reference, display, uv)
+            .map_err(|source| MeterMatrixError::Device { eye, source })?;
+        matrices.push(fit(eye, &pairs)?);
+        if per_display {
+            for d in of_eye {
+                let pairs = measure_pairs(rig, reference, d, uv)
+                    .map_err(|source| MeterMatrixError::Device { eye, source })?;
+                matrices.push(MeterMatrix {
+                    display: Some(d.id.0),
+                    ..fit(eye, &pairs)?
+                });
+            }
+        }
+    }
+    let name = |i: lumiwall_devices::MeterInfo| i.model;
+    Ok(MeterMatrices {
+        format_version: FORMAT_VERSION,
+        instrument: name(rig.meter.info()),
+        reference: name(reference.info()),
+        matrices,
+    })
+}
+
+/// `M · reading`; a component the matrix takes below zero (a saturated primary's
+/// near-zero X or Z plus the readings' noise) is zero light.
+pub fn apply(m: &Matrix3<f64>, reading: Xyz) -> Xyz {
+    let c = m * Vector3::new(reading.x, reading.y, reading.z);
+    Xyz::new(c[0].max(0.0), c[1].max(0.0), c[2].max(0.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn xyz(v: [f64; 3]) -> Xyz {
+        Xyz::new(v[0], v[1], v[2])
+    }
+
+    /// An instrument whose readings are `A · truth` plus a black: the fit recovers `A⁻¹`
+    /// from the four patches, and a white segment that is not in R + G + B breaks it.
+    #[test]
+    fn the_fit_inverts_a_linear_meter_error_and_refuses_what_is_not_one() {
+        let a = Matrix3::new(1.02, 0.03, -0.01, -0.02, 0.99, 0.01, 0.0, 0.04, 1.05);
+        let truth = [
+            [0.1, 0.1, 0.12],
+            [20.0, 11.0, 1.0],
+            [15.0, 50.0, 6.0],
+            [8.0, 3.0, 45.0],
+        ];
+        let mut t = truth.map(xyz).to_vec();
+        t.push(t[1] + t[2] + t[3] - t[0] * 2.0);
+        let read = |x: Xyz| apply(&a, x);
+        let pairs = PatchPairs {
+            meter: [t[0], t[1], t[2], t[3], t[4]].map(read),
+            reference: [t[0], t[1], t[2], t[3], t[4]],
+        };
+        let m = fit(Eye::Left, &pairs).unwrap();
+        let mm = Matrix3::from_fn(|r, c| m.matrix[r][c]);
+        assert!((mm * a - Matrix3::identity()).norm() < 1e-12, "{mm}");
+        assert!(m.fit_residual < 1e-12);
+        // A white 20 % brighter in the reference only: no single matrix explains it.
+        let mut bad = pairs;
+        bad.reference[4] = bad.reference[4] * 1.2;
+        assert!(matches!(
+            fit(Eye::Left, &bad),
+            Err(MeterMatrixError::Residual { .. })
+        ));
+    }
+}

@@ -1,0 +1,83 @@
+//! Issue 12 item 6: the station meter's systematic error is a filter colorimeter's
+//! (spectrum-dependent, additive), and a correction matrix per eye made against a
+//! reference spectroradiometer brings its readings to the simulator's truth (the CIE
+//! observer) on colours it was not fitted to.
+//!
+//! `cargo test -p lumiwall-tests --test meter_matrix -- --nocapture` prints the figures.
+
+mod support;
+
+use lumiwall_calib::measure::meter_matrix;
+use lumiwall_calib::station::Noise;
+use lumiwall_devices::{DisplayId, Xyz};
+
+/// Colours the matrices were not fitted to: greys, secondaries, a skin tone.
+const CHECK: [[f64; 3]; 6] = [
+    [0.5, 0.5, 0.5],
+    [0.8, 0.8, 0.8],
+    [1.0, 1.0, 0.0],
+    [0.0, 1.0, 1.0],
+    [1.0, 0.0, 1.0],
+    [0.9, 0.6, 0.45],
+];
+
+/// Mean of `n` readings of `drive` on display `id` at its centre.
+fn read(station: &mut lumiwall_calib::station::Station, id: DisplayId, drive: [f64; 3]) -> Xyz {
+    let n = 8;
+    station.pattern.show(id, drive).expect("show");
+    station.positioner.aim(id, [0.5, 0.5]).expect("aim");
+    let mut sum = Xyz::default();
+    for _ in 0..n {
+        sum = sum + station.meter.measure().expect("reading");
+    }
+    sum * (1.0 / f64::from(n))
+}
+
+fn dxy(a: Xyz, b: Xyz) -> f64 {
+    let (a, b) = (a.xy().expect("light"), b.xy().expect("light"));
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+#[test]
+fn a_meter_matrix_per_eye_brings_the_colorimeter_to_the_truth_on_colours_it_was_not_fitted_to() {
+    let mut station = support::direct_station("infitec-pair.toml", Noise::Realistic);
+    let matrices = station
+        .meter_matrices(2000, [0.5, 0.5], false)
+        .expect("matrices");
+    assert_eq!(matrices.matrices.len(), 2, "one per eye");
+    let (mut raw_sum, mut corrected_sum, mut n) = (0.0, 0.0, 0.0);
+    let mut worst_corrected: f64 = 0.0;
+    for d in station.displays() {
+        let m = matrices
+            .for_display(d.id.0, d.eye)
+            .expect("a matrix for the eye");
+        for drive in CHECK {
+            let truth = station
+                .wall
+                .emitted_xyz(d.id, drive, [0.5, 0.5])
+                .expect("truth");
+            let raw = read(&mut station, d.id, drive);
+            let corrected = meter_matrix::apply(&m, raw);
+            let (e_raw, e_cor) = (dxy(raw, truth), dxy(corrected, truth));
+            eprintln!(
+                "{} {drive:?}: Δxy as read {e_raw:.4}, corrected {e_cor:.4}, ΔY corrected {:+.2} %",
+                d.name,
+                100.0 * (corrected.y / truth.y - 1.0)
+            );
+            raw_sum += e_raw;
+            corrected_sum += e_cor;
+            worst_corrected = worst_corrected.max(e_cor);
+            n += 1.0;
+        }
+    }
+    let (raw_mean, corrected_mean) = (raw_sum / n, corrected_sum / n);
+    eprintln!("mean Δxy as read {raw_mean:.4}, corrected {corrected_mean:.4}");
+    assert!(
+        corrected_mean < 0.5 * raw_mean && corrected_mean < 0.0015,
+        "as read {raw_mean:.4}, corrected {corrected_mean:.4}"
+    );
+    assert!(
+        worst_corrected < 0.004,
+        "worst corrected {worst_corrected:.4}"
+    );
+}
