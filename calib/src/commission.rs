@@ -12,9 +12,10 @@
 //! <out>/meter-correction.json            the meter's estimated xy offset (if used)
 //! ```
 //!
-//! Before the solve, the meter's systematic y offset is estimated from the displays'
-//! additivity and removed, and each display's primaries are fused with its white
-//! reading ([`crate::measure::meter_offset`]); the saved run keeps the raw readings.
+//! Before the solve, each display's primaries are fused with its white reading where
+//! additivity holds within meter noise, and, if asked for, a constant xy offset of the
+//! meter is estimated from the displays' additivity and removed
+//! ([`crate::measure::meter_offset`]); the saved run keeps the raw readings.
 //!
 //! Every file is written atomically (temporary file + rename,
 //! [`lumiwall_profiles::write_atomic`]); a display that fails mid-measurement leaves
@@ -63,8 +64,12 @@ pub struct CommissionOptions {
     /// Continue an interrupted run: displays already measured in `<out>/run` are not
     /// measured again. Without it, earlier measurements in the run folder are discarded.
     pub resume: bool,
-    /// Estimate the meter's systematic xy offset from the displays' additivity and
-    /// correct the readings with it (see [`crate::measure::meter_offset`]).
+    /// Estimate a systematic xy offset of the meter from the displays' additivity and
+    /// correct the readings with it (see [`crate::measure::meter_offset`]). Only for a
+    /// meter whose error is a constant xy offset: a filter colorimeter's error keeps
+    /// additivity, so additivity cannot reveal it (use meter matrices,
+    /// [`crate::measure::meter_matrix`]). The primaries are fused with the white
+    /// reading either way.
     pub meter_correction: bool,
 }
 
@@ -457,13 +462,12 @@ pub fn finish(
     };
     let inputs: Vec<_> = measured
         .iter()
-        .map(|m| match &correction {
-            Some(c) => corrected_measurement(
+        .map(|m| {
+            corrected_measurement(
                 &m.measurement,
-                c.xy_offset,
+                correction.as_ref().map_or([0.0; 2], |c| c.xy_offset),
                 f64::from(opts.measure.primary_repeats()),
-            ),
-            None => m.measurement.clone(),
+            )
         })
         .collect();
     let solution = solve_wall_at(&inputs, &opts.solve, &now_rfc3339())?;

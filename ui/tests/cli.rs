@@ -459,9 +459,10 @@ fn bench_readings_prints_one_row_per_noise_model() {
         .arg(tmp.path())
         .assert()
         .success()
-        .stdout(contains("ΔE2000 median"))
+        .stdout(contains("grey |ΔC'|"))
         .stdout(contains("none            16"))
-        .stdout(contains("realistic       16"));
+        .stdout(contains("realistic       16"))
+        .stdout(contains("runs outside the limits"));
 }
 
 #[test]

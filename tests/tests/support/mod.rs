@@ -40,6 +40,6 @@ pub(crate) fn options_8500k(
             ..SolveOptions::default()
         },
         resume,
-        meter_correction: true,
+        meter_correction: false,
     }
 }
