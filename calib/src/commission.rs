@@ -37,6 +37,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
 use crate::colorimetry::cct_to_xy;
+use crate::measure::drift::{DriftCheck, recheck};
 use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall, fuse_with_white};
 use crate::measure::{
     MeasureError, MeasureOptions, MeasuredDisplay, Progress, RampFocus, Rig, display_key,
@@ -103,6 +104,9 @@ pub struct CommissionOutcome {
     pub reports: Vec<PathBuf>,
     /// The meter correction applied, if any.
     pub meter_correction: Option<MeterCorrection>,
+    /// The first display's white re-read after the last display, if any display was
+    /// measured in this run.
+    pub drift: Option<DriftCheck>,
 }
 
 /// Errors of a commissioning run.
@@ -286,8 +290,44 @@ pub fn commission(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<CommissionOutcome, CommissionError> {
     let _lock = FolderLock::acquire(out_dir, &format!("commission of wall {wall}"))?;
-    let measured = measure_wall(wall, displays, rig, out_dir, opts, progress)?;
-    finish(wall, measured.0, measured.1, out_dir, opts)
+    let (measured, resumed) = measure_wall(wall, displays, rig, out_dir, opts, progress)?;
+    let drift = drift_over_run(displays, rig, &measured, &resumed, opts, progress);
+    let mut outcome = finish(wall, measured, resumed, out_dir, opts, drift.as_ref())?;
+    outcome.drift = drift;
+    Ok(outcome)
+}
+
+/// The first display measured in this run, read again at full white after the last
+/// ([`crate::measure::drift`]); `None` when every display came from an earlier run, or
+/// when the re-read fails (the measurements are complete, so the profiles are made
+/// anyway; the failure is logged).
+fn drift_over_run(
+    displays: &[DisplayInfo],
+    rig: &mut Rig<'_>,
+    measured: &[MeasuredDisplay],
+    resumed: &[DisplayId],
+    opts: &CommissionOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Option<DriftCheck> {
+    let (info, m) = displays
+        .iter()
+        .zip(measured)
+        .find(|(d, _)| !resumed.contains(&d.id))?;
+    let white = m.measurement.white?;
+    match recheck(
+        rig,
+        info,
+        &m.measurement.key,
+        white,
+        &opts.measure,
+        progress,
+    ) {
+        Ok(d) => d,
+        Err(e) => {
+            tracing::warn!("the drift re-read of {} failed: {e}", info.name);
+            None
+        }
+    }
 }
 
 /// Where the next display's ramps should concentrate: on the part of each channel the
@@ -442,6 +482,7 @@ pub fn finish(
     resumed: Vec<DisplayId>,
     out_dir: &Path,
     opts: &CommissionOptions,
+    drift: Option<&DriftCheck>,
 ) -> Result<CommissionOutcome, CommissionError> {
     let correction_path = out_dir.join(MeterCorrection::FILE);
     let correction = if opts.meter_correction {
@@ -491,6 +532,7 @@ pub fn finish(
         solution: &solution,
         solve: &opts.solve,
         meter_correction: correction.as_ref(),
+        drift,
     };
     write_atomic(
         &out_dir.join("gamut.svg"),
@@ -512,6 +554,7 @@ pub fn finish(
         out_dir: out_dir.to_path_buf(),
         reports: vec![md, html],
         meter_correction: correction,
+        drift: drift.cloned(),
     })
 }
 

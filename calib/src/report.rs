@@ -28,6 +28,8 @@ pub struct ReportInputs<'a> {
     pub solve: &'a SolveOptions,
     /// The meter's xy correction, if one was applied.
     pub meter_correction: Option<&'a MeterCorrection>,
+    /// The first display's white re-read at the end of the run, if any.
+    pub drift: Option<&'a crate::measure::drift::DriftCheck>,
 }
 
 /// The CIE 1931 spectral locus 380–700 nm (xy), from the shared observer table.
@@ -349,6 +351,9 @@ fn summary_table(s: &mut String, r: &ReportInputs<'_>) {
         s,
         "| meter readings | {total} in all, at most {max} per display |"
     );
+    if let Some(d) = r.drift {
+        let _ = writeln!(s, "| drift over the run | {} |", d.summary());
+    }
     if let Some(c) = r.meter_correction {
         let _ = writeln!(
             s,

@@ -57,6 +57,10 @@ pub const MIN_WHITE_SEGMENT_SHARE: f64 = 0.01;
 /// below zero).
 const WHITE_SEGMENT_NEGATIVE_SHARE: f64 = 0.1;
 
+/// Relative tolerance within which a constraint of the common-black linear programme
+/// counts as met (rounding of the 3×3 solves).
+const LP_FEASIBILITY: f64 = 1e-9;
+
 /// Everything measured on one display (one projector, one eye) for the solve.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DisplayMeasurement {
@@ -987,21 +991,30 @@ fn common_black(prepared: &[Prepared]) -> Result<Vector3<f64>, CalibError> {
         })
         .collect();
     let scale = lower.norm().max(1e-12);
+    let mut added = vec![false; all.len()];
     for _ in 0..=all.len() {
         let c = solve_lp_vertices(&active, scale).ok_or_else(|| CalibError::Singular {
             what: "common black linear programme".into(),
         })?;
-        // Most violated constraint (normalised).
+        // Most violated constraint not yet active (normalised), with the vertex
+        // search's own feasibility tolerance: a constraint it accepted as met is met.
         let mut worst: Option<(usize, f64)> = None;
         for (k, (n, b)) in all.iter().enumerate() {
-            let viol = (b - n.dot(&c)) / n.norm().max(1e-300);
-            if viol > 1e-12 * scale && worst.is_none_or(|w| viol > w.1) {
+            let slack = b - n.dot(&c);
+            if added[k] || slack <= LP_FEASIBILITY * scale * n.norm().max(1.0) {
+                continue;
+            }
+            let viol = slack / n.norm().max(1e-300);
+            if worst.is_none_or(|w| viol > w.1) {
                 worst = Some((k, viol));
             }
         }
         match worst {
             None => return Ok(c),
-            Some((k, _)) => active.push(all[k]),
+            Some((k, _)) => {
+                added[k] = true;
+                active.push(all[k]);
+            }
         }
     }
     Err(CalibError::Singular {
@@ -1031,7 +1044,7 @@ fn solve_lp_vertices(cons: &[(Vector3<f64>, f64)], scale: f64) -> Option<Vector3
                 }
                 let feasible = cons
                     .iter()
-                    .all(|(n, b)| n.dot(&v) >= b - 1e-9 * scale * n.norm().max(1.0));
+                    .all(|(n, b)| n.dot(&v) >= b - LP_FEASIBILITY * scale * n.norm().max(1.0));
                 if feasible {
                     best = Some(v);
                 }

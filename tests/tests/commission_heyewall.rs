@@ -84,11 +84,13 @@ fn heyewall_noiseless_meter_meets_the_de2000_targets() {
         (xy[0] - 0.2892).abs() < 5e-4 && (xy[1] - 0.3041).abs() < 5e-4,
         "{xy:?}"
     );
-    // Profiles and report are on disk (and the folder's lock file).
+    // Profiles, wall.json, report.md/.html with its two plots, the run folder and the
+    // folder's lock file; no meter-correction.json (the offset correction is opt-in).
     assert_eq!(
         std::fs::read_dir(dir.path()).unwrap().count(),
-        48 + 1 + 5 + 1 + 1
+        48 + 1 + 4 + 1 + 1
     );
+    assert!(!dir.path().join("meter-correction.json").exists());
     assert!(dir.path().join(".lumiwall.lock").is_file());
     let html = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
     assert!(html.contains("<svg") && html.contains("d047-c5r3-right"));

@@ -176,3 +176,41 @@ fn a_cold_start_with_the_warm_up_wait_gives_the_warm_walls_calibration() {
     );
     assert!(dw < 0.005 && dr > 0.02, "{dw} {dr}");
 }
+
+/// Issue 12 item 3: after the last display the first one's white is read again, and a
+/// cold wall measured without the warm-up wait shows its drift there (while a warm one
+/// does not), so the report says how far apart the first and last displays' lamp
+/// states were.
+#[test]
+fn the_drift_over_a_cold_run_is_reported_and_a_warm_run_shows_none() {
+    let cold = std::fs::read_to_string(support::wall_path("cold-start-2x2.toml")).expect("wall");
+    let warm = cold.replace(
+        "minutes_since_switch_on = 2.0",
+        "minutes_since_switch_on = 600.0",
+    );
+    assert_ne!(cold, warm, "the fixture starts cold");
+    let mut drift = Vec::new();
+    for text in [&cold, &warm] {
+        let wall = lumiwall_devices::sim::VirtualWall::from_toml_str(text).expect("wall");
+        let mut station = lumiwall_calib::station::Station::with_wall(
+            wall,
+            &lumiwall_calib::station::StationOptions::new(
+                lumiwall_calib::station::MeterChoice::Direct,
+                Noise::None,
+            ),
+        )
+        .expect("station");
+        let out = tempfile::tempdir().expect("tmp");
+        let opts = support::options_8500k(MeasureOptions::default(), BlackMode::Individual, false);
+        let o = station
+            .commission(out.path(), &opts, &mut |_| {})
+            .expect("commission");
+        let d = o.drift.expect("a drift re-read");
+        eprintln!("{}", d.summary());
+        let report = std::fs::read_to_string(out.path().join("report.md")).expect("report");
+        assert!(report.contains("drift over the run"), "{report}");
+        drift.push(d);
+    }
+    assert!(drift[0].is_significant() && drift[0].luminance_change_percent() > 1.0);
+    assert!(!drift[1].is_significant(), "{}", drift[1].summary());
+}

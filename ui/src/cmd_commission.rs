@@ -455,6 +455,10 @@ fn print_outcome(o: &CommissionOutcome, elapsed: Duration) {
             c.additivity_after * 100.0
         );
     }
+    if let Some(d) = &o.drift {
+        let tag = if d.is_significant() { "warning: " } else { "" };
+        println!("{tag}{}", d.summary());
+    }
     for w in &s.warnings {
         println!("warning: {w}");
     }
