@@ -534,28 +534,37 @@ pub fn finish(
         meter_correction: correction.as_ref(),
         drift,
     };
-    write_atomic(
-        &out_dir.join("gamut.svg"),
-        report::gamut_svg(&report_in).as_bytes(),
-    )?;
-    write_atomic(
-        &out_dir.join("usage.svg"),
-        report::usage_svg(&report_in).as_bytes(),
-    )?;
-    let md = out_dir.join("report.md");
-    write_atomic(&md, report::markdown(&report_in).as_bytes())?;
-    let html = out_dir.join("report.html");
-    write_atomic(&html, report::html(&report_in).as_bytes())?;
+    let reports = write_reports(out_dir, &report_in)?;
     Ok(CommissionOutcome {
         wall: wall.to_string(),
         measured,
         resumed,
         solution,
         out_dir: out_dir.to_path_buf(),
-        reports: vec![md, html],
+        reports,
         meter_correction: correction,
         drift: drift.cloned(),
     })
+}
+
+/// The report's plots, markdown and HTML into `out_dir`; returns the report files.
+fn write_reports(
+    out_dir: &Path,
+    report_in: &ReportInputs<'_>,
+) -> Result<Vec<PathBuf>, CommissionError> {
+    write_atomic(
+        &out_dir.join("gamut.svg"),
+        report::gamut_svg(report_in).as_bytes(),
+    )?;
+    write_atomic(
+        &out_dir.join("usage.svg"),
+        report::usage_svg(report_in).as_bytes(),
+    )?;
+    let md = out_dir.join("report.md");
+    write_atomic(&md, report::markdown(report_in).as_bytes())?;
+    let html = out_dir.join("report.html");
+    write_atomic(&html, report::html(report_in).as_bytes())?;
+    Ok(vec![md, html])
 }
 
 /// Largest additivity residual (χ², 3 degrees of freedom, ≈ 5σ) that
