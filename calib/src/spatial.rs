@@ -419,6 +419,29 @@ impl SpotReader for Rig<'_> {
     }
 }
 
+/// A reader whose readings go through the meter's display-type correction
+/// ([`crate::measure::meter_matrix`]): the matrix of each display's eye (or its own).
+pub struct MatrixCorrected<'m, R> {
+    /// The reader corrected.
+    pub inner: R,
+    /// The matrices.
+    pub matrices: &'m crate::measure::meter_matrix::MeterMatrices,
+}
+
+impl<R: SpotReader> SpotReader for MatrixCorrected<'_, R> {
+    fn read(&mut self, info: &DisplayInfo, uv: [f64; 2], drive: [f64; 3]) -> Result<Xyz, String> {
+        let xyz = self.inner.read(info, uv, drive)?;
+        Ok(match self.matrices.for_display(info.id.0, info.eye) {
+            Some(m) => crate::measure::meter_matrix::apply(&m, xyz),
+            None => xyz,
+        })
+    }
+
+    fn field_half_uv(&self) -> f64 {
+        self.inner.field_half_uv()
+    }
+}
+
 /// The virtual wall's own truth: what a perfect meter would read from the wall file's
 /// meter position (no clock advance, no noise).
 pub struct Truth<'w>(pub &'w VirtualWall);

@@ -10,7 +10,7 @@ use lumiwall_calib::measure::Rig;
 use lumiwall_calib::measure::meter_matrix::MeterMatrices;
 use lumiwall_calib::measure::meter_offset::{CorrectedMeter, MeterCorrection};
 use lumiwall_calib::measure::{MeasureOptions, Progress};
-use lumiwall_calib::spatial::{GridOptions, Truth, verify_grid};
+use lumiwall_calib::spatial::{GridOptions, MatrixCorrected, Truth, verify_grid};
 use lumiwall_calib::station::Station;
 use lumiwall_calib::verify::{
     Tolerances, VerifyOptions, VerifyReport, chart_targets, default_targets,
@@ -281,13 +281,25 @@ fn run_grid(
         inner: station.meter.as_mut(),
         xy_offset: offset.unwrap_or([0.0; 2]),
     };
-    let mut rig = Rig {
+    let matrices = meter_matrices(args, corrected.inner)?;
+    let rig = Rig {
         pattern: station.pattern.as_mut(),
         meter: &mut corrected,
         positioner: station.positioner.as_mut(),
     };
-    let report = verify_grid(&mut rig, &displays, profiles, &opts)
-        .map_err(|e| CliError::failure(format!("spatial verification: {e}")))?;
+    let report = match &matrices {
+        Some(m) => verify_grid(
+            &mut MatrixCorrected {
+                inner: rig,
+                matrices: m,
+            },
+            &displays,
+            profiles,
+            &opts,
+        ),
+        None => verify_grid(&mut { rig }, &displays, profiles, &opts),
+    }
+    .map_err(|e| CliError::failure(format!("spatial verification: {e}")))?;
     print!("{}", report.per_display_table());
     println!("{}", report.overall_line());
     if !matches!(
