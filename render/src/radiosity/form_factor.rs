@@ -25,26 +25,7 @@ pub fn point_to_polygon(x: &V3, n: &V3, poly: &[V3], poly_normal: &V3) -> f64 {
         big.resize(m + 2, V3::zeros());
         &mut big[..]
     };
-    let mut k = 0usize;
-    for i in 0..m {
-        let a = poly[i];
-        let b = poly[(i + 1) % m];
-        let da = n.dot(&(a - x));
-        let db = n.dot(&(b - x));
-        if da >= 0.0 {
-            if k < clipped.len() {
-                clipped[k] = a;
-                k += 1;
-            }
-            if db < 0.0 && da > 0.0 && k < clipped.len() {
-                clipped[k] = a + (b - a) * (da / (da - db));
-                k += 1;
-            }
-        } else if db > 0.0 && k < clipped.len() {
-            clipped[k] = a + (b - a) * (da / (da - db));
-            k += 1;
-        }
-    }
+    let k = clip_in_front(x, n, poly, clipped);
     if k < 3 {
         return 0.0;
     }
@@ -61,6 +42,59 @@ pub fn point_to_polygon(x: &V3, n: &V3, poly: &[V3], poly_normal: &V3) -> f64 {
         sum += beta * n.dot(&c) / cn;
     }
     (sum / std::f64::consts::TAU).abs()
+}
+
+/// The part of the convex polygon `poly` in front of the plane through `x` with normal
+/// `n` (`n·(v − x) ≥ 0`), written into `out` (at least `poly.len() + 2` long); returns
+/// its vertex count (below 3: nothing in front).
+fn clip_in_front(x: &V3, n: &V3, poly: &[V3], out: &mut [V3]) -> usize {
+    let m = poly.len();
+    let mut k = 0usize;
+    for i in 0..m {
+        let a = poly[i];
+        let b = poly[(i + 1) % m];
+        let da = n.dot(&(a - x));
+        let db = n.dot(&(b - x));
+        if da >= 0.0 {
+            if k < out.len() {
+                out[k] = a;
+                k += 1;
+            }
+            if db < 0.0 && da > 0.0 && k < out.len() {
+                out[k] = a + (b - a) * (da / (da - db));
+                k += 1;
+            }
+        } else if db > 0.0 && k < out.len() {
+            out[k] = a + (b - a) * (da / (da - db));
+            k += 1;
+        }
+    }
+    k
+}
+
+/// Shadow-ray targets on a sender polygon `poly` for a receiver point `x` with normal
+/// `n`: those of `targets` in front of `x`'s tangent plane. Light from the part of the
+/// sender behind that plane does not reach `x` (the form factor clips it away), so a
+/// ray there must not count either: from a face of a solid such a ray runs through the
+/// solid and would count as blocked, darkening every pair where one patch crosses the
+/// plane of the other. When no target is in front, the centroid of the sender's part
+/// in front stands for it; empty when nothing of the sender is in front.
+pub fn targets_in_front(x: &V3, n: &V3, targets: &[V3], poly: &[V3]) -> Vec<V3> {
+    let front: Vec<V3> = targets
+        .iter()
+        .filter(|t| n.dot(&(*t - x)) > 0.0)
+        .copied()
+        .collect();
+    if !front.is_empty() {
+        return front;
+    }
+    let mut clipped = vec![V3::zeros(); poly.len() + 2];
+    let k = clip_in_front(x, n, poly, &mut clipped);
+    if k < 3 {
+        return Vec::new();
+    }
+    let centroid = clipped[..k].iter().fold(V3::zeros(), |a, v| a + v) / k as f64;
+    vec![centroid]
 }
 
 /// An area-averaged form factor with an estimate of its quadrature error.

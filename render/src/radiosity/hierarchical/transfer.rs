@@ -10,7 +10,7 @@ use std::sync::atomic::Ordering;
 use crate::scene::{Scene, V3};
 
 use super::super::RayCounters;
-use super::super::form_factor::point_to_polygon;
+use super::super::form_factor::{point_to_polygon, targets_in_front};
 use super::super::quadrature;
 use super::super::visibility::{Visibility, point_in_convex};
 use super::emitters::Emitter;
@@ -231,18 +231,19 @@ fn patch_targets(p: &Patch) -> Vec<V3> {
 }
 
 /// Visibility of an area sender from the receiver's points: every quadrature point
-/// is a shape sample (`Samples::shape` covers them all), so each sees every sender
-/// point.
+/// is a shape sample (`Samples::shape` covers them all), so each sees the sender's
+/// points in front of its tangent plane ([`targets_in_front`]).
 fn area_visibility(
     ctx: &Ctx,
     smp: &Samples,
     pv: &mut PointValues,
-    targets: &[V3],
+    (normal, sender, targets): (&V3, &[V3], &[V3]),
     skip: [usize; 2],
 ) {
     for i in 0..smp.n {
         if pv.f[i] > 0.0 {
-            pv.v[i] = ctx.fraction(&smp.pts[i], targets, skip);
+            let front = targets_in_front(&smp.pts[i], normal, targets, sender);
+            pv.v[i] = ctx.fraction(&smp.pts[i], &front, skip);
         }
     }
 }
@@ -363,7 +364,8 @@ fn plink_from_patch(
     }
     if !visible {
         let skip = [rp.polygon as usize, sp.polygon as usize];
-        area_visibility(ctx, smp, &mut pv, &patch_targets(sp), skip);
+        let targets = patch_targets(sp);
+        area_visibility(ctx, smp, &mut pv, (&rp.normal, sp.verts(), &targets), skip);
     }
     let extra = ff_max_point(rp, &sp.centre, &sp.normal).map_or(0.0, |x| {
         point_to_polygon(&x, &rp.normal, sp.verts(), &sp.normal)
