@@ -211,8 +211,8 @@ fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsR
         report
             .per_display
             .iter()
-            .filter_map(|(_, s)| f(s))
-            .fold(0.0, f64::max)
+            .map(|(_, s)| f(s).unwrap_or(f64::NAN))
+            .fold(0.0, |a: f64, b| if b.is_nan() || b > a { b } else { a })
     };
     Ok(ReadingsRow {
         noise,

@@ -258,6 +258,14 @@ fn prepare_run_dir(
                 ),
             });
         }
+        if old.measure.meter_matrix != manifest.measure.meter_matrix {
+            return Err(CommissionError::ResumeMismatch {
+                run_dir: run_dir.to_path_buf(),
+                reason: "its readings were corrected with other meter matrices (or none); \
+                         resume with the same --meter-matrix, or start again without --resume"
+                    .into(),
+            });
+        }
         if old.measure != manifest.measure {
             tracing::warn!("resuming with different measurement options than the interrupted run");
         }

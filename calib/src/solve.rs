@@ -48,8 +48,9 @@ const BLACK_OUTSIDE_TOLERANCE: f64 = 1e-9;
 
 /// Smallest white-segment luminance, as a share of the full white's, that the solve
 /// models ([`DisplayModel::WhiteSegment`]); below it the display counts as additive (a
-/// residual of about meter noise must not become a model term).
-pub const MIN_WHITE_SEGMENT_SHARE: f64 = 0.01;
+/// residual of about meter noise, or a lamp drifting by a fraction of a percent in the
+/// seconds between the primaries and the white, must not become a model term).
+pub const MIN_WHITE_SEGMENT_SHARE: f64 = 0.02;
 
 /// Largest negative component of a white segment in channel intensities, relative to its
 /// largest one, still taken for a white segment (a clear segment passes the lamp's

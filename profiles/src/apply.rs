@@ -21,7 +21,9 @@
 //!    every channel to ≤ 1, which keeps the chromaticity of the shown colour. With a
 //!    white segment the scaling runs on the linear form of the white-segment step in the region of `a`
 //!    (`m_c − u_c·k_j·m_j`, offset likewise, `j` the channel of the minimum), which is
-//!    exact because the inverse is linear in each region.
+//!    exact while the scaled colour stays in that region (always without a black
+//!    offset, the inverse being homogeneous; with `Common` black's offset the region can
+//!    change near a boundary, by at most the offset's share).
 //! 4. `drive_c = curves[c].drive_for(a_c)` (linear interpolation in the inverse LUT).
 //! 5. Quantisation to the bit depth with [`quantise`], optionally with the ordered
 //!    dither of [`dither_threshold`].

@@ -81,3 +81,54 @@ fn a_meter_matrix_per_eye_brings_the_colorimeter_to_the_truth_on_colours_it_was_
         "worst corrected {worst_corrected:.4}"
     );
 }
+
+/// Matrices belong to one instrument (serial included), and a run whose readings were
+/// corrected with matrices is not resumed without them (that would mix corrected and
+/// raw readings in one solve).
+#[test]
+fn matrices_of_another_instrument_and_a_resume_without_them_are_refused() {
+    use lumiwall_calib::commission::CommissionError;
+    use lumiwall_calib::measure::MeasureOptions;
+    use lumiwall_calib::measure::meter_matrix::MeterMatrixError;
+    use lumiwall_profiles::BlackMode;
+
+    let mut station = support::direct_station("infitec-pair.toml", Noise::Realistic);
+    let matrices = station
+        .meter_matrices(2000, [0.5, 0.5], false)
+        .expect("matrices");
+    matrices
+        .check_instrument(station.meter.as_ref())
+        .expect("made with this meter");
+    let other = meter_matrix::MeterMatrices {
+        instrument: format!("{}-other", matrices.instrument),
+        ..matrices.clone()
+    };
+    assert!(matches!(
+        other.check_instrument(station.meter.as_ref()),
+        Err(MeterMatrixError::OtherInstrument { .. })
+    ));
+
+    let out = tempfile::tempdir().expect("tmp");
+    let with = MeasureOptions {
+        meter_matrix: Some(matrices),
+        ..MeasureOptions::default()
+    };
+    station
+        .commission(
+            out.path(),
+            &support::options_8500k(with, BlackMode::Individual, false),
+            &mut |_| {},
+        )
+        .expect("commission with matrices");
+    let err = station
+        .commission(
+            out.path(),
+            &support::options_8500k(MeasureOptions::default(), BlackMode::Individual, true),
+            &mut |_| {},
+        )
+        .expect_err("a resume without the matrices");
+    assert!(
+        matches!(err, CommissionError::ResumeMismatch { .. }),
+        "{err}"
+    );
+}

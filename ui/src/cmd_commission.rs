@@ -355,6 +355,16 @@ pub(crate) fn run(args: CommissionArgs) -> Result<(), CliError> {
     let opts = args.commission_options()?;
     values::check_output_dir("--out", &args.out)?;
     let mut station = args.open_station()?;
+    if let Some(m) = &opts.measure.meter_matrix {
+        m.check_instrument(station.meter.as_ref())
+            .map_err(|e| CliError::input(e.to_string()))?;
+        if opts.meter_correction {
+            return Err(CliError::input(
+                "--meter-offset-correction and --meter-matrix correct the same error two ways; \
+                 use the matrix",
+            ));
+        }
+    }
     if let Some(camera) = &args.camera {
         camera_stage_possible(&station, &args, camera)?;
     }
@@ -371,9 +381,22 @@ pub(crate) fn run(args: CommissionArgs) -> Result<(), CliError> {
     let outcome = station.commission(&args.out, &opts, &mut |p| report.on(p));
     report.bar.finish_and_clear();
     let outcome = outcome?;
-    if let Some(m) = &opts.measure.meter_matrix {
-        m.save(&args.out.join(METER_MATRIX_FILE))
-            .map_err(|e| CliError::failure(e.to_string()))?;
+    let copy = args.out.join(METER_MATRIX_FILE);
+    match &opts.measure.meter_matrix {
+        Some(m) => m
+            .save(&copy)
+            .map_err(|e| CliError::failure(e.to_string()))?,
+        // A copy from an earlier commission must not correct these profiles' verify.
+        None => match std::fs::remove_file(&copy) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => {
+                return Err(CliError::failure(format!(
+                    "cannot remove the old {}: {e}",
+                    copy.display()
+                )));
+            }
+        },
     }
     print_outcome(&outcome, started.elapsed());
     if let Some(camera) = &args.camera {

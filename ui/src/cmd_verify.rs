@@ -134,6 +134,8 @@ fn meter_matrices(
     meter: &dyn lumiwall_devices::Colorimeter,
 ) -> Result<Option<MeterMatrices>, CliError> {
     if let Some(m) = args.meter.meter_matrices()? {
+        m.check_instrument(meter)
+            .map_err(|e| CliError::input(e.to_string()))?;
         return Ok(Some(m));
     }
     let path = args.profiles.join(crate::cmd_commission::METER_MATRIX_FILE);
@@ -141,13 +143,8 @@ fn meter_matrices(
         return Ok(None);
     }
     let m = MeterMatrices::load(&path).map_err(|e| CliError::input(e.to_string()))?;
-    if m.instrument != meter.info().model {
-        eprintln!(
-            "lumiwall: note: the meter matrices in {} are for '{}', this meter is '{}'; not applied",
-            path.display(),
-            m.instrument,
-            meter.info().model
-        );
+    if let Err(e) = m.check_instrument(meter) {
+        eprintln!("lumiwall: note: {} not applied: {e}", path.display());
         return Ok(None);
     }
     println!(

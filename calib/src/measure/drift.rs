@@ -63,8 +63,9 @@ impl DriftCheck {
     }
 }
 
-/// Reads `display`'s white again and compares it with `white_then`. A white that is
-/// not positive gives `None` (nothing to compare).
+/// Reads `display`'s white again and compares it with `white_then` (a white now too
+/// dark for the meter counts as no light). A `white_then` that is not positive gives
+/// `None` (nothing to compare).
 pub fn recheck(
     rig: &mut Rig<'_>,
     display: &DisplayInfo,
@@ -77,9 +78,10 @@ pub fn recheck(
         return Ok(None);
     }
     let mut session = Session::start(rig, key, display.id, opts.spot_uv, opts)?;
-    let Some(white_now) = session.sample(Patch::White, true, progress)? else {
-        return Ok(None);
-    };
+    // Too dark for the meter now: the lamp went out or dimmed far; a -100 % drift.
+    let white_now = session
+        .sample(Patch::White, true, progress)?
+        .unwrap_or_default();
     Ok(Some(DriftCheck {
         display: key.to_string(),
         white_then,

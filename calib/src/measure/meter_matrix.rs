@@ -76,6 +76,17 @@ pub enum MeterMatrixError {
         #[source]
         source: DeviceError,
     },
+    /// The matrices belong to another instrument.
+    #[error(
+        "the meter matrices were made for '{made_for}', this meter is '{this}': a filter \
+         colorimeter's error is its own; run `lumiwall meter-matrix` with this meter"
+    )]
+    OtherInstrument {
+        /// The instrument the matrices were made for.
+        made_for: String,
+        /// The meter in use.
+        this: String,
+    },
     /// The file could not be read or written.
     #[error("meter matrix file {path}: {message}")]
     File {
@@ -291,13 +302,33 @@ pub fn make(
             }
         }
     }
-    let name = |i: lumiwall_devices::MeterInfo| i.model;
     Ok(MeterMatrices {
         format_version: FORMAT_VERSION,
-        instrument: name(rig.meter.info()),
-        reference: name(reference.info()),
+        instrument: instrument_name(rig.meter.info()),
+        reference: instrument_name(reference.info()),
         matrices,
     })
+}
+
+/// "model serial": what a matrix belongs to (the error of a filter colorimeter is the
+/// instrument's own, not its model's).
+pub fn instrument_name(i: lumiwall_devices::MeterInfo) -> String {
+    format!("{} {}", i.model, i.serial)
+}
+
+impl MeterMatrices {
+    /// Refuses matrices made for another instrument than `meter`.
+    pub fn check_instrument(&self, meter: &dyn Colorimeter) -> Result<(), MeterMatrixError> {
+        let this = instrument_name(meter.info());
+        if self.instrument == this {
+            Ok(())
+        } else {
+            Err(MeterMatrixError::OtherInstrument {
+                made_for: self.instrument.clone(),
+                this,
+            })
+        }
+    }
 }
 
 /// `M · reading`; a component the matrix takes below zero (a saturated primary's

@@ -229,7 +229,13 @@ impl SimMeter {
         let shift_nm = [0; 3].map(|_| draw(model.filter_shift_nm));
         let gain_error = [0; 3].map(|_| draw(model.filter_gain_rel));
         let filters = (shift_nm != [0.0; 3] || gain_error != [0.0; 3])
-            .then(|| Filters::new(&wall, shift_nm, gain_error).ok())
+            .then(|| match Filters::new(&wall, shift_nm, gain_error) {
+                Ok(f) => Some(f),
+                Err(e) => {
+                    tracing::error!("simulated meter without its filter error: {e}");
+                    None
+                }
+            })
             .flatten();
         let rng = ChaCha8Rng::seed_from_u64(wall.seed() ^ model.seed.rotate_left(32));
         Self {
