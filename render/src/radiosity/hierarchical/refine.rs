@@ -98,6 +98,30 @@ fn receiver_error(l: &PLink, corners: usize, scale: f64, strength_max: f64, basi
     clippy::too_many_arguments,
     reason = "the receiver, its link and the round's tolerance and flatness decide together"
 )]
+/// A cluster's intensity is taken toward the receiver's centre; across a receiver that
+/// straddles the plane of one of the cluster's faces (a wall beside a block's top) it
+/// changes from the face's full light to none. Half the range of the intensity toward
+/// the receiver's corners and centre, so that such a link is refined (the cluster split
+/// into its patches, which are evaluated per receiver point). Zero for other senders.
+fn cluster_spread_over_receiver(
+    h: &Hierarchy,
+    st: &State,
+    ctx: &Ctx,
+    src: Node,
+    pa: &super::nodes::Patch,
+    at_centre: f64,
+) -> f64 {
+    if !matches!(src.kind(), Kind::Cluster(_)) {
+        return 0.0;
+    }
+    let (lo, hi) = pa
+        .verts()
+        .iter()
+        .map(|v| st.sender(h, ctx.emitters, src, v).sig[1])
+        .fold((at_centre, at_centre), |(a, b), x| (a.min(x), b.max(x)));
+    0.5 * (hi - lo)
+}
+
 fn decide_plink(
     h: &Hierarchy,
     st: &State,
@@ -118,7 +142,10 @@ fn decide_plink(
     let t = st.sender(h, ctx.emitters, l.src, &pa.centre);
     let (k, scale) = l.corrected(&t.shift);
     let receiver_error_lm = weighted_area * receiver_error(l, pa.nv.min(4), scale, t.hi, lim.basis);
-    let sender_error_lm = weighted_area * k * (t.spread + t.sig[1] * t.rel);
+    let spread = t.spread.max(cluster_spread_over_receiver(
+        h, st, ctx, l.src, pa, t.sig[1],
+    ));
+    let sender_error_lm = weighted_area * k * (spread + t.sig[1] * t.rel);
     if receiver_error_lm + sender_error_lm <= eps {
         return None;
     }
