@@ -94,10 +94,6 @@ fn receiver_error(l: &PLink, corners: usize, scale: f64, strength_max: f64, basi
     (shape + 0.25 * peak + k * f64::from(l.rel_vis)) * strength_max
 }
 
-#[allow(
-    clippy::too_many_arguments,
-    reason = "the receiver, its link and the round's tolerance and flatness decide together"
-)]
 /// A cluster's intensity is taken toward the receiver's centre; across a receiver that
 /// straddles the plane of one of the cluster's faces (a wall beside a block's top) it
 /// changes from the face's full light to none. Half the range of the intensity toward
@@ -122,6 +118,10 @@ fn cluster_spread_over_receiver(
     0.5 * (hi - lo)
 }
 
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the receiver, its link and the round's tolerance and flatness decide together"
+)]
 fn decide_plink(
     h: &Hierarchy,
     st: &State,
