@@ -9,8 +9,6 @@ surface depth, black on the other outputs, the refusals with their status codes,
 the standard gRPC health service.
 """
 
-import json
-import os
 import pathlib
 import struct
 import subprocess
@@ -50,30 +48,14 @@ def stubs(tmp_path_factory):
     return pattern_pb2, pattern_pb2_grpc
 
 
-def lumiwall_binary():
-    # The features scripts/test built with (the camera feature), so the binary is not
-    # rebuilt without them.
-    features = os.environ.get("LUMIWALL_CARGO_FEATURES", "")
-    extra = ["--features", features] if features else []
-    subprocess.run(["cargo", "build", "-q", "-p", "lumiwall", *extra], cwd=ROOT, check=True)
-    meta = subprocess.run(
-        ["cargo", "metadata", "--format-version", "1", "--no-deps"],
-        cwd=ROOT,
-        check=True,
-        capture_output=True,
-        text=True,
-    )
-    return pathlib.Path(json.loads(meta.stdout)["target_directory"]) / "debug" / "lumiwall"
-
-
 @pytest.fixture(scope="module")
-def server(tmp_path_factory):
+def server(tmp_path_factory, lumiwall_bin):
     """A headless server with a 10-bit output and a 10-bit output on an 8-bit surface."""
     token = tmp_path_factory.mktemp("node") / "wall.token"
     token.write_text(TOKEN + "\n")
     proc = subprocess.Popen(
         [
-            str(lumiwall_binary()),
+            str(lumiwall_bin),
             "pattern-server",
             "--headless",
             "--listen",
