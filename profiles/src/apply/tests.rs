@@ -126,26 +126,45 @@ fn in_gamut_colours_round_trip_through_the_model() {
     }
 }
 
-#[test]
-fn out_of_gamut_moves_toward_white_at_constant_luminance() {
-    let d = display_no_black(1.0);
-    let (prof, pp) = prepared(&d, spec(BlackMode::Ignore, OutOfGamut::Clip, None));
-    // Spectral-locus cyan (x .08, y .5) at 10 cd/m²: outside the triangle.
+/// Spectral-locus cyan (x .08, y .5) at 10 cd/m², outside every triangle here, shown by
+/// `d` through its profile for `mode`: moved toward the target white at constant
+/// luminance (relative tolerance `lum_tol`), on the segment from the input's xy to the
+/// white's (cross product within `cross_tol`), and only as far as the gamut boundary
+/// (one channel at zero), i.e. the smallest move. Returns the pixel's flags.
+fn assert_moved_to_the_boundary_toward_white(
+    d: &AnalyticDisplay,
+    mode: BlackMode,
+    lum_tol: f64,
+    cross_tol: f64,
+) -> PixelFlags {
+    let (prof, pp) = prepared(d, spec(mode, OutOfGamut::Clip, None));
     let (x, y, lum) = (0.08, 0.5, 10.0);
-    let xyz = [x / y * lum, lum, (1.0 - x - y) / y * lum];
+    let xyz = xyz_of(x, y, lum);
     let out = pp.apply(xyz.map(|v| v as f32), [0.5, 0.5]);
     assert!(out.flags.contains(PixelFlags::OUT_OF_GAMUT));
-    assert!(!out.flags.contains(PixelFlags::OVER_RANGE));
-    // Linear display: drive is the linear intensity, so the shown colour is P · drive.
     let shown = d.emitted_xyz(out.drive.map(f64::from), [1.0; 3]).unwrap();
-    assert!((shown[1] - lum).abs() < 1e-3 * lum, "luminance {shown:?}");
-    // On the segment from the input's xy to the white's xy …
+    assert!(
+        (shown[1] - lum).abs() < lum_tol * lum,
+        "luminance {shown:?}"
+    );
     let (p, w, s) = (xy_of(xyz), xy_of(prof.target_white_xyz_cd_m2), xy_of(shown));
     let cross = (w[0] - p[0]) * (s[1] - p[1]) - (w[1] - p[1]) * (s[0] - p[0]);
-    assert!(cross.abs() < 1e-4, "not collinear: {p:?} {w:?} {s:?}");
-    // … at the gamut boundary (one channel at zero), i.e. the smallest move.
+    assert!(cross.abs() < cross_tol, "not collinear: {p:?} {w:?} {s:?}");
     let min = out.drive.iter().cloned().fold(f32::INFINITY, f32::min);
     assert!(min.abs() < 1e-4, "{:?}", out.drive);
+    out.flags
+}
+
+#[test]
+fn out_of_gamut_moves_toward_white_at_constant_luminance() {
+    // Linear display without black: drive is the linear intensity, shown = P · drive.
+    let flags = assert_moved_to_the_boundary_toward_white(
+        &display_no_black(1.0),
+        BlackMode::Ignore,
+        1e-3,
+        1e-4,
+    );
+    assert!(!flags.contains(PixelFlags::OVER_RANGE));
 }
 
 #[test]
@@ -447,19 +466,7 @@ fn a_white_segment_display_scales_over_range_colours_at_constant_chromaticity() 
 
 #[test]
 fn a_white_segment_display_maps_out_of_gamut_colours_to_the_boundary_at_constant_luminance() {
-    let d = dlp(1.0);
-    let (prof, pp) = prepared(&d, spec(BlackMode::Individual, OutOfGamut::Clip, None));
-    let (x, y, lum) = (0.08, 0.5, 10.0);
-    let xyz = xyz_of(x, y, lum);
-    let out = pp.apply(xyz.map(|v| v as f32), [0.5, 0.5]);
-    assert!(out.flags.contains(PixelFlags::OUT_OF_GAMUT));
-    let shown = d.emitted_xyz(out.drive.map(f64::from), [1.0; 3]).unwrap();
-    assert!((shown[1] - lum).abs() < 2e-3 * lum, "luminance {shown:?}");
-    let (p, w, s) = (xy_of(xyz), xy_of(prof.target_white_xyz_cd_m2), xy_of(shown));
-    let cross = (w[0] - p[0]) * (s[1] - p[1]) - (w[1] - p[1]) * (s[0] - p[0]);
-    assert!(cross.abs() < 2e-4, "not collinear: {p:?} {w:?} {s:?}");
-    let min = out.drive.iter().cloned().fold(f32::INFINITY, f32::min);
-    assert!(min.abs() < 1e-4, "{:?}", out.drive);
+    assert_moved_to_the_boundary_toward_white(&dlp(1.0), BlackMode::Individual, 2e-3, 2e-4);
 }
 
 #[test]
