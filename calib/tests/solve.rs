@@ -252,14 +252,16 @@ fn max_delta_e(models: &[Model], sol: &WallSolution, mode: BlackMode) -> f64 {
     worst
 }
 
+/// Power-law tone curves of the three projectors of [`WALL_XY`], different per channel.
+const POWER_CURVES: [[Curve; 3]; 3] = [
+    [Curve::Power(2.2), Curve::Power(2.4), Curve::Power(2.0)],
+    [Curve::Power(2.6), Curve::Power(2.1), Curve::Power(2.3)],
+    [Curve::Power(1.8), Curve::Power(2.5), Curve::Power(2.2)],
+];
+
 #[test]
 fn profiles_invert_the_model_in_every_black_mode() {
-    let curves = [
-        [Curve::Power(2.2), Curve::Power(2.4), Curve::Power(2.0)],
-        [Curve::Power(2.6), Curve::Power(2.1), Curve::Power(2.3)],
-        [Curve::Power(1.8), Curve::Power(2.5), Curve::Power(2.2)],
-    ];
-    let models = wall(curves);
+    let models = wall(POWER_CURVES);
     let meas = measure_all(&models, 5);
     for (mode, headroom) in [
         (BlackMode::Individual, 1.0),
@@ -543,12 +545,7 @@ fn white_targets_and_additivity() {
 /// stays additive.
 #[test]
 fn white_segment_displays_are_modelled_and_inverted_in_every_black_mode() {
-    let curves = [
-        [Curve::Power(2.2), Curve::Power(2.4), Curve::Power(2.0)],
-        [Curve::Power(2.6), Curve::Power(2.1), Curve::Power(2.3)],
-        [Curve::Power(1.8), Curve::Power(2.5), Curve::Power(2.2)],
-    ];
-    let mut models = wall(curves);
+    let mut models = wall(POWER_CURVES);
     let native = |m: &Model| m.p[0] + m.p[1] + m.p[2];
     models[0].white_segment = native(&models[0]) * 0.25;
     models[1].white_segment = Xyz::from_xy_luminance(0.30, 0.34, 0.1 * native(&models[1]).y);
