@@ -300,9 +300,7 @@ pub fn commission(
     let _lock = FolderLock::acquire(out_dir, &format!("commission of wall {wall}"))?;
     let (measured, resumed) = measure_wall(wall, displays, rig, out_dir, opts, progress)?;
     let drift = drift_over_run(displays, rig, &measured, &resumed, opts, progress);
-    let mut outcome = finish(wall, measured, resumed, out_dir, opts, drift.as_ref())?;
-    outcome.drift = drift;
-    Ok(outcome)
+    finish(wall, measured, resumed, out_dir, opts, drift.as_ref())
 }
 
 /// The first display measured in this run, read again at full white after the last

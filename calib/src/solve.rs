@@ -306,15 +306,10 @@ fn display_model(white: Option<Xyz>, sum: Vector3<f64>, p_inv: &Matrix3<f64>) ->
     let positive_mix = largest > 0.0
         && u.iter()
             .all(|v| *v >= -WHITE_SEGMENT_NEGATIVE_SHARE * largest);
-    let model = DisplayModel::WhiteSegment {
-        white_xyz_cd_m2: arr(&residual),
-    };
-    let invertible = model
-        .white_in_channels(&rows(p_inv))
-        .iter()
-        .all(|v| 1.0 + v >= DisplayModel::MIN_ONE_PLUS_U);
-    if positive_mix && invertible {
-        model
+    if positive_mix && DisplayModel::invertible(arr(&u)) {
+        DisplayModel::WhiteSegment {
+            white_xyz_cd_m2: arr(&residual),
+        }
     } else {
         DisplayModel::Additive
     }

@@ -152,6 +152,12 @@ impl DisplayModel {
     /// model could not be inverted.
     pub const MIN_ONE_PLUS_U: f64 = 0.05;
 
+    /// Whether a white segment of `u` in channel intensities ([`Self::white_in_channels`])
+    /// can be inverted: `1 + u_c ≥` [`Self::MIN_ONE_PLUS_U`] for every channel.
+    pub fn invertible(u: [f64; 3]) -> bool {
+        u.iter().all(|v| 1.0 + v >= Self::MIN_ONE_PLUS_U)
+    }
+
     /// The white segment in linear relative channel intensities, `u = P⁻¹·W` (zero for
     /// an additive display); `xyz_to_drive` is `P⁻¹`.
     pub fn white_in_channels(&self, xyz_to_drive: &[[f64; 3]; 3]) -> [f64; 3] {
@@ -323,7 +329,7 @@ impl DisplayProfile {
             ));
         }
         let u = self.display_model.white_in_channels(&self.xyz_to_drive);
-        if !u.iter().all(|v| 1.0 + v >= DisplayModel::MIN_ONE_PLUS_U) {
+        if !DisplayModel::invertible(u) {
             return Err(format!(
                 "display_model: the white segment in channel intensities {u:?} would cancel a \
                  channel (1 + u must be ≥ {}); re-measure the display's white",

@@ -34,8 +34,8 @@ impl DriftCheck {
 
     /// Chromaticity change (Euclidean CIE 1931 xy distance); `None` for a dark white.
     pub fn delta_xy(&self) -> Option<f64> {
-        let (a, b) = (self.white_then.xy()?, self.white_now.xy()?);
-        Some((a[0] - b[0]).hypot(a[1] - b[1]))
+        let then = self.white_then.chromaticity()?;
+        Some(then.distance(self.white_now.chromaticity()?))
     }
 
     /// True when the change exceeds [`WARN_LUMINANCE_PERCENT`] or [`WARN_DELTA_XY`].

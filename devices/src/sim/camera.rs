@@ -510,11 +510,7 @@ fn camera_basis(wall: &VirtualWall, spec: &CameraSpec) -> Result<Vec<[[f64; 3]; 
                 .sum::<f64>()
         })
     };
-    let s = wall.lock();
-    Ok(s.displays
-        .iter()
-        .map(|d| d.spectra.integrated(integrate))
-        .collect())
+    Ok(wall.integrated_spectra(integrate))
 }
 
 /// Per-pixel gain and dark offset, drawn once from the wall's seed.

@@ -246,6 +246,11 @@ pub(crate) fn mesh_ff(
     } else {
         counters.skipped.fetch_add(1, Ordering::Relaxed);
     }
+    let all: Vec<V3> = if candidate {
+        s.points.iter().map(|(y, _)| *y).collect()
+    } else {
+        Vec::new()
+    };
     let mut f = 0.0;
     for (x, w) in &r.points {
         let fp = point_to_polygon(x, &r.normal, &s.verts, &s.normal);
@@ -253,7 +258,6 @@ pub(crate) fn mesh_ff(
             continue;
         }
         let v = if candidate {
-            let all: Vec<V3> = s.points.iter().map(|(y, _)| *y).collect();
             let front = targets_in_front(x, &r.normal, &all, &s.verts);
             let seen = front
                 .iter()
