@@ -22,6 +22,7 @@ pub mod output;
 pub mod progressive;
 pub mod quadrature;
 pub mod reference;
+pub mod sensors;
 pub mod shaft;
 pub mod solution;
 pub mod visibility;

@@ -13,9 +13,12 @@ use lumiwall_bench::radiosity::{
 use lumiwall_render::radiosity::output::{
     plot_curves_png, render_image, write_curve_csv, write_exr, write_ply, write_preview_png,
 };
+use lumiwall_render::radiosity::sensors::{
+    Sensor, illuminance_at_sensors, read_sensors_csv, write_sensor_readings_csv,
+};
 use lumiwall_render::radiosity::{
-    CurvePoint, HierarchicalOptions, ProgressiveOptions, SceneOccluders, Solution, SolveStats,
-    StopRule, solve_hierarchical, solve_progressive,
+    BvhOccluders, CurvePoint, HierarchicalOptions, ProgressiveOptions, SceneOccluders, Solution,
+    SolveStats, StopRule, solve_hierarchical, solve_progressive,
 };
 use lumiwall_render::scene::{Scene, load_scene};
 
@@ -82,6 +85,14 @@ pub(crate) struct RenderArgs {
     /// use `constant` where the bound must hold.
     #[arg(long, value_enum, default_value = "auto")]
     basis: BasisArg,
+    /// Calculation grid: CSV with columns `name,x_m,y_m,z_m,nx,ny,nz` (metres in the
+    /// scene's world frame after `unit_m`; the normal of the measuring plane).
+    #[arg(long, requires = "sensors_out")]
+    sensors: Option<PathBuf>,
+    /// Where the grid's illuminance goes: CSV `name,illuminance_lx,direct_lx,
+    /// indirect_lx,indirect_estimated_error_lx,chromaticity_x,chromaticity_y`.
+    #[arg(long, requires = "sensors")]
+    sensors_out: Option<PathBuf>,
 }
 
 /// Loads a scene and reports what was checked on stderr.
@@ -142,7 +153,8 @@ fn percent_errors(p: &CurvePoint) -> [f64; 3] {
 
 /// Runs `lumiwall render`.
 pub(crate) fn run(args: RenderArgs) -> Result<(), CliError> {
-    check_outputs(&args.out)?;
+    check_outputs(&args)?;
+    let sensors = args.sensors.as_deref().map(read_sensors_csv).transpose()?;
     let scene = load(&args.scene)?;
     let sol = solve(&scene, &args)?;
     print_curve_table(&sol);
@@ -150,6 +162,38 @@ pub(crate) fn run(args: RenderArgs) -> Result<(), CliError> {
     for w in write_outputs(&scene, &sol, &args)? {
         println!("wrote {}", w.display());
     }
+    if let (Some(sensors), Some(out)) = (sensors, &args.sensors_out) {
+        write_sensors(&scene, &sol, &sensors, out)?;
+        println!("wrote {}", out.display());
+    }
+    Ok(())
+}
+
+/// Illuminance at the calculation grid's sensors, written as CSV, with a summary.
+fn write_sensors(
+    scene: &Scene,
+    sol: &Solution,
+    sensors: &[Sensor],
+    out: &Path,
+) -> Result<(), CliError> {
+    let start = std::time::Instant::now();
+    let occluders = BvhOccluders::new(scene);
+    let readings = illuminance_at_sensors(scene, sol, &occluders, sensors);
+    let estimate = sol.curve.points.last().map_or(0.0, |p| p.estimated_error);
+    write_sensor_readings_csv(out, &readings, estimate)?;
+    let lux: Vec<f64> = readings.iter().map(|r| r.illuminance_lx()).collect();
+    let (lo, hi) = lux
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let mean = lux.iter().sum::<f64>() / lux.len().max(1) as f64;
+    println!(
+        "sensors: {} points, illuminance min {lo:.4} / mean {mean:.4} / max {hi:.4} lx, uniformity min/mean {:.3}, {:.3} s",
+        lux.len(),
+        if mean > 0.0 { lo / mean } else { 0.0 },
+        start.elapsed().as_secs_f64()
+    );
     Ok(())
 }
 
@@ -199,11 +243,16 @@ fn output_paths(out: &Path) -> [PathBuf; 5] {
     ]
 }
 
-/// Checks before the solve that every output of `--out` can be written.
-fn check_outputs(out: &Path) -> Result<(), CliError> {
-    let paths = output_paths(out);
+/// Checks before the solve that every output of `--out` and `--sensors-out` can be
+/// written.
+fn check_outputs(args: &RenderArgs) -> Result<(), CliError> {
+    let paths = output_paths(&args.out);
     let refs: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
-    values::check_output_files("--out", &refs)
+    values::check_output_files("--out", &refs)?;
+    if let Some(out) = &args.sensors_out {
+        values::check_output_files("--sensors-out", &[out.as_path()])?;
+    }
+    Ok(())
 }
 
 /// Writes the curve (CSV, PNG), the per-vertex PLY and, with a camera, the image and

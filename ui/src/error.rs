@@ -142,6 +142,13 @@ impl From<lumiwall_render::radiosity::RadiosityError> for CliError {
     }
 }
 
+impl From<lumiwall_render::radiosity::sensors::SensorError> for CliError {
+    /// A sensor file the user fixes: input (exit 2).
+    fn from(e: lumiwall_render::radiosity::sensors::SensorError) -> Self {
+        Self::input(e.to_string())
+    }
+}
+
 impl From<lumiwall_core::files::LockError> for CliError {
     /// Another lumiwall writes into the folder: a failure (exit 1), retried later.
     fn from(e: lumiwall_core::files::LockError) -> Self {
