@@ -2,6 +2,7 @@
 //! measured in the same run and returns a table; the command line only prints it.
 
 pub mod apply;
+pub mod cie171;
 #[cfg(feature = "patterns")]
 pub mod patterns;
 pub mod radiosity;

@@ -7,6 +7,7 @@ mod cmd_apply;
 #[cfg(feature = "station")]
 #[cfg(feature = "camera")]
 mod cmd_camera;
+mod cmd_cie171;
 mod cmd_commission;
 #[cfg(feature = "pattern-server")]
 mod cmd_pattern_server;
@@ -64,6 +65,8 @@ enum BenchCommand {
     Apply(cmd_apply::BenchArgs),
     /// Radiosity solvers: error against time, patches, links, memory.
     Radiosity(cmd_render::BenchArgs),
+    /// CIE 171:2006 analytical test cases against their closed forms.
+    Cie171(cmd_cie171::Cie171Args),
     /// Calibration accuracy against the number of meter readings per display.
     #[cfg(feature = "station")]
     Readings(cmd_commission::BenchArgs),
@@ -101,6 +104,7 @@ fn main() {
         Command::PatternServer(a) => cmd_pattern_server::run(a),
         Command::Bench(BenchCommand::Apply(a)) => cmd_apply::bench(a),
         Command::Bench(BenchCommand::Radiosity(a)) => cmd_render::bench(a),
+        Command::Bench(BenchCommand::Cie171(a)) => cmd_cie171::bench(a),
         #[cfg(feature = "station")]
         Command::Bench(BenchCommand::Readings(a)) => cmd_commission::bench(a),
         #[cfg(all(feature = "station", feature = "pattern-server"))]
