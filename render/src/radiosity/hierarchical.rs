@@ -81,6 +81,9 @@ const MIN_CONTRACTION_GAP: f64 = 1e-12;
 /// The convergence ratio counts as steady when two successive ones differ by at most
 /// this fraction of (1 − q): then the Jacobi error is extrapolated (Lyusternik).
 const STEADY_RATIO: f64 = 0.01;
+/// Two successive convergence ratios must agree within this fraction of (1 − q)
+/// before the solve error uses them instead of the largest reflectance.
+const TRUSTED_RATIO: f64 = 0.1;
 /// Refine again once the solve error is below this fraction of the target (or of the
 /// discretisation error when that is smaller).
 const SOLVE_AHEAD: f64 = 0.25;
@@ -154,6 +157,12 @@ struct Solver<'a, 'c> {
     ratio_history: Vec<f64>,
     /// Area-weighted absolute change (Y) of the previous sweep.
     previous_change: f64,
+    /// The light's contraction per bounce q: the latest trusted convergence ratio,
+    /// or until one is measured [`Solver::contraction_bound`]. A transfer error made
+    /// in every bounce adds up to 1/(1 − q) of itself in the solution.
+    contraction: f64,
+    /// Whether `contraction` was measured (else it is the bound of the links).
+    contraction_measured: bool,
     idle_refines: usize,
     linear_leaves: usize,
     /// Under a time limit: the leaves before the latest refinement and their error,
@@ -226,6 +235,8 @@ impl<'a, 'c> Solver<'a, 'c> {
             extrapolations: 0,
             ratio_history: Vec::new(),
             previous_change: f64::NAN,
+            contraction: f64::NAN,
+            contraction_measured: false,
             idle_refines: 0,
             linear_leaves: 0,
             before_refine: None,
@@ -313,6 +324,46 @@ impl<'a, 'c> Solver<'a, 'c> {
         };
         self.ratio_history.clear();
         self.previous_change = f64::NAN;
+        if !self.contraction_measured {
+            self.contraction = self.contraction_bound();
+        }
+    }
+
+    /// An upper bound of the light's contraction per bounce from the links: the
+    /// largest ρ·(form factors gathered) over the leaves, the row-sum bound of the
+    /// spectral radius of ρF (ρ itself where a cluster sends or receives, whose
+    /// coefficients are not form factors). A lone plane gets 0, a closed room ρ.
+    fn contraction_bound(&self) -> f64 {
+        let n = self.h.patches.len();
+        let mut gathered = vec![0.0f64; n];
+        let mut unknown = vec![!self.clinks.iter().all(Vec::is_empty); n];
+        for (r, links) in self.plinks.iter().enumerate() {
+            for l in links {
+                match l.src.kind() {
+                    nodes::Kind::Patch(_) => gathered[r] += f64::from(l.k),
+                    nodes::Kind::Cluster(_) => unknown[r] = true,
+                    nodes::Kind::Emitter(_) => {}
+                }
+            }
+        }
+        let mut bound: f64 = 0.0;
+        for (p, patch) in self.h.patches.iter().enumerate() {
+            if !patch.is_leaf() {
+                continue;
+            }
+            let (mut sum, mut any_unknown, mut q) = (0.0, false, p);
+            loop {
+                sum += gathered[q];
+                any_unknown |= unknown[q];
+                match self.h.patches[q].parent {
+                    nodes::NONE => break,
+                    parent => q = parent as usize,
+                }
+            }
+            let reach = if any_unknown { 1.0 } else { sum.min(1.0) };
+            bound = bound.max(self.st.rho[patch.polygon as usize][1] * reach);
+        }
+        bound
     }
 
     /// One Jacobi sweep (gather, push, extrapolation, pull) and its error estimate.
@@ -371,25 +422,30 @@ impl<'a, 'c> Solver<'a, 'c> {
         }
     }
 
-    /// The solve error from the residual and the convergence ratio (the reflectance
-    /// bound until two sweeps give a ratio); records the ratio.
+    /// The solve error from the residual and the convergence ratio; records the
+    /// ratio. A measured ratio counts only once two in a row agree (within
+    /// [`TRUSTED_RATIO`] of 1 − q); until then the largest reflectance bounds it. The
+    /// first ratio after a refinement or an extrapolation compares a sweep with the
+    /// jump the new links or the extrapolation caused: far below the contraction, it
+    /// let a ρ = 0.95 room stop at 4 % below its inter-reflected light with 0.7 %
+    /// estimated (CIE 171 5.8).
     fn solve_error(&mut self, change: &SweepChange) -> f64 {
-        let ratio = if self.previous_change.is_finite() && self.previous_change > 0.0 {
-            change.change / self.previous_change
-        } else {
-            f64::NAN
-        };
+        if self.previous_change.is_finite() && self.previous_change > 0.0 {
+            self.ratio_history
+                .push(change.change / self.previous_change);
+        }
         self.previous_change = change.change;
         let rho_max = self.st.rho.iter().map(|r| r[1]).fold(0.0, f64::max);
-        let ratio_estimate = if ratio.is_finite() && ratio < 1.0 {
-            ratio.max(0.0)
-        } else {
-            rho_max
+        let q = match self.ratio_history.as_slice() {
+            [.., q1, q2] if *q2 < 1.0 && (q2 - q1).abs() <= TRUSTED_RATIO * (1.0 - q2) => {
+                let q = q1.max(*q2).max(0.0);
+                self.contraction = q;
+                self.contraction_measured = true;
+                q
+            }
+            _ => rho_max,
         };
-        if ratio.is_finite() {
-            self.ratio_history.push(ratio);
-        }
-        change.residual * ratio_estimate / (1.0 - ratio_estimate).max(MIN_CONTRACTION_GAP)
+        change.residual * q / (1.0 - q).max(MIN_CONTRACTION_GAP)
     }
 
     /// Geometric-series extrapolation of the sweep's change once the convergence
@@ -429,8 +485,10 @@ impl<'a, 'c> Solver<'a, 'c> {
             norm_sum += a * le.norm;
             self.linear_leaves += usize::from(le.linear);
         }
+        // the leaves' errors are those of one bounce; every bounce repeats them
+        let amplification = 1.0 / (1.0 - self.contraction).max(MIN_CONTRACTION_GAP);
         let disc = if norm_sum > 0.0 {
-            error_sum / norm_sum
+            amplification * error_sum / norm_sum
         } else {
             0.0
         };
@@ -441,6 +499,7 @@ impl<'a, 'c> Solver<'a, 'c> {
             disc,
             shape = shape_sum / norm_sum.max(TINY),
             eps = self.eps,
+            contraction = self.contraction,
             patches = leaves.len(),
             "sweep"
         );
