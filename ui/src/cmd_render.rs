@@ -79,10 +79,10 @@ pub(crate) struct RenderArgs {
     /// Hierarchical solver: smallest element area in m² (0 = automatic).
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.0, value_parser = values::non_negative_finite)]
     min_area_m2: f64,
-    /// Hierarchical solver: receiver representation. The constant basis's error
-    /// estimate is conservative; the linear one's is exact for smooth light but can
-    /// be optimistic near concave corners (Cornell box at 1 %: 1.7 % measured), so
-    /// use `constant` where the bound must hold.
+    /// Hierarchical solver: receiver representation. The estimate counts every
+    /// bounce's transfer error; with the default (auto) it bounded the error measured
+    /// against Mitsuba on the Cornell box at 10, 5, 2 and 1 % (8.7, 3.3, 1.5, 0.8 %
+    /// measured), a bound checked on that scene and the CIE 171 cases, not proven.
     #[arg(long, value_enum, default_value = "auto")]
     basis: BasisArg,
     /// Calculation grid: CSV with columns `name,x_m,y_m,z_m,nx,ny,nz` (metres in the
