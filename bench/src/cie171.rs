@@ -9,7 +9,9 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use lumiwall_render::radiosity::sensors::{SensorError, illuminance_at_sensors, read_sensors_csv};
+use lumiwall_render::radiosity::sensors::{
+    SensorError, SensorReading, illuminance_at_sensors, read_sensors_csv,
+};
 use lumiwall_render::radiosity::{
     HierarchicalOptions, RadiosityError, SceneOccluders, Solution, StopRule, solve_hierarchical,
 };
@@ -140,6 +142,15 @@ fn fixture(path: &Path, e: impl std::fmt::Display) -> Cie171Error {
     }
 }
 
+/// What a comparison found, before the row is assembled.
+struct Comparison {
+    quantity: Quantity,
+    expected: f64,
+    measured: Option<f64>,
+    total_rel_error: Option<f64>,
+    errors: Vec<f64>,
+}
+
 /// Solves one case and compares it.
 fn run_case(dir: &Path, spec: &CaseSpec, target_error: f64) -> Result<CaseRow, Cie171Error> {
     let start = Instant::now();
@@ -154,86 +165,83 @@ fn run_case(dir: &Path, spec: &CaseSpec, target_error: f64) -> Result<CaseRow, C
         ..HierarchicalOptions::default()
     };
     let sol = solve_hierarchical(&scene, &occluders, &opts)?;
-    let (quantity, expected, measured, total_rel_error, errors) =
-        match (spec, &spec.sensors, &spec.expected) {
-            (_, Some(sensors), Some(expected)) => {
-                let sensors = read_sensors_csv(&dir.join(sensors))?;
-                let truth = read_expected(&dir.join(expected))?;
-                let readings = illuminance_at_sensors(&scene, &sol, &occluders, &sensors);
-                let mut errors = Vec::new();
-                let mut largest: f64 = 0.0;
-                for r in &readings {
-                    let want = *truth.get(&r.name).ok_or_else(|| {
-                        fixture(
-                            &dir.join(expected),
-                            format!("no value for sensor `{}`", r.name),
-                        )
-                    })?;
-                    largest = largest.max(want);
-                    errors.push(relative(r.illuminance_lx(), want));
-                }
-                let points = errors.len();
-                (
-                    Quantity::PointIlluminance { points },
-                    largest,
-                    None,
-                    None,
-                    errors,
-                )
-            }
-            (
-                CaseSpec {
-                    received_flux_lm: Some(flux),
-                    ..
-                },
-                ..,
-            ) => {
-                let got = received_flux_lm(&sol);
-                (
-                    Quantity::ReceivedFlux,
-                    *flux,
-                    Some(got),
-                    None,
-                    vec![relative(got, *flux)],
-                )
-            }
-            (
-                CaseSpec {
-                    direct_mean_lx: Some(direct),
-                    indirect_mean_lx: Some(indirect),
-                    ..
-                },
-                ..,
-            ) => {
-                let total = mean_irradiance_lx(&sol);
-                let got = total - direct;
-                (
-                    Quantity::MeanIndirect,
-                    *indirect,
-                    Some(got),
-                    Some(relative(total, direct + indirect)),
-                    vec![relative(got, *indirect)],
-                )
-            }
-            _ => {
-                return Err(fixture(
-                    &dir.join(&spec.scene),
-                    format!("case `{}` names nothing to compare", spec.id),
-                ));
-            }
-        };
+    let c = match (&spec.sensors, &spec.expected) {
+        (Some(sensors), Some(expected)) => {
+            let sensors = read_sensors_csv(&dir.join(sensors))?;
+            let truth = read_expected(&dir.join(expected))?;
+            let readings = illuminance_at_sensors(&scene, &sol, &occluders, &sensors);
+            compare_points(&readings, &truth, &dir.join(expected))?
+        }
+        _ => compare_totals(spec, &sol).ok_or_else(|| {
+            fixture(
+                &dir.join(&spec.scene),
+                format!("case `{}` names nothing to compare", spec.id),
+            )
+        })?,
+    };
     Ok(CaseRow {
         id: spec.id.clone(),
         title: spec.title.clone(),
-        quantity,
-        expected,
-        measured,
-        total_rel_error,
-        max_rel_error: errors.iter().copied().fold(0.0, f64::max),
-        mean_rel_error: errors.iter().sum::<f64>() / errors.len().max(1) as f64,
+        quantity: c.quantity,
+        expected: c.expected,
+        measured: c.measured,
+        total_rel_error: c.total_rel_error,
+        max_rel_error: c.errors.iter().copied().fold(0.0, f64::max),
+        mean_rel_error: c.errors.iter().sum::<f64>() / c.errors.len().max(1) as f64,
         estimated_error: sol.curve.points.last().map_or(0.0, |p| p.estimated_error),
         patches: sol.stats.patches,
         time_s: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Illuminance at the sensors against the expected values (`expected` names the file).
+fn compare_points(
+    readings: &[SensorReading],
+    truth: &HashMap<String, f64>,
+    expected: &Path,
+) -> Result<Comparison, Cie171Error> {
+    let mut errors = Vec::new();
+    let mut largest: f64 = 0.0;
+    for r in readings {
+        let want = *truth
+            .get(&r.name)
+            .ok_or_else(|| fixture(expected, format!("no value for sensor `{}`", r.name)))?;
+        largest = largest.max(want);
+        errors.push(relative(r.illuminance_lx(), want));
+    }
+    Ok(Comparison {
+        quantity: Quantity::PointIlluminance {
+            points: errors.len(),
+        },
+        expected: largest,
+        measured: None,
+        total_rel_error: None,
+        errors,
+    })
+}
+
+/// The received flux or the mean indirect illuminance against the case's value;
+/// `None` when the case gives neither.
+fn compare_totals(spec: &CaseSpec, sol: &Solution) -> Option<Comparison> {
+    if let Some(flux) = spec.received_flux_lm {
+        let got = received_flux_lm(sol);
+        return Some(Comparison {
+            quantity: Quantity::ReceivedFlux,
+            expected: flux,
+            measured: Some(got),
+            total_rel_error: None,
+            errors: vec![relative(got, flux)],
+        });
+    }
+    let (direct, indirect) = (spec.direct_mean_lx?, spec.indirect_mean_lx?);
+    let total = mean_irradiance_lx(sol);
+    let got = total - direct;
+    Some(Comparison {
+        quantity: Quantity::MeanIndirect,
+        expected: indirect,
+        measured: Some(got),
+        total_rel_error: Some(relative(total, direct + indirect)),
+        errors: vec![relative(got, indirect)],
     })
 }
 
