@@ -3,6 +3,7 @@
 
 pub mod apply;
 pub mod cie171;
+pub mod image_reference;
 #[cfg(feature = "patterns")]
 pub mod patterns;
 pub mod radiosity;

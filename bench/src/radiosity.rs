@@ -11,7 +11,9 @@ use std::time::{Duration, Instant};
 use lumiwall_render::mesh::generate_scale_scene;
 use lumiwall_render::radiosity::hierarchical::Basis;
 use lumiwall_render::radiosity::montecarlo::MonteCarloReference;
-use lumiwall_render::radiosity::output::plot_curves_png;
+use lumiwall_render::radiosity::output::{plot_curves_png, render_image};
+
+use crate::image_reference::{ImageError, ImageReference};
 use lumiwall_render::radiosity::{
     BvhOccluders, ErrorCurve, HierarchicalOptions, ProgressiveOptions, RadiosityError,
     SceneOccluders, Solution, SolveStats, StopRule, Visibility, solve_dense_reference,
@@ -166,15 +168,20 @@ pub struct SolverRow {
     pub estimated_error: f64,
     /// Relative error against the dense reference.
     pub true_error: f64,
+    /// Error of the rendered image against the independent reference image, when
+    /// one was given.
+    pub image_error: Option<ImageError>,
     /// Counters of the solve.
     pub stats: SolveStats,
 }
 
 /// Both solvers at every [`SOLVER_TARGETS`] error within `limit` each; `on_row` sees
-/// each row. Returns the curves of the [`PLOTTED_TARGET`] solves (hierarchical first).
+/// each row, with the image error against `image` (rendered by the scene's camera)
+/// when given. Returns the curves of the [`PLOTTED_TARGET`] solves (hierarchical first).
 pub fn solver_comparison(
     scene: &Scene,
     reference: &Solution,
+    image: Option<&ImageReference>,
     limit: Option<Duration>,
     on_row: &mut dyn FnMut(&SolverRow),
 ) -> Result<Vec<ErrorCurve>, RadiosityError> {
@@ -197,6 +204,7 @@ pub fn solver_comparison(
                 target,
                 estimated_error: final_estimated_error(&sol),
                 true_error: sol.relative_error_against(reference),
+                image_error: image.and_then(|r| image_error(scene, &sol, r)),
                 stats: sol.stats.clone(),
             });
             if target == PLOTTED_TARGET {
@@ -205,6 +213,17 @@ pub fn solver_comparison(
         }
     }
     Ok(curves)
+}
+
+/// The solution rendered by the scene's camera against `reference` (`None` without a
+/// camera or when the sizes differ).
+fn image_error(scene: &Scene, sol: &Solution, reference: &ImageReference) -> Option<ImageError> {
+    let cam = scene.camera.as_ref()?;
+    let y: Vec<f64> = render_image(sol, cam)
+        .iter()
+        .map(|p| f64::from(p[1]))
+        .collect();
+    reference.error_of(&y)
 }
 
 /// The hierarchical solver with `basis` and the default options otherwise.

@@ -7,6 +7,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use lumiwall_bench::image_reference::ImageReference;
 use lumiwall_bench::radiosity::{
     self as bench_radiosity, BasisRow, MonteCarloCheck, ScaleRun, SolverRow, VisibilitySaving,
 };
@@ -287,6 +288,14 @@ pub(crate) struct BenchArgs {
     /// Scene with occluders (default: the Cornell box fixture).
     #[arg(long, default_value = "fixtures/scenes/cornell/cornell.toml")]
     scene: PathBuf,
+    /// An independent reference image of the scene (Y in cd/m² as a 2-D `.npy`, the
+    /// scene camera's size): every solve's image is measured against it (16×16-pixel
+    /// block means, `image_err`, and the mean Y ratio). Skipped when the file is absent.
+    #[arg(
+        long,
+        default_value = "fixtures/scenes/cornell/mitsuba/reference_y.npy"
+    )]
+    image_reference: Option<PathBuf>,
     /// Same room without occluders, for the visibility saving.
     #[arg(long, default_value = "fixtures/scenes/cornell/cornell_empty.toml")]
     empty_scene: PathBuf,
@@ -387,12 +396,34 @@ pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
 /// Both solvers at several targets, and the plot of their curves.
 fn compare_solvers(args: &BenchArgs, scene: &Scene, reference: &Solution) -> Result<(), CliError> {
     println!(
-        "{:<12} {:>7} {:>9} {:>10} {:>10} {:>8} {:>9} {:>10} {:>9}",
-        "solver", "target", "time_s", "est_err", "true_err", "patches", "links", "rays", "MiB"
+        "{:<12} {:>7} {:>9} {:>10} {:>10} {:>10} {:>7} {:>8} {:>9} {:>10} {:>9}",
+        "solver",
+        "target",
+        "time_s",
+        "est_err",
+        "true_err",
+        "image_err",
+        "mean_Y",
+        "patches",
+        "links",
+        "rays",
+        "MiB"
     );
+    let image = match &args.image_reference {
+        Some(p) if p.is_file() => Some(ImageReference::read(p).map_err(CliError::input)?),
+        Some(p) => {
+            println!(
+                "no independent reference image at {}: image_err not measured",
+                p.display()
+            );
+            None
+        }
+        None => None,
+    };
     let curves = bench_radiosity::solver_comparison(
         scene,
         reference,
+        image.as_ref(),
         args.time_limit(),
         &mut print_solver_row,
     )?;
@@ -409,12 +440,16 @@ fn compare_solvers(args: &BenchArgs, scene: &Scene, reference: &Solution) -> Res
 fn print_solver_row(r: &SolverRow) {
     let s = &r.stats;
     println!(
-        "{:<12} {:>6.1}% {:>9.3} {:>9.2}% {:>9.2}% {:>8} {:>9} {:>10} {:>9.1}",
+        "{:<12} {:>6.1}% {:>9.3} {:>9.2}% {:>9.2}% {:>10} {:>7} {:>8} {:>9} {:>10} {:>9.1}",
         r.solver,
         100.0 * r.target,
         s.time_s,
         100.0 * r.estimated_error,
         100.0 * r.true_error,
+        r.image_error
+            .map_or("-".into(), |e| format!("{:.2}%", 100.0 * e.rel_l1)),
+        r.image_error
+            .map_or("-".into(), |e| format!("{:.4}", e.mean_ratio)),
         s.patches,
         s.links,
         s.shadow_rays,

@@ -6,58 +6,74 @@ Usage: DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 \
 Writes OUT.npy with shape (NPASS, H, W): Y per pass (independent seeds), cd/m².
 Reads geometry/materials/camera from the fixture (cornell.toml + cornell.obj).
 """
-import os, sys, time, tomllib
+import os, sys, tempfile, time, tomllib
 import numpy as np
 import mitsuba as mi
 mi.set_variant("llvm_ad_mono")
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-toml_path, spp, npass, out = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
-FIX = os.path.dirname(os.path.abspath(toml_path))
 
-cfg = tomllib.load(open(toml_path, "rb"))
-unit = cfg["unit_m"]
-# split the OBJ into one file per object (v/f with per-object vertex numbering)
-objs, name, verts, allv = {}, None, [], []
-for line in open(f"{FIX}/{cfg['geometry']}"):
-    t = line.split()
-    if not t: continue
-    if t[0] == "o": name = t[1]; objs[name] = []
-    elif t[0] == "v": allv.append([float(x) * unit for x in t[1:4]])
-    elif t[0] == "f": objs[name].append([allv[int(i.split('/')[0]) - 1] for i in t[1:]])
+def build(toml_path):
+    """The Mitsuba scene of a lumiwall fixture TOML + OBJ (one shape per OBJ object,
+    written to a temporary folder), and its camera."""
+    fix = os.path.dirname(os.path.abspath(toml_path))
+    cfg = tomllib.load(open(toml_path, "rb"))
+    unit = cfg["unit_m"]
+    # split the OBJ into one file per object (v/f with per-object vertex numbering)
+    objs, name, allv = {}, None, []
+    for line in open(f"{fix}/{cfg['geometry']}"):
+        t = line.split()
+        if not t: continue
+        if t[0] == "o": name = t[1]; objs[name] = []
+        elif t[0] == "v": allv.append([float(x) * unit for x in t[1:4]])
+        elif t[0] == "f": objs[name].append([allv[int(i.split('/')[0]) - 1] for i in t[1:]])
 
-def mat_of(obj):
-    return cfg.get("objects", {}).get(obj, cfg["default_material"])
+    def mat_of(obj):
+        return cfg.get("objects", {}).get(obj, cfg["default_material"])
 
-scene = {"type": "scene",
-         "integrator": {"type": "path", "max_depth": 64, "rr_depth": 64}}
-for obj, faces in [(o, f) for o, f in objs.items() if f]:
-    p = f"{HERE}/objs/{os.path.basename(toml_path)}.{obj}.obj"
-    with open(p, "w") as f:
-        k = 1
-        for face in faces:
-            for v in face: f.write("v %.9g %.9g %.9g\n" % tuple(v))
-            f.write("f " + " ".join(str(k + i) for i in range(len(face))) + "\n"); k += len(face)
-    m = cfg["materials"][mat_of(obj)]
-    rho = m["reflectance_xyz"][1] if "reflectance_xyz" in m else m["reflectance_y"]
-    sh = {"type": "obj", "filename": p, "face_normals": True,
-          "bsdf": {"type": "diffuse", "reflectance": {"type": "spectrum", "value": rho}}}
-    if m.get("emission_cd_m2"):
-        sh["emitter"] = {"type": "area", "radiance": {"type": "spectrum", "value": m["emission_cd_m2"]}}
-    scene[obj] = sh
-c = cfg["camera"]
-scene["sensor"] = {"type": "perspective", "fov_axis": "y", "fov": c["vfov_deg"],
-    "near_clip": 1e-3, "far_clip": 1e3,
-    "to_world": mi.ScalarTransform4f().look_at(origin=[x * unit for x in c["position"]],
-        target=[x * unit for x in c["look_at"]], up=c["up"]),
-    "film": {"type": "hdrfilm", "width": c["width"], "height": c["height"],
-             "rfilter": {"type": "box"}, "pixel_format": "luminance"},
-    "sampler": {"type": "independent", "sample_count": spp}}
-sc = mi.load_dict(scene)
-imgs = []
-for s in range(npass):
-    t = time.time()
-    img = np.array(mi.render(sc, spp=spp, seed=1000 + s))
-    imgs.append(img.reshape(img.shape[0], img.shape[1], -1)[..., 0])
-    print(f"pass {s}: {spp} spp, {time.time() - t:.1f} s", flush=True)
-np.save(out, np.stack(imgs))
+    tmp = tempfile.mkdtemp(prefix="lumiwall-mitsuba-")
+    scene = {"type": "scene",
+             "integrator": {"type": "path", "max_depth": 64, "rr_depth": 64}}
+    for obj, faces in [(o, f) for o, f in objs.items() if f]:
+        p = f"{tmp}/{os.path.basename(toml_path)}.{obj}.obj"
+        with open(p, "w") as f:
+            k = 1
+            for face in faces:
+                for v in face: f.write("v %.9g %.9g %.9g\n" % tuple(v))
+                f.write("f " + " ".join(str(k + i) for i in range(len(face))) + "\n"); k += len(face)
+        m = cfg["materials"][mat_of(obj)]
+        rho = m["reflectance_xyz"][1] if "reflectance_xyz" in m else m["reflectance_y"]
+        sh = {"type": "obj", "filename": p, "face_normals": True,
+              "bsdf": {"type": "diffuse", "reflectance": {"type": "spectrum", "value": rho}}}
+        if m.get("emission_cd_m2"):
+            sh["emitter"] = {"type": "area", "radiance": {"type": "spectrum", "value": m["emission_cd_m2"]}}
+        scene[obj] = sh
+    c = cfg["camera"]
+    scene["sensor"] = {"type": "perspective", "fov_axis": "y", "fov": c["vfov_deg"],
+        "near_clip": 1e-3, "far_clip": 1e3,
+        "to_world": mi.ScalarTransform4f().look_at(origin=[x * unit for x in c["position"]],
+            target=[x * unit for x in c["look_at"]], up=c["up"]),
+        "film": {"type": "hdrfilm", "width": c["width"], "height": c["height"],
+                 "rfilter": {"type": "box"}, "pixel_format": "luminance"},
+        "sampler": {"type": "independent", "sample_count": 1}}
+    return mi.load_dict(scene)
+
+
+def render_y(sc, spp, seed):
+    """One pass: Y in cd/m² as an (H, W) array."""
+    img = np.array(mi.render(sc, spp=spp, seed=seed))
+    return img.reshape(img.shape[0], img.shape[1], -1)[..., 0]
+
+
+def main():
+    toml_path, spp, npass, out = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+    sc = build(toml_path)
+    imgs = []
+    for s in range(npass):
+        t = time.time()
+        imgs.append(render_y(sc, spp, 1000 + s))
+        print(f"pass {s}: {spp} spp, {time.time() - t:.1f} s", flush=True)
+    np.save(out, np.stack(imgs))
+
+
+if __name__ == "__main__":
+    main()
