@@ -112,7 +112,7 @@ fn check_k10a(input: &[u8]) -> Result<(), String> {
         }
     }
     if let Ok(info) = proto::parse_device_info(input) {
-        if Some(info.status) != StatusCode::from_byte(input[19]) {
+        if info.status != StatusCode::from_byte(input[19]) {
             return Err(format!("status {:?} is not byte 19", info.status));
         }
         if info.model.trim() != info.model || info.serial.trim() != info.serial {

@@ -498,3 +498,116 @@ fn a_read_timeout_of_u64_max_ms_does_not_overflow_the_deadline() {
     let (_emu, mut meter) = open_meter(FaultPlan::default(), huge);
     assert_close(meter.measure().unwrap(), value(0));
 }
+
+use std::io::{Read as _, Write as _};
+
+/// Raw bytes on the emulator's pty, as a third-party program sends them.
+struct RawLine(Box<dyn serialport::SerialPort>);
+
+impl RawLine {
+    fn open(port: &EmulatedPort) -> Self {
+        let p = serialport::new(port.path(), 9600)
+            .timeout(Duration::from_millis(20))
+            .open()
+            .unwrap();
+        Self(p)
+    }
+
+    fn send(&mut self, bytes: &[u8]) {
+        self.0.write_all(bytes).unwrap();
+    }
+
+    /// Everything that arrives within `window`.
+    fn collect(&mut self, window: Duration) -> Vec<u8> {
+        let end = Instant::now() + window;
+        let mut out = Vec::new();
+        let mut buf = [0u8; 4096];
+        while Instant::now() < end {
+            if let Ok(n) = self.0.read(&mut buf) {
+                out.extend_from_slice(&buf[..n]);
+            }
+        }
+        out
+    }
+}
+
+#[test]
+fn the_emulator_speaks_argylls_k10_dialect_probe_start_up_and_flicker_stream() {
+    let (emu, port, _) = spawn_scaled(FaultPlan::default(), vec![value(3)], 1.0);
+    let mut line = RawLine::open(&port);
+    // a lone `;` gets no answer (an echo would mean a Lumagen to Argyll)
+    line.send(b";");
+    assert!(line.collect(Duration::from_millis(150)).is_empty());
+    // the identification probe: D4 and the calibration list, 1925 bytes
+    line.send(b"D024\r\n");
+    let d4 = line.collect(Duration::from_millis(400));
+    assert_eq!(d4.len(), 1925);
+    assert!(d4.starts_with(b"D4") && d4.ends_with(b"<0>"));
+    // other instruments' probes are ignored
+    line.send(b"*idn?\r");
+    line.send(&[0x7e, 0x00, 0x02, 0x00]);
+    assert!(line.collect(Duration::from_millis(100)).is_empty());
+    // start-up: P0 (after the junk), D7, L0, J8, P2, N5, J7, J3
+    for (cmd, len) in [
+        ("P0", 21),
+        ("D7", 1925),
+        ("L0", 5),
+        ("J8", 5),
+        ("P2", 13),
+        ("N5", 15),
+        ("J7", 5),
+        ("J3", 5),
+    ] {
+        line.send(format!("{cmd}\r").as_bytes());
+        let a = line.collect(Duration::from_millis(if cmd == "D7" { 2500 } else { 300 }));
+        assert_eq!(a.len(), len, "{cmd}: {}", a.escape_ascii());
+        assert!(
+            a.starts_with(cmd.as_bytes()) && a.ends_with(b"<0>"),
+            "{cmd}"
+        );
+    }
+    // T2: 96-byte packets, 8 a second, until the next command; N5 stops it and is answered
+    line.send(b"T2\r");
+    let stream = line.collect(Duration::from_millis(520));
+    assert!(
+        (4 * 96..=5 * 96).contains(&stream.len()),
+        "{} bytes",
+        stream.len()
+    );
+    assert_eq!(stream.len() % 96, 0);
+    let first: [u8; 96] = stream[..96].try_into().unwrap();
+    let (samples, status) = lumiwall_devices::serial::k10_protocol::parse_flicker_packet(&first);
+    assert_eq!(
+        status,
+        lumiwall_devices::serial::k10_protocol::StatusCode::Ok
+    );
+    assert!(samples.iter().all(|&s| s == samples[0] && s > 0));
+    line.send(b"N5\r");
+    let tail = line.collect(Duration::from_millis(300));
+    assert!(
+        tail.ends_with(b"<0>") && tail.len() % 96 == 15,
+        "{} bytes",
+        tail.len()
+    );
+    assert!(
+        line.collect(Duration::from_millis(300)).is_empty(),
+        "the stream stopped"
+    );
+    emu.stop();
+}
+
+#[test]
+fn an_over_range_answer_reports_the_least_sensitive_range() {
+    use lumiwall_devices::serial::k10_protocol::{self as proto, StatusCode};
+    let faults = FaultPlan {
+        over_range_on: vec![1],
+        ..FaultPlan::default()
+    };
+    let (emu, port, _) = spawn_scaled(faults, vec![value(0)], FAST_TIME_SCALE);
+    let mut line = RawLine::open(&port);
+    line.send(b"N5\r");
+    let a = line.collect(Duration::from_millis(300));
+    let m = proto::parse_measurement(proto::MeasureSpeed::Normal, &a).unwrap();
+    assert_eq!((m.status, m.ranges), (StatusCode::OverHighRange, [1, 1, 1]));
+    emu.stop();
+}

@@ -72,7 +72,14 @@ fn status_codes_and_frames() {
         parse_measurement(MeasureSpeed::Normal, &a).unwrap().status,
         StatusCode::OverHighRange
     );
-    a[13] = 0x07; // not a code at all
+    // any byte in the frame is a status, as ArgyllCMS reads the real instrument: an
+    // undocumented (even non-text) one is an instrument error, not a garbled line
+    a[13] = 0x07;
+    assert_eq!(
+        parse_measurement(MeasureSpeed::Normal, &a).unwrap().status,
+        StatusCode::Unknown(0x07)
+    );
+    a[12] = b'['; // the frame itself broken: garbled
     assert!(parse_measurement(MeasureSpeed::Normal, &a).is_err());
     let mut b = KLEIN_SDK_N5;
     b[1] = b'4'; // echo of N4, not N5
@@ -88,6 +95,50 @@ fn status_codes_and_frames() {
         proto::parse_ack(Command::AutoRange, b"J8<0>"),
         Ok(StatusCode::Ok)
     );
+}
+
+#[test]
+fn argyll_start_up_answers_have_the_lengths_and_layouts_argyll_reads() {
+    // P2: echo + 8-character version + <c> = 13 bytes
+    let p2 = proto::encode_firmware("LWEMU-01");
+    assert_eq!(p2.len(), 13);
+    assert_eq!(&p2, b"P2LWEMU-01<0>");
+    assert_eq!(
+        proto::parse_firmware(&p2),
+        Ok(("LWEMU-01".to_string(), StatusCode::Ok))
+    );
+    // D7: echo + 96 slots × 20 bytes + <c> = 1925; 0xFF marks an empty slot
+    let d7 = proto::encode_calibration_list(*b"D7", &["Klein DLP Lux", "lumiwall"]);
+    assert_eq!(d7.len(), 1925);
+    assert_eq!(d7[2 + 40], 0xff);
+    assert_eq!(
+        proto::parse_calibration_list(&d7).unwrap(),
+        vec![
+            (1, "Klein DLP Lux".to_string()),
+            (2, "lumiwall".to_string())
+        ]
+    );
+    // the answer to the identification probe starts with D4 and three non-NUL bytes
+    let d4 = proto::encode_calibration_list(*b"D4", &[]);
+    assert!(d4.starts_with(b"D4") && d4[..3].iter().all(|&b| b != 0));
+    // J1..J7 and T2 parse from their codes and back
+    for n in 1..=7u8 {
+        let c = Command::from_code([b'J', b'0' + n]).unwrap();
+        assert_eq!(c, Command::FixRange(n));
+        assert_eq!(c.code(), [b'J', b'0' + n]);
+        assert_eq!(c.answer_len(), 5);
+    }
+    // T2 packet: 32 triplets, side channel T2 + XYZ + range + <0> + '_', status at 39
+    let xyz = lumiwall_devices::Xyz::new(46.67578125, 51.337890625, 38.58203125);
+    let pkt = proto::encode_flicker_packet(&[0x1234; 32], xyz, [2, 3, 4]);
+    assert_eq!(
+        (pkt[0], pkt[3], pkt[36], pkt[39], pkt[42], pkt[45]),
+        (b'T', b'2', b'<', b'0', b'>', b'_')
+    );
+    assert_eq!((pkt[1], pkt[2]), (0x12, 0x34));
+    assert_eq!(pkt[33], proto::encode_ranges([2, 3, 4]).unwrap());
+    let (samples, status) = proto::parse_flicker_packet(&pkt);
+    assert_eq!((samples[31], status), (0x1234, StatusCode::Ok));
 }
 
 proptest! {

@@ -9,6 +9,8 @@ mod cmd_apply;
 mod cmd_camera;
 mod cmd_cie171;
 mod cmd_commission;
+#[cfg(feature = "station")]
+mod cmd_meter_emulator;
 #[cfg(feature = "pattern-server")]
 mod cmd_pattern_server;
 mod cmd_profiles;
@@ -45,6 +47,10 @@ enum Command {
     /// display type (eye), for `commission` and `verify --meter-matrix`.
     #[cfg(feature = "station")]
     MeterMatrix(cmd_commission::MeterMatrixArgs),
+    /// Serve the virtual wall's meter as a Klein K-10-A on a pseudo-terminal (first
+    /// line of stdout: its path) for third-party software such as ArgyllCMS.
+    #[cfg(feature = "station")]
+    MeterEmulator(cmd_meter_emulator::MeterEmulatorArgs),
     /// Apply display profiles to an XYZ (cd/m²) frame: one output per display and eye.
     Apply(cmd_apply::ApplyArgs),
     /// Render a scene to an XYZ float image in cd/m².
@@ -97,6 +103,8 @@ fn main() {
         Command::Verify(a) => cmd_verify::run(a),
         #[cfg(feature = "station")]
         Command::MeterMatrix(a) => cmd_commission::meter_matrix(a),
+        #[cfg(feature = "station")]
+        Command::MeterEmulator(a) => cmd_meter_emulator::run(a),
         Command::Apply(a) => cmd_apply::run(a),
         Command::Render(a) => cmd_render::run(a),
         Command::Profiles(a) => cmd_profiles::run(a),

@@ -84,6 +84,10 @@ pub struct EmulatorOptions {
     pub serial: String,
     /// Range and timing of the instrument being emulated.
     pub spec: InstrumentSpec,
+    /// Firmware version answered to `P2` (8 characters at most).
+    pub firmware: String,
+    /// Names of the stored calibrations answered to `D7` (slots 1.., at most 96).
+    pub calibrations: Vec<String>,
 }
 
 impl Default for EmulatorOptions {
@@ -93,6 +97,8 @@ impl Default for EmulatorOptions {
             model: KLEIN_K10A.model.to_string(),
             serial: "EMU000001".to_string(),
             spec: KLEIN_K10A,
+            firmware: "LWEMU-01".to_string(),
+            calibrations: Vec::new(),
         }
     }
 }
@@ -189,6 +195,7 @@ impl Emulator {
             dead: false,
             offline_until: None,
             lights_on: false,
+            stream: None,
         };
         let handle = std::thread::Builder::new()
             .name(format!("k10a-emulator {path}"))
@@ -256,13 +263,26 @@ struct Server {
     dead: bool,
     offline_until: Option<Instant>,
     lights_on: bool,
+    /// The `T2` flicker stream, while it runs.
+    stream: Option<FlickerStream>,
 }
+
+/// A running `T2` stream: what it reports and when the next packet is due.
+struct FlickerStream {
+    next_at: Instant,
+    xyz: Xyz,
+    ranges: [u8; 3],
+}
+
+/// Time between two `T2` packets (32 samples at 256 per second), before scaling.
+const FLICKER_PACKET_S: f64 = 32.0 / proto::FLICKER_SAMPLES_PER_S;
 
 impl Server {
     fn run(&mut self) {
         let mut line: Vec<u8> = Vec::new();
         let mut buf = [0u8; 256];
         while !self.stop.load(Ordering::SeqCst) {
+            self.stream_packet();
             match self.master.read(&mut buf) {
                 Ok(0) => std::thread::sleep(Duration::from_millis(2)),
                 Ok(n) => line.extend_from_slice(&buf[..n]),
@@ -275,6 +295,8 @@ impl Server {
             }
             while let Some(pos) = line.iter().position(|&b| b == proto::COMMAND_TERMINATOR) {
                 let frame: Vec<u8> = line.drain(..=pos).collect();
+                // any command ends the flicker stream (ArgyllCMS stops it with N5)
+                self.stream = None;
                 self.handle(&frame[..pos]);
             }
             if line.len() > 1024 {
@@ -296,6 +318,13 @@ impl Server {
 
     fn handle(&mut self, frame: &[u8]) {
         if self.dead || self.offline() || frame.len() < 2 {
+            return;
+        }
+        if frame.ends_with(proto::IDENTIFY_PROBE) {
+            // ArgyllCMS's probe (after a lone `;`, which gets no answer): the K-10
+            // answers with D4 and its calibration list
+            let names = self.calibration_names();
+            self.answer(&proto::encode_calibration_list(*b"D4", &names));
             return;
         }
         let code = [frame[frame.len() - 2], frame[frame.len() - 1]];
@@ -321,7 +350,67 @@ impl Server {
                 self.answer(&proto::encode_ack(command, StatusCode::Ok));
             }
             Command::Measure(speed) => self.measure(speed),
+            Command::FirmwareVersion => {
+                let answer = proto::encode_firmware(&self.options.firmware);
+                self.answer(&answer);
+            }
+            Command::CalibrationList => {
+                let names = self.calibration_names();
+                let answer = proto::encode_calibration_list(*b"D7", &names);
+                self.pause(self.transmit_time(answer.len()));
+                self.answer(&answer);
+            }
+            Command::FixRange(_) => self.answer(&proto::encode_ack(command, StatusCode::Ok)),
+            Command::FlickerStream => self.start_stream(),
         }
+    }
+
+    fn calibration_names(&self) -> Vec<&str> {
+        self.options
+            .calibrations
+            .iter()
+            .map(String::as_str)
+            .collect()
+    }
+
+    /// Time the instrument needs to send `bytes` at its line speed, scaled.
+    fn transmit_time(&self, bytes: usize) -> Duration {
+        let s = self.options.spec.transmit_time_s(bytes) * self.options.time_scale;
+        Duration::from_secs_f64(s.max(0.0))
+    }
+
+    /// `T2`: one reading sets what the stream reports; packets follow every 1/8 s.
+    fn start_stream(&mut self) {
+        let spec = self.options.spec;
+        let (xyz, status) = self.read_meter(&spec);
+        let ranges = if status == StatusCode::Ok {
+            ranges_for(&xyz)
+        } else {
+            [1; 3]
+        };
+        self.stream = Some(FlickerStream {
+            next_at: Instant::now(),
+            xyz,
+            ranges,
+        });
+    }
+
+    /// Sends the stream's next packet when it is due. The virtual wall's light is
+    /// steady, so every sample is its luminance in the range's scale (ArgyllCMS then
+    /// finds no refresh rate, as on a steady source).
+    fn stream_packet(&mut self) {
+        let Some(s) = &mut self.stream else {
+            return;
+        };
+        if Instant::now() < s.next_at {
+            return;
+        }
+        let period = FLICKER_PACKET_S * self.options.time_scale;
+        s.next_at += Duration::from_secs_f64(period.max(0.001));
+        let full_scale = range_top_cd_m2(s.ranges[1]);
+        let sample = (s.xyz.y / full_scale * 65535.0).clamp(0.0, 65535.0) as u16;
+        let packet = proto::encode_flicker_packet(&[sample; 32], s.xyz, s.ranges);
+        self.answer(&packet);
     }
 
     /// Sleeps in small steps so that a stop request is not held up.
@@ -371,14 +460,19 @@ impl Server {
             (Xyz::default(), StatusCode::OverHighRange)
         } else if let Some(f) = self.faults.status_on.iter().find(|f| f.reading == n) {
             let byte = u8::try_from(f.code).unwrap_or(b'?');
-            let status = StatusCode::from_byte(byte).unwrap_or(StatusCode::Unknown(byte));
+            let status = StatusCode::from_byte(byte);
             (Xyz::default(), status)
         } else if self.lights_on {
             (Xyz::default(), StatusCode::AimingLights)
         } else {
             self.read_meter(&spec)
         };
-        let answer = proto::encode_measurement(speed, xyz, ranges_for(&xyz), status);
+        let ranges = if status == StatusCode::OverHighRange {
+            [1; 3]
+        } else {
+            ranges_for(&xyz)
+        };
+        let answer = proto::encode_measurement(speed, xyz, ranges, status);
         self.answer(&answer);
     }
 
@@ -401,6 +495,11 @@ impl Server {
             }
         }
     }
+}
+
+/// Top of range `r` in cd/m² (the decade [`ranges_for`] assigns to it).
+fn range_top_cd_m2(r: u8) -> f64 {
+    0.1 * 10f64.powi(7 - i32::from(r.clamp(1, 6)))
 }
 
 /// Range index per channel, 1 (brightest) .. 6 (darkest), one per decade. Klein does

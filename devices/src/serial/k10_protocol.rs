@@ -31,6 +31,30 @@ pub const DEVICE_INFO_ANSWER_LEN: usize = 21;
 /// Length of a plain acknowledgement (`J8`, `L0`, ...): echo (2) + `<c>` (3).
 pub const ACK_ANSWER_LEN: usize = 5;
 
+/// Length of the firmware-version answer (`P2`): echo (2) + version (8) + `<c>` (3).
+pub const FIRMWARE_ANSWER_LEN: usize = 13;
+
+/// Calibration slots in the list `D7` answers (slot 0, the factory default, is not
+/// listed).
+pub const CALIBRATION_SLOTS: usize = 96;
+
+/// Bytes per calibration-slot name; a first byte 0xFF marks an empty slot.
+pub const CALIBRATION_NAME_LEN: usize = 20;
+
+/// Length of the calibration-list answer (`D7`): echo (2) + 96 names × 20 + `<c>` (3).
+pub const CALIBRATION_LIST_ANSWER_LEN: usize = 2 + CALIBRATION_SLOTS * CALIBRATION_NAME_LEN + 3;
+
+/// Length of one packet of the `T2` flicker stream: 32 triplets of a side-channel
+/// byte and a 16-bit big-endian sample.
+pub const FLICKER_PACKET_LEN: usize = 96;
+
+/// Samples per second of the `T2` stream (32 per packet, 8 packets per second).
+pub const FLICKER_SAMPLES_PER_S: f64 = 256.0;
+
+/// What ArgyllCMS sends to identify a Klein instrument (after a lone `;`): the K-10
+/// answers with `D4` and its calibration list.
+pub const IDENTIFY_PROBE: &[u8] = b"D024";
+
 /// Measurement speed: the K-10 averages its 256 Hz sensor samples over a window
 /// whose length sets the reading rate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -71,6 +95,15 @@ pub enum Command {
     LightsOff,
     /// `L1`: aiming lights on.
     LightsOn,
+    /// `P2`: firmware version.
+    FirmwareVersion,
+    /// `D7`: names of the stored calibrations (display types).
+    CalibrationList,
+    /// `J1`..`J6`: fix the measuring range (1..=6); `J7`: keep the current one.
+    FixRange(u8),
+    /// `T2`: start the 256-samples-per-second flicker stream (96-byte packets until
+    /// the next command).
+    FlickerStream,
 }
 
 impl Command {
@@ -85,6 +118,10 @@ impl Command {
             Command::AutoRange => *b"J8",
             Command::LightsOff => *b"L0",
             Command::LightsOn => *b"L1",
+            Command::FirmwareVersion => *b"P2",
+            Command::CalibrationList => *b"D7",
+            Command::FixRange(n) => [b'J', b'0' + n.clamp(1, 7)],
+            Command::FlickerStream => *b"T2",
         }
     }
 
@@ -99,6 +136,10 @@ impl Command {
             b"J8" => Command::AutoRange,
             b"L0" => Command::LightsOff,
             b"L1" => Command::LightsOn,
+            b"P2" => Command::FirmwareVersion,
+            b"D7" => Command::CalibrationList,
+            [b'J', n @ b'1'..=b'7'] => Command::FixRange(n - b'0'),
+            b"T2" => Command::FlickerStream,
             _ => return None,
         })
     }
@@ -114,12 +155,17 @@ impl Command {
         String::from_utf8_lossy(&self.code()).into_owned()
     }
 
-    /// Length in bytes of the instrument's answer.
+    /// Length in bytes of the instrument's answer (for `T2`: of one packet).
     pub fn answer_len(self) -> usize {
         match self {
             Command::DeviceInfo => DEVICE_INFO_ANSWER_LEN,
             Command::Measure(_) => MEASUREMENT_ANSWER_LEN,
-            Command::AutoRange | Command::LightsOff | Command::LightsOn => ACK_ANSWER_LEN,
+            Command::AutoRange | Command::LightsOff | Command::LightsOn | Command::FixRange(_) => {
+                ACK_ANSWER_LEN
+            }
+            Command::FirmwareVersion => FIRMWARE_ANSWER_LEN,
+            Command::CalibrationList => CALIBRATION_LIST_ANSWER_LEN,
+            Command::FlickerStream => FLICKER_PACKET_LEN,
         }
     }
 }
@@ -148,15 +194,18 @@ pub enum StatusCode {
     BlackExcessive,
     /// `X` or `B`: firmware error.
     Firmware(u8),
-    /// Another letter or digit that neither source documents.
+    /// Any other byte: neither source documents it (ArgyllCMS accepts any byte in
+    /// the frame and reports "unknown error from instrument").
     Unknown(u8),
 }
 
 impl StatusCode {
-    /// Decodes the status byte; `None` when the byte cannot be a status code at all
-    /// (not an ASCII letter or digit), which means the answer is garbled.
-    pub fn from_byte(b: u8) -> Option<StatusCode> {
-        Some(match b {
+    /// Decodes the status byte. Every byte is a status: the instrument may send a
+    /// non-text one, and ArgyllCMS (which reads the real instrument) takes whatever
+    /// stands between `<` and `>`; an undocumented byte is [`StatusCode::Unknown`], an
+    /// instrument error, not line noise.
+    pub fn from_byte(b: u8) -> StatusCode {
+        match b {
             b'0' => StatusCode::Ok,
             b'L' => StatusCode::AimingLights,
             b'u' => StatusCode::BottomUnderRange,
@@ -166,9 +215,8 @@ impl StatusCode {
             b's' => StatusCode::BlackOverdrive,
             b'b' => StatusCode::BlackExcessive,
             b'X' | b'B' => StatusCode::Firmware(b),
-            b if b.is_ascii_alphanumeric() => StatusCode::Unknown(b),
-            _ => return None,
-        })
+            b => StatusCode::Unknown(b),
+        }
     }
 
     /// The status byte on the wire.
@@ -223,7 +271,7 @@ impl StatusCode {
     }
 
     /// True for the auto-ranging codes (`u`, `v`) after which the reading is simply
-    /// repeated (ArgyllCMS retries these up to 4 times).
+    /// repeated (ArgyllCMS sends the reading at most 4 times in all).
     pub fn is_range_change(self) -> bool {
         matches!(
             self,
@@ -340,7 +388,7 @@ pub enum AnswerError {
         /// The command's two characters.
         expected: String,
     },
-    /// The `<c>` status frame is missing or holds a non-code byte.
+    /// The `<c>` status frame is missing.
     #[error("answer does not end with a <status> frame")]
     StatusFrame,
 }
@@ -363,7 +411,7 @@ fn check_frame(command: Command, answer: &[u8]) -> Result<StatusCode, AnswerErro
     if answer[n - 3] != b'<' || answer[n - 1] != b'>' {
         return Err(AnswerError::StatusFrame);
     }
-    StatusCode::from_byte(answer[n - 2]).ok_or(AnswerError::StatusFrame)
+    Ok(StatusCode::from_byte(answer[n - 2]))
 }
 
 /// Parses a measurement answer (`N4`..`N7`).
@@ -445,6 +493,89 @@ pub fn encode_device_info(model: &str, serial: &str) -> [u8; DEVICE_INFO_ANSWER_
     }
     out[18..].copy_from_slice(b"<0>");
     out
+}
+
+/// Builds a `P2` answer; the version is padded or cut to 8 characters.
+pub fn encode_firmware(version: &str) -> [u8; FIRMWARE_ANSWER_LEN] {
+    let mut out = [b' '; FIRMWARE_ANSWER_LEN];
+    out[..2].copy_from_slice(b"P2");
+    for (dst, src) in out[2..10].iter_mut().zip(version.bytes()) {
+        *dst = src;
+    }
+    out[10..].copy_from_slice(b"<0>");
+    out
+}
+
+/// Parses a `P2` answer: the firmware version (blanks removed) and the status.
+pub fn parse_firmware(answer: &[u8]) -> Result<(String, StatusCode), AnswerError> {
+    let status = check_frame(Command::FirmwareVersion, answer)?;
+    Ok((
+        String::from_utf8_lossy(&answer[2..10]).trim().to_string(),
+        status,
+    ))
+}
+
+/// The 96 calibration-slot names after an echo: each name padded with blanks to 20
+/// bytes, empty slots as 0xFF bytes.
+fn calibration_names(names: &[&str]) -> Vec<u8> {
+    let mut out = vec![0xff; CALIBRATION_SLOTS * CALIBRATION_NAME_LEN];
+    for (slot, name) in out.chunks_mut(CALIBRATION_NAME_LEN).zip(names) {
+        slot.fill(b' ');
+        for (dst, src) in slot.iter_mut().zip(name.bytes().filter(|b| *b != 0xff)) {
+            *dst = src;
+        }
+    }
+    out
+}
+
+/// Builds a `D7` answer listing `names` in slots 1.. (at most 96; names cut to 20
+/// bytes); `echo` is `D7`, or `D4` for the answer to the identification probe.
+pub fn encode_calibration_list(echo: [u8; 2], names: &[&str]) -> Vec<u8> {
+    let mut out = echo.to_vec();
+    out.extend(calibration_names(names));
+    out.extend_from_slice(b"<0>");
+    out
+}
+
+/// Parses a `D7` answer into (slot, name) for every used slot (1-based).
+pub fn parse_calibration_list(answer: &[u8]) -> Result<Vec<(usize, String)>, AnswerError> {
+    check_frame(Command::CalibrationList, answer)?;
+    Ok(answer[2..answer.len() - 3]
+        .chunks(CALIBRATION_NAME_LEN)
+        .enumerate()
+        .filter(|(_, c)| c.first() != Some(&0xff))
+        .map(|(i, c)| (i + 1, String::from_utf8_lossy(c).trim().to_string()))
+        .collect())
+}
+
+/// Builds one `T2` flicker packet: 32 samples (16-bit, big-endian, each after one
+/// side-channel byte); the side channel carries `T2`, X, Y, Z, the range byte,
+/// `<0>` and `_` padding.
+pub fn encode_flicker_packet(
+    samples: &[u16; 32],
+    xyz: Xyz,
+    ranges: [u8; 3],
+) -> [u8; FLICKER_PACKET_LEN] {
+    let mut side = [b'_'; 32];
+    side[..2].copy_from_slice(b"T2");
+    side[2..5].copy_from_slice(&encode_kfloat(xyz.x));
+    side[5..8].copy_from_slice(&encode_kfloat(xyz.y));
+    side[8..11].copy_from_slice(&encode_kfloat(xyz.z));
+    side[11] = encode_ranges(ranges).unwrap_or(0);
+    side[12..15].copy_from_slice(b"<0>");
+    let mut out = [0u8; FLICKER_PACKET_LEN];
+    for (i, (s, v)) in side.iter().zip(samples).enumerate() {
+        let [hi, lo] = v.to_be_bytes();
+        out[3 * i..3 * i + 3].copy_from_slice(&[*s, hi, lo]);
+    }
+    out
+}
+
+/// The samples of a `T2` packet and its status byte (packet byte 39).
+pub fn parse_flicker_packet(packet: &[u8; FLICKER_PACKET_LEN]) -> ([u16; 32], StatusCode) {
+    let samples =
+        std::array::from_fn(|i| u16::from_be_bytes([packet[3 * i + 1], packet[3 * i + 2]]));
+    (samples, StatusCode::from_byte(packet[39]))
 }
 
 /// The models that speak this protocol, as their `P0` answer names them.

@@ -13,7 +13,7 @@
 //!   follow and be mistaken for the next reading;
 //! * transient failures are retried up to `retries` times (0 = never); the
 //!   auto-ranging status codes `u`/`v` are repeated up to `range_change_retries`
-//!   times as ArgyllCMS does. One `measure()` call therefore returns within about
+//!   times (3: four readings in all, as ArgyllCMS's `RETRY_RANGE_ERROR`). One `measure()` call therefore returns within about
 //!   `(retries + 1) · read_timeout + retries · resync_timeout` plus the
 //!   measurement times.
 
@@ -48,7 +48,7 @@ pub struct K10aConfig {
     /// retried; 0 = never.
     pub retries: u32,
     /// How often a reading with an auto-ranging status (`u`, `v`) is repeated
-    /// (ArgyllCMS: 4).
+    /// (ArgyllCMS: 3 repeats, four readings in all, no pause).
     pub range_change_retries: u32,
     /// If set, readings with Y below this are reported as [`DeviceError::TooDark`]
     /// (cd/m²). The K-10 protocol itself has no low-light code.
@@ -66,7 +66,7 @@ impl Default for K10aConfig {
             read_timeout: Duration::from_secs(2),
             resync_timeout: Duration::from_secs(2),
             retries: 2,
-            range_change_retries: 4,
+            range_change_retries: 3,
             too_dark_below_cd_m2: None,
             speed: MeasureSpeed::Normal,
             exclusive: true,
@@ -125,6 +125,7 @@ pub struct KleinK10a {
     port_name: String,
     model: String,
     serial: String,
+    firmware: String,
     needs_resync: bool,
     last: Option<MeasurementAnswer>,
     stats: ExchangeStats,
@@ -216,6 +217,7 @@ impl KleinK10a {
             port_name: name.to_string(),
             model: String::new(),
             serial: String::new(),
+            firmware: String::new(),
             needs_resync: true,
             last: None,
             stats: ExchangeStats::default(),
@@ -267,7 +269,30 @@ impl KleinK10a {
         );
         self.model = info.model;
         self.serial = info.serial;
+        self.read_firmware();
         Ok(())
+    }
+
+    /// `P2`, as ArgyllCMS reads it at start-up. A meter that does not answer it still
+    /// measures; the version is then reported as unknown.
+    fn read_firmware(&mut self) {
+        let read = self.exchange(Command::FirmwareVersion).and_then(|answer| {
+            proto::parse_firmware(&answer)
+                .map_err(|e| self.garbled(Command::FirmwareVersion, &answer, &e))
+        });
+        match read {
+            Ok((version, StatusCode::Ok)) => self.firmware = version,
+            Ok((_, status)) => tracing::warn!("{}: P2 answered status {status:?}", self.device),
+            Err(e) => {
+                tracing::warn!("{}: firmware version unknown: {e}", self.device);
+                self.needs_resync = true;
+            }
+        }
+    }
+
+    /// The firmware version from `P2` (empty when the meter did not tell).
+    pub fn firmware(&self) -> &str {
+        &self.firmware
     }
 
     /// Aiming lights off. ArgyllCMS notes that `L0` may answer with unrelated status

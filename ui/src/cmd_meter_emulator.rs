@@ -1,0 +1,183 @@
+//! `lumiwall meter-emulator --wall W`: the virtual wall's meter served as a Klein
+//! K-10-A on a pseudo-terminal, so that third-party software (ArgyllCMS `spotread`,
+//! `dispread`) can measure the virtual wall. The first line of stdout is the
+//! pseudo-terminal's path; commands on stdin choose what the wall shows and where
+//! the meter points (see [`COMMANDS`]).
+
+use std::io::{BufRead, Write};
+use std::path::PathBuf;
+
+use lumiwall_calib::station::Noise;
+use lumiwall_devices::serial::{Emulator, EmulatorOptions, FaultPlan};
+use lumiwall_devices::sim::VirtualWall;
+use lumiwall_devices::{DisplayId, MeterPositioner, PatternOutput};
+
+use crate::CliError;
+use crate::cmd_commission::NoiseArg;
+use crate::values;
+
+/// What stdin accepts, printed on stderr at the start.
+const COMMANDS: &str = "commands on stdin, one per line:\n  \
+    show D R G B   display D (index in the list above) shows drive R G B (0..1)\n  \
+    aim D U V      the meter points at display D, position U V (0..1, 0.5 0.5 = centre)\n  \
+    truth          prints the noiseless XYZ (cd/m²) the meter's spot sends now\n  \
+    quit           stops (so does the end of stdin)";
+
+/// Arguments of `lumiwall meter-emulator`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct MeterEmulatorArgs {
+    /// Virtual wall file (TOML).
+    #[arg(long)]
+    wall: PathBuf,
+    /// Error model of the simulated meter behind the emulated instrument.
+    #[arg(long, value_enum, default_value = "realistic")]
+    noise: NoiseArg,
+    /// Factor on the instrument's measurement and transmission time (1 = a real
+    /// K-10-A at 9600 baud).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0, value_parser = values::non_negative_finite)]
+    time_scale: f64,
+}
+
+/// The wall, what it shows and where the meter points.
+struct Bench {
+    wall: VirtualWall,
+    displays: Vec<DisplayId>,
+    shown: (usize, [f64; 3]),
+    aimed: (usize, [f64; 2]),
+}
+
+/// Runs `lumiwall meter-emulator`.
+pub(crate) fn run(args: MeterEmulatorArgs) -> Result<(), CliError> {
+    let wall = VirtualWall::from_toml_file(&args.wall)
+        .map_err(|e| CliError::input(format!("{}: {e}", args.wall.display())))?;
+    let displays: Vec<DisplayId> = wall.displays().iter().map(|d| d.id).collect();
+    if displays.is_empty() {
+        return Err(CliError::input(format!(
+            "{} has no displays",
+            args.wall.display()
+        )));
+    }
+    let mut bench = Bench {
+        wall,
+        displays,
+        shown: (0, [1.0; 3]),
+        aimed: (0, [0.5, 0.5]),
+    };
+    bench.show(0, [1.0; 3])?;
+    bench.aim(0, [0.5, 0.5])?;
+    let noise: Noise = args.noise.into();
+    let meter = bench.wall.meter(noise.model(bench.wall.seed()));
+    let options = EmulatorOptions::with_time_scale(args.time_scale);
+    let (emulator, port) = Emulator::spawn_with(Box::new(meter), FaultPlan::default(), options)
+        .map_err(|e| CliError::failure(format!("cannot start the emulator: {e}")))?;
+    println!("{}", port.path());
+    std::io::stdout().flush()?;
+    eprintln!(
+        "Klein K-10-A emulator on {} (9600 baud 8N1; for ArgyllCMS link a /dev/ttyUSBn name to it); meter noise {}",
+        port.path(),
+        noise.name()
+    );
+    for (i, d) in bench.wall.displays().iter().enumerate() {
+        eprintln!("  display {i}: {}", d.name);
+    }
+    eprintln!("{COMMANDS}");
+    serve_stdin(&mut bench)?;
+    emulator.stop();
+    Ok(())
+}
+
+/// Reads commands until `quit` or the end of stdin; each gets one line of answer.
+fn serve_stdin(bench: &mut Bench) -> Result<(), CliError> {
+    for line in std::io::stdin().lock().lines() {
+        let line = line?;
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let reply = match words.as_slice() {
+            [] => continue,
+            ["quit"] => break,
+            _ => bench.command(&words),
+        };
+        match reply {
+            Ok(text) => println!("ok {text}"),
+            Err(e) => println!("error: {}", e.message),
+        }
+        std::io::stdout().flush()?;
+    }
+    Ok(())
+}
+
+impl Bench {
+    fn command(&mut self, words: &[&str]) -> Result<String, CliError> {
+        let num = |s: &str| {
+            s.parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| CliError::input(format!("`{s}` is not a number")))
+        };
+        let index = |s: &str| {
+            s.parse::<usize>()
+                .map_err(|_| CliError::input(format!("`{s}` is not a display index")))
+        };
+        match words {
+            ["show", d, r, g, b] => {
+                let drive = [num(r)?, num(g)?, num(b)?];
+                self.show(index(d)?, drive)?;
+                Ok(format!("display {d} shows {drive:?}"))
+            }
+            ["aim", d, u, v] => {
+                let uv = [num(u)?, num(v)?];
+                self.aim(index(d)?, uv)?;
+                Ok(format!("meter at display {d} {uv:?}"))
+            }
+            ["truth"] => self.truth(),
+            _ => Err(CliError::input(format!(
+                "unknown command `{}`\n{COMMANDS}",
+                words.join(" ")
+            ))),
+        }
+    }
+
+    fn display(&self, i: usize) -> Result<DisplayId, CliError> {
+        self.displays.get(i).copied().ok_or_else(|| {
+            CliError::input(format!(
+                "display {i} does not exist (0..{})",
+                self.displays.len() - 1
+            ))
+        })
+    }
+
+    fn show(&mut self, i: usize, drive: [f64; 3]) -> Result<(), CliError> {
+        let id = self.display(i)?;
+        self.wall
+            .pattern_output()
+            .show(id, drive)
+            .map_err(|e| CliError::input(e.to_string()))?;
+        self.shown = (i, drive);
+        Ok(())
+    }
+
+    fn aim(&mut self, i: usize, uv: [f64; 2]) -> Result<(), CliError> {
+        let id = self.display(i)?;
+        self.wall
+            .positioner()
+            .aim(id, uv)
+            .map_err(|e| CliError::input(e.to_string()))?;
+        self.aimed = (i, uv);
+        Ok(())
+    }
+
+    /// The simulator's noiseless XYZ at the meter's spot: the shown drive where the
+    /// meter points at the showing display, black elsewhere.
+    fn truth(&self) -> Result<String, CliError> {
+        let (i, uv) = self.aimed;
+        let drive = if self.shown.0 == i {
+            self.shown.1
+        } else {
+            [0.0; 3]
+        };
+        let xyz = self
+            .wall
+            .emitted_xyz(self.display(i)?, drive, uv)
+            .map_err(|e| CliError::failure(e.to_string()))?;
+        Ok(format!("XYZ {:.6} {:.6} {:.6}", xyz.x, xyz.y, xyz.z))
+    }
+}
