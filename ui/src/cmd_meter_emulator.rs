@@ -36,6 +36,10 @@ pub(crate) struct MeterEmulatorArgs {
     /// K-10-A at 9600 baud).
     #[arg(long, allow_negative_numbers = true, default_value_t = 1.0, value_parser = values::non_negative_finite)]
     time_scale: f64,
+    /// Show what an ArgyllCMS web display (`dispread -dweb:PORT`) shows, on display
+    /// 0 of the wall: HOST:PORT of its server, polled as a browser would.
+    #[arg(long)]
+    follow_webdisp: Option<String>,
 }
 
 /// The wall, what it shows and where the meter points.
@@ -81,6 +85,9 @@ pub(crate) fn run(args: MeterEmulatorArgs) -> Result<(), CliError> {
         eprintln!("  display {i}: {}", d.name);
     }
     eprintln!("{COMMANDS}");
+    if let Some(addr) = &args.follow_webdisp {
+        follow_webdisp(addr.clone(), bench.wall.clone(), bench.displays[0]);
+    }
     serve_stdin(&mut bench)?;
     emulator.stop();
     Ok(())
@@ -180,4 +187,57 @@ impl Bench {
             .map_err(|e| CliError::failure(e.to_string()))?;
         Ok(format!("XYZ {:.6} {:.6} {:.6}", xyz.x, xyz.y, xyz.z))
     }
+}
+
+/// Polls an ArgyllCMS web display (`/ajax/messages`, answered with `#RRGGBB` when
+/// the test colour changes) and shows each colour on `display`, in a thread. The
+/// server may not be up yet: it is retried until it is.
+fn follow_webdisp(addr: String, wall: VirtualWall, display: DisplayId) {
+    std::thread::spawn(move || {
+        let mut output = wall.pattern_output();
+        let mut shown = String::new();
+        loop {
+            match webdisp_colour(&addr, &shown) {
+                Ok(colour) => {
+                    if let Some(drive) = parse_hex_colour(&colour)
+                        && output.show(display, drive).is_ok()
+                    {
+                        shown = colour;
+                    }
+                }
+                Err(_) => std::thread::sleep(std::time::Duration::from_millis(200)),
+            }
+        }
+    });
+}
+
+/// One long poll of the web display: the colour it shows now (or next).
+fn webdisp_colour(addr: &str, shown: &str) -> std::io::Result<String> {
+    use std::io::Read;
+    let mut s = std::net::TcpStream::connect(addr)?;
+    s.set_read_timeout(Some(std::time::Duration::from_secs(600)))?;
+    let shown = if shown.is_empty() { "none" } else { shown };
+    write!(
+        s,
+        "GET /ajax/messages?{} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n",
+        shown.trim_start_matches('#')
+    )?;
+    let mut reply = String::new();
+    s.read_to_string(&mut reply)?;
+    reply
+        .rsplit("\r\n")
+        .next()
+        .map(|body| body.trim().to_string())
+        .filter(|b| b.starts_with('#'))
+        .ok_or_else(|| std::io::Error::other(format!("no colour in `{reply}`")))
+}
+
+/// `#RRGGBB` as drive values 0..1.
+fn parse_hex_colour(c: &str) -> Option<[f64; 3]> {
+    let hex = c.strip_prefix('#')?;
+    if hex.len() != 6 {
+        return None;
+    }
+    let byte = |i: usize| u8::from_str_radix(hex.get(i..i + 2)?, 16).ok();
+    Some([byte(0)?, byte(2)?, byte(4)?].map(|b| f64::from(b) / 255.0))
 }

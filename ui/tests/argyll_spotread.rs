@@ -25,6 +25,9 @@ const LINK: &str = "/dev/ttyUSB-lumiwall";
 /// `scripts/test` prints): the test, unprivileged, points this at the emulator.
 const HOP: &str = "/tmp/lumiwall-argyll-pty";
 
+/// The tests share the device link: one at a time.
+static LINE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// Relative agreement with the truth: the K-10's 15-bit mantissa (3·10⁻⁵) and
 /// Argyll's printing to six decimals.
 const TOLERANCE: f64 = 1e-4;
@@ -36,10 +39,11 @@ struct Emulator {
 }
 
 impl Emulator {
-    fn start() -> (Self, String) {
+    fn start(extra: &[&str]) -> (Self, String) {
         let mut child = Command::new(assert_cmd::cargo::cargo_bin("lumiwall"))
             .args(["meter-emulator", "--noise", "none", "--wall"])
             .arg(small_wall())
+            .args(extra)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
@@ -89,7 +93,7 @@ fn numbers_after(line: &str, key: &str) -> [f64; 3] {
         .nth(1)
         .unwrap_or_else(|| panic!("{key} in {line}"));
     let v: Vec<f64> = rest
-        .split(|c: char| c.is_whitespace() || c == ',' || c == ':')
+        .split(|c: char| c.is_whitespace() || matches!(c, ',' | ':' | '"'))
         .filter_map(|w| w.parse().ok())
         .take(3)
         .collect();
@@ -190,7 +194,8 @@ fn argyll_spotread_reads_the_virtual_wall_through_the_emulated_k10a_as_the_simul
     if !argyll_ready() {
         return;
     }
-    let (mut emu, pty) = Emulator::start();
+    let _one_at_a_time = LINE.lock().unwrap_or_else(|e| e.into_inner());
+    let (mut emu, pty) = Emulator::start(&[]);
     link_to(&pty);
     let port = port_number();
     // white at the centre of display 0 (bright: one reading)
@@ -202,4 +207,78 @@ fn argyll_spotread_reads_the_virtual_wall_through_the_emulated_k10a_as_the_simul
     let truth = emu.truth();
     assert!(truth[1] < 2.0, "{truth:?} should be dim");
     assert_close(spotread_xyz(&port), truth, "dim red, display 1 off-centre");
+}
+
+/// A free local TCP port for Argyll's web display.
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// Rows `RGB (0..100), XYZ (white Y = 100)` of a .ti3 and its white's luminance.
+fn read_ti3(path: &Path) -> (Vec<([f64; 3], [f64; 3])>, f64) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let white_y = numbers_after(
+        text.lines()
+            .find(|l| l.starts_with("LUMINANCE_XYZ_CDM2"))
+            .unwrap(),
+        "CDM2",
+    )[1];
+    let data = text.split("BEGIN_DATA\n").nth(1).unwrap();
+    let rows = data
+        .lines()
+        .take_while(|l| !l.starts_with("END_DATA"))
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().map(|w| w.parse().unwrap()).collect();
+            ([v[1], v[2], v[3]], [v[4], v[5], v[6]])
+        })
+        .collect();
+    (rows, white_y)
+}
+
+#[test]
+fn argyll_dispread_measures_a_chart_on_the_virtual_wall_through_its_web_display() {
+    if !argyll_ready() {
+        return;
+    }
+    let _one_at_a_time = LINE.lock().unwrap_or_else(|e| e.into_inner());
+    let tmp = tempfile::TempDir::new().unwrap();
+    // 13 patches: white, black, primaries at 50 and 100 %, greys (targen's own choice)
+    let made = Command::new("targen")
+        .args(["-v0", "-d3", "-G", "-e2", "-s3", "-g3", "-f8", "chart"])
+        .current_dir(tmp.path())
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let port = free_port();
+    let web = format!("127.0.0.1:{port}");
+    let (mut emu, pty) = Emulator::start(&["--time-scale", "0.2", "--follow-webdisp", &web]);
+    link_to(&pty);
+    let meter = port_number();
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "yes '' | timeout 300 dispread -dweb:{port} -c {meter} chart"
+        ))
+        .env("ARGYLL_NOT_INTERACTIVE", "1")
+        .current_dir(tmp.path())
+        .output()
+        .unwrap();
+    let log =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    let ti3 = tmp.path().join("chart.ti3");
+    assert!(ti3.is_file(), "dispread wrote no .ti3:\n{log}");
+    let (rows, white_y) = read_ti3(&ti3);
+    assert_eq!(rows.len(), 13);
+    for (rgb, xyz) in rows {
+        // the web display sends 8-bit colours: the drive the wall showed
+        let drive = rgb.map(|c| (c / 100.0 * 255.0).round() / 255.0);
+        emu.ask(&format!("show 0 {} {} {}", drive[0], drive[1], drive[2]));
+        let truth = emu.truth();
+        let got = xyz.map(|v| v * white_y / 100.0);
+        assert_close(got, truth, &format!("patch RGB {rgb:?}"));
+    }
 }
