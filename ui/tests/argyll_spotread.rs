@@ -218,8 +218,11 @@ fn free_port() -> u16 {
         .port()
 }
 
-/// Rows `RGB (0..100), XYZ (white Y = 100)` of a .ti3 and its white's luminance.
-fn read_ti3(path: &Path) -> (Vec<([f64; 3], [f64; 3])>, f64) {
+/// One .ti3 row: RGB (0..100) and XYZ (white Y = 100).
+type Ti3Row = ([f64; 3], [f64; 3]);
+
+/// The rows of a .ti3 and its white's luminance (cd/m²).
+fn read_ti3(path: &Path) -> (Vec<Ti3Row>, f64) {
     let text = std::fs::read_to_string(path).unwrap();
     let white_y = numbers_after(
         text.lines()
