@@ -36,6 +36,7 @@
     reason = "errors carry the display, the reading and the device error and occur at most once per run"
 )]
 
+pub mod ccmx;
 pub mod drift;
 pub mod meter_matrix;
 pub mod meter_offset;

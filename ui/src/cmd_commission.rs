@@ -685,5 +685,36 @@ pub(crate) fn meter_matrix(args: MeterMatrixArgs) -> Result<(), CliError> {
         .save(&args.out)
         .map_err(|e| CliError::failure(e.to_string()))?;
     println!("written: {}", args.out.display());
+    for path in write_ccmx_files(&matrices, &args.out, &station.wall.name())? {
+        println!("written: {} (ArgyllCMS CCMX)", path.display());
+    }
     Ok(())
+}
+
+/// Each eye's matrix also as an ArgyllCMS `.ccmx` beside `out` (`STEM.EYE.ccmx`), so
+/// ArgyllCMS and DisplayCAL apply the same correction (`spotread -X`).
+fn write_ccmx_files(
+    matrices: &lumiwall_calib::measure::meter_matrix::MeterMatrices,
+    out: &std::path::Path,
+    wall: &str,
+) -> Result<Vec<PathBuf>, CliError> {
+    use lumiwall_calib::measure::ccmx::{CcmxInfo, to_ccmx};
+    let stem = out
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("meter-matrix");
+    let created = lumiwall_calib::solve::now_rfc3339();
+    let mut written = Vec::new();
+    for m in matrices.matrices.iter().filter(|m| m.display.is_none()) {
+        let info = CcmxInfo {
+            instrument: matrices.instrument.clone(),
+            display: format!("{wall} {} eye", m.eye),
+            reference: matrices.reference.clone(),
+        };
+        let path = out.with_file_name(format!("{stem}.{}.ccmx", m.eye));
+        lumiwall_profiles::write_atomic(&path, to_ccmx(m, &info, &created).as_bytes())
+            .map_err(|e| CliError::failure(format!("cannot write {}: {e}", path.display())))?;
+        written.push(path);
+    }
+    Ok(written)
 }

@@ -40,9 +40,15 @@ struct Emulator {
 
 impl Emulator {
     fn start(extra: &[&str]) -> (Self, String) {
+        Self::start_on(&small_wall(), &["--noise", "none"], extra)
+    }
+
+    fn start_on(wall: &Path, noise: &[&str], extra: &[&str]) -> (Self, String) {
         let mut child = Command::new(assert_cmd::cargo::cargo_bin("lumiwall"))
-            .args(["meter-emulator", "--noise", "none", "--wall"])
-            .arg(small_wall())
+            .arg("meter-emulator")
+            .args(noise)
+            .arg("--wall")
+            .arg(wall)
             .args(extra)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
@@ -168,8 +174,14 @@ fn port_number() -> String {
 
 /// One `spotread` reading (emissive, one reading and exit): the XYZ it prints.
 fn spotread_xyz(port: &str) -> [f64; 3] {
+    spotread_xyz_with(port, &[])
+}
+
+/// As [`spotread_xyz`] with extra options (`-X file.ccmx`).
+fn spotread_xyz_with(port: &str, extra: &[&str]) -> [f64; 3] {
     let out = Command::new("timeout")
         .args(["120", "spotread", "-c", port, "-e", "-O", "-x"])
+        .args(extra)
         .env("ARGYLL_NOT_INTERACTIVE", "1")
         .output()
         .unwrap();
@@ -284,4 +296,45 @@ fn argyll_dispread_measures_a_chart_on_the_virtual_wall_through_its_web_display(
         let got = xyz.map(|v| v * white_y / 100.0);
         assert_close(got, truth, &format!("patch RGB {rgb:?}"));
     }
+}
+
+fn xy(v: [f64; 3]) -> [f64; 2] {
+    let s = v[0] + v[1] + v[2];
+    [v[0] / s, v[1] / s]
+}
+
+fn xy_distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let (a, b) = (xy(a), xy(b));
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+}
+
+#[test]
+fn argyll_spotread_applies_lumiwalls_ccmx_and_the_infitec_green_error_shrinks() {
+    if !argyll_ready() {
+        return;
+    }
+    let _one_at_a_time = LINE.lock().unwrap_or_else(|e| e.into_inner());
+    let tmp = tempfile::TempDir::new().unwrap();
+    let wall = fixture("walls/dlp-infitec-2x1.toml");
+    // the realistic meter's filters err most on the narrow-band Infitec primaries
+    lumiwall()
+        .args(["meter-matrix", "--wall"])
+        .arg(&wall)
+        .arg("--out")
+        .arg(tmp.path().join("mm.json"))
+        .assert()
+        .success();
+    let ccmx = tmp.path().join("mm.left.ccmx");
+    assert!(ccmx.is_file());
+    let (mut emu, pty) = Emulator::start_on(&wall, &[], &["--time-scale", "0.2"]);
+    link_to(&pty);
+    let port = port_number();
+    emu.ask("show 0 0 1 0");
+    let truth = emu.truth();
+    let raw = spotread_xyz(&port);
+    let corrected = spotread_xyz_with(&port, &["-X", ccmx.to_str().unwrap()]);
+    let (before, after) = (xy_distance(raw, truth), xy_distance(corrected, truth));
+    println!("Infitec left green: Δxy {before:.4} without the CCMX, {after:.4} with it");
+    assert!(before > 0.008, "the filter mismatch should show: {before}");
+    assert!(after < 0.004 && after < before / 3.0, "{before} → {after}");
 }
