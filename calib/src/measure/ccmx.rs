@@ -125,10 +125,9 @@ mod tests {
         let text = to_ccmx(&m, &info, "Wed Dec  2 23:00:00 2026");
         let (back, names) = parse_ccmx(&text).unwrap();
         assert_eq!(names, info);
-        for r in 0..3 {
-            for c in 0..3 {
-                assert!((back[r][c] - m.matrix[r][c]).abs() < 1e-9);
-            }
+        let flat = |a: [[f64; 3]; 3]| a.into_iter().flatten().collect::<Vec<_>>();
+        for (b, want) in flat(back).into_iter().zip(flat(m.matrix)) {
+            assert!((b - want).abs() < 1e-9);
         }
     }
 
