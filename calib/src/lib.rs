@@ -11,6 +11,7 @@ pub mod cli_values;
 pub mod colorimetry;
 pub mod commission;
 pub mod error;
+pub mod export;
 pub mod gamut;
 pub mod measure;
 pub mod report;

@@ -10,6 +10,8 @@ mod cmd_camera;
 mod cmd_cie171;
 mod cmd_commission;
 #[cfg(feature = "station")]
+mod cmd_export;
+#[cfg(feature = "station")]
 mod cmd_meter_emulator;
 #[cfg(feature = "pattern-server")]
 mod cmd_pattern_server;
@@ -51,6 +53,9 @@ enum Command {
     /// line of stdout: its path) for third-party software such as ArgyllCMS.
     #[cfg(feature = "station")]
     MeterEmulator(cmd_meter_emulator::MeterEmulatorArgs),
+    /// Write a commissioning's results in formats other tools read (ArgyllCMS .ti3).
+    #[cfg(feature = "station")]
+    Export(cmd_export::ExportArgs),
     /// Apply display profiles to an XYZ (cd/m²) frame: one output per display and eye.
     Apply(cmd_apply::ApplyArgs),
     /// Render a scene to an XYZ float image in cd/m².
@@ -105,6 +110,8 @@ fn main() {
         Command::MeterMatrix(a) => cmd_commission::meter_matrix(a),
         #[cfg(feature = "station")]
         Command::MeterEmulator(a) => cmd_meter_emulator::run(a),
+        #[cfg(feature = "station")]
+        Command::Export(a) => cmd_export::run(a),
         Command::Apply(a) => cmd_apply::run(a),
         Command::Render(a) => cmd_render::run(a),
         Command::Profiles(a) => cmd_profiles::run(a),

@@ -338,3 +338,70 @@ fn argyll_spotread_applies_lumiwalls_ccmx_and_the_infitec_green_error_shrinks() 
     assert!(before > 0.008, "the filter mismatch should show: {before}");
     assert!(after < 0.004 && after < before / 3.0, "{before} → {after}");
 }
+
+/// Whether an ArgyllCMS tool is installed (skip, or fail when required).
+fn have_tool(tool: &str) -> bool {
+    let found = Command::new(tool)
+        .arg("-?")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok();
+    let required = std::env::var("LUMIWALL_REQUIRE_ARGYLL").is_ok_and(|v| v == "1");
+    assert!(
+        found || !required,
+        "LUMIWALL_REQUIRE_ARGYLL=1 but `{tool}` is missing"
+    );
+    found
+}
+
+#[test]
+fn argyll_colprof_builds_a_profile_from_lumiwalls_ti3_export_and_profcheck_reports_it() {
+    if !(have_tool("colprof") && have_tool("profcheck")) {
+        return;
+    }
+    let tmp = tempfile::TempDir::new().unwrap();
+    let commissioned = commission_small_wall(tmp.path());
+    let out = tmp.path().join("ti3");
+    lumiwall()
+        .args(["export", "--format", "ti3", "--commission"])
+        .arg(&commissioned)
+        .arg("--out-dir")
+        .arg(&out)
+        .assert()
+        .success()
+        .stdout(predicates::str::contains("d000-c0r0-mono.ti3"));
+    std::fs::copy(out.join("d000-c0r0-mono.ti3"), tmp.path().join("d0.ti3")).unwrap();
+    // shaper + matrix display profile from the commissioning's 34 readings
+    let colprof = Command::new("colprof")
+        .args(["-v", "-qm", "-as", "d0"])
+        .current_dir(tmp.path())
+        .output()
+        .unwrap();
+    assert!(
+        colprof.status.success() && tmp.path().join("d0.icc").is_file(),
+        "colprof refused the export:\n{}",
+        String::from_utf8_lossy(&colprof.stderr)
+    );
+    let check = Command::new("profcheck")
+        .args(["d0.ti3", "d0.icc"])
+        .current_dir(tmp.path())
+        .output()
+        .unwrap();
+    let report = String::from_utf8_lossy(&check.stdout).to_string()
+        + &String::from_utf8_lossy(&check.stderr);
+    let line = report
+        .lines()
+        .find(|l| l.contains("avg."))
+        .unwrap_or_else(|| panic!("no profcheck summary:\n{report}"));
+    println!("profcheck of the exported .ti3: {line}");
+    let avg: f64 = line
+        .split("avg. =")
+        .nth(1)
+        .and_then(|r| r.split(',').next())
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap();
+    // measured: average 3.0, largest 9.5 (a shaper/matrix fit of the ramps; the
+    // largest errors are near black)
+    assert!(avg < 5.0, "profcheck average ΔE {avg}");
+}

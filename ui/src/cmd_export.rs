@@ -1,0 +1,76 @@
+//! `lumiwall export`: a commissioning's results in formats other tools read. So far
+//! `--format ti3`: each display's measurements as an ArgyllCMS `.ti3` (`colprof`,
+//! `profcheck`, DisplayCAL).
+
+use std::path::PathBuf;
+
+use lumiwall_calib::commission::load_measurement;
+use lumiwall_calib::export::ti3::to_ti3;
+
+use crate::CliError;
+use crate::values;
+
+/// Export formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum Format {
+    /// ArgyllCMS `.ti3`: RGB → XYZ of every reading, one file per display and eye.
+    Ti3,
+}
+
+/// Arguments of `lumiwall export`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct ExportArgs {
+    /// What to write.
+    #[arg(long, value_enum)]
+    format: Format,
+    /// A commissioning's output folder (`commission --out`).
+    #[arg(long)]
+    commission: PathBuf,
+    /// Folder the files go to (created if missing).
+    #[arg(long)]
+    out_dir: PathBuf,
+}
+
+/// Runs `lumiwall export`.
+pub(crate) fn run(args: ExportArgs) -> Result<(), CliError> {
+    let run_dir = args.commission.join("run");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&run_dir)
+        .map_err(|e| {
+            CliError::input(format!(
+                "{}: {e}; give the folder `lumiwall commission --out` wrote",
+                run_dir.display()
+            ))
+        })?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.to_string_lossy().ends_with(".measurement.json"))
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        return Err(CliError::input(format!(
+            "{} holds no display measurements",
+            run_dir.display()
+        )));
+    }
+    values::check_output_dir("--out-dir", &args.out_dir)?;
+    std::fs::create_dir_all(&args.out_dir)?;
+    let created = lumiwall_calib::solve::now_rfc3339();
+    for f in files {
+        let Some(measured) = load_measurement(&f).map_err(|e| CliError::input(e.to_string()))?
+        else {
+            continue;
+        };
+        let m = &measured.measurement;
+        let text = to_ti3(m, &created).map_err(|e| CliError::input(e.to_string()))?;
+        let path = args.out_dir.join(format!("{}.ti3", m.key.file_stem()));
+        lumiwall_profiles::write_atomic(&path, text.as_bytes())
+            .map_err(|e| CliError::failure(format!("cannot write {}: {e}", path.display())))?;
+        println!(
+            "written: {} ({} readings)",
+            path.display(),
+            text.lines()
+                .filter(|l| l.chars().next().is_some_and(|c| c.is_ascii_digit()))
+                .count()
+        );
+    }
+    Ok(())
+}
