@@ -106,6 +106,15 @@ fn numbers_after(line: &str, key: &str) -> [f64; 3] {
     [v[0], v[1], v[2]]
 }
 
+/// The device link for one test, or `None` when Argyll is not ready (see
+/// [`argyll_ready`]). The readiness check is made holding the link: `spotread -?`
+/// probes every serial port, so run beside another test it would talk into that
+/// test's session with the emulator and break it ("Instrument Access Failed").
+fn take_line() -> Option<std::sync::MutexGuard<'static, ()>> {
+    let guard = LINE.lock().unwrap_or_else(|e| e.into_inner());
+    argyll_ready().then_some(guard)
+}
+
 /// Skips (or, when required, fails) when Argyll or the device links are missing.
 fn argyll_ready() -> bool {
     let required = std::env::var("LUMIWALL_REQUIRE_ARGYLL").is_ok_and(|v| v == "1");
@@ -203,10 +212,9 @@ fn assert_close(got: [f64; 3], truth: [f64; 3], what: &str) {
 
 #[test]
 fn argyll_spotread_reads_the_virtual_wall_through_the_emulated_k10a_as_the_simulator_says() {
-    if !argyll_ready() {
+    let Some(_one_at_a_time) = take_line() else {
         return;
-    }
-    let _one_at_a_time = LINE.lock().unwrap_or_else(|e| e.into_inner());
+    };
     let (mut emu, pty) = Emulator::start(&[]);
     link_to(&pty);
     let port = port_number();
@@ -256,10 +264,9 @@ fn read_ti3(path: &Path) -> (Vec<Ti3Row>, f64) {
 
 #[test]
 fn argyll_dispread_measures_a_chart_on_the_virtual_wall_through_its_web_display() {
-    if !argyll_ready() {
+    let Some(_one_at_a_time) = take_line() else {
         return;
-    }
-    let _one_at_a_time = LINE.lock().unwrap_or_else(|e| e.into_inner());
+    };
     let tmp = tempfile::TempDir::new().unwrap();
     // 13 patches: white, black, primaries at 50 and 100 %, greys (targen's own choice)
     let made = Command::new("targen")
@@ -310,10 +317,9 @@ fn xy_distance(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 #[test]
 fn argyll_spotread_applies_lumiwalls_ccmx_and_the_infitec_green_error_shrinks() {
-    if !argyll_ready() {
+    let Some(_one_at_a_time) = take_line() else {
         return;
-    }
-    let _one_at_a_time = LINE.lock().unwrap_or_else(|e| e.into_inner());
+    };
     let tmp = tempfile::TempDir::new().unwrap();
     let wall = fixture("walls/dlp-infitec-2x1.toml");
     // the realistic meter's filters err most on the narrow-band Infitec primaries
