@@ -1,11 +1,14 @@
-//! `lumiwall export`: a commissioning's results in formats other tools read. So far
-//! `--format ti3`: each display's measurements as an ArgyllCMS `.ti3` (`colprof`,
-//! `profcheck`, DisplayCAL).
+//! `lumiwall export`: a commissioning's results in formats other tools read:
+//! `--format ti3`, each display's measurements as an ArgyllCMS `.ti3` (`colprof`,
+//! `profcheck`, DisplayCAL); `--format cube`, each display's profile as a `.cube` 3D LUT
+//! (media servers, projectors).
 
 use std::path::PathBuf;
 
 use lumiwall_calib::commission::load_measurement;
+use lumiwall_calib::export::cube::{CUBE_INPUT_GAMMA, CUBE_SIZES, to_cube};
 use lumiwall_calib::export::ti3::to_ti3;
+use lumiwall_profiles::ProfileSet;
 
 use crate::CliError;
 use crate::values;
@@ -15,6 +18,9 @@ use crate::values;
 pub(crate) enum Format {
     /// ArgyllCMS `.ti3`: RGB → XYZ of every reading, one file per display and eye.
     Ti3,
+    /// `.cube` 3D LUT: common-gamut RGB (encoded with a 2.2 power, 1 = the target
+    /// white) → the post pass's drive at the display centre, one file per display and eye.
+    Cube,
 }
 
 /// Arguments of `lumiwall export`.
@@ -29,10 +35,56 @@ pub(crate) struct ExportArgs {
     /// Folder the files go to (created if missing).
     #[arg(long)]
     out_dir: PathBuf,
+    /// Grid points per axis of a `.cube` (2..=129).
+    #[arg(long, default_value_t = 65)]
+    cube_size: usize,
 }
 
 /// Runs `lumiwall export`.
 pub(crate) fn run(args: ExportArgs) -> Result<(), CliError> {
+    match args.format {
+        Format::Ti3 => run_ti3(&args),
+        Format::Cube => run_cube(&args),
+    }
+}
+
+/// `--format cube`: one `.cube` per profile of the commissioning's profile folder.
+fn run_cube(args: &ExportArgs) -> Result<(), CliError> {
+    if !CUBE_SIZES.contains(&args.cube_size) {
+        return Err(CliError::input(format!(
+            "--cube-size {} is outside {}..={}",
+            args.cube_size,
+            CUBE_SIZES.start(),
+            CUBE_SIZES.end()
+        )));
+    }
+    let (wall, profiles) = ProfileSet::load_dir(&args.commission)?;
+    values::check_output_dir("--out-dir", &args.out_dir)?;
+    std::fs::create_dir_all(&args.out_dir)?;
+    println!(
+        "wall {wall}: {} profiles → {}³ .cube (input: common-gamut RGB, linear = e^{CUBE_INPUT_GAMMA})",
+        profiles.len(),
+        args.cube_size
+    );
+    for profile in &profiles {
+        let cube = to_cube(profile, args.cube_size).map_err(|e| CliError::input(e.to_string()))?;
+        let path = args
+            .out_dir
+            .join(format!("{}.cube", profile.display.file_stem()));
+        lumiwall_profiles::write_atomic(&path, cube.text.as_bytes())
+            .map_err(|e| CliError::failure(format!("cannot write {}: {e}", path.display())))?;
+        println!("written: {}", path.display());
+        if cube.flat_field_left_out {
+            println!(
+                "  note: its flat field is not in the .cube (a uniform LUT: the display centre's drives)"
+            );
+        }
+    }
+    Ok(())
+}
+
+/// `--format ti3`: one `.ti3` per display measurement of the commissioning.
+fn run_ti3(args: &ExportArgs) -> Result<(), CliError> {
     let run_dir = args.commission.join("run");
     let mut files: Vec<PathBuf> = std::fs::read_dir(&run_dir)
         .map_err(|e| {
