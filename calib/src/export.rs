@@ -1,6 +1,7 @@
 //! Exports other tools read: the measurements of a display as an ArgyllCMS `.ti3`
-//! (`colprof`, `profcheck`, DisplayCAL), and a display's profile as a `.cube` 3D LUT
-//! (media servers, projectors).
+//! (`colprof`, `profcheck`, DisplayCAL), a display's profile as a `.cube` 3D LUT (media
+//! servers, projectors) and its grey axis as ArgyllCMS `.cal` curves (video card tables).
 
+pub mod cal;
 pub mod cube;
 pub mod ti3;

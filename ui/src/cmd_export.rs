@@ -1,11 +1,13 @@
 //! `lumiwall export`: a commissioning's results in formats other tools read:
 //! `--format ti3`, each display's measurements as an ArgyllCMS `.ti3` (`colprof`,
 //! `profcheck`, DisplayCAL); `--format cube`, each display's profile as a `.cube` 3D LUT
-//! (media servers, projectors).
+//! (media servers, projectors); `--format argyll-cal`, each display's grey axis as
+//! ArgyllCMS `.cal` curves.
 
 use std::path::PathBuf;
 
 use lumiwall_calib::commission::load_measurement;
+use lumiwall_calib::export::cal::to_cal;
 use lumiwall_calib::export::cube::{CUBE_INPUT_GAMMA, CUBE_SIZES, to_cube};
 use lumiwall_calib::export::ti3::to_ti3;
 use lumiwall_profiles::ProfileSet;
@@ -21,6 +23,9 @@ pub(crate) enum Format {
     /// `.cube` 3D LUT: common-gamut RGB (encoded with a 2.2 power, 1 = the target
     /// white) → the post pass's drive at the display centre, one file per display and eye.
     Cube,
+    /// ArgyllCMS `.cal`: per-channel curves of the grey axis (the `.cube`'s R = G = B),
+    /// for a video card's gamma table; one file per display and eye.
+    ArgyllCal,
 }
 
 /// Arguments of `lumiwall export`.
@@ -45,7 +50,30 @@ pub(crate) fn run(args: ExportArgs) -> Result<(), CliError> {
     match args.format {
         Format::Ti3 => run_ti3(&args),
         Format::Cube => run_cube(&args),
+        Format::ArgyllCal => run_cal(&args),
     }
+}
+
+/// `--format argyll-cal`: one `.cal` per profile of the commissioning's profile folder.
+fn run_cal(args: &ExportArgs) -> Result<(), CliError> {
+    let (wall, profiles) = ProfileSet::load_dir(&args.commission)?;
+    values::check_output_dir("--out-dir", &args.out_dir)?;
+    std::fs::create_dir_all(&args.out_dir)?;
+    println!(
+        "wall {wall}: {} profiles → ArgyllCMS .cal (grey axis: the target white at v^{CUBE_INPUT_GAMMA})",
+        profiles.len()
+    );
+    let created = lumiwall_calib::solve::now_rfc3339();
+    for profile in &profiles {
+        let text = to_cal(profile, &created).map_err(|e| CliError::input(e.to_string()))?;
+        let path = args
+            .out_dir
+            .join(format!("{}.cal", profile.display.file_stem()));
+        lumiwall_profiles::write_atomic(&path, text.as_bytes())
+            .map_err(|e| CliError::failure(format!("cannot write {}: {e}", path.display())))?;
+        println!("written: {}", path.display());
+    }
+    Ok(())
 }
 
 /// `--format cube`: one `.cube` per profile of the commissioning's profile folder.

@@ -362,8 +362,8 @@ fn have_tool(tool: &str) -> bool {
 }
 
 #[test]
-fn argyll_colprof_builds_a_profile_from_lumiwalls_ti3_export_and_profcheck_reports_it() {
-    if !(have_tool("colprof") && have_tool("profcheck")) {
+fn argyll_colprof_builds_a_profile_from_lumiwalls_ti3_export_and_applycal_takes_its_cal() {
+    if !(have_tool("colprof") && have_tool("profcheck") && have_tool("applycal")) {
         return;
     }
     let tmp = tempfile::TempDir::new().unwrap();
@@ -410,4 +410,29 @@ fn argyll_colprof_builds_a_profile_from_lumiwalls_ti3_export_and_profcheck_repor
     // measured: average 3.0, largest 9.5 (a shaper/matrix fit of the ramps; the
     // largest errors are near black)
     assert!(avg < 5.0, "profcheck average ΔE {avg}");
+    // the grey-axis curves as a .cal: applycal reads them into the profile
+    let cal = tmp.path().join("cal");
+    lumiwall()
+        .args(["export", "--format", "argyll-cal", "--commission"])
+        .arg(&commissioned)
+        .arg("--out-dir")
+        .arg(&cal)
+        .assert()
+        .success();
+    let applied = Command::new("applycal")
+        .arg(cal.join("d000-c0r0-mono.cal"))
+        .args(["d0.icc", "d0-cal.icc"])
+        .current_dir(tmp.path())
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&applied.stdout).to_string()
+        + &String::from_utf8_lossy(&applied.stderr);
+    assert!(
+        applied.status.success() && tmp.path().join("d0-cal.icc").is_file(),
+        "applycal refused the .cal:\n{log}"
+    );
+    assert!(
+        log.contains("Created calibrated output curve for chan 2"),
+        "{log}"
+    );
 }

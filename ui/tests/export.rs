@@ -80,3 +80,97 @@ fn cube_export_refuses_a_size_outside_2_to_129_and_a_folder_without_profiles() {
         "nothing written on refusal"
     );
 }
+
+/// The rows `[v, R, G, B]` of a `.cal`.
+fn cal_rows(text: &str) -> Vec<[f64; 4]> {
+    let data = text.split("BEGIN_DATA\n").nth(1).unwrap();
+    data.lines()
+        .take_while(|l| !l.starts_with("END_DATA"))
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().map(|w| w.parse().unwrap()).collect();
+            [v[0], v[1], v[2], v[3]]
+        })
+        .collect()
+}
+
+/// What the virtual wall's display 0 shows at each of `drives`, by the meter
+/// emulator's noiseless truth (the simulator, not the post pass).
+fn shown_on_display_0(drives: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let script: String = drives
+        .iter()
+        .map(|d| format!("show 0 {} {} {}\ntruth\n", d[0], d[1], d[2]))
+        .chain(std::iter::once("quit\n".to_string()))
+        .collect();
+    let out = lumiwall()
+        .args(["meter-emulator", "--noise", "none", "--wall"])
+        .arg(common::small_wall())
+        .write_stdin(script)
+        .output()
+        .unwrap();
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| l.strip_prefix("ok XYZ "))
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().map(|w| w.parse().unwrap()).collect();
+            [v[0], v[1], v[2]]
+        })
+        .collect()
+}
+
+fn xy(v: [f64; 3]) -> [f64; 2] {
+    let s = v[0] + v[1] + v[2];
+    [v[0] / s, v[1] / s]
+}
+
+#[test]
+fn argyll_cal_greys_show_the_target_white_at_v_to_the_2_2_on_the_simulated_display() {
+    let tmp = tempfile::TempDir::new().unwrap();
+    let profiles = commission_small_wall(tmp.path());
+    let out = tmp.path().join("cal");
+    lumiwall()
+        .args(["export", "--format", "argyll-cal", "--commission"])
+        .arg(&profiles)
+        .arg("--out-dir")
+        .arg(&out)
+        .assert()
+        .success()
+        .stdout(contains("d000-c0r0-mono.cal"));
+    let rows = cal_rows(&std::fs::read_to_string(out.join("d000-c0r0-mono.cal")).unwrap());
+    assert_eq!(rows.len(), 256);
+    assert!(
+        rows.windows(2).all(|w| (1..4).all(|c| w[1][c] >= w[0][c])),
+        "curves rise"
+    );
+    let profile: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(profiles.join("d000-c0r0-mono.json")).unwrap(),
+    )
+    .unwrap();
+    let white: Vec<f64> = profile["target_white_xyz_cd_m2"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    // greys above the display's black floor (measured: Y within 0.2–0.8 %, Δxy ≤ 0.0022)
+    let picked = [64, 128, 191, 255].map(|i| rows[i]);
+    let shown = shown_on_display_0(&picked.map(|r| [r[1], r[2], r[3]]));
+    assert_eq!(shown.len(), picked.len());
+    for (row, got) in picked.iter().zip(shown) {
+        let target = [0, 1, 2].map(|c| white[c] * row[0].powf(2.2));
+        let (a, b) = (xy(got), xy(target));
+        let dxy = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
+        let rel_y = got[1] / target[1] - 1.0;
+        println!(
+            "grey {:.3}: Y {:.3} vs {:.3} cd/m² ({:+.2} %), Δxy {dxy:.4}",
+            row[0],
+            got[1],
+            target[1],
+            100.0 * rel_y
+        );
+        assert!(
+            rel_y.abs() < 0.01 && dxy < 0.003,
+            "grey {}: {got:?} vs {target:?}",
+            row[0]
+        );
+    }
+}

@@ -57,6 +57,27 @@ pub fn to_cube(profile: &DisplayProfile, size: usize) -> Result<Cube, CubeError>
             CUBE_SIZES.end()
         )));
     }
+    let drives = drives_at(profile, grid(size))?;
+    let mut text = header(profile, size);
+    for d in drives {
+        text += &format!("{:.6} {:.6} {:.6}\n", d[0], d[1], d[2]);
+    }
+    Ok(Cube {
+        text,
+        flat_field_left_out: profile.flat_field.is_some(),
+    })
+}
+
+/// The post pass's drives (no dither, display centre) for encoded common-gamut RGB
+/// inputs (see the module documentation); also the grey axis of a `.cal`.
+pub fn drives_at(
+    profile: &DisplayProfile,
+    encoded: impl Iterator<Item = [f64; 3]>,
+) -> Result<Vec<[f32; 3]>, CubeError> {
+    let fail = |message: String| CubeError {
+        display: profile.display.file_stem(),
+        message,
+    };
     let rgb_to_xyz = rgb_to_xyz_matrix(
         &profile.common_primaries_xy,
         &profile.target_white_xyz_cd_m2,
@@ -67,16 +88,12 @@ pub fn to_cube(profile: &DisplayProfile, size: usize) -> Result<Cube, CubeError>
         ..ApplyOptions::default()
     };
     let pp = PreparedProfile::new(profile, &options).map_err(|e| fail(e.to_string()))?;
-    let mut text = header(profile, size);
-    for entry in grid(size) {
-        let xyz = mul(&rgb_to_xyz, entry.map(|e| e.powf(CUBE_INPUT_GAMMA)));
-        let drive = pp.apply(xyz.map(|v| v as f32), CENTRE_UV).drive;
-        text += &format!("{:.6} {:.6} {:.6}\n", drive[0], drive[1], drive[2]);
-    }
-    Ok(Cube {
-        text,
-        flat_field_left_out: profile.flat_field.is_some(),
-    })
+    Ok(encoded
+        .map(|e| {
+            let xyz = mul(&rgb_to_xyz, e.map(|v| v.powf(CUBE_INPUT_GAMMA)));
+            pp.apply(xyz.map(|v| v as f32), CENTRE_UV).drive
+        })
+        .collect())
 }
 
 /// Title, the input's meaning as comments, size and domain.
