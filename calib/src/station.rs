@@ -26,7 +26,7 @@ use lumiwall_pattern::{OutputAddress, Token};
 use lumiwall_profiles::DisplayProfile;
 
 use crate::commission::{CommissionError, CommissionOptions, CommissionOutcome, commission};
-use crate::measure::meter_matrix::{MeterMatrices, MeterMatrixError};
+use crate::measure::meter_matrix::{MeterMatrices, MeterMatrixError, PatchXyError};
 use crate::measure::{Progress, Rig};
 use crate::verify::{Target, VerifyError, VerifyOptions, VerifyReport, verify_wall};
 
@@ -342,6 +342,32 @@ impl Station {
             &displays,
             uv,
             per_display,
+        )
+    }
+
+    /// The chromaticity errors of the station's meter against the virtual wall's truth on
+    /// every display's primaries and white, without and with `matrices`, and of the
+    /// reference (seeded `reference_seed`) they were matched to
+    /// ([`crate::measure::meter_matrix::xy_errors`]).
+    pub fn meter_matrix_xy_errors(
+        &mut self,
+        matrices: &MeterMatrices,
+        reference_seed: u64,
+        uv: [f64; 2],
+    ) -> Result<Vec<PatchXyError>, DeviceError> {
+        let mut reference = self
+            .wall
+            .meter(MeterModel::spectroradiometer(reference_seed));
+        let displays = self.displays();
+        let wall = self.wall.clone();
+        let truth = move |d: &DisplayInfo, drive: [f64; 3]| wall.emitted_xyz(d.id, drive, uv);
+        crate::measure::meter_matrix::xy_errors(
+            &mut self.rig(),
+            &mut reference,
+            &displays,
+            uv,
+            matrices,
+            &truth,
         )
     }
 

@@ -15,7 +15,7 @@ use lumiwall_bench::readings::{self, ReadingsBench, ReadingsRow};
 use lumiwall_calib::cli_values::{parse_budget, parse_patches};
 use lumiwall_calib::colorimetry::cct_to_xy;
 use lumiwall_calib::commission::{CommissionOptions, CommissionOutcome};
-use lumiwall_calib::measure::meter_matrix::MeterMatrices;
+use lumiwall_calib::measure::meter_matrix::{MeterMatrices, PatchXyError};
 use lumiwall_calib::measure::{LowLight, MeasureOptions, Progress};
 use lumiwall_calib::solve::{SolveOptions, WhiteTarget};
 use lumiwall_calib::station::{AimChoice, MeterChoice, Noise, Station, StationOptions};
@@ -677,6 +677,10 @@ pub(crate) fn meter_matrix(args: MeterMatrixArgs) -> Result<(), CliError> {
             100.0 * own.iter().cloned().fold(0.0, f64::max)
         );
     }
+    let errors = station
+        .meter_matrix_xy_errors(&matrices, args.reference_seed, [0.5, 0.5])
+        .map_err(|e| CliError::failure(format!("checking the matrices: {e}")))?;
+    print_xy_errors(&errors);
     if let Some(parent) = &parent {
         std::fs::create_dir_all(parent)
             .map_err(|e| CliError::failure(format!("cannot create {}: {e}", parent.display())))?;
@@ -689,6 +693,38 @@ pub(crate) fn meter_matrix(args: MeterMatrixArgs) -> Result<(), CliError> {
         println!("written: {} (ArgyllCMS CCMX)", path.display());
     }
     Ok(())
+}
+
+/// The meter's chromaticity error against the virtual wall's truth per eye and patch
+/// (largest over the displays): as read, corrected, and the reference's own.
+fn print_xy_errors(errors: &[PatchXyError]) {
+    println!("  Δxy against the simulator's truth (display centres, largest over the displays):");
+    println!(
+        "    {:<6} {:<6} {:>8} {:>10} {:>10}",
+        "eye", "patch", "meter", "corrected", "reference"
+    );
+    let mut keys: Vec<(lumiwall_core::Eye, &str)> = Vec::new();
+    for e in errors {
+        if !keys.contains(&(e.eye, e.patch)) {
+            keys.push((e.eye, e.patch));
+        }
+    }
+    for (eye, patch) in keys {
+        let of = || {
+            errors
+                .iter()
+                .filter(move |e| e.eye == eye && e.patch == patch)
+        };
+        let max = |f: fn(&PatchXyError) -> f64| of().map(f).fold(0.0, f64::max);
+        println!(
+            "    {:<6} {:<6} {:>8.4} {:>10.4} {:>10.4}",
+            eye.to_string(),
+            patch,
+            max(|e| e.meter),
+            max(|e| e.corrected),
+            max(|e| e.reference)
+        );
+    }
 }
 
 /// Each eye's matrix also as an ArgyllCMS `.ccmx` beside `out` (`STEM.EYE.ccmx`), so

@@ -310,6 +310,74 @@ pub fn make(
     })
 }
 
+/// Names of the patches of [`PATCHES`].
+const PATCH_NAMES: [&str; 5] = ["black", "red", "green", "blue", "white"];
+
+/// One patch's chromaticity error against the truth, as read by the meter without and
+/// with its correction, and by the reference the correction was matched to.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PatchXyError {
+    /// The display's name.
+    pub display: String,
+    /// Its eye.
+    pub eye: Eye,
+    /// Red, green, blue or white.
+    pub patch: &'static str,
+    /// Δxy of the meter's reading.
+    pub meter: f64,
+    /// Δxy of the corrected reading.
+    pub corrected: f64,
+    /// Δxy of the reference's reading: what no matching to it can remove.
+    pub reference: f64,
+}
+
+/// The light a display sends for a drive (XYZ, cd/m²), e.g. the virtual wall's.
+pub type TruthFn<'a> = dyn Fn(&DisplayInfo, [f64; 3]) -> Result<Xyz, DeviceError> + 'a;
+
+/// Reads red, green, blue and white of every display at `uv` with the meter and the
+/// reference ([`REPEATS`] readings each) and compares the chromaticities with `truth`
+/// (on the virtual wall, the light the display sends), the meter's readings without
+/// and with its matrix from `matrices`.
+pub fn xy_errors(
+    rig: &mut Rig<'_>,
+    reference: &mut dyn Colorimeter,
+    displays: &[DisplayInfo],
+    uv: [f64; 2],
+    matrices: &MeterMatrices,
+    truth: &TruthFn<'_>,
+) -> Result<Vec<PatchXyError>, DeviceError> {
+    let mut out = Vec::new();
+    for d in displays {
+        let pairs = measure_pairs(rig, reference, d, uv)?;
+        let matrix = matrices.for_display(d.id.0, d.eye);
+        for i in 1..PATCHES.len() {
+            let t = truth(d, PATCHES[i])?;
+            let corrected = matrix.map_or(pairs.meter[i], |m| apply(&m, pairs.meter[i]));
+            out.push(PatchXyError {
+                display: d.name.clone(),
+                eye: d.eye,
+                patch: PATCH_NAMES[i],
+                meter: xy_distance(pairs.meter[i], t),
+                corrected: xy_distance(corrected, t),
+                reference: xy_distance(pairs.reference[i], t),
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Chromaticity distance of two XYZ (infinite where either has no light).
+fn xy_distance(a: Xyz, b: Xyz) -> f64 {
+    let xy = |v: Xyz| {
+        let s = v.x + v.y + v.z;
+        (s > 0.0).then(|| [v.x / s, v.y / s])
+    };
+    match (xy(a), xy(b)) {
+        (Some(a), Some(b)) => (a[0] - b[0]).hypot(a[1] - b[1]),
+        _ => f64::INFINITY,
+    }
+}
+
 /// "model serial": what a matrix belongs to (the error of a filter colorimeter is the
 /// instrument's own, not its model's).
 pub fn instrument_name(i: lumiwall_devices::MeterInfo) -> String {
