@@ -39,7 +39,7 @@ RESOLVED_FROM_CODE = 32
 WITHIN_ONE_SHARE = 0.97
 
 
-def test_colours() -> np.ndarray:
+def sample_colours() -> np.ndarray:
     """Encoded common-gamut RGB in [0, 1]: corners, a grey ramp, random colours."""
     corners = np.array([[r, g, b] for r in (0, 1) for g in (0, 1) for b in (0, 1)], float)
     greys = np.repeat(np.linspace(0.0, 1.0, 101)[:, None], 3, axis=1)
@@ -103,7 +103,7 @@ def test_cube_read_by_colour_science_matches_the_post_pass_within_one_10bit_code
     tmp, profiles, out = exported
     names = sorted(p.name for p in profiles.glob("d*.json"))
     assert names, "the commissioning wrote no profiles"
-    encoded = test_colours()
+    encoded = sample_colours()
     table = {
         "trilinear": colour.algebra.table_interpolation_trilinear,
         "tetrahedral": colour.algebra.table_interpolation_tetrahedral,
