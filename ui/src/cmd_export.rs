@@ -10,7 +10,7 @@ use lumiwall_calib::commission::load_measurement;
 use lumiwall_calib::export::cal::to_cal;
 use lumiwall_calib::export::cube::{CUBE_INPUT_GAMMA, CUBE_SIZES, to_cube};
 use lumiwall_calib::export::ti3::to_ti3;
-use lumiwall_profiles::ProfileSet;
+use lumiwall_profiles::{DisplayProfile, ProfileSet};
 
 use crate::CliError;
 use crate::values;
@@ -56,24 +56,12 @@ pub(crate) fn run(args: ExportArgs) -> Result<(), CliError> {
 
 /// `--format argyll-cal`: one `.cal` per profile of the commissioning's profile folder.
 fn run_cal(args: &ExportArgs) -> Result<(), CliError> {
-    let (wall, profiles) = ProfileSet::load_dir(&args.commission)?;
-    values::check_output_dir("--out-dir", &args.out_dir)?;
-    std::fs::create_dir_all(&args.out_dir)?;
-    println!(
-        "wall {wall}: {} profiles → ArgyllCMS .cal (grey axis: the target white at v^{CUBE_INPUT_GAMMA})",
-        profiles.len()
-    );
     let created = lumiwall_calib::solve::now_rfc3339();
-    for profile in &profiles {
+    let what = format!("ArgyllCMS .cal (grey axis: the target white at v^{CUBE_INPUT_GAMMA})");
+    export_profiles(args, &what, "cal", |profile| {
         let text = to_cal(profile, &created).map_err(|e| CliError::input(e.to_string()))?;
-        let path = args
-            .out_dir
-            .join(format!("{}.cal", profile.display.file_stem()));
-        lumiwall_profiles::write_atomic(&path, text.as_bytes())
-            .map_err(|e| CliError::failure(format!("cannot write {}: {e}", path.display())))?;
-        println!("written: {}", path.display());
-    }
-    Ok(())
+        Ok((text, None))
+    })
 }
 
 /// `--format cube`: one `.cube` per profile of the commissioning's profile folder.
@@ -86,26 +74,42 @@ fn run_cube(args: &ExportArgs) -> Result<(), CliError> {
             CUBE_SIZES.end()
         )));
     }
+    let what = format!(
+        "{}³ .cube (input: common-gamut RGB, linear = e^{CUBE_INPUT_GAMMA})",
+        args.cube_size
+    );
+    export_profiles(args, &what, "cube", |profile| {
+        let cube = to_cube(profile, args.cube_size).map_err(|e| CliError::input(e.to_string()))?;
+        let note = cube.flat_field_left_out.then_some(
+            "its flat field is not in the .cube (a uniform LUT: the display centre's drives)",
+        );
+        Ok((cube.text, note))
+    })
+}
+
+/// Writes one `<display>.<extension>` per profile of the commissioning's profile
+/// folder into `--out-dir`, each atomically: `make` gives its text and, where the
+/// format leaves something of the profile out, a note saying what.
+fn export_profiles(
+    args: &ExportArgs,
+    what: &str,
+    extension: &str,
+    make: impl Fn(&DisplayProfile) -> Result<(String, Option<&'static str>), CliError>,
+) -> Result<(), CliError> {
     let (wall, profiles) = ProfileSet::load_dir(&args.commission)?;
     values::check_output_dir("--out-dir", &args.out_dir)?;
     std::fs::create_dir_all(&args.out_dir)?;
-    println!(
-        "wall {wall}: {} profiles → {}³ .cube (input: common-gamut RGB, linear = e^{CUBE_INPUT_GAMMA})",
-        profiles.len(),
-        args.cube_size
-    );
+    println!("wall {wall}: {} profiles → {what}", profiles.len());
     for profile in &profiles {
-        let cube = to_cube(profile, args.cube_size).map_err(|e| CliError::input(e.to_string()))?;
+        let (text, note) = make(profile)?;
         let path = args
             .out_dir
-            .join(format!("{}.cube", profile.display.file_stem()));
-        lumiwall_profiles::write_atomic(&path, cube.text.as_bytes())
+            .join(format!("{}.{extension}", profile.display.file_stem()));
+        lumiwall_profiles::write_atomic(&path, text.as_bytes())
             .map_err(|e| CliError::failure(format!("cannot write {}: {e}", path.display())))?;
         println!("written: {}", path.display());
-        if cube.flat_field_left_out {
-            println!(
-                "  note: its flat field is not in the .cube (a uniform LUT: the display centre's drives)"
-            );
+        if let Some(note) = note {
+            println!("  note: {note}");
         }
     }
     Ok(())

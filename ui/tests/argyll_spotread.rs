@@ -305,16 +305,6 @@ fn argyll_dispread_measures_a_chart_on_the_virtual_wall_through_its_web_display(
     }
 }
 
-fn xy(v: [f64; 3]) -> [f64; 2] {
-    let s = v[0] + v[1] + v[2];
-    [v[0] / s, v[1] / s]
-}
-
-fn xy_distance(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let (a, b) = (xy(a), xy(b));
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
-}
-
 #[test]
 fn argyll_spotread_applies_lumiwalls_ccmx_and_the_infitec_green_error_shrinks() {
     let Some(_one_at_a_time) = take_line() else {
@@ -369,11 +359,7 @@ fn argyll_colprof_builds_a_profile_from_lumiwalls_ti3_export_and_applycal_takes_
     let tmp = tempfile::TempDir::new().unwrap();
     let commissioned = commission_small_wall(tmp.path());
     let out = tmp.path().join("ti3");
-    lumiwall()
-        .args(["export", "--format", "ti3", "--commission"])
-        .arg(&commissioned)
-        .arg("--out-dir")
-        .arg(&out)
+    export("ti3", &commissioned, &out)
         .assert()
         .success()
         .stdout(predicates::str::contains("d000-c0r0-mono.ti3"));
@@ -412,13 +398,7 @@ fn argyll_colprof_builds_a_profile_from_lumiwalls_ti3_export_and_applycal_takes_
     assert!(avg < 5.0, "profcheck average ΔE {avg}");
     // the grey-axis curves as a .cal: applycal reads them into the profile
     let cal = tmp.path().join("cal");
-    lumiwall()
-        .args(["export", "--format", "argyll-cal", "--commission"])
-        .arg(&commissioned)
-        .arg("--out-dir")
-        .arg(&cal)
-        .assert()
-        .success();
+    export("argyll-cal", &commissioned, &cal).assert().success();
     let applied = Command::new("applycal")
         .arg(cal.join("d000-c0r0-mono.cal"))
         .args(["d0.icc", "d0-cal.icc"])

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{commission_small_wall, lumiwall};
+use common::{commission_small_wall, export, lumiwall, xy_distance};
 use predicates::str::contains;
 
 #[test]
@@ -12,18 +12,8 @@ fn cube_export_writes_one_size_cubed_lut_per_display_in_cube_order() {
     let tmp = tempfile::TempDir::new().unwrap();
     let profiles = commission_small_wall(tmp.path());
     let out = tmp.path().join("cube");
-    lumiwall()
-        .args([
-            "export",
-            "--format",
-            "cube",
-            "--cube-size",
-            "17",
-            "--commission",
-        ])
-        .arg(&profiles)
-        .arg("--out-dir")
-        .arg(&out)
+    export("cube", &profiles, &out)
+        .args(["--cube-size", "17"])
         .assert()
         .success()
         .stdout(contains("d000-c0r0-mono.cube"))
@@ -33,10 +23,7 @@ fn cube_export_writes_one_size_cubed_lut_per_display_in_cube_order() {
     let rows: Vec<[f64; 3]> = text
         .lines()
         .filter(|l| l.starts_with(|c: char| c.is_ascii_digit()))
-        .map(|l| {
-            let v: Vec<f64> = l.split_whitespace().map(|w| w.parse().unwrap()).collect();
-            [v[0], v[1], v[2]]
-        })
+        .map(numbers)
         .collect();
     assert_eq!(rows.len(), 17 * 17 * 17);
     assert!(rows.iter().flatten().all(|d| (0.0..=1.0).contains(d)));
@@ -53,26 +40,12 @@ fn cube_export_writes_one_size_cubed_lut_per_display_in_cube_order() {
 #[test]
 fn cube_export_refuses_a_size_outside_2_to_129_and_a_folder_without_profiles() {
     let tmp = tempfile::TempDir::new().unwrap();
-    lumiwall()
-        .args([
-            "export",
-            "--format",
-            "cube",
-            "--cube-size",
-            "1",
-            "--commission",
-        ])
-        .arg(tmp.path())
-        .arg("--out-dir")
-        .arg(tmp.path().join("out"))
+    export("cube", tmp.path(), &tmp.path().join("out"))
+        .args(["--cube-size", "1"])
         .assert()
         .code(2)
         .stderr(contains("2..=129"));
-    lumiwall()
-        .args(["export", "--format", "cube", "--commission"])
-        .arg(tmp.path())
-        .arg("--out-dir")
-        .arg(tmp.path().join("out"))
+    export("cube", tmp.path(), &tmp.path().join("out"))
         .assert()
         .code(2);
     assert!(
@@ -81,15 +54,21 @@ fn cube_export_refuses_a_size_outside_2_to_129_and_a_folder_without_profiles() {
     );
 }
 
+/// The numbers of a line of whitespace-separated numbers.
+fn numbers<const N: usize>(line: &str) -> [f64; N] {
+    let v: Vec<f64> = line
+        .split_whitespace()
+        .map(|w| w.parse().unwrap())
+        .collect();
+    v.try_into().unwrap()
+}
+
 /// The rows `[v, R, G, B]` of a `.cal`.
 fn cal_rows(text: &str) -> Vec<[f64; 4]> {
     let data = text.split("BEGIN_DATA\n").nth(1).unwrap();
     data.lines()
         .take_while(|l| !l.starts_with("END_DATA"))
-        .map(|l| {
-            let v: Vec<f64> = l.split_whitespace().map(|w| w.parse().unwrap()).collect();
-            [v[0], v[1], v[2], v[3]]
-        })
+        .map(numbers)
         .collect()
 }
 
@@ -110,16 +89,8 @@ fn shown_on_display_0(drives: &[[f64; 3]]) -> Vec<[f64; 3]> {
     String::from_utf8_lossy(&out.stdout)
         .lines()
         .filter_map(|l| l.strip_prefix("ok XYZ "))
-        .map(|l| {
-            let v: Vec<f64> = l.split_whitespace().map(|w| w.parse().unwrap()).collect();
-            [v[0], v[1], v[2]]
-        })
+        .map(numbers)
         .collect()
-}
-
-fn xy(v: [f64; 3]) -> [f64; 2] {
-    let s = v[0] + v[1] + v[2];
-    [v[0] / s, v[1] / s]
 }
 
 #[test]
@@ -127,11 +98,7 @@ fn argyll_cal_greys_show_the_target_white_at_v_to_the_2_2_on_the_simulated_displ
     let tmp = tempfile::TempDir::new().unwrap();
     let profiles = commission_small_wall(tmp.path());
     let out = tmp.path().join("cal");
-    lumiwall()
-        .args(["export", "--format", "argyll-cal", "--commission"])
-        .arg(&profiles)
-        .arg("--out-dir")
-        .arg(&out)
+    export("argyll-cal", &profiles, &out)
         .assert()
         .success()
         .stdout(contains("d000-c0r0-mono.cal"));
@@ -157,8 +124,7 @@ fn argyll_cal_greys_show_the_target_white_at_v_to_the_2_2_on_the_simulated_displ
     assert_eq!(shown.len(), picked.len());
     for (row, got) in picked.iter().zip(shown) {
         let target = [0, 1, 2].map(|c| white[c] * row[0].powf(2.2));
-        let (a, b) = (xy(got), xy(target));
-        let dxy = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
+        let dxy = xy_distance(got, target);
         let rel_y = got[1] / target[1] - 1.0;
         println!(
             "grey {:.3}: Y {:.3} vs {:.3} cd/m² ({:+.2} %), Δxy {dxy:.4}",

@@ -368,12 +368,8 @@ pub fn xy_errors(
 
 /// Chromaticity distance of two XYZ (infinite where either has no light).
 fn xy_distance(a: Xyz, b: Xyz) -> f64 {
-    let xy = |v: Xyz| {
-        let s = v.x + v.y + v.z;
-        (s > 0.0).then(|| [v.x / s, v.y / s])
-    };
-    match (xy(a), xy(b)) {
-        (Some(a), Some(b)) => (a[0] - b[0]).hypot(a[1] - b[1]),
+    match (a.chromaticity(), b.chromaticity()) {
+        (Some(a), Some(b)) => a.distance(b),
         _ => f64::INFINITY,
     }
 }

@@ -63,3 +63,23 @@ pub(crate) fn assert_refused(cmd: &mut Command, option: &str, allowed: &str) {
         .stderr(contains(option.to_string()))
         .stderr(contains(allowed.to_string()));
 }
+
+/// Chromaticity distance Δxy of two XYZ.
+pub(crate) fn xy_distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let xy = |v: [f64; 3]| {
+        let s = v[0] + v[1] + v[2];
+        [v[0] / s, v[1] / s]
+    };
+    let (a, b) = (xy(a), xy(b));
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+/// `lumiwall export --format FORMAT --commission DIR --out-dir OUT`.
+pub(crate) fn export(format: &str, commission: &Path, out_dir: &Path) -> Command {
+    let mut cmd = lumiwall();
+    cmd.args(["export", "--format", format, "--commission"])
+        .arg(commission)
+        .arg("--out-dir")
+        .arg(out_dir);
+    cmd
+}
