@@ -4,7 +4,7 @@
 //!
 //! The harness is the workspace's shared one (`fuzz/mutate.rs`, see `fuzz/README.md`):
 //! every corpus file of `fuzz/corpus/<parser>/` first as it is, then proptest-made
-//! mutations for `LUMIWALL_FUZZ_SECONDS` (default 5; CI runs 60). Every case must end
+//! mutations for `LUMIWALL_FUZZ_SECONDS` (default 5, as in CI). Every case must end
 //! without panicking or hanging, with either a typed error or a result whose every
 //! float is finite (and within the documented ceilings).
 
