@@ -14,9 +14,13 @@ use std::time::{Duration, Instant};
 
 use lumiwall_calib::commission::{CommissionError, CommissionOptions};
 use lumiwall_calib::measure::MeasureOptions;
+use lumiwall_calib::measure::meter_matrix::MeterMatrixError;
 use lumiwall_calib::solve::SolveOptions;
-use lumiwall_calib::station::{MeterChoice, Noise, Station, StationError, StationOptions};
+use lumiwall_calib::station::{
+    MeterChoice, Noise, ReferenceChoice, Station, StationError, StationOptions,
+};
 use lumiwall_calib::verify::{Summary, VerifyError, VerifyOptions, chart_targets};
+use lumiwall_devices::sim::SpectroModel;
 
 /// What to compare.
 #[derive(Debug, Clone)]
@@ -110,7 +114,7 @@ pub enum ReadingsError {
     Station(#[from] StationError),
     /// The meter could not be matched to the reference.
     #[error(transparent)]
-    MeterMatrix(#[from] lumiwall_calib::measure::meter_matrix::MeterMatrixError),
+    MeterMatrix(#[from] MeterMatrixError),
     /// Commissioning failed.
     #[error("budget {budget}: {source}")]
     Commission {
@@ -166,7 +170,12 @@ fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsR
         &StationOptions::new(bench.meter.clone(), noise),
     )?;
     let meter_matrix = match noise {
-        Noise::Realistic => Some(station.meter_matrices(2000, [0.5, 0.5], false)?),
+        Noise::Realistic => {
+            let mut reference = station
+                .open_reference(&ReferenceChoice::Simulated(SpectroModel::cs2000(2000)))
+                .map_err(MeterMatrixError::Reference)?;
+            Some(station.meter_matrices(reference.as_mut(), [0.5, 0.5], false)?)
+        }
         Noise::None => None,
     };
     let out = bench.out.join(format!("{}-{budget}", noise.name()));

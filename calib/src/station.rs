@@ -17,7 +17,8 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use lumiwall_devices::serial::{Emulator, EmulatorOptions, FaultPlan, K10aConfig, KleinK10a};
-use lumiwall_devices::sim::{MeterModel, VirtualWall};
+use lumiwall_devices::sim::{MeterModel, SpectroModel, VirtualWall};
+use lumiwall_devices::{BandpassCorrected, Spectroradiometer};
 use lumiwall_devices::{
     Colorimeter, DeviceError, DisplayInfo, GuidedPositioner, MeterPositioner, PatternOutput,
 };
@@ -116,6 +117,14 @@ pub fn driver_config() -> K10aConfig {
         read_timeout: Duration::from_secs(2),
         ..K10aConfig::default()
     }
+}
+
+/// The reference spectroradiometer a meter matrix is made against
+/// ([`Station::open_reference`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum ReferenceChoice {
+    /// A simulated instrument reading the virtual wall directly.
+    Simulated(SpectroModel),
 }
 
 /// How to open a station's meter.
@@ -323,22 +332,32 @@ impl Station {
         self.emulator.as_ref()
     }
 
-    /// Matches the station's meter to a simulated reference spectroradiometer
-    /// (seeded with `reference_seed`) on the virtual wall: one correction matrix per
-    /// eye ([`crate::measure::meter_matrix`]), and with `per_display` one per display.
+    /// Opens the reference spectroradiometer a meter matrix is made against.
+    pub fn open_reference(
+        &self,
+        choice: &ReferenceChoice,
+    ) -> Result<Box<dyn Spectroradiometer + Send>, DeviceError> {
+        match choice {
+            ReferenceChoice::Simulated(model) => {
+                Ok(Box::new(self.wall.spectroradiometer(model.clone())?))
+            }
+        }
+    }
+
+    /// Matches the station's meter to `reference` on the virtual wall: one correction
+    /// matrix per eye ([`crate::measure::meter_matrix`]), and with `per_display` one per
+    /// display. The reference's readings are corrected for its bandwidth
+    /// ([`BandpassCorrected`]).
     pub fn meter_matrices(
         &mut self,
-        reference_seed: u64,
+        reference: &mut dyn Spectroradiometer,
         uv: [f64; 2],
         per_display: bool,
     ) -> Result<MeterMatrices, MeterMatrixError> {
-        let mut reference = self
-            .wall
-            .meter(MeterModel::spectroradiometer(reference_seed));
         let displays = self.displays();
         crate::measure::meter_matrix::make(
             &mut self.rig(),
-            &mut reference,
+            &mut BandpassCorrected(reference),
             &displays,
             uv,
             per_display,
@@ -347,23 +366,19 @@ impl Station {
 
     /// The chromaticity errors of the station's meter against the virtual wall's truth on
     /// every display's primaries and white, without and with `matrices`, and of the
-    /// reference (seeded `reference_seed`) they were matched to
-    /// ([`crate::measure::meter_matrix::xy_errors`]).
+    /// reference they were matched to ([`crate::measure::meter_matrix::xy_errors`]).
     pub fn meter_matrix_xy_errors(
         &mut self,
         matrices: &MeterMatrices,
-        reference_seed: u64,
+        reference: &mut dyn Spectroradiometer,
         uv: [f64; 2],
     ) -> Result<Vec<PatchXyError>, DeviceError> {
-        let mut reference = self
-            .wall
-            .meter(MeterModel::spectroradiometer(reference_seed));
         let displays = self.displays();
         let wall = self.wall.clone();
         let truth = move |d: &DisplayInfo, drive: [f64; 3]| wall.emitted_xyz(d.id, drive, uv);
         crate::measure::meter_matrix::xy_errors(
             &mut self.rig(),
-            &mut reference,
+            &mut BandpassCorrected(reference),
             &displays,
             uv,
             matrices,

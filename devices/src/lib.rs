@@ -5,11 +5,13 @@
 //! (colorimeters over a serial port); [`sim`] is the virtual wall: simulated
 //! projectors, screen and meter, the embedded default so that everything runs and is
 //! tested without hardware. [`xyz`] holds the measured quantity and the CIE 1931
-//! observer used to integrate spectra.
+//! observer used to integrate spectra; [`spectral`] what a spectroradiometer measures
+//! ([`Spectroradiometer`]).
 
 pub mod camera;
 pub mod error;
 mod guided;
+pub mod spectral;
 pub mod traits;
 pub mod xyz;
 
@@ -23,6 +25,7 @@ pub mod uvc;
 pub use camera::{Camera, CameraInfo, DriveImage, Frame};
 pub use error::DeviceError;
 pub use guided::GuidedPositioner;
+pub use spectral::{BandpassCorrected, SpectralRadiance, Spectroradiometer};
 pub use traits::{
     AimingAids, Colorimeter, DisplayId, DisplayInfo, Eye, MeterInfo, MeterPositioner, PatternOutput,
 };

@@ -1,6 +1,6 @@
 //! The virtual wall: a physically based, seeded, deterministic simulation of a tiled
 //! projection wall (spectral projectors with optional Infitec comb filters, screen)
-//! and of a spot colorimeter reading it.
+//! and of a spot colorimeter and a spectroradiometer reading it.
 //!
 //! Build one from a wall file ([`VirtualWall::from_toml_file`], files in
 //! `fixtures/walls/`), then drive it through the device traits:
@@ -18,11 +18,13 @@ pub mod observer;
 pub mod projector;
 pub mod screen;
 pub mod spectra;
+pub mod spectroradiometer;
 pub mod wall;
 pub mod wall_file;
 
 pub use camera::{CameraPose, CameraSpec, VirtualCamera};
 pub use curve::TransferCurve;
 pub use meter::{MeterModel, SimMeter};
+pub use spectroradiometer::{SimSpectroradiometer, SpectroModel};
 pub use wall::{SimPatternOutput, SimPositioner, TruePrimaries, VirtualWall};
 pub use wall_file::{NetworkSpec, OutputRoute, WallFile};

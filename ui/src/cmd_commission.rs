@@ -18,10 +18,13 @@ use lumiwall_calib::commission::{CommissionOptions, CommissionOutcome};
 use lumiwall_calib::measure::meter_matrix::{MeterMatrices, PatchXyError};
 use lumiwall_calib::measure::{LowLight, MeasureOptions, Progress};
 use lumiwall_calib::solve::{SolveOptions, WhiteTarget};
-use lumiwall_calib::station::{AimChoice, MeterChoice, Noise, Station, StationOptions};
+use lumiwall_calib::station::{
+    AimChoice, MeterChoice, Noise, ReferenceChoice, Station, StationOptions,
+};
 use lumiwall_core::Headroom;
 use lumiwall_devices::DisplayInfo;
 use lumiwall_devices::serial::FaultPlan;
+use lumiwall_devices::sim::SpectroModel;
 use lumiwall_profiles::{BlackMode, MIN_LUT_ENTRIES, OutOfGamut, ProfileSet};
 
 use crate::CliError;
@@ -606,13 +609,48 @@ pub(crate) struct MeterMatrixArgs {
     /// Output file (JSON), e.g. meter-matrix.json.
     #[arg(long)]
     out: PathBuf,
-    /// Serial number of the simulated reference spectroradiometer.
+    /// The reference spectroradiometer: `cs2000` or `specbos` (simulated on the
+    /// virtual wall, read directly).
+    #[arg(long, default_value = "cs2000", value_parser = parse_reference)]
+    reference: ReferenceArg,
+    /// Serial number of the simulated reference spectroradiometer (its systematic
+    /// errors: wavelength offset, responsivity).
     #[arg(long, default_value_t = 2000)]
     reference_seed: u64,
     /// Also one matrix per display (the reference reads every display): for walls
     /// whose displays of one eye differ in spectrum, e.g. Infitec comb filters.
     #[arg(long)]
     per_display: bool,
+}
+
+/// The reference instrument of `lumiwall meter-matrix`.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum ReferenceArg {
+    /// A simulated Konica Minolta CS-2000.
+    Cs2000,
+    /// A simulated JETI specbos 1211.
+    Specbos,
+}
+
+impl ReferenceArg {
+    /// The station's choice for the instrument with serial number `seed`.
+    fn choice(&self, seed: u64) -> ReferenceChoice {
+        match self {
+            ReferenceArg::Cs2000 => ReferenceChoice::Simulated(SpectroModel::cs2000(seed)),
+            ReferenceArg::Specbos => ReferenceChoice::Simulated(SpectroModel::specbos_1211(seed)),
+        }
+    }
+}
+
+/// Parses `--reference`.
+fn parse_reference(s: &str) -> Result<ReferenceArg, String> {
+    match s {
+        "cs2000" => Ok(ReferenceArg::Cs2000),
+        "specbos" => Ok(ReferenceArg::Specbos),
+        other => Err(format!(
+            "`{other}` is no reference spectroradiometer; use cs2000 or specbos"
+        )),
+    }
 }
 
 /// Runs `lumiwall meter-matrix`: reads black, red, green, blue and white of the middle
@@ -647,8 +685,11 @@ pub(crate) fn meter_matrix(args: MeterMatrixArgs) -> Result<(), CliError> {
         values::check_output_dir("--out's folder", parent)?;
     }
     let mut station = Station::open(&args.wall, &args.meter.station_options())?;
+    let mut reference = station
+        .open_reference(&args.reference.choice(args.reference_seed))
+        .map_err(|e| CliError::failure(format!("the reference spectroradiometer: {e}")))?;
     let matrices = station
-        .meter_matrices(args.reference_seed, [0.5, 0.5], args.per_display)
+        .meter_matrices(reference.as_mut(), [0.5, 0.5], args.per_display)
         .map_err(|e| CliError::failure(e.to_string()))?;
     println!(
         "{} matched to {} on {}:",
@@ -678,7 +719,7 @@ pub(crate) fn meter_matrix(args: MeterMatrixArgs) -> Result<(), CliError> {
         );
     }
     let errors = station
-        .meter_matrix_xy_errors(&matrices, args.reference_seed, [0.5, 0.5])
+        .meter_matrix_xy_errors(&matrices, reference.as_mut(), [0.5, 0.5])
         .map_err(|e| CliError::failure(format!("checking the matrices: {e}")))?;
     print_xy_errors(&errors);
     if let Some(parent) = &parent {

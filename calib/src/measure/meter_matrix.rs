@@ -67,6 +67,9 @@ pub enum MeterMatrixError {
         /// The residual.
         residual: f64,
     },
+    /// The reference instrument could not be opened.
+    #[error("the reference spectroradiometer: {0}")]
+    Reference(#[source] DeviceError),
     /// A device failed while the patches were read.
     #[error("reading the {eye} display's patches for the meter matrix: {source}")]
     Device {

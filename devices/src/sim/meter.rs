@@ -118,31 +118,6 @@ impl MeterModel {
         }
     }
 
-    /// A reference spectroradiometer of the Konica Minolta CS-2000 class, to match a
-    /// filter colorimeter to (`lumiwall meter-matrix`): luminance ±2 % absolute,
-    /// wavelength accuracy ±0.3 nm (modelled as the CIE functions shifted up to
-    /// 0.3 nm) and ±0.1 % per tristimulus channel; repeatability 0.15 % and xy 0.0002;
-    /// 0.003–500 000 cd/m². `seed` plays the serial number.
-    pub fn spectroradiometer(seed: u64) -> Self {
-        Self {
-            model: "Konica Minolta CS-2000 (simulated reference)".into(),
-            seed,
-            lum_systematic_rel: 0.02,
-            xy_systematic: 0.0,
-            filter_shift_nm: 0.3,
-            filter_gain_rel: 0.001,
-            lum_noise_rel: 0.00075,
-            lum_low_light_rel: 0.002,
-            xy_noise: 0.0001,
-            xy_low_light: 0.0005,
-            low_light_cd_m2: 0.1,
-            min_reliable_cd_m2: 0.05,
-            floor_cd_m2: 0.003,
-            max_cd_m2: 500_000.0,
-            display_digits: Some(5),
-        }
-    }
-
     /// 1σ relative luminance noise at `y_cd_m2`.
     pub fn lum_sigma_rel(&self, y_cd_m2: f64) -> f64 {
         self.lum_noise_rel + self.lum_low_light_rel * self.low_light_cd_m2 / y_cd_m2.max(1e-9)

@@ -334,6 +334,21 @@ impl DisplaySpectra {
             integrate(&self.white_segment),
         ]
     }
+
+    /// `Σ weights[j] · spectra[j]` over `[R, G, B, black, white segment]`.
+    pub fn combined(&self, weights: [f64; 5]) -> Spectrum {
+        let parts = [
+            &self.channel[0],
+            &self.channel[1],
+            &self.channel[2],
+            &self.black,
+            &self.white_segment,
+        ];
+        parts
+            .iter()
+            .zip(weights)
+            .fold(Spectrum::constant(0.0), |sum, (s, w)| sum.add(&s.scaled(w)))
+    }
 }
 
 /// Transmission of the stereo comb filter in front of `eye` (none for mono), its
@@ -543,6 +558,14 @@ impl SimDisplay {
         uv: [f64; 2],
         cond: Conditions,
     ) -> [f64; 3] {
+        let w = self.weights(drive, uv, cond);
+        std::array::from_fn(|i| (0..5).map(|j| w[j] * basis[j][i]).sum())
+    }
+
+    /// How much of each of the five spectra (`[R, G, B, black, white segment]`, see
+    /// [`DisplaySpectra`]) the display emits at `drive` and `uv`: its light is
+    /// `Σ weights[j] · spectra[j]`.
+    pub fn weights(&self, drive: [f64; 3], uv: [f64; 2], cond: Conditions) -> [f64; 5] {
         let f: [f64; 3] = std::array::from_fn(|c| self.relative_intensity(c, drive[c]));
         let fall = self.falloff_factor(uv);
         let age = self.ageing_factor(cond.lamp_hours);
@@ -550,12 +573,12 @@ impl SimDisplay {
         let k: [f64; 3] = std::array::from_fn(|c| fall[c] * age[c] * warm[c]);
         let k_mean = (k[0] + k[1] + k[2]) / 3.0;
         let white = f[0].min(f[1]).min(f[2]);
-        let mut xyz = [0.0; 3];
-        for (i, out) in xyz.iter_mut().enumerate() {
-            *out = basis[3][i] * k_mean
-                + (0..3).map(|c| f[c] * k[c] * basis[c][i]).sum::<f64>()
-                + white * k_mean * basis[4][i];
-        }
-        xyz
+        [
+            f[0] * k[0],
+            f[1] * k[1],
+            f[2] * k[2],
+            k_mean,
+            white * k_mean,
+        ]
     }
 }

@@ -8,6 +8,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::meter::{MeterModel, SimMeter};
+use super::observer::Spectrum;
 use super::projector::{Conditions, SimDisplay, validate_spec};
 use super::screen;
 use super::spectra::Band;
@@ -78,17 +79,22 @@ impl WallState {
         uv: [f64; 2],
         basis: Option<&[[[f64; 3]; 5]]>,
     ) -> Result<Xyz, DeviceError> {
-        let d = self.display(id)?;
-        check_drive(drive)?;
-        check_uv(uv)?;
-        let xyz = match basis.and_then(|b| b.get(id.0 as usize)) {
-            Some(b) => d.emitted_in(b, drive, uv, self.conditions(d)),
-            None => d.emitted(drive, uv, self.conditions(d)),
+        let (d, w) = self.spot_weights(id, drive, uv)?;
+        let own;
+        let b = match basis.and_then(|b| b.get(id.0 as usize)) {
+            Some(b) => b,
+            None => {
+                own = [
+                    d.channel_xyz[0],
+                    d.channel_xyz[1],
+                    d.channel_xyz[2],
+                    d.black_xyz,
+                    d.white_segment_xyz,
+                ];
+                &own
+            }
         };
-        let spot = d.spot_m(uv);
-        let meter = screen::meter_position_m(&self.file.meter, spot);
-        let g = screen::gain(&self.file.screen, d.lens_m(), spot, meter);
-        let out = xyz.map(|v| v * g);
+        let out: [f64; 3] = std::array::from_fn(|i| (0..5).map(|j| w[j] * b[j][i]).sum());
         if out.iter().any(|v| !v.is_finite()) {
             return Err(DeviceError::Config(format!(
                 "display {id} of wall {:?} emits {out:?} at uv {uv:?}: not finite; lower \
@@ -97,6 +103,50 @@ impl WallState {
             )));
         }
         Ok(Xyz::from_array(out))
+    }
+
+    /// The spectral radiance the meter sees from display `id` at `drive` and `uv`
+    /// (scaled so that the CIE 1931 observer gives Y in cd/m²).
+    fn emitted_spectrum(
+        &self,
+        id: DisplayId,
+        drive: [f64; 3],
+        uv: [f64; 2],
+    ) -> Result<Spectrum, DeviceError> {
+        let (d, w) = self.spot_weights(id, drive, uv)?;
+        Ok(d.spectra.combined(w))
+    }
+
+    /// Display `id` and how much of each of its five spectra reach the meter at
+    /// `drive` and `uv` (screen gain toward the meter included).
+    fn spot_weights(
+        &self,
+        id: DisplayId,
+        drive: [f64; 3],
+        uv: [f64; 2],
+    ) -> Result<(&SimDisplay, [f64; 5]), DeviceError> {
+        let d = self.display(id)?;
+        check_drive(drive)?;
+        check_uv(uv)?;
+        let spot = d.spot_m(uv);
+        let meter = screen::meter_position_m(&self.file.meter, spot);
+        let g = screen::gain(&self.file.screen, d.lens_m(), spot, meter);
+        Ok((d, d.weights(drive, uv, self.conditions(d)).map(|w| w * g)))
+    }
+
+    /// The display the meter is aimed at, the spot, and the drive shown there.
+    fn aimed_drive(&self) -> Result<(DisplayId, [f64; 3], [f64; 2]), DeviceError> {
+        let (id, uv) = self.aimed.ok_or_else(|| {
+            DeviceError::Config(
+                "the simulated meter is not aimed at any display; aim it with the positioner first"
+                    .into(),
+            )
+        })?;
+        let drive = match &self.shown {
+            Some((shown, pattern)) if *shown == id => pattern.drive_at(uv),
+            _ => [0.0; 3],
+        };
+        Ok((id, drive, uv))
     }
 }
 
@@ -501,6 +551,14 @@ impl VirtualWall {
         SimMeter::new(self.clone(), model)
     }
 
+    /// A simulated spectroradiometer with error model `model` reading this wall.
+    pub fn spectroradiometer(
+        &self,
+        model: super::spectroradiometer::SpectroModel,
+    ) -> Result<super::spectroradiometer::SimSpectroradiometer, DeviceError> {
+        super::spectroradiometer::SimSpectroradiometer::new(self.clone(), model)
+    }
+
     /// Noiseless XYZ (cd/m², black included) that display `id` sends to the meter
     /// position at `uv` for `drive` (0..=1 per channel, quantised to its bit depth),
     /// at the current simulation time. Does not advance the clock.
@@ -592,19 +650,32 @@ impl VirtualWall {
     /// advances the clock by one reading.
     pub(crate) fn read_spot_in(&self, basis: Option<&[[[f64; 3]; 5]]>) -> Result<Xyz, DeviceError> {
         let mut s = self.lock();
-        let (id, uv) = s.aimed.ok_or_else(|| {
-            DeviceError::Config(
-                "the simulated meter is not aimed at any display; aim it with the positioner first"
-                    .into(),
-            )
-        })?;
-        let drive = match &s.shown {
-            Some((shown, pattern)) if *shown == id => pattern.drive_at(uv),
-            _ => [0.0; 3],
-        };
+        let (id, drive, uv) = s.aimed_drive()?;
         let xyz = s.emitted_in(id, drive, uv, basis)?;
         s.clock_s += s.file.clock.seconds_per_reading;
         Ok(xyz)
+    }
+
+    /// The spectrum the meter sees now, noiseless (the truth a spectroradiometer
+    /// samples); advances the clock by one reading.
+    pub(crate) fn read_spot_spectrum(&self) -> Result<Spectrum, DeviceError> {
+        let mut s = self.lock();
+        let (id, drive, uv) = s.aimed_drive()?;
+        let spectrum = s.emitted_spectrum(id, drive, uv)?;
+        s.clock_s += s.file.clock.seconds_per_reading;
+        Ok(spectrum)
+    }
+
+    /// The spectral radiance display `id` sends toward the meter at `drive` and `uv`,
+    /// now, noiseless, scaled so that the CIE 1931 observer gives XYZ in cd/m² (what
+    /// [`VirtualWall::emitted_xyz`] integrates).
+    pub fn emitted_spectrum(
+        &self,
+        id: DisplayId,
+        drive: [f64; 3],
+        uv: [f64; 2],
+    ) -> Result<Spectrum, DeviceError> {
+        self.lock().emitted_spectrum(id, drive, uv)
     }
 }
 
