@@ -1,12 +1,17 @@
-//! Serial colorimeter drivers and their pty emulators.
+//! Serial instrument drivers and their pty emulators.
 //!
-//! The instrument is the Klein Instruments K-10-A (protocol shared by the K-10 and
+//! The colorimeter is the Klein Instruments K-10-A (protocol shared by the K-10 and
 //! KV-10-A): [`KleinK10a`] opens a serial port with the `serialport` crate and
 //! implements [`Colorimeter`](crate::Colorimeter); [`Emulator`] serves the same
 //! protocol on a pseudo-terminal, backed by any colorimeter (normally the virtual
 //! wall's meter), with injectable faults ([`FaultPlan`]). The wire format is in
 //! [`k10_protocol`]; the instrument's published figures are in [`spec`]. Sources:
 //! `fixtures/instruments/klein-k10a.md`.
+//!
+//! The spectroradiometer is the JETI specbos 1201/1211: [`JetiSpecbos`] implements
+//! [`Spectroradiometer`](crate::Spectroradiometer), [`SpecbosEmulator`] serves its
+//! protocol ([`specbos_protocol`]) backed by any spectroradiometer. Sources:
+//! `fixtures/instruments/jeti-specbos.md`.
 //!
 //! ```no_run
 //! use lumiwall_devices::serial::{K10aConfig, KleinK10a};
@@ -20,7 +25,11 @@
 pub mod emulator;
 pub mod k10_protocol;
 pub mod k10a;
+mod pty;
 pub mod spec;
+pub mod specbos;
+pub mod specbos_emulator;
+pub mod specbos_protocol;
 
 pub use emulator::{
     EmulatedPort, Emulator, EmulatorOptions, FaultPlan, LineDrop, SlowAnswer, StatusFault,
@@ -28,3 +37,5 @@ pub use emulator::{
 pub use k10_protocol::MeasureSpeed;
 pub use k10a::{ExchangeStats, K10aConfig, KleinK10a};
 pub use spec::{InstrumentSpec, KLEIN_K10A};
+pub use specbos::{JetiSpecbos, SpecbosConfig};
+pub use specbos_emulator::{SpecbosEmulator, SpecbosEmulatorOptions};

@@ -110,6 +110,9 @@ pub trait Spectroradiometer: Colorimeter {
     /// The instrument's optical bandwidth: full width at half maximum of its slit
     /// function (nm), from its specification.
     fn bandwidth_nm(&self) -> f64;
+
+    /// First and last wavelength it reports (nm).
+    fn wavelength_range_nm(&self) -> [f64; 2];
 }
 
 /// A spectroradiometer read as a colorimeter whose XYZ are corrected for the

@@ -1,6 +1,7 @@
 //! `lumiwall meter-emulator --wall W`: the virtual wall's meter served as a Klein
-//! K-10-A on a pseudo-terminal, so that third-party software (ArgyllCMS `spotread`,
-//! `dispread`) can measure the virtual wall. The first line of stdout is the
+//! K-10-A (or, with `--instrument specbos`, its spectroradiometer served as a JETI
+//! specbos 1211) on a pseudo-terminal, so that third-party software (ArgyllCMS
+//! `spotread`, `dispread`) can measure the virtual wall. The first line of stdout is the
 //! pseudo-terminal's path; commands on stdin choose what the wall shows and where
 //! the meter points (see [`COMMANDS`]).
 
@@ -8,9 +9,11 @@ use std::io::{BufRead, Write};
 use std::path::PathBuf;
 
 use lumiwall_calib::station::Noise;
-use lumiwall_devices::serial::{Emulator, EmulatorOptions, FaultPlan};
-use lumiwall_devices::sim::VirtualWall;
-use lumiwall_devices::{DisplayId, MeterPositioner, PatternOutput};
+use lumiwall_devices::serial::{
+    Emulator, EmulatorOptions, FaultPlan, SpecbosEmulator, SpecbosEmulatorOptions,
+};
+use lumiwall_devices::sim::{SpectroModel, VirtualWall};
+use lumiwall_devices::{DeviceError, DisplayId, MeterPositioner, PatternOutput};
 
 use crate::CliError;
 use crate::cmd_commission::NoiseArg;
@@ -29,7 +32,11 @@ pub(crate) struct MeterEmulatorArgs {
     /// Virtual wall file (TOML).
     #[arg(long)]
     wall: PathBuf,
-    /// Error model of the simulated meter behind the emulated instrument.
+    /// The instrument to emulate: the Klein K-10-A colorimeter, or the JETI specbos
+    /// 1211 spectroradiometer.
+    #[arg(long, value_enum, default_value = "k10a")]
+    instrument: InstrumentArg,
+    /// Error model of the simulated instrument behind the emulated one.
     #[arg(long, value_enum, default_value = "realistic")]
     noise: NoiseArg,
     /// Factor on the instrument's measurement and transmission time (1 = a real
@@ -40,6 +47,30 @@ pub(crate) struct MeterEmulatorArgs {
     /// 0 of the wall: HOST:PORT of its server, polled as a browser would.
     #[arg(long)]
     follow_webdisp: Option<String>,
+}
+
+/// The instruments `lumiwall meter-emulator` serves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum InstrumentArg {
+    /// Klein K-10-A colorimeter (9600 baud).
+    K10a,
+    /// JETI specbos 1211 spectroradiometer (921 600 baud).
+    Specbos,
+}
+
+/// A running emulator of either kind.
+enum Running {
+    K10a(Emulator),
+    Specbos(SpecbosEmulator),
+}
+
+impl Running {
+    fn stop(self) {
+        match self {
+            Running::K10a(e) => e.stop(),
+            Running::Specbos(e) => e.stop(),
+        }
+    }
 }
 
 /// The wall, what it shows and where the meter points.
@@ -70,15 +101,16 @@ pub(crate) fn run(args: MeterEmulatorArgs) -> Result<(), CliError> {
     bench.show(0, [1.0; 3])?;
     bench.aim(0, [0.5, 0.5])?;
     let noise: Noise = args.noise.into();
-    let meter = bench.wall.meter(noise.model(bench.wall.seed()));
-    let options = EmulatorOptions::with_time_scale(args.time_scale);
-    let (emulator, port) = Emulator::spawn_with(Box::new(meter), FaultPlan::default(), options)
+    let (emulator, path) = start(&bench.wall, args.instrument, noise, args.time_scale)
         .map_err(|e| CliError::failure(format!("cannot start the emulator: {e}")))?;
-    println!("{}", port.path());
+    println!("{path}");
     std::io::stdout().flush()?;
+    let what = match args.instrument {
+        InstrumentArg::K10a => "Klein K-10-A emulator (9600 baud 8N1)",
+        InstrumentArg::Specbos => "JETI specbos 1211 emulator (921 600 baud 8N1)",
+    };
     eprintln!(
-        "Klein K-10-A emulator on {} (9600 baud 8N1; for ArgyllCMS link a /dev/ttyUSBn name to it); meter noise {}",
-        port.path(),
+        "{what} on {path}; for ArgyllCMS link a /dev/ttyUSBn name to it; noise {}",
         noise.name()
     );
     for (i, d) in bench.wall.displays().iter().enumerate() {
@@ -91,6 +123,38 @@ pub(crate) fn run(args: MeterEmulatorArgs) -> Result<(), CliError> {
     serve_stdin(&mut bench)?;
     emulator.stop();
     Ok(())
+}
+
+/// Starts the emulator of `instrument` on `wall`; returns it and its pty's path.
+fn start(
+    wall: &VirtualWall,
+    instrument: InstrumentArg,
+    noise: Noise,
+    time_scale: f64,
+) -> Result<(Running, String), DeviceError> {
+    match instrument {
+        InstrumentArg::K10a => {
+            let meter = wall.meter(noise.model(wall.seed()));
+            let options = EmulatorOptions::with_time_scale(time_scale);
+            let (emulator, port) =
+                Emulator::spawn_with(Box::new(meter), FaultPlan::default(), options)?;
+            Ok((Running::K10a(emulator), port.path().to_string()))
+        }
+        InstrumentArg::Specbos => {
+            let model = match noise {
+                Noise::None => SpectroModel::noiseless(),
+                Noise::Realistic => SpectroModel::specbos_1211(wall.seed()),
+            };
+            let options = SpecbosEmulatorOptions {
+                time_scale,
+                ..SpecbosEmulatorOptions::default()
+            };
+            let emulator =
+                SpecbosEmulator::spawn(Box::new(wall.spectroradiometer(model)?), options)?;
+            let path = emulator.path().to_string();
+            Ok((Running::Specbos(emulator), path))
+        }
+    }
 }
 
 /// Reads commands until `quit` or the end of stdin; each gets one line of answer.

@@ -17,6 +17,7 @@ use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
 
 mod common;
 use common::*;
+use lumiwall_devices::SpectralRadiance;
 
 /// The name Argyll scans (`ttyUSB` prefix) that the test points at the emulator.
 const LINK: &str = "/dev/ttyUSB-lumiwall";
@@ -161,8 +162,13 @@ fn writable(dir: &str) -> bool {
     ok
 }
 
-/// `spotread -?` lists the ports; the number of ours.
+/// `spotread -?` lists the ports; the number of ours, identified as a Klein K-10.
 fn port_number() -> String {
+    port_number_of("Klein K-10")
+}
+
+/// `spotread -?` lists the ports; the number of ours, identified as `instrument`.
+fn port_number_of(instrument: &str) -> String {
     let out = Command::new("timeout")
         .args(["60", "spotread", "-?"])
         .env("ARGYLL_NOT_INTERACTIVE", "1")
@@ -175,8 +181,8 @@ fn port_number() -> String {
         .find(|l| l.contains(LINK))
         .unwrap_or_else(|| panic!("spotread does not list {LINK}:\n{text}"));
     assert!(
-        line.contains("Klein K-10"),
-        "not identified as a Klein: {line}"
+        line.contains(instrument),
+        "not identified as a {instrument}: {line}"
     );
     line.split('=').next().unwrap().trim().to_string()
 }
@@ -188,19 +194,23 @@ fn spotread_xyz(port: &str) -> [f64; 3] {
 
 /// As [`spotread_xyz`] with extra options (`-X file.ccmx`).
 fn spotread_xyz_with(port: &str, extra: &[&str]) -> [f64; 3] {
+    let text = spotread(port, extra);
+    let line = text
+        .lines()
+        .find(|l| l.contains("Result is XYZ"))
+        .unwrap_or_else(|| panic!("spotread gave no reading:\n{text}"));
+    numbers_after(line, "XYZ:")
+}
+
+/// What one `spotread` reading (emissive, one reading and exit) prints.
+fn spotread(port: &str, extra: &[&str]) -> String {
     let out = Command::new("timeout")
         .args(["120", "spotread", "-c", port, "-e", "-O", "-x"])
         .args(extra)
         .env("ARGYLL_NOT_INTERACTIVE", "1")
         .output()
         .unwrap();
-    let text =
-        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
-    let line = text
-        .lines()
-        .find(|l| l.contains("Result is XYZ"))
-        .unwrap_or_else(|| panic!("spotread gave no reading:\n{text}"));
-    numbers_after(line, "XYZ:")
+    String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr)
 }
 
 fn assert_close(got: [f64; 3], truth: [f64; 3], what: &str) {
@@ -227,6 +237,67 @@ fn argyll_spotread_reads_the_virtual_wall_through_the_emulated_k10a_as_the_simul
     let truth = emu.truth();
     assert!(truth[1] < 2.0, "{truth:?} should be dim");
     assert_close(spotread_xyz(&port), truth, "dim red, display 1 off-centre");
+}
+
+/// The spectrum `spotread -s` prints (mW·sr⁻¹·m⁻²·nm⁻¹ after "Spectrum from A to B
+/// nm in N steps") as lumiwall's spectral radiance (W).
+fn printed_spectrum(text: &str) -> SpectralRadiance {
+    let (head, values) = text
+        .split_once("Spectrum from ")
+        .and_then(|(_, rest)| rest.split_once('\n'))
+        .unwrap_or_else(|| panic!("no spectrum in\n{text}"));
+    let words: Vec<f64> = head
+        .split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    let (start, end, n) = (words[0], words[1], words[2] as usize);
+    let mw: Vec<f64> = values
+        .lines()
+        .next()
+        .unwrap_or("")
+        .split(',')
+        .filter_map(|v| v.trim().parse().ok())
+        .collect();
+    assert_eq!(mw.len(), n, "{n} values announced");
+    SpectralRadiance {
+        start_nm: start,
+        step_nm: (end - start) / (n as f64 - 1.0),
+        w_sr_m2_nm: mw.iter().map(|v| v / 1000.0).collect(),
+    }
+}
+
+#[test]
+fn argyll_spotread_detects_the_emulated_specbos_and_reads_xyz_and_spectrum_as_the_simulator_says() {
+    let Some(_one_at_a_time) = take_line() else {
+        return;
+    };
+    let wall = fixture("walls/infitec-pair.toml");
+    let (mut emu, pty) = Emulator::start_on(
+        &wall,
+        &["--noise", "none"],
+        &["--instrument", "specbos", "--time-scale", "0.1"],
+    );
+    link_to(&pty);
+    let port = port_number_of("JETI specbos");
+    for (show, aim) in [
+        ("show 0 1 1 1", "aim 0 0.5 0.5"),
+        ("show 1 0.05 0.6 0.02", "aim 1 0.2 0.8"),
+    ] {
+        emu.ask(show);
+        emu.ask(aim);
+        let truth = emu.truth();
+        let text = spotread(&port, &["-s"]);
+        let line = text
+            .lines()
+            .find(|l| l.contains("Result is XYZ"))
+            .unwrap_or_else(|| panic!("spotread gave no reading:\n{text}"));
+        assert_close(numbers_after(line, "XYZ:"), truth, show);
+        // the spectrum Argyll received (6 significant digits) integrates to the truth
+        let spectrum = printed_spectrum(&text);
+        assert_eq!((spectrum.start_nm, spectrum.w_sr_m2_nm.len()), (360.0, 471));
+        let xyz = spectrum.xyz().unwrap();
+        assert_close([xyz.x, xyz.y, xyz.z], truth, &format!("{show}: spectrum"));
+    }
 }
 
 /// A free local TCP port for Argyll's web display.

@@ -12,14 +12,14 @@
 use std::io::{Read, Write};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
-use serialport::{SerialPort, TTYPort};
+use serialport::TTYPort;
 
 use super::k10_protocol::{self as proto, Command, MeasureSpeed, StatusCode};
 use super::k10a::{K10aConfig, KleinK10a};
+use super::pty::PtyThread;
 use super::spec::{InstrumentSpec, KLEIN_K10A};
 use crate::{Colorimeter, DeviceError, Xyz};
 
@@ -133,18 +133,14 @@ impl EmulatedPort {
 
 /// A running emulator; stops (and closes the pty) when stopped or dropped.
 pub struct Emulator {
-    stop: Arc<AtomicBool>,
     readings: Arc<AtomicU32>,
-    handle: Option<JoinHandle<()>>,
-    // Kept open so the pty survives the driver closing and reopening it.
-    _slave: TTYPort,
-    path: String,
+    pty: PtyThread,
 }
 
 impl std::fmt::Debug for Emulator {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Emulator")
-            .field("path", &self.path)
+            .field("path", &self.pty.path())
             .field("readings", &self.readings_requested())
             .finish_non_exhaustive()
     }
@@ -165,55 +161,32 @@ impl Emulator {
         faults: FaultPlan,
         options: EmulatorOptions,
     ) -> Result<(Emulator, EmulatedPort), DeviceError> {
-        let pty_err = |e: serialport::Error| DeviceError::Io {
-            device: "K-10-A emulator pseudo-terminal".to_string(),
-            source: std::io::Error::from(e),
-        };
         if !(options.time_scale.is_finite() && options.time_scale >= 0.0) {
             return Err(DeviceError::Config(format!(
                 "emulator time scale must be a finite number >= 0, got {}",
                 options.time_scale
             )));
         }
-        let (mut master, slave) = TTYPort::pair().map_err(pty_err)?;
-        master
-            .set_timeout(Duration::from_millis(20))
-            .map_err(pty_err)?;
-        let path = slave
-            .name()
-            .ok_or_else(|| DeviceError::Config("the pseudo-terminal has no path".to_string()))?;
-        let stop = Arc::new(AtomicBool::new(false));
         let readings = Arc::new(AtomicU32::new(0));
-        let mut server = Server {
-            master,
-            meter,
-            faults,
-            options,
-            stop: Arc::clone(&stop),
-            readings: Arc::clone(&readings),
-            count: 0,
-            dead: false,
-            offline_until: None,
-            lights_on: false,
-            stream: None,
-        };
-        let handle = std::thread::Builder::new()
-            .name(format!("k10a-emulator {path}"))
-            .spawn(move || server.run())
-            .map_err(|e| DeviceError::Io {
-                device: "K-10-A emulator thread".to_string(),
-                source: e,
-            })?;
-        Ok((
-            Emulator {
+        let counter = Arc::clone(&readings);
+        let pty = PtyThread::spawn("K-10-A emulator", move |master, stop| {
+            let mut server = Server {
+                master,
+                meter,
+                faults,
+                options,
                 stop,
-                readings,
-                handle: Some(handle),
-                _slave: slave,
-                path: path.clone(),
-            },
-            EmulatedPort { path },
-        ))
+                readings: counter,
+                count: 0,
+                dead: false,
+                offline_until: None,
+                lights_on: false,
+                stream: None,
+            };
+            server.run();
+        })?;
+        let path = pty.path().to_string();
+        Ok((Emulator { readings, pty }, EmulatedPort { path }))
     }
 
     /// Number of measurement commands received so far.
@@ -223,27 +196,12 @@ impl Emulator {
 
     /// Path of the pseudo-terminal.
     pub fn path(&self) -> &str {
-        &self.path
+        self.pty.path()
     }
 
     /// Stops the emulator thread and closes the pty.
     pub fn stop(mut self) {
-        self.shutdown();
-    }
-
-    fn shutdown(&mut self) {
-        self.stop.store(true, Ordering::SeqCst);
-        if let Some(h) = self.handle.take()
-            && h.join().is_err()
-        {
-            tracing::error!("K-10-A emulator thread on {} panicked", self.path);
-        }
-    }
-}
-
-impl Drop for Emulator {
-    fn drop(&mut self) {
-        self.shutdown();
+        self.pty.shutdown();
     }
 }
 
@@ -415,14 +373,7 @@ impl Server {
 
     /// Sleeps in small steps so that a stop request is not held up.
     fn pause(&self, d: Duration) {
-        let end = Instant::now() + d;
-        loop {
-            let now = Instant::now();
-            if now >= end || self.stop.load(Ordering::SeqCst) {
-                return;
-            }
-            std::thread::sleep((end - now).min(Duration::from_millis(10)));
-        }
+        super::pty::pause(&self.stop, d);
     }
 
     fn answer(&mut self, bytes: &[u8]) {

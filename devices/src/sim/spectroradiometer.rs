@@ -56,14 +56,14 @@ pub struct SpectroModel {
 }
 
 impl SpectroModel {
-    /// A perfect spectroradiometer on a 1 nm grid over 380–780 nm: no slit, no errors,
-    /// no noise, no limits.
+    /// A perfect spectroradiometer on the simulator's own grid (1 nm over 360–830 nm,
+    /// so it reads exactly the truth): no slit, no errors, no noise, no limits.
     pub fn noiseless() -> Self {
         Self {
             model: "ideal spectroradiometer (simulated)".into(),
             seed: 0,
-            start_nm: 380.0,
-            end_nm: 780.0,
+            start_nm: 360.0,
+            end_nm: 830.0,
             step_nm: 1.0,
             bandwidth_nm: 0.0,
             wavelength_offset_nm: 0.0,
@@ -88,6 +88,8 @@ impl SpectroModel {
         Self {
             model: "JETI specbos 1211 (simulated)".into(),
             seed,
+            start_nm: 380.0,
+            end_nm: 780.0,
             bandwidth_nm: 4.5,
             wavelength_offset_nm: 0.5,
             gain_rel: 0.02,
@@ -110,6 +112,8 @@ impl SpectroModel {
         Self {
             model: "Konica Minolta CS-2000 (simulated)".into(),
             seed,
+            start_nm: 380.0,
+            end_nm: 780.0,
             bandwidth_nm: 5.0,
             wavelength_offset_nm: 0.3,
             gain_rel: 0.02,
@@ -296,6 +300,10 @@ impl Spectroradiometer for SimSpectroradiometer {
 
     fn bandwidth_nm(&self) -> f64 {
         self.model.bandwidth_nm
+    }
+
+    fn wavelength_range_nm(&self) -> [f64; 2] {
+        [self.model.start_nm, self.model.end_nm]
     }
 }
 
