@@ -16,7 +16,10 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use lumiwall_devices::serial::{Emulator, EmulatorOptions, FaultPlan, K10aConfig, KleinK10a};
+use lumiwall_devices::serial::{
+    EmulatedSpecbos, Emulator, EmulatorOptions, FaultPlan, JetiSpecbos, K10aConfig, KleinK10a,
+    SpecbosConfig, SpecbosEmulatorOptions,
+};
 use lumiwall_devices::sim::{MeterModel, SpectroModel, VirtualWall};
 use lumiwall_devices::{BandpassCorrected, Spectroradiometer};
 use lumiwall_devices::{
@@ -125,6 +128,16 @@ pub fn driver_config() -> K10aConfig {
 pub enum ReferenceChoice {
     /// A simulated instrument reading the virtual wall directly.
     Simulated(SpectroModel),
+    /// A simulated instrument served as a JETI specbos on a pseudo-terminal and read
+    /// through lumiwall's specbos driver (the whole serial path).
+    Emulated {
+        /// The simulated instrument.
+        model: SpectroModel,
+        /// Factor on the instrument's measurement time (1 = real timing).
+        time_scale: f64,
+    },
+    /// A JETI specbos 1201/1211 on a serial port.
+    Serial(String),
 }
 
 /// How to open a station's meter.
@@ -340,6 +353,21 @@ impl Station {
         match choice {
             ReferenceChoice::Simulated(model) => {
                 Ok(Box::new(self.wall.spectroradiometer(model.clone())?))
+            }
+            ReferenceChoice::Emulated { model, time_scale } => {
+                let options = SpecbosEmulatorOptions {
+                    time_scale: *time_scale,
+                    ..SpecbosEmulatorOptions::default()
+                };
+                let instrument = Box::new(self.wall.spectroradiometer(model.clone())?);
+                Ok(Box::new(EmulatedSpecbos::start(
+                    instrument,
+                    options,
+                    SpecbosConfig::default(),
+                )?))
+            }
+            ReferenceChoice::Serial(port) => {
+                Ok(Box::new(JetiSpecbos::open(port, SpecbosConfig::default())?))
             }
         }
     }

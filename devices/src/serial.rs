@@ -38,4 +38,4 @@ pub use k10_protocol::MeasureSpeed;
 pub use k10a::{ExchangeStats, K10aConfig, KleinK10a};
 pub use spec::{InstrumentSpec, KLEIN_K10A};
 pub use specbos::{JetiSpecbos, SpecbosConfig};
-pub use specbos_emulator::{SpecbosEmulator, SpecbosEmulatorOptions};
+pub use specbos_emulator::{EmulatedSpecbos, SpecbosEmulator, SpecbosEmulatorOptions};

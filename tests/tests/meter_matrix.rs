@@ -207,3 +207,36 @@ fn matrices_of_another_instrument_and_a_resume_without_them_are_refused() {
         "{err}"
     );
 }
+
+/// The reference read through the whole serial path (the specbos emulator on a pty
+/// and lumiwall's specbos driver) gives the matrices the simulated instrument gives
+/// when called directly: the protocol loses nothing but digits.
+#[test]
+fn a_specbos_read_through_its_driver_and_emulator_gives_the_matrices_of_the_direct_instrument() {
+    let matrices = |choice: ReferenceChoice| {
+        let mut station = support::direct_station("dlp-infitec-2x1.toml", Noise::Realistic);
+        let mut reference = station.open_reference(&choice).expect("reference");
+        station
+            .meter_matrices(reference.as_mut(), [0.5, 0.5], false)
+            .expect("matrices")
+    };
+    let model = SpectroModel::specbos_1211(2000);
+    let direct = matrices(ReferenceChoice::Simulated(model.clone()));
+    let serial = matrices(ReferenceChoice::Emulated {
+        model,
+        time_scale: 0.0,
+    });
+    assert_eq!(serial.matrices.len(), direct.matrices.len());
+    assert!(
+        serial.reference.contains("JETI specbos 1211"),
+        "{}",
+        serial.reference
+    );
+    for (s, d) in serial.matrices.iter().zip(&direct.matrices) {
+        for (rs, rd) in s.matrix.iter().zip(&d.matrix) {
+            for (a, b) in rs.iter().zip(rd) {
+                assert!((a - b).abs() < 1e-5, "{:?} vs {:?}", s.matrix, d.matrix);
+            }
+        }
+    }
+}

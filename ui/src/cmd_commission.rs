@@ -626,18 +626,27 @@ pub(crate) struct MeterMatrixArgs {
 /// The reference instrument of `lumiwall meter-matrix`.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum ReferenceArg {
-    /// A simulated Konica Minolta CS-2000.
+    /// A simulated Konica Minolta CS-2000, read directly.
     Cs2000,
-    /// A simulated JETI specbos 1211.
+    /// A simulated JETI specbos 1211, read directly.
     Specbos,
+    /// A simulated JETI specbos 1211 served on a pty and read through the driver.
+    SpecbosEmulated,
+    /// A JETI specbos on this serial port.
+    Serial(String),
 }
 
 impl ReferenceArg {
-    /// The station's choice for the instrument with serial number `seed`.
-    fn choice(&self, seed: u64) -> ReferenceChoice {
+    /// The station's choice for the simulated instrument with serial number `seed`.
+    fn choice(&self, seed: u64, time_scale: f64) -> ReferenceChoice {
         match self {
             ReferenceArg::Cs2000 => ReferenceChoice::Simulated(SpectroModel::cs2000(seed)),
             ReferenceArg::Specbos => ReferenceChoice::Simulated(SpectroModel::specbos_1211(seed)),
+            ReferenceArg::SpecbosEmulated => ReferenceChoice::Emulated {
+                model: SpectroModel::specbos_1211(seed),
+                time_scale,
+            },
+            ReferenceArg::Serial(port) => ReferenceChoice::Serial(port.clone()),
         }
     }
 }
@@ -647,22 +656,34 @@ fn parse_reference(s: &str) -> Result<ReferenceArg, String> {
     match s {
         "cs2000" => Ok(ReferenceArg::Cs2000),
         "specbos" => Ok(ReferenceArg::Specbos),
-        other => Err(format!(
-            "`{other}` is no reference spectroradiometer; use cs2000 or specbos"
-        )),
+        "specbos-emulated" => Ok(ReferenceArg::SpecbosEmulated),
+        _ => match s.strip_prefix("serial:") {
+            Some(p) if !p.is_empty() => Ok(ReferenceArg::Serial(p.to_string())),
+            _ => Err(format!(
+                "`{s}` is no reference spectroradiometer; use cs2000, specbos, \
+                 specbos-emulated or serial:/dev/ttyUSB1 (a JETI specbos 1201/1211)"
+            )),
+        },
     }
 }
 
 /// Runs `lumiwall meter-matrix`: reads black, red, green, blue and white of the middle
 /// display of each eye with the station's meter and a reference spectroradiometer and
-/// fits one correction matrix per eye. The reference exists only on the virtual wall.
+/// fits one correction matrix per eye. On the virtual wall it then prints both
+/// instruments' chromaticity errors against the simulator's truth.
 pub(crate) fn meter_matrix(args: MeterMatrixArgs) -> Result<(), CliError> {
-    if let MeterChoice::Serial(port) = &args.meter.meter {
-        return Err(CliError::input(format!(
-            "a meter matrix needs a reference spectroradiometer beside the meter on {port}; \
-             lumiwall drives none yet (only the virtual wall's): make a CCMX with ArgyllCMS \
-             ccxxmake and load it into the K-10A, or use --meter emulated on the virtual wall"
-        )));
+    let real_meter = matches!(args.meter.meter, MeterChoice::Serial(_));
+    let real_reference = matches!(args.reference, ReferenceArg::Serial(_));
+    if real_meter != real_reference {
+        return Err(CliError::input(if real_meter {
+            "a real meter is matched on the real wall to a real reference: give \
+             --reference serial:/dev/ttyUSBn (a JETI specbos 1201/1211 beside the meter)"
+                .to_string()
+        } else {
+            "a real reference reads the real wall: give the real meter too \
+             (--meter serial:/dev/ttyUSBn), or a simulated reference on the virtual wall"
+                .to_string()
+        }));
     }
     if args.meter.meter_matrix.is_some() {
         return Err(CliError::input(
@@ -686,7 +707,11 @@ pub(crate) fn meter_matrix(args: MeterMatrixArgs) -> Result<(), CliError> {
     }
     let mut station = Station::open(&args.wall, &args.meter.station_options())?;
     let mut reference = station
-        .open_reference(&args.reference.choice(args.reference_seed))
+        .open_reference(
+            &args
+                .reference
+                .choice(args.reference_seed, args.meter.time_scale),
+        )
         .map_err(|e| CliError::failure(format!("the reference spectroradiometer: {e}")))?;
     let matrices = station
         .meter_matrices(reference.as_mut(), [0.5, 0.5], args.per_display)
@@ -718,10 +743,14 @@ pub(crate) fn meter_matrix(args: MeterMatrixArgs) -> Result<(), CliError> {
             100.0 * own.iter().cloned().fold(0.0, f64::max)
         );
     }
-    let errors = station
-        .meter_matrix_xy_errors(&matrices, reference.as_mut(), [0.5, 0.5])
-        .map_err(|e| CliError::failure(format!("checking the matrices: {e}")))?;
-    print_xy_errors(&errors);
+    if real_meter {
+        println!("  (no truth to check the matrices against on a real wall)");
+    } else {
+        let errors = station
+            .meter_matrix_xy_errors(&matrices, reference.as_mut(), [0.5, 0.5])
+            .map_err(|e| CliError::failure(format!("checking the matrices: {e}")))?;
+        print_xy_errors(&errors);
+    }
     if let Some(parent) = &parent {
         std::fs::create_dir_all(parent)
             .map_err(|e| CliError::failure(format!("cannot create {}: {e}", parent.display())))?;

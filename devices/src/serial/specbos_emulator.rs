@@ -342,3 +342,54 @@ fn integration_time_s(s: &SpectralRadiance, max_ms: f64) -> f64 {
     };
     ms.clamp(1.0, max_ms) / 1000.0
 }
+
+/// An emulated specbos and lumiwall's driver opened on it, as one instrument: the
+/// whole serial path (protocol, timing, errors) around a simulated spectroradiometer.
+#[derive(Debug)]
+pub struct EmulatedSpecbos {
+    // Dropped after the driver (fields drop in order): the port closes first.
+    driver: super::JetiSpecbos,
+    emulator: SpecbosEmulator,
+}
+
+impl EmulatedSpecbos {
+    /// Starts the emulator on `instrument` and opens the driver on it.
+    pub fn start(
+        instrument: Box<dyn Spectroradiometer + Send>,
+        options: SpecbosEmulatorOptions,
+        config: super::SpecbosConfig,
+    ) -> Result<Self, DeviceError> {
+        let emulator = SpecbosEmulator::spawn(instrument, options)?;
+        let driver = super::JetiSpecbos::open(emulator.path(), config)?;
+        Ok(Self { driver, emulator })
+    }
+
+    /// The emulator behind the driver.
+    pub fn emulator(&self) -> &SpecbosEmulator {
+        &self.emulator
+    }
+}
+
+impl crate::Colorimeter for EmulatedSpecbos {
+    fn info(&self) -> crate::MeterInfo {
+        self.driver.info()
+    }
+
+    fn measure(&mut self) -> Result<Xyz, DeviceError> {
+        self.driver.measure()
+    }
+}
+
+impl Spectroradiometer for EmulatedSpecbos {
+    fn measure_spectrum(&mut self) -> Result<SpectralRadiance, DeviceError> {
+        self.driver.measure_spectrum()
+    }
+
+    fn bandwidth_nm(&self) -> f64 {
+        self.driver.bandwidth_nm()
+    }
+
+    fn wavelength_range_nm(&self) -> [f64; 2] {
+        self.driver.wavelength_range_nm()
+    }
+}
