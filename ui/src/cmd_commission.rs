@@ -672,6 +672,45 @@ fn parse_reference(s: &str) -> Result<ReferenceArg, String> {
 /// fits one correction matrix per eye. On the virtual wall it then prints both
 /// instruments' chromaticity errors against the simulator's truth.
 pub(crate) fn meter_matrix(args: MeterMatrixArgs) -> Result<(), CliError> {
+    let parent = check_meter_matrix_args(&args)?;
+    let real_meter = matches!(args.meter.meter, MeterChoice::Serial(_));
+    let mut station = Station::open(&args.wall, &args.meter.station_options())?;
+    let mut reference = station
+        .open_reference(
+            &args
+                .reference
+                .choice(args.reference_seed, args.meter.time_scale),
+        )
+        .map_err(|e| CliError::failure(format!("the reference spectroradiometer: {e}")))?;
+    let matrices = station
+        .meter_matrices(reference.as_mut(), [0.5, 0.5], args.per_display)
+        .map_err(|e| CliError::failure(e.to_string()))?;
+    print_matrices(&matrices, &station.wall.name());
+    if real_meter {
+        println!("  (no truth to check the matrices against on a real wall)");
+    } else {
+        let errors = station
+            .meter_matrix_xy_errors(&matrices, reference.as_mut(), [0.5, 0.5])
+            .map_err(|e| CliError::failure(format!("checking the matrices: {e}")))?;
+        print_xy_errors(&errors);
+    }
+    if let Some(parent) = &parent {
+        std::fs::create_dir_all(parent)
+            .map_err(|e| CliError::failure(format!("cannot create {}: {e}", parent.display())))?;
+    }
+    matrices
+        .save(&args.out)
+        .map_err(|e| CliError::failure(e.to_string()))?;
+    println!("written: {}", args.out.display());
+    for path in write_ccmx_files(&matrices, &args.out, &station.wall.name())? {
+        println!("written: {} (ArgyllCMS CCMX)", path.display());
+    }
+    Ok(())
+}
+
+/// Refuses what `meter-matrix` cannot do before any device is opened; returns the
+/// output's folder (checked writable) when `--out` names one.
+fn check_meter_matrix_args(args: &MeterMatrixArgs) -> Result<Option<PathBuf>, CliError> {
     let real_meter = matches!(args.meter.meter, MeterChoice::Serial(_));
     let real_reference = matches!(args.reference, ReferenceArg::Serial(_));
     if real_meter != real_reference {
@@ -705,22 +744,14 @@ pub(crate) fn meter_matrix(args: MeterMatrixArgs) -> Result<(), CliError> {
     if let Some(parent) = &parent {
         values::check_output_dir("--out's folder", parent)?;
     }
-    let mut station = Station::open(&args.wall, &args.meter.station_options())?;
-    let mut reference = station
-        .open_reference(
-            &args
-                .reference
-                .choice(args.reference_seed, args.meter.time_scale),
-        )
-        .map_err(|e| CliError::failure(format!("the reference spectroradiometer: {e}")))?;
-    let matrices = station
-        .meter_matrices(reference.as_mut(), [0.5, 0.5], args.per_display)
-        .map_err(|e| CliError::failure(e.to_string()))?;
+    Ok(parent)
+}
+
+/// Each eye's matrix and fit residual, and the largest residual of the displays' own.
+fn print_matrices(matrices: &MeterMatrices, wall: &str) {
     println!(
-        "{} matched to {} on {}:",
-        matrices.instrument,
-        matrices.reference,
-        station.wall.name()
+        "{} matched to {} on {wall}:",
+        matrices.instrument, matrices.reference
     );
     for m in matrices.matrices.iter().filter(|m| m.display.is_none()) {
         println!(
@@ -743,26 +774,6 @@ pub(crate) fn meter_matrix(args: MeterMatrixArgs) -> Result<(), CliError> {
             100.0 * own.iter().cloned().fold(0.0, f64::max)
         );
     }
-    if real_meter {
-        println!("  (no truth to check the matrices against on a real wall)");
-    } else {
-        let errors = station
-            .meter_matrix_xy_errors(&matrices, reference.as_mut(), [0.5, 0.5])
-            .map_err(|e| CliError::failure(format!("checking the matrices: {e}")))?;
-        print_xy_errors(&errors);
-    }
-    if let Some(parent) = &parent {
-        std::fs::create_dir_all(parent)
-            .map_err(|e| CliError::failure(format!("cannot create {}: {e}", parent.display())))?;
-    }
-    matrices
-        .save(&args.out)
-        .map_err(|e| CliError::failure(e.to_string()))?;
-    println!("written: {}", args.out.display());
-    for path in write_ccmx_files(&matrices, &args.out, &station.wall.name())? {
-        println!("written: {} (ArgyllCMS CCMX)", path.display());
-    }
-    Ok(())
 }
 
 /// The meter's chromaticity error against the virtual wall's truth per eye and patch

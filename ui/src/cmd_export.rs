@@ -2,13 +2,15 @@
 //! `--format ti3`, each display's measurements as an ArgyllCMS `.ti3` (`colprof`,
 //! `profcheck`, DisplayCAL); `--format cube`, each display's profile as a `.cube` 3D LUT
 //! (media servers, projectors); `--format argyll-cal`, each display's grey axis as
-//! ArgyllCMS `.cal` curves.
+//! ArgyllCMS `.cal` curves; `--format mpcdi`, the whole wall as a VESA MPCDI v2.0
+//! package.
 
 use std::path::PathBuf;
 
 use lumiwall_calib::commission::load_measurement;
 use lumiwall_calib::export::cal::to_cal;
 use lumiwall_calib::export::cube::{CUBE_INPUT_GAMMA, CUBE_SIZES, to_cube};
+use lumiwall_calib::export::mpcdi::{MpcdiOptions, to_mpcdi};
 use lumiwall_calib::export::ti3::to_ti3;
 use lumiwall_profiles::{DisplayProfile, ProfileSet};
 
@@ -26,6 +28,10 @@ pub(crate) enum Format {
     /// ArgyllCMS `.cal`: per-channel curves of the grey axis (the `.cube`'s R = G = B),
     /// for a video card's gamma table; one file per display and eye.
     ArgyllCal,
+    /// VESA MPCDI v2.0 package (`<wall>.mpcdi`): profile 2d, colour level 4 (5 with a
+    /// DLP white segment): RGB alpha maps from the flat fields, beta maps from the
+    /// black handling, 1D LUTs and 3×3 primaries; measurements in an extension.
+    Mpcdi,
 }
 
 /// Arguments of `lumiwall export`.
@@ -43,6 +49,24 @@ pub(crate) struct ExportArgs {
     /// Grid points per axis of a `.cube` (2..=129).
     #[arg(long, default_value_t = 65)]
     cube_size: usize,
+    /// Each projector's raster for `--format mpcdi`, WIDTHxHEIGHT (e.g. 1920x1200).
+    #[arg(long, value_parser = parse_raster)]
+    projector_resolution: Option<[u32; 2]>,
+}
+
+/// Parses `WIDTHxHEIGHT`.
+fn parse_raster(s: &str) -> Result<[u32; 2], String> {
+    let bad = || format!("`{s}` is not WIDTHxHEIGHT in pixels, e.g. 1920x1200");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let max = lumiwall_calib::export::mpcdi::MAX_REGION_PX;
+    let px = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|p| (2..=max).contains(p))
+            .ok_or_else(|| format!("{} (each side 2..={max})", bad()))
+    };
+    Ok([px(w)?, px(h)?])
 }
 
 /// Runs `lumiwall export`.
@@ -51,7 +75,93 @@ pub(crate) fn run(args: ExportArgs) -> Result<(), CliError> {
         Format::Ti3 => run_ti3(&args),
         Format::Cube => run_cube(&args),
         Format::ArgyllCal => run_cal(&args),
+        Format::Mpcdi => run_mpcdi(&args),
     }
+}
+
+/// `--format mpcdi`: the whole wall as one `<wall>.mpcdi`, with the last verification
+/// (`verify.json` in the profile folder) when there is one.
+fn run_mpcdi(args: &ExportArgs) -> Result<(), CliError> {
+    let Some(region_px) = args.projector_resolution else {
+        return Err(CliError::input(
+            "--format mpcdi needs each projector's raster: --projector-resolution 1920x1200"
+                .to_string(),
+        ));
+    };
+    let (wall, profiles) = ProfileSet::load_dir(&args.commission)?;
+    values::check_output_dir("--out-dir", &args.out_dir)?;
+    let verification = load_verification(&args.commission)?;
+    let options = MpcdiOptions {
+        region_px,
+        date: mpcdi_now(),
+        verification,
+    };
+    let package =
+        to_mpcdi(&wall, &profiles, &options).map_err(|e| CliError::input(e.to_string()))?;
+    std::fs::create_dir_all(&args.out_dir)?;
+    let name: String = wall
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "-_.".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let path = args.out_dir.join(format!("{name}.mpcdi"));
+    lumiwall_profiles::write_atomic(&path, &package.bytes)
+        .map_err(|e| CliError::failure(format!("cannot write {}: {e}", path.display())))?;
+    println!(
+        "written: {} (MPCDI 2.0, profile 2d, colour level {}, {} regions{})",
+        path.display(),
+        package.color_level,
+        package.regions,
+        if options.verification.is_some() {
+            ", with the last verification"
+        } else {
+            ""
+        }
+    );
+    println!("  note: geometry is each tile's nominal rectangle (lumiwall calibrates no warp)");
+    if package.largest_scale > 1.0 {
+        println!(
+            "  note: encode LUTs scale their input by up to {:.4} (linear values above 1 \
+             before the white-segment step or the black offset)",
+            package.largest_scale
+        );
+    }
+    Ok(())
+}
+
+/// The profile folder's last verification, summarised for the MPCDI extension.
+fn load_verification(dir: &std::path::Path) -> Result<Option<serde_json::Value>, CliError> {
+    let path = dir.join(crate::cmd_verify::VERIFY_FILE);
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(CliError::input(format!("{}: {e}", path.display()))),
+    };
+    let report: lumiwall_calib::verify::VerifyReport = serde_json::from_str(&text)
+        .map_err(|e| CliError::input(format!("{}: {e}", path.display())))?;
+    Ok(Some(serde_json::json!({
+        "patches_per_display": report.targets.len(),
+        "readings": report.readings,
+        "overall": report.overall,
+        "per_display": report.per_display.iter().map(|(k, s)| serde_json::json!({
+            "display": k.file_stem(), "summary": s
+        })).collect::<Vec<_>>(),
+        "eyes_delta_e2000": report.eyes_delta_e2000,
+    })))
+}
+
+/// Now as `yyyy-MM-dd HH:mm:ss` (UTC), MPCDI's date format.
+fn mpcdi_now() -> String {
+    lumiwall_calib::solve::now_rfc3339()
+        .replace('T', " ")
+        .chars()
+        .take(19)
+        .collect()
 }
 
 /// `--format argyll-cal`: one `.cal` per profile of the commissioning's profile folder.

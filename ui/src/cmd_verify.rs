@@ -198,6 +198,7 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
     });
     pb.finish_and_clear();
     let report = report?;
+    save_report(&args.profiles, &report);
     // The truth opens the wall again: let go of its outputs first (a networked wall's
     // pattern servers serve one station at a time).
     drop(station);
@@ -208,6 +209,26 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
         Err(e) => println!("\nthe simulator's truth could not be read: {e}"),
     }
     verdict
+}
+
+/// Name of the last verification's record in the profile folder (read by `export
+/// --format mpcdi`).
+pub(crate) const VERIFY_FILE: &str = "verify.json";
+
+/// Keeps the verification beside the profiles it verified ([`VERIFY_FILE`]); a failure
+/// to write it is reported and does not change the verdict.
+fn save_report(profiles: &std::path::Path, report: &VerifyReport) {
+    let path = profiles.join(VERIFY_FILE);
+    let written = serde_json::to_vec_pretty(report)
+        .map_err(std::io::Error::other)
+        .and_then(|bytes| lumiwall_core::files::write_atomic(&path, &bytes));
+    match written {
+        Ok(()) => println!("verification kept in {}", path.display()),
+        Err(e) => eprintln!(
+            "warning: cannot keep the verification in {}: {e}",
+            path.display()
+        ),
+    }
 }
 
 /// On the virtual wall with a noisy simulated meter: the same verification with a

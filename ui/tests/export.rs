@@ -140,3 +140,32 @@ fn argyll_cal_greys_show_the_target_white_at_v_to_the_2_2_on_the_simulated_displ
         );
     }
 }
+
+/// `--format mpcdi` needs the projectors' raster, names a bad one, and writes one
+/// package for the wall (its structure and colour are checked against the standard
+/// in `tests/python/test_mpcdi_export.py`).
+#[test]
+fn mpcdi_export_needs_the_projector_raster_and_writes_one_package_for_the_wall() {
+    let tmp = tempfile::TempDir::new().unwrap();
+    let profiles = commission_small_wall(tmp.path());
+    let out = tmp.path().join("mpcdi");
+    export("mpcdi", &profiles, &out)
+        .assert()
+        .code(2)
+        .stderr(contains("--projector-resolution 1920x1200"));
+    export("mpcdi", &profiles, &out)
+        .args(["--projector-resolution", "1920by1200"])
+        .assert()
+        .code(2)
+        .stderr(contains("WIDTHxHEIGHT"));
+    assert!(!out.exists(), "nothing written on refusal");
+    export("mpcdi", &profiles, &out)
+        .args(["--projector-resolution", "1920x1200"])
+        .assert()
+        .success()
+        .stdout(contains(
+            "mono-2x1.mpcdi (MPCDI 2.0, profile 2d, colour level 4, 2 regions)",
+        ));
+    let bytes = std::fs::read(out.join("mono-2x1.mpcdi")).unwrap();
+    assert_eq!(&bytes[..4], b"PK\x03\x04", "a ZIP archive");
+}
