@@ -33,15 +33,16 @@ def decode_png(data):
     return image[:, :, ::-1].astype(float) / 65535.0
 
 
-def commission_and_export(lumiwall, tmp, wall, extra):
-    profiles = tmp / wall
+def commission_and_export(lumiwall, tmp, wall, extra, name=None):
+    name = name or wall
+    profiles = tmp / name
     subprocess.run(
         [str(lumiwall), "commission", "--meter", "direct", "--noise", "none", "--wall",
          str(ROOT / "fixtures" / "walls" / f"{wall}.toml"), "--out", str(profiles), *extra],
         check=True,
         capture_output=True,
     )
-    out = tmp / f"{wall}-mpcdi"
+    out = tmp / f"{name}-mpcdi"
     run = subprocess.run(
         [str(lumiwall), "export", "--format", "mpcdi", "--commission", str(profiles),
          "--out-dir", str(out), "--projector-resolution", "1920x1200"],
@@ -65,6 +66,9 @@ def packages(lumiwall_bin, tmp_path_factory):
     return tmp, [
         commission_and_export(lumiwall_bin, tmp, "mono-2x1", camera),
         commission_and_export(lumiwall_bin, tmp, "dlp-infitec-2x1", []),
+        # a common black: the beta maps raise each display's black to it
+        commission_and_export(lumiwall_bin, tmp, "dlp-infitec-2x1", ["--black", "common"], "dlp-common"),
+        commission_and_export(lumiwall_bin, tmp, "mono-2x1", ["--black", "common"], "mono-common"),
     ]
 
 
@@ -78,7 +82,7 @@ def test_mpcdi_packages_pass_every_structural_check_of_the_v2_standard(packages)
         levels.append(p.root.get("color"))
         buffers = {b.get("id") for b in p.root.find("display")}
         print(f"{package.name}: valid; colour level {levels[-1]}, buffers {sorted(buffers)}")
-    assert levels == ["4", "5"], "a white segment needs the 3D correction of level 5"
+    assert levels == ["4", "5", "5", "4"], "a white segment needs the 3D correction of level 5"
 
 
 def test_a_broken_package_is_caught_by_the_checks(packages, tmp_path):
@@ -134,6 +138,7 @@ def post_pass(lumiwall, profile, encoded, tmp):
 def test_the_standards_colour_pipeline_on_the_package_reproduces_the_post_pass(lumiwall_bin, packages):
     tmp, exported = packages
     w, h = IMAGE
+    raised = 0
     rng = np.random.default_rng(2020)
     u = np.tile((np.arange(w) + 0.5) / w, h)
     v_top = np.repeat((np.arange(h) + 0.5) / h, w)
@@ -144,6 +149,7 @@ def test_the_standards_colour_pipeline_on_the_package_reproduces_the_post_pass(l
             grid = np.linspace(0, 1, len(decode))
             assert np.abs(decode[:, 0] - grid ** GAMMA).max() < 1e-7, "decode is e^2.2"
         for region_id in p.regions:
+            raised += decode_png(p.read(p.path_of(region_id, "betaMap"))).max() > 1e-4
             encoded = rng.random((h, w, 3))
             encoded[0, :8] = np.array([[1, 1, 1], [0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [0, 1, 1], [0.5, 0.5, 0.5]])
             direct = post_pass(lumiwall_bin, profiles / f"{region_id}.json", encoded, tmp)
@@ -172,3 +178,6 @@ def test_the_standards_colour_pipeline_on_the_package_reproduces_the_post_pass(l
             else:
                 # the white-segment step sampled at 33³ bends inside LUT cells
                 assert diff[resolved].max() <= 2 and within > 0.85, region_id
+            # black itself (pixel 1 of the first row) shows the post pass's black
+            assert abs(via[0, 1] - direct[0, 1]).max() <= 1, (region_id, via[0, 1], direct[0, 1])
+    assert raised > 0, "a common black should give some display a beta map above 0"

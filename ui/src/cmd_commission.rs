@@ -401,6 +401,13 @@ pub(crate) fn run(args: CommissionArgs) -> Result<(), CliError> {
             }
         },
     }
+    // An earlier verification judged other profiles (the MPCDI export carries it).
+    let verified = args.out.join(crate::cmd_verify::VERIFY_FILE);
+    match std::fs::remove_file(&verified) {
+        Ok(()) => println!("removed the earlier verification {}", verified.display()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => println!("warning: cannot remove {}: {e}", verified.display()),
+    }
     print_outcome(&outcome, started.elapsed());
     if let Some(camera) = &args.camera {
         camera_stage(&mut station, &outcome, &args, camera)?;
@@ -610,7 +617,9 @@ pub(crate) struct MeterMatrixArgs {
     #[arg(long)]
     out: PathBuf,
     /// The reference spectroradiometer: `cs2000` or `specbos` (simulated on the
-    /// virtual wall, read directly).
+    /// virtual wall, read directly), `specbos-emulated` (the simulated specbos served on
+    /// a pty and read through lumiwall's specbos driver), or `serial:PATH` (a JETI
+    /// specbos 1201/1211 beside a real meter).
     #[arg(long, default_value = "cs2000", value_parser = parse_reference)]
     reference: ReferenceArg,
     /// Serial number of the simulated reference spectroradiometer (its systematic

@@ -90,7 +90,7 @@ fn run_mpcdi(args: &ExportArgs) -> Result<(), CliError> {
     };
     let (wall, profiles) = ProfileSet::load_dir(&args.commission)?;
     values::check_output_dir("--out-dir", &args.out_dir)?;
-    let verification = load_verification(&args.commission)?;
+    let verification = load_verification(&args.commission);
     let options = MpcdiOptions {
         region_px,
         date: mpcdi_now(),
@@ -134,17 +134,21 @@ fn run_mpcdi(args: &ExportArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-/// The profile folder's last verification, summarised for the MPCDI extension.
-fn load_verification(dir: &std::path::Path) -> Result<Option<serde_json::Value>, CliError> {
+/// The profile folder's last verification, summarised for the MPCDI extension; an
+/// unreadable one is left out with a warning.
+fn load_verification(dir: &std::path::Path) -> Option<serde_json::Value> {
     let path = dir.join(crate::cmd_verify::VERIFY_FILE);
-    let text = match std::fs::read_to_string(&path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(CliError::input(format!("{}: {e}", path.display()))),
+    let parsed = std::fs::read_to_string(&path).map(|text| {
+        serde_json::from_str::<lumiwall_calib::verify::VerifyReport>(&text)
+            .map_err(|e| e.to_string())
+    });
+    let report = match parsed {
+        Ok(Ok(r)) => r,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return None,
+        Err(e) => return warn_unreadable(&path, &e.to_string()),
+        Ok(Err(e)) => return warn_unreadable(&path, &e),
     };
-    let report: lumiwall_calib::verify::VerifyReport = serde_json::from_str(&text)
-        .map_err(|e| CliError::input(format!("{}: {e}", path.display())))?;
-    Ok(Some(serde_json::json!({
+    Some(serde_json::json!({
         "patches_per_display": report.targets.len(),
         "readings": report.readings,
         "overall": report.overall,
@@ -152,7 +156,15 @@ fn load_verification(dir: &std::path::Path) -> Result<Option<serde_json::Value>,
             "display": k.file_stem(), "summary": s
         })).collect::<Vec<_>>(),
         "eyes_delta_e2000": report.eyes_delta_e2000,
-    })))
+    }))
+}
+
+fn warn_unreadable(path: &std::path::Path, why: &str) -> Option<serde_json::Value> {
+    println!(
+        "  warning: {} is unreadable ({why}); the package goes without a verification",
+        path.display()
+    );
+    None
 }
 
 /// Now as `yyyy-MM-dd HH:mm:ss` (UTC), MPCDI's date format.

@@ -281,8 +281,9 @@ fn fit_primaries(
 
 /// Level 5 (white segment): the decode is the identity and the correction LUT, over
 /// the encoded input `e` (linear = e^2.2), holds the post pass's
-/// `w = white_step(m/g_min + o)` as `(w − o⁺)⁺ / (s − o⁺)` with `β = o⁺/s`, so that at
-/// `α = 1` the blend gives `w/s` and `encode(s·a)` the post pass's drive. Where a flat
+/// `w = white_step(m/g_min + o)` as `(w − f)⁺ / (s − f)` with `β = f/s`, `f` the
+/// smallest `w` of each channel (within `[0, o⁺]`: the black's), so that at `α = 1`
+/// the blend gives `w/s` and `encode(s·a)` the post pass's drive. Where a flat
 /// field makes `α < 1`, the white step is taken before it instead of after (the
 /// standard's order): exact without a flat field.
 fn fit_lut3d(
@@ -305,13 +306,21 @@ fn fit_lut3d(
         })
         .collect();
     let scale = w.iter().flat_map(|v| v.iter().copied()).fold(1.0, f64::max);
+    // β: the smallest value each channel takes (the black's, where the white step
+    // already acts on a raised black), so that the LUT's zero is the post pass's
+    let floor: [f64; 3] = std::array::from_fn(|c| {
+        w.iter()
+            .map(|v| v[c])
+            .fold(f64::INFINITY, f64::min)
+            .clamp(0.0, raised[c])
+    });
     let lut = w
         .iter()
-        .map(|v| std::array::from_fn(|c| (v[c] - raised[c]).max(0.0) / (scale - raised[c])))
+        .map(|v| std::array::from_fn(|c| (v[c] - floor[c]).max(0.0) / (scale - floor[c])))
         .collect();
     Ok(ColourFit {
         g_min,
-        beta: raised.map(|b| b / scale),
+        beta: floor.map(|b| b / scale),
         encode_shift: [0.0; 3],
         correct: Correction::Lut3d(lut),
         scale,
@@ -363,12 +372,18 @@ fn alpha_png(p: &DisplayProfile, fit: &ColourFit) -> Result<Vec<u8>, MpcdiError>
     let Some(ff) = &p.flat_field else {
         return constant_png([1.0; 3]);
     };
-    let pixels: Vec<[f64; 3]> = ff
-        .gain
-        .iter()
-        .map(|g| std::array::from_fn(|c| (fit.g_min[c] / f64::from(g[c])).min(1.0)))
+    let alpha = |g: &[f32; 3]| -> [f64; 3] {
+        std::array::from_fn(|c| (fit.g_min[c] / f64::from(g[c])).min(1.0))
+    };
+    // a map has at least 2×2 texels: a 1-texel side is repeated (the same bilinear
+    // values with texel centres at (i + 0.5)/size)
+    let (fw, fh) = (ff.width.max(1), ff.height.max(1));
+    let (w, h) = (fw.max(2), fh.max(2));
+    let pixels: Vec<[f64; 3]> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x.min(fw - 1), y.min(fh - 1))))
+        .map(|(x, y)| ff.gain.get((y * fw + x) as usize).map_or([1.0; 3], alpha))
         .collect();
-    png_rgb16(ff.width.max(1), ff.height.max(1), &pixels)
+    png_rgb16(w, h, &pixels)
 }
 
 /// A 2×2 map of one value per channel.

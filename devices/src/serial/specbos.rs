@@ -266,8 +266,18 @@ impl JetiSpecbos {
 
     /// Asks `*stat:err?` after a NAK to `command` and maps the code.
     fn error_for(&mut self, command: &str) -> DeviceError {
-        let code = match self.query("*stat:err?") {
-            Ok(a) => proto::parse_labelled_number(&a, "Error Code:").map(|v| v as u32),
+        // read directly: a NAK to the error query itself must not ask again
+        let answer = self
+            .send("*stat:err?")
+            .and_then(|()| self.read_answer(Answer::Lines(1), self.config.read_timeout));
+        let code = match answer {
+            Ok(bytes) if !bytes.contains(&proto::NAK) => {
+                proto::parse_labelled_number(&String::from_utf8_lossy(&bytes), "Error Code:")
+                    .map(|v| v as u32)
+            }
+            Ok(bytes) => {
+                return self.garbled("*stat:err?", &format!("{}", bytes.escape_ascii()));
+            }
             Err(e) => return e,
         };
         match code {

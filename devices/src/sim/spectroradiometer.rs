@@ -218,7 +218,7 @@ impl SimSpectroradiometer {
             });
         }
         let y = reading.xyz()?.y;
-        if y < self.model.floor_cd_m2 || y <= 0.0 {
+        if !y.is_finite() || y < self.model.floor_cd_m2 || y <= 0.0 {
             return Err(DeviceError::TooDark {
                 device: self.name(),
                 y_cd_m2: y.max(0.0),
