@@ -7,8 +7,9 @@
 //! [`SCHEMA_VERSION`] is refused without being touched.
 
 use std::path::Path;
+use std::time::{Duration, Instant};
 
-use rusqlite::{Connection, OptionalExtension, TransactionBehavior};
+use rusqlite::{Connection, ErrorCode, OptionalExtension, TransactionBehavior};
 
 use super::StoreError;
 use super::sql_err;
@@ -132,14 +133,36 @@ fn readable_version(conn: &Connection, path: &Path) -> Result<u32, StoreError> {
     Ok(current)
 }
 
+/// Switches the file to WAL mode. Connections switching a new file at once can meet in
+/// SQLite's deadlock avoidance (each holds a shared lock and wants the exclusive one):
+/// SQLite then answers BUSY at once, without calling the busy handler. So a busy answer
+/// is retried, with a growing pause, until the store's busy timeout has passed.
+fn switch_to_wal(conn: &Connection, path: &Path) -> Result<(), StoreError> {
+    let deadline = Instant::now() + super::BUSY_TIMEOUT;
+    let mut pause = Duration::from_millis(2);
+    loop {
+        match conn.query_row("PRAGMA journal_mode = WAL", [], |r| r.get::<_, String>(0)) {
+            Ok(_) => return Ok(()),
+            Err(e)
+                if matches!(
+                    e.sqlite_error_code(),
+                    Some(ErrorCode::DatabaseBusy | ErrorCode::DatabaseLocked)
+                ) && Instant::now() < deadline =>
+            {
+                std::thread::sleep(pause);
+                pause = (pause * 2).min(Duration::from_millis(50));
+            }
+            Err(e) => return Err(sql_err(path, "switching to WAL mode", e)),
+        }
+    }
+}
+
 /// Checks the file, refuses foreign or newer stores, and migrates an older or new
 /// one to [`SCHEMA_VERSION`] in one transaction.
 pub fn prepare(conn: &mut Connection, path: &Path) -> Result<(), StoreError> {
     let current = readable_version(conn, path)?;
     // Only now that the file is known to be ours (or empty) may it be changed.
-    let _mode: String = conn
-        .query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0))
-        .map_err(|e| sql_err(path, "switching to WAL mode", e))?;
+    switch_to_wal(conn, path)?;
     conn.pragma_update(None, "foreign_keys", true)
         .map_err(|e| sql_err(path, "enabling foreign keys", e))?;
     if current == SCHEMA_VERSION {
