@@ -161,12 +161,7 @@ impl Emulator {
         faults: FaultPlan,
         options: EmulatorOptions,
     ) -> Result<(Emulator, EmulatedPort), DeviceError> {
-        if !(options.time_scale.is_finite() && options.time_scale >= 0.0) {
-            return Err(DeviceError::Config(format!(
-                "emulator time scale must be a finite number >= 0, got {}",
-                options.time_scale
-            )));
-        }
+        super::pty::check_time_scale(options.time_scale)?;
         let readings = Arc::new(AtomicU32::new(0));
         let counter = Arc::clone(&readings);
         let pty = PtyThread::spawn("K-10-A emulator", move |master, stop| {

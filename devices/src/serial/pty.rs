@@ -89,3 +89,15 @@ pub(crate) fn pause(stop: &AtomicBool, d: Duration) {
         std::thread::sleep((end - now).min(Duration::from_millis(10)));
     }
 }
+
+/// Fails unless an emulator's time scale (factor on the instrument's timing) is a
+/// finite number ≥ 0.
+pub(crate) fn check_time_scale(time_scale: f64) -> Result<(), DeviceError> {
+    if time_scale.is_finite() && time_scale >= 0.0 {
+        Ok(())
+    } else {
+        Err(DeviceError::Config(format!(
+            "emulator time scale must be a finite number >= 0, got {time_scale}"
+        )))
+    }
+}

@@ -67,12 +67,7 @@ impl SpecbosEmulator {
         instrument: Box<dyn Spectroradiometer + Send>,
         options: SpecbosEmulatorOptions,
     ) -> Result<Self, DeviceError> {
-        if !(options.time_scale.is_finite() && options.time_scale >= 0.0) {
-            return Err(DeviceError::Config(format!(
-                "emulator time scale must be a finite number >= 0, got {}",
-                options.time_scale
-            )));
-        }
+        super::pty::check_time_scale(options.time_scale)?;
         let calibrated = calibrated_range(instrument.as_ref())?;
         let readings = Arc::new(AtomicU32::new(0));
         let counter = Arc::clone(&readings);
