@@ -24,6 +24,7 @@
 pub mod document;
 pub mod drift;
 pub mod error;
+pub mod forecast;
 pub mod schema;
 
 use std::collections::HashSet;
@@ -36,6 +37,7 @@ use rusqlite::{Connection, ErrorCode, OpenFlags, OptionalExtension, params};
 
 pub use drift::{Drift, DriftLimits};
 pub use error::StoreError;
+pub use forecast::{ChannelForecast, Crossing, DisplayForecast, ForecastOptions};
 
 use crate::{DisplayProfile, Eye, ProfileError};
 
@@ -627,6 +629,26 @@ impl ProfileStore {
             .into_iter()
             .map(|(d, eye)| self.drift(wall, d, eye, since))
             .collect()
+    }
+
+    /// Lamp-life forecast of every display and eye of `wall` from its whole history
+    /// (see [`forecast`]), in display order.
+    pub fn forecast_wall(
+        &self,
+        wall: &str,
+        opts: &ForecastOptions,
+    ) -> Result<Vec<DisplayForecast>, StoreError> {
+        let mut numbers: Vec<u32> = self
+            .displays(wall, None)?
+            .into_iter()
+            .map(|(d, _)| d)
+            .collect();
+        numbers.dedup();
+        let mut out = Vec::new();
+        for d in numbers {
+            out.extend(forecast::forecast(&self.history(wall, d)?, opts));
+        }
+        Ok(out)
     }
 
     /// Every wall in the store, by name.

@@ -27,6 +27,10 @@ enum ProfilesCommand {
     /// How each display changed since a date: white luminance %, white Δxy, black,
     /// channel usage. Exits with status 3 if a --max-* limit is exceeded.
     Drift(DriftArgs),
+    /// When each display will stop reaching the common white (lamp-life forecast from
+    /// the history: per-channel decay fits, lamp changes detected), and which lamp to
+    /// replace first.
+    Forecast(crate::cmd_forecast::ForecastArgs),
     /// Record a profile folder (`wall.json` and its profiles) as one run.
     Import(ImportArgs),
     /// The walls in the store and their runs.
@@ -105,6 +109,7 @@ pub(crate) fn run(args: ProfilesArgs) -> Result<(), CliError> {
             history_table(&store, &a.wall, a.display)?
         }
         ProfilesCommand::Drift(a) => return drift(&a),
+        ProfilesCommand::Forecast(a) => return crate::cmd_forecast::run(&a),
         ProfilesCommand::Import(a) => import(&a)?,
         ProfilesCommand::Runs(a) => {
             let store = ProfileStore::open_existing(&a.store)?;

@@ -11,6 +11,7 @@ mod cmd_cie171;
 mod cmd_commission;
 #[cfg(feature = "station")]
 mod cmd_export;
+mod cmd_forecast;
 #[cfg(feature = "station")]
 mod cmd_meter_emulator;
 #[cfg(feature = "pattern-server")]

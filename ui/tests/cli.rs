@@ -413,6 +413,106 @@ fn profiles_import_history_drift_and_runs_read_the_store() {
         .stdout(contains("import"));
 }
 
+/// Decay rate of each display's lamp in the forecast test (per hour).
+const LAMP_DECAY_PER_H: [f64; 2] = [2e-3, 1e-4];
+
+/// The profile files of a profile folder with their JSON.
+fn profile_documents(dir: &Path) -> Vec<(PathBuf, serde_json::Value)> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.file_name().unwrap().to_str().unwrap().starts_with('d'))
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .map(|p| {
+            let v = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+            (p, v)
+        })
+        .collect()
+}
+
+/// Imports `nights` runs (one a day from 2026-11-10 02:00Z) of the profiles in `dir`,
+/// each display's primaries dimmed by its lamp's decay since the first night.
+fn import_decaying_nights(dir: &Path, store: &Path, nights: u32) -> Vec<serde_json::Value> {
+    let originals = profile_documents(dir);
+    for night in 0..nights {
+        let hours = 24.0 * f64::from(night);
+        for (path, v) in &originals {
+            let mut v = v.clone();
+            let display = v["display"]["display"].as_u64().unwrap() as usize;
+            let factor = (-LAMP_DECAY_PER_H[display] * hours).exp();
+            for row in v["primaries_xyz_cd_m2"].as_array_mut().unwrap() {
+                for x in row.as_array_mut().unwrap() {
+                    *x = serde_json::json!(x.as_f64().unwrap() * factor);
+                }
+            }
+            std::fs::write(path, serde_json::to_string(&v).unwrap()).unwrap();
+        }
+        lumiwall()
+            .args(["profiles", "import", "--time"])
+            .arg(format!("2026-11-{:02}T02:00:00Z", 10 + night))
+            .arg("--store")
+            .arg(store)
+            .arg("--dir")
+            .arg(dir)
+            .assert()
+            .success();
+    }
+    originals.into_iter().map(|(_, v)| v).collect()
+}
+
+/// Ten nightly runs of the small wall (commissioned with a 10 % reserve) whose lamps
+/// lose 0.2 % (display 0) and 0.01 % (display 1) of their light per hour: `profiles
+/// forecast` names display 0 first, on the date the exact decay gives (± 1 day).
+#[test]
+fn profiles_forecast_names_the_faster_decaying_lamp_and_its_date() {
+    use lumiwall_profiles::store::Timestamp;
+    let tmp = TempDir::new().unwrap();
+    let dir = tmp.path().join("profiles");
+    commission_small(&dir, &["--noise", "none", "--headroom", "0.9"])
+        .assert()
+        .success();
+    let store = tmp.path().join("store.lumistore");
+    let documents = import_decaying_nights(&dir, &store, 10);
+    // exact: display 0's most used channel reaches full drive ln(u)/-k hours after the
+    // newest run
+    let v0 = documents
+        .iter()
+        .find(|v| v["display"]["display"] == 0)
+        .unwrap();
+    let usage = (0..3)
+        .map(|c| v0["channel_usage"][c].as_f64().unwrap())
+        .fold(0.0, f64::max);
+    let lead_s = usage.ln() / -LAMP_DECAY_PER_H[0] * 3600.0;
+    let newest: Timestamp = "2026-11-19T02:00:00Z".parse().unwrap();
+    let exact = Timestamp::from_second(newest.as_second() + lead_s as i64).unwrap();
+    let out = lumiwall()
+        .args(["profiles", "forecast", "--wall", "mono-2x1", "--no-burn-in"])
+        .arg("--store")
+        .arg(&store)
+        .assert()
+        .success()
+        .stdout(contains("replace first: mono-2x1 display 0"))
+        .get_output()
+        .stdout
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    let day = |t: Timestamp| t.strftime("%Y-%m-%d").to_string();
+    println!("{text}exact for display 0: {}", day(exact));
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("replace first"))
+        .unwrap();
+    let near: Vec<String> = [-86_400, 0, 86_400]
+        .iter()
+        .map(|d| day(Timestamp::from_second(exact.as_second() + d).unwrap()))
+        .collect();
+    assert!(
+        near.iter().any(|d| line.contains(d.as_str())),
+        "{line} vs exact {}",
+        day(exact)
+    );
+}
+
 #[test]
 fn profiles_report_a_missing_store_an_unknown_wall_and_a_duplicate_import() {
     let tmp = TempDir::new().unwrap();
@@ -423,7 +523,7 @@ fn profiles_report_a_missing_store_an_unknown_wall_and_a_duplicate_import() {
         .code(2)
         .stderr(contains("does not exist"));
     let store = store_with_one_run(tmp.path());
-    for sub in ["history", "drift"] {
+    for sub in ["history", "drift", "forecast"] {
         lumiwall()
             .args(["profiles", sub, "--wall", "hall-z", "--store"])
             .arg(&store)

@@ -1,0 +1,517 @@
+//! Lamp-life forecast from a display's profile history: when will each display stop
+//! reaching the wall's common white?
+//!
+//! Each profile in the store records the display's measured primaries at full drive
+//! (`primaries_xyz_cd_m2`, black removed) and the linear channel intensities the
+//! common white needs (`channel_usage`). When a lamp loses the fraction `1 − f` of a
+//! channel's light, the same white needs `usage / f` of that channel; the display
+//! leaves its headroom when `usage / f` exceeds the profile's `headroom` (the reserve
+//! the solve kept is used up) and cannot show the common white at all past
+//! `usage / f > 1` (full drive).
+//!
+//! **Model.** Per channel, the logarithm of the channel's luminance against the hours
+//! since the lamp went in, fitted by linear least squares (SVD) over the current lamp's
+//! segment of the history:
+//!
+//! `ln Y(s) = a + b·s + c·exp(−s/τ) + d·exp(−2s/τ)`
+//!
+//! `b` is the slow, steady decay (UHP and xenon lamps, LEDs); the `c` and `d` terms are
+//! a UHP lamp's burn-in, the large loss of its first 100–200 hours. For a given time
+//! constant `τ` the model is linear; `τ` itself is the one that leaves the smallest
+//! residual (a log-grid search refined by golden section, from twice the spacing of the
+//! runs to a third of the segment's span), and the burn-in terms are kept only where
+//! they fit better than the plain exponential. A burn-in that multiplies the
+//! light by `1 + B·exp(−s/τ)` has the logarithm `B·e − B²e²/2 + …` (e = exp(−s/τ)): the
+//! second term keeps a burn-in of B = 0.3 from biasing the steady slope (the forecast
+//! 46 days ahead is 5 days early with `c` alone, 0.3 days with both; tests/forecast.rs).
+//! The burn-in terms are fitted only when the segment has at least
+//! [`MIN_POINTS_BURN_IN`] points; otherwise the two-parameter exponential is used. The forecast is the first time
+//! after the newest profile at which the fitted curve, relative to its value at the
+//! newest profile, reaches `usage / headroom` (or `usage`), with a ±2σ interval: for
+//! each plausible τ (residual within the profile-likelihood bound ΔRSS ≤ 4σ̂² of the
+//! best) the fit's covariance propagated to that time (delta method: the model's
+//! standard error over its slope there), and the envelope of those intervals.
+//!
+//! **Lamp changes.** A rise of the native white's luminance (sum of the primaries) by
+//! more than `lamp_change_step` from one profile to the next is a new lamp (or a lamp
+//! that was replaced, re-aligned or switched to another power mode): the history before
+//! it is not fitted.
+//!
+//! **Time axis.** Hours are calendar hours between runs: the fitted rates are per
+//! calendar hour, so the forecast holds while the wall keeps its daily use pattern.
+
+use jiff::{SignedDuration, Timestamp};
+use nalgebra::{DMatrix, DVector};
+
+use lumiwall_core::Channel;
+
+use crate::{DisplayKey, DisplayProfile};
+
+/// Fewest profiles of one lamp segment that a forecast is made from.
+pub const MIN_POINTS: usize = 3;
+
+/// Fewest profiles of one segment for the four-parameter (burn-in) model.
+pub const MIN_POINTS_BURN_IN: usize = 6;
+
+/// What the forecast assumes; [`Default`] suits UHP lamps run every day.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ForecastOptions {
+    /// Relative rise of the native white luminance between two profiles that counts
+    /// as a lamp change (0.10 = 10 %).
+    pub lamp_change_step: f64,
+    /// Fit a burn-in (UHP lamps); `false` for lamps without one (LED, laser), which
+    /// keeps noise from being read as one.
+    pub burn_in: bool,
+    /// No date is predicted beyond this many days after the newest profile.
+    pub horizon_days: f64,
+}
+
+impl Default for ForecastOptions {
+    fn default() -> Self {
+        Self {
+            lamp_change_step: 0.10,
+            burn_in: true,
+            horizon_days: 730.0,
+        }
+    }
+}
+
+/// When one channel reaches a limit: the predicted time and its ±2σ interval.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Crossing {
+    /// Predicted time.
+    pub utc: Timestamp,
+    /// Earliest time within ±2σ of the fit.
+    pub earliest_utc: Timestamp,
+    /// Latest time within ±2σ of the fit (capped at the horizon).
+    pub latest_utc: Timestamp,
+}
+
+/// One channel's fit and forecast.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelForecast {
+    /// The channel.
+    pub channel: Channel,
+    /// Channel usage of the newest profile (linear intensity for the common white).
+    pub usage: f64,
+    /// The steady decay now, percent of the light per 1000 hours (positive = losing
+    /// light), from the fitted curve's slope at the newest profile.
+    pub decay_pct_per_1000_h: f64,
+    /// The fitted burn-in time constant (hours), when the burn-in terms were fitted.
+    pub burn_in_tau_h: Option<f64>,
+    /// RMS residual of the fit, percent of the light.
+    pub fit_rms_pct: f64,
+    /// When `usage / f` exceeds the headroom: from then on a re-solve within the
+    /// headroom must lower the common white for this display. The display that limits
+    /// the common white today is there already (its most used channel is at the
+    /// headroom). `None` if not within the horizon.
+    pub leaves_headroom: Option<Crossing>,
+    /// When `usage / f` exceeds 1 (full drive): from then on the display cannot show
+    /// today's common white at all, the reserve is used up. `None` if not within the
+    /// horizon.
+    pub beyond_full_drive: Option<Crossing>,
+}
+
+/// The forecast of one display and eye.
+#[derive(Debug, Clone, PartialEq)]
+pub enum DisplayForecast {
+    /// Every channel fitted.
+    Fitted {
+        /// The display.
+        display: DisplayKey,
+        /// The profile's headroom (largest usage the solve may use).
+        headroom: f64,
+        /// Time of the newest profile.
+        newest_utc: Timestamp,
+        /// First profile of the current lamp segment.
+        segment_start_utc: Timestamp,
+        /// Profiles in that segment.
+        points: usize,
+        /// Lamp changes found in the history (times of the first profile after each).
+        lamp_changes: Vec<Timestamp>,
+        /// R, G, B.
+        channels: Vec<ChannelForecast>,
+    },
+    /// Too few profiles since the last lamp change.
+    NotEnoughHistory {
+        /// The display.
+        display: DisplayKey,
+        /// Profiles in the current segment.
+        points: usize,
+        /// Lamp changes found in the history.
+        lamp_changes: Vec<Timestamp>,
+    },
+}
+
+impl DisplayForecast {
+    /// The display.
+    pub fn display(&self) -> &DisplayKey {
+        match self {
+            Self::Fitted { display, .. } | Self::NotEnoughHistory { display, .. } => display,
+        }
+    }
+
+    /// The earliest headroom crossing of any channel, with the channel.
+    pub fn first_to_leave_headroom(&self) -> Option<(Channel, Crossing)> {
+        self.first(|c| c.leaves_headroom)
+    }
+
+    /// The earliest full-drive crossing of any channel (from then on the display
+    /// cannot show the common white), with the channel.
+    pub fn first_beyond_full_drive(&self) -> Option<(Channel, Crossing)> {
+        self.first(|c| c.beyond_full_drive)
+    }
+
+    fn first(&self, pick: fn(&ChannelForecast) -> Option<Crossing>) -> Option<(Channel, Crossing)> {
+        let Self::Fitted { channels, .. } = self else {
+            return None;
+        };
+        channels
+            .iter()
+            .filter_map(|c| pick(c).map(|x| (c.channel, x)))
+            .min_by_key(|(_, x)| x.utc)
+    }
+}
+
+/// Forecasts every display and eye in `history` (as [`super::ProfileStore::history`]
+/// returns it, oldest first), one entry per display and eye.
+pub fn forecast(
+    history: &[(Timestamp, DisplayProfile)],
+    opts: &ForecastOptions,
+) -> Vec<DisplayForecast> {
+    let mut keys: Vec<&DisplayKey> = history.iter().map(|(_, p)| &p.display).collect();
+    keys.sort();
+    keys.dedup();
+    keys.into_iter()
+        .map(|key| {
+            let mut own: Vec<&(Timestamp, DisplayProfile)> =
+                history.iter().filter(|(_, p)| &p.display == key).collect();
+            own.sort_by_key(|(t, _)| *t);
+            forecast_one(key, &own, opts)
+        })
+        .collect()
+}
+
+/// The forecast of one display and eye from its profiles, oldest first.
+fn forecast_one(
+    key: &DisplayKey,
+    own: &[&(Timestamp, DisplayProfile)],
+    opts: &ForecastOptions,
+) -> DisplayForecast {
+    let (segment, lamp_changes) = current_segment(own, opts.lamp_change_step);
+    if segment.len() < MIN_POINTS {
+        return DisplayForecast::NotEnoughHistory {
+            display: key.clone(),
+            points: segment.len(),
+            lamp_changes,
+        };
+    }
+    let start = segment[0].0;
+    let (newest_utc, newest) = (segment[segment.len() - 1].0, &segment[segment.len() - 1].1);
+    let hours: Vec<f64> = segment
+        .iter()
+        .map(|(t, _)| hours_between(start, *t))
+        .collect();
+    let channels = Channel::ALL
+        .iter()
+        .map(|&channel| {
+            let c = channel.index();
+            let light: Vec<f64> = segment
+                .iter()
+                .map(|(_, p)| p.primaries_xyz_cd_m2[c][1])
+                .collect();
+            let fits = DecayFit::best(&hours, &light, opts.burn_in);
+            let fit = fits.as_ref().map(|(best, _)| best);
+            let limits = Limits {
+                start,
+                from_h: hours[hours.len() - 1],
+                horizon_h: opts.horizon_days * 24.0,
+            };
+            let usage = newest.channel_usage[c];
+            ChannelForecast {
+                channel,
+                usage,
+                decay_pct_per_1000_h: fit
+                    .map_or(f64::NAN, |f| -100.0 * 1000.0 * f.slope_per_h(limits.from_h)),
+                burn_in_tau_h: fit.and_then(|f| f.tau_h),
+                fit_rms_pct: fit.map_or(f64::NAN, |f| 100.0 * f.rms),
+                leaves_headroom: fits
+                    .as_ref()
+                    .and_then(|f| crossing(f, usage / newest.headroom, &limits)),
+                beyond_full_drive: fits.as_ref().and_then(|f| crossing(f, usage, &limits)),
+            }
+        })
+        .collect();
+    DisplayForecast::Fitted {
+        display: key.clone(),
+        headroom: newest.headroom,
+        newest_utc,
+        segment_start_utc: start,
+        points: segment.len(),
+        lamp_changes,
+        channels,
+    }
+}
+
+/// The profiles since the last lamp change, and the times of every lamp change.
+fn current_segment<'a>(
+    own: &[&'a (Timestamp, DisplayProfile)],
+    step: f64,
+) -> (Vec<&'a (Timestamp, DisplayProfile)>, Vec<Timestamp>) {
+    let mut changes = Vec::new();
+    let mut first = 0;
+    for i in 1..own.len() {
+        let before = super::drift::native_white_xyz_cd_m2(&own[i - 1].1)[1];
+        let after = super::drift::native_white_xyz_cd_m2(&own[i].1)[1];
+        if before > 0.0 && after > before * (1.0 + step) {
+            changes.push(own[i].0);
+            first = i;
+        }
+    }
+    (own[first..].to_vec(), changes)
+}
+
+fn hours_between(a: Timestamp, b: Timestamp) -> f64 {
+    b.duration_since(a).as_secs_f64() / 3600.0
+}
+
+/// Where a crossing is searched: hours after `start`, from the newest profile to the
+/// horizon after it.
+struct Limits {
+    start: Timestamp,
+    from_h: f64,
+    horizon_h: f64,
+}
+
+impl Limits {
+    fn time(&self, h: f64) -> Timestamp {
+        SignedDuration::try_from_secs_f64(h * 3600.0)
+            .ok()
+            .and_then(|d| self.start.checked_add(d).ok())
+            .unwrap_or(Timestamp::MAX)
+    }
+}
+
+/// `ln Y(s) = a + b·s + c·exp(−s/τ) + d·exp(−2s/τ)` fitted to one channel's light (or
+/// without the burn-in terms), with the parameters' covariance.
+struct DecayFit {
+    params: Vec<f64>,
+    covariance: DMatrix<f64>,
+    /// The burn-in time constant, when the burn-in terms are fitted.
+    tau_h: Option<f64>,
+    rms: f64,
+    rss: f64,
+}
+
+impl DecayFit {
+    /// The best fit: without burn-in, or (when `burn_in` and the segment allows) with
+    /// the burn-in time constant that leaves the smallest residual, searched on a log
+    /// grid and refined by golden section (variable projection: for a fixed τ the
+    /// model is linear). Also returns every fit on the way whose residual is within
+    /// the profile-likelihood bound of the best (ΔRSS ≤ 4σ̂²: τ within about 2σ), whose
+    /// forecasts widen the interval by the uncertainty of τ.
+    fn best(hours: &[f64], light: &[f64], burn_in: bool) -> Option<(Self, Vec<Self>)> {
+        let plain = Self::with_tau(hours, light, None)?;
+        let Some((lo, hi)) = burn_in.then(|| tau_range(hours)).flatten() else {
+            return Some((plain, Vec::new()));
+        };
+        let (lo, hi) = (lo.ln(), hi.ln());
+        let step = (hi - lo) / f64::from(TAU_GRID - 1);
+        let grid: Vec<Self> = (0..TAU_GRID)
+            .filter_map(|i| Self::with_tau(hours, light, Some((lo + step * f64::from(i)).exp())))
+            .collect();
+        let rss = |ln_tau: f64| {
+            Self::with_tau(hours, light, Some(ln_tau.exp())).map_or(f64::INFINITY, |f| f.rss)
+        };
+        let Some(grid_best) = grid.iter().min_by(|a, b| a.rss.total_cmp(&b.rss)) else {
+            return Some((plain, Vec::new()));
+        };
+        let ln_best = grid_best.tau_h.map_or(lo, f64::ln);
+        let ln_tau = golden_min(rss, (ln_best - step).max(lo), (ln_best + step).min(hi));
+        let best = match Self::with_tau(hours, light, Some(ln_tau.exp())) {
+            Some(f) if f.rss < plain.rss => f,
+            _ => plain,
+        };
+        let dof = hours.len().saturating_sub(best.params.len()).max(1) as f64;
+        let bound = best.rss * (1.0 + 4.0 / dof);
+        let plausible = grid
+            .into_iter()
+            .chain(Self::with_tau(hours, light, None))
+            .filter(|f| f.rss <= bound)
+            .collect();
+        Some((best, plausible))
+    }
+
+    /// The linear fit for a given burn-in time constant (`None`: no burn-in terms);
+    /// `None` where the light is not positive or the points do not determine the model.
+    fn with_tau(hours: &[f64], light: &[f64], tau_h: Option<f64>) -> Option<Self> {
+        if light.iter().any(|&y| !(y > 0.0 && y.is_finite())) {
+            return None;
+        }
+        let columns = if tau_h.is_some() { 4 } else { 2 };
+        let tau = tau_h.unwrap_or(f64::INFINITY);
+        let x = DMatrix::from_fn(hours.len(), columns, |i, j| basis(hours[i], tau, j));
+        let y = DVector::from_iterator(light.len(), light.iter().map(|v| v.ln()));
+        let svd = x.clone().svd(true, true);
+        if svd.singular_values.min() <= 1e-9 * svd.singular_values.max() {
+            return None;
+        }
+        let params = svd.solve(&y, 1e-12).ok()?;
+        let residual = &y - &x * &params;
+        let rss = residual.norm_squared();
+        let dof = (hours.len().saturating_sub(columns)).max(1) as f64;
+        let covariance = (x.transpose() * &x).try_inverse()? * (rss / dof);
+        Some(Self {
+            params: params.iter().copied().collect(),
+            covariance,
+            tau_h,
+            rms: (rss / hours.len() as f64).sqrt(),
+            rss,
+        })
+    }
+
+    fn row(&self, h: f64) -> DVector<f64> {
+        let tau = self.tau_h.unwrap_or(f64::INFINITY);
+        DVector::from_fn(self.params.len(), |j, _| basis(h, tau, j))
+    }
+
+    fn ln_light(&self, h: f64) -> f64 {
+        self.row(h)
+            .iter()
+            .zip(&self.params)
+            .map(|(x, p)| x * p)
+            .sum()
+    }
+
+    /// d ln Y / ds at `h` (per hour).
+    fn slope_per_h(&self, h: f64) -> f64 {
+        let burn = self.tau_h.map_or(0.0, |tau| {
+            -(self.params[2] * (-h / tau).exp() + 2.0 * self.params[3] * (-2.0 * h / tau).exp())
+                / tau
+        });
+        self.params[1] + burn
+    }
+
+    /// Standard error of `ln Y(h) − ln Y(from)` under the fit's covariance.
+    fn sigma_change(&self, h: f64, from: f64) -> f64 {
+        let g = self.row(h) - self.row(from);
+        (g.transpose() * &self.covariance * &g)[(0, 0)]
+            .max(0.0)
+            .sqrt()
+    }
+
+    /// First time after `limits.from_h` at which the light falls to `fraction` of the
+    /// light at `from_h` (the fitted curve), within the horizon.
+    fn crossing(&self, fraction: f64, limits: &Limits) -> Option<Crossing> {
+        if !(fraction > 0.0 && fraction.is_finite()) {
+            return None;
+        }
+        let target = fraction.ln();
+        let from = limits.from_h;
+        let end = from + limits.horizon_h;
+        let drop = |h: f64| self.ln_light(h) - self.ln_light(from);
+        let when = |margin: f64| first_below(|h| drop(h) + margin, target, from, end);
+        let h = when(0.0)?;
+        let slope = self.slope_per_h(h).abs().max(1e-12);
+        let half_width_h = 2.0 * self.sigma_change(h, from) / slope;
+        Some(Crossing {
+            utc: limits.time(h),
+            earliest_utc: limits.time((h - half_width_h).max(from)),
+            latest_utc: limits.time((h + half_width_h).min(end)),
+        })
+    }
+}
+
+/// The best fit's crossing of `fraction`, its interval widened to every plausible
+/// fit's (a plausible fit that does not cross within the horizon extends it there).
+fn crossing(
+    (best, plausible): &(DecayFit, Vec<DecayFit>),
+    fraction: f64,
+    limits: &Limits,
+) -> Option<Crossing> {
+    let mut x = best.crossing(fraction, limits)?;
+    let horizon = limits.time(limits.from_h + limits.horizon_h);
+    for f in plausible {
+        match f.crossing(fraction, limits) {
+            Some(o) => {
+                x.earliest_utc = x.earliest_utc.min(o.earliest_utc);
+                x.latest_utc = x.latest_utc.max(o.latest_utc);
+            }
+            None => x.latest_utc = horizon,
+        }
+    }
+    Some(x)
+}
+
+/// Points of the log grid the burn-in time constant is first searched on.
+const TAU_GRID: u32 = 24;
+
+/// The burn-in time constants a segment can tell apart: from twice the median spacing
+/// of its profiles (a faster burn-in is over before the second one) to a third of its
+/// span (a slower one cannot be told from the steady decay yet); `None` when the
+/// segment is too short or has too few profiles.
+fn tau_range(hours: &[f64]) -> Option<(f64, f64)> {
+    if hours.len() < MIN_POINTS_BURN_IN {
+        return None;
+    }
+    let mut gaps: Vec<f64> = hours.windows(2).map(|w| w[1] - w[0]).collect();
+    gaps.sort_by(f64::total_cmp);
+    let lo = (2.0 * gaps[gaps.len() / 2]).max(MIN_BURN_IN_H);
+    let hi = (hours[hours.len() - 1] - hours[0]) / 3.0;
+    (hi > lo).then_some((lo, hi))
+}
+
+/// Shortest burn-in time constant searched (hours).
+const MIN_BURN_IN_H: f64 = 12.0;
+
+/// Minimum of `f` on `[a, b]` by golden-section search (40 steps).
+fn golden_min(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..40 {
+        if fc < fd {
+            (b, d, fd) = (d, c, fc);
+            c = b - g * (b - a);
+            fc = f(c);
+        } else {
+            (a, c, fc) = (c, d, fd);
+            d = a + g * (b - a);
+            fd = f(d);
+        }
+    }
+    0.5 * (a + b)
+}
+
+/// Column `j` of the model at `h` hours: 1, s (in hours), exp(−s/τ), exp(−2s/τ).
+fn basis(h: f64, tau_h: f64, j: usize) -> f64 {
+    match j {
+        0 => 1.0,
+        1 => h,
+        2 => (-h / tau_h).exp(),
+        _ => (-2.0 * h / tau_h).exp(),
+    }
+}
+
+/// First `h` in `(from, end]` where `f(h) ≤ target`: daily steps, then bisection to a
+/// minute; `None` if it does not happen.
+fn first_below(f: impl Fn(f64) -> f64, target: f64, from: f64, end: f64) -> Option<f64> {
+    const STEP_H: f64 = 24.0;
+    if f(from) <= target {
+        return Some(from);
+    }
+    let mut lo = from;
+    while lo < end {
+        let hi = (lo + STEP_H).min(end);
+        if f(hi) <= target {
+            let (mut a, mut b) = (lo, hi);
+            while b - a > 1.0 / 60.0 {
+                let m = 0.5 * (a + b);
+                if f(m) <= target { b = m } else { a = m }
+            }
+            return Some(b);
+        }
+        lo = hi;
+    }
+    None
+}
