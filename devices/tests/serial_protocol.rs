@@ -98,7 +98,7 @@ fn status_codes_and_frames() {
 }
 
 #[test]
-fn argyll_start_up_answers_have_the_lengths_and_layouts_argyll_reads() {
+fn start_up_answers_have_the_lengths_and_layouts_argyll_reads() {
     // P2: echo + 8-character version + <c> = 13 bytes
     let p2 = proto::encode_firmware("LWEMU-01");
     assert_eq!(p2.len(), 13);

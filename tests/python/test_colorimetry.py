@@ -1,13 +1,16 @@
 """Cross-check of lumiwall's colorimetry (``calib::colorimetry``) against colour-science.
 
-Runs ``cargo run -q -p lumiwall-calib --example colour_dump`` (JSON of lumiwall's
-results on fixed inputs) and compares every number with colour-science to 1e-4:
+Runs the ``colour_dump`` program of lumiwall-calib (JSON of lumiwall's results on fixed
+inputs: the one ``cargo test`` built, which scripts/test passes as
+``LUMIWALL_COLOUR_DUMP``, else ``cargo run --bin colour_dump``) and compares every
+number with colour-science to 1e-4:
 xyY <-> XYZ, CIELAB, CIEDE2000 on all 34 Sharma, Wu & Dalal (2005) pairs (also against
 the published values), CCT -> xy (CIE daylight locus, colour-science's default method)
 and linear Bradford adaptation (matrix and adapted colours).
 """
 
 import json
+import os
 import pathlib
 import subprocess
 import warnings
@@ -24,8 +27,14 @@ TOL = 1e-4
 
 @pytest.fixture(scope="module")
 def dump():
+    given = os.environ.get("LUMIWALL_COLOUR_DUMP")
+    if given:
+        assert pathlib.Path(given).is_file(), f"LUMIWALL_COLOUR_DUMP={given} is not a file"
+        command = [given]
+    else:
+        command = ["cargo", "run", "-q", "-p", "lumiwall-calib", "--bin", "colour_dump"]
     out = subprocess.run(
-        ["cargo", "run", "-q", "-p", "lumiwall-calib", "--example", "colour_dump"],
+        command,
         cwd=ROOT,
         check=True,
         capture_output=True,

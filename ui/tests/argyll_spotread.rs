@@ -26,8 +26,18 @@ const LINK: &str = "/dev/ttyUSB-lumiwall";
 /// `scripts/test` prints): the test, unprivileged, points this at the emulator.
 const HOP: &str = "/tmp/lumiwall-argyll-pty";
 
-/// The tests share the device link: one at a time.
+/// The tests share the device link: one at a time within this program...
 static LINE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// ...and across programs (`scripts/test` runs this one beside the other tests, and a
+/// second run of it would fight over [`LINK`]): an advisory lock on this file.
+const LINE_LOCK: &str = "/tmp/lumiwall-argyll-line.lock";
+
+/// Holds the device link for one test.
+struct Line {
+    _in_process: std::sync::MutexGuard<'static, ()>,
+    _across_processes: std::fs::File,
+}
 
 /// Relative agreement with the truth: the K-10's 15-bit mantissa (3·10⁻⁵) and
 /// Argyll's printing to six decimals.
@@ -111,9 +121,18 @@ fn numbers_after(line: &str, key: &str) -> [f64; 3] {
 /// [`argyll_ready`]). The readiness check is made holding the link: `spotread -?`
 /// probes every serial port, so run beside another test it would talk into that
 /// test's session with the emulator and break it ("Instrument Access Failed").
-fn take_line() -> Option<std::sync::MutexGuard<'static, ()>> {
-    let guard = LINE.lock().unwrap_or_else(|e| e.into_inner());
-    argyll_ready().then_some(guard)
+fn take_line() -> Option<Line> {
+    let in_process = LINE.lock().unwrap_or_else(|e| e.into_inner());
+    // read-only where it exists (another user may own it), made where it does not
+    let file = std::fs::File::open(LINE_LOCK)
+        .or_else(|_| std::fs::File::create(LINE_LOCK))
+        .unwrap_or_else(|e| panic!("{LINE_LOCK}: {e}"));
+    file.lock()
+        .unwrap_or_else(|e| panic!("locking {LINE_LOCK}: {e}"));
+    argyll_ready().then_some(Line {
+        _in_process: in_process,
+        _across_processes: file,
+    })
 }
 
 /// Skips (or, when required, fails) when Argyll or the device links are missing.

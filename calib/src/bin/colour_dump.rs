@@ -2,7 +2,8 @@
 //! colour-science cross-check in `tests/python/test_colorimetry.py`: xyY ↔ XYZ, CIELAB,
 //! CIEDE2000 on all 34 Sharma et al. (2005) pairs, CCT → xy and Bradford adaptation.
 //!
-//! Run: `cargo run -q -p lumiwall-calib --example colour_dump`.
+//! Run: `cargo run -q -p lumiwall-calib --bin colour_dump` (`scripts/test` passes the
+//! program `cargo test` built to the Python tests as `LUMIWALL_COLOUR_DUMP`).
 
 use std::path::PathBuf;
 
