@@ -193,7 +193,8 @@ pub enum CommissionError {
     NoDisplays,
 }
 
-fn measurement_path(run_dir: &Path, key: &DisplayKey) -> PathBuf {
+/// Where a display's measurement lives in a run folder.
+pub(crate) fn measurement_path(run_dir: &Path, key: &DisplayKey) -> PathBuf {
     run_dir.join(format!("{}.measurement.json", key.file_stem()))
 }
 

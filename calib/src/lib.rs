@@ -3,7 +3,8 @@
 //! Measures each display through the `lumiwall-devices` traits (never a port
 //! directly), fits tone curves and their inverses, solves the common gamut, white and
 //! black of the wall (Kresse 2003, 3.3) and produces one `DisplayProfile` per display
-//! and eye; [`verify`] reads target colours back through the whole pipeline.
+//! and eye; [`verify`] reads target colours back through the whole pipeline, and
+//! [`recalibrate`] keeps a commissioned wall true night after night.
 
 #[cfg(feature = "camera")]
 pub mod camera;
@@ -14,6 +15,7 @@ pub mod error;
 pub mod export;
 pub mod gamut;
 pub mod measure;
+pub mod recalibrate;
 pub mod report;
 pub mod solve;
 pub mod spatial;

@@ -871,7 +871,7 @@ pub fn measure_display(
 /// Black (always averaged when dark, as it usually is; a black the meter refuses as too
 /// dark even on repeats is below its floor and taken as 0) and the three full-drive
 /// primaries, each of which must be brighter than black.
-fn measure_black_and_primaries(
+pub(crate) fn measure_black_and_primaries(
     s: &mut Session<'_, '_>,
     key: &DisplayKey,
     opts: &MeasureOptions,

@@ -426,6 +426,20 @@ impl Station {
         commission(&wall, &displays, &mut self.rig(), out_dir, opts, progress)
     }
 
+    /// Recalibrates the wall whose profiles are in `dir` (see
+    /// [`crate::recalibrate`]).
+    pub fn recalibrate(
+        &mut self,
+        dir: &Path,
+        opts: &crate::recalibrate::RecalibrateOptions,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<crate::recalibrate::RecalibrationOutcome, crate::recalibrate::RecalibrateError>
+    {
+        let wall = self.wall.name();
+        let displays = self.displays();
+        crate::recalibrate::recalibrate(&wall, &displays, &mut self.rig(), dir, opts, progress)
+    }
+
     /// Shows `targets` through `profiles` on every display and reads them back (see
     /// [`verify_wall`]).
     pub fn verify(

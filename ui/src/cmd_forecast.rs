@@ -128,6 +128,13 @@ fn table(forecasts: &[DisplayForecast], opts: &ForecastOptions) -> String {
             }
         }
     }
+    s += &replace_first(forecasts, opts);
+    s
+}
+
+/// Which lamp to replace first: the display whose white goes out of reach first.
+fn replace_first(forecasts: &[DisplayForecast], opts: &ForecastOptions) -> String {
+    let mut s = String::new();
     let first = forecasts
         .iter()
         .filter_map(|f| f.first_beyond_full_drive().map(|(c, x)| (f, c, x)))

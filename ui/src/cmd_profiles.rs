@@ -31,6 +31,10 @@ enum ProfilesCommand {
     /// the history: per-channel decay fits, lamp changes detected), and which lamp to
     /// replace first.
     Forecast(crate::cmd_forecast::ForecastArgs),
+    /// Restore the profiles (and measurements) the last `lumiwall recalibrate` replaced
+    /// in a profile folder.
+    #[cfg(feature = "station")]
+    Rollback(RollbackArgs),
     /// Record a profile folder (`wall.json` and its profiles) as one run.
     Import(ImportArgs),
     /// The walls in the store and their runs.
@@ -91,6 +95,14 @@ struct ImportArgs {
     note: String,
 }
 
+#[cfg(feature = "station")]
+#[derive(Debug, clap::Args)]
+struct RollbackArgs {
+    /// Profile folder written by `lumiwall commission` and changed by `recalibrate`.
+    #[arg(long)]
+    profiles: PathBuf,
+}
+
 #[derive(Debug, clap::Args)]
 struct RunsArgs {
     /// Profile store (SQLite file).
@@ -110,6 +122,16 @@ pub(crate) fn run(args: ProfilesArgs) -> Result<(), CliError> {
         }
         ProfilesCommand::Drift(a) => return drift(&a),
         ProfilesCommand::Forecast(a) => return crate::cmd_forecast::run(&a),
+        #[cfg(feature = "station")]
+        ProfilesCommand::Rollback(a) => {
+            let restored = lumiwall_calib::recalibrate::rollback(&a.profiles)
+                .map_err(|e| CliError::input(e.to_string()))?;
+            format!(
+                "restored {} profiles in {} (the ones before the last recalibration)\n",
+                restored.len(),
+                a.profiles.display()
+            )
+        }
         ProfilesCommand::Import(a) => import(&a)?,
         ProfilesCommand::Runs(a) => {
             let store = ProfileStore::open_existing(&a.store)?;

@@ -129,16 +129,17 @@ fn load_meter_correction(
 
 /// The meter matrices of `--meter-matrix`, or else the copy `commission` kept in the
 /// profile folder when it was made for this instrument.
-fn meter_matrices(
-    args: &VerifyArgs,
+pub(crate) fn meter_matrices(
+    meter_args: &MeterArgs,
+    profiles: &Path,
     meter: &dyn lumiwall_devices::Colorimeter,
 ) -> Result<Option<MeterMatrices>, CliError> {
-    if let Some(m) = args.meter.meter_matrices()? {
+    if let Some(m) = meter_args.meter_matrices()? {
         m.check_instrument(meter)
             .map_err(|e| CliError::input(e.to_string()))?;
         return Ok(Some(m));
     }
-    let path = args.profiles.join(crate::cmd_commission::METER_MATRIX_FILE);
+    let path = profiles.join(crate::cmd_commission::METER_MATRIX_FILE);
     if !path.exists() {
         return Ok(None);
     }
@@ -181,7 +182,7 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
         patches: targets.len(),
         meter_xy_offset: load_meter_correction(&args.profiles, station.meter.as_ref())?,
         measure: MeasureOptions {
-            meter_matrix: meter_matrices(&args, station.meter.as_ref())?,
+            meter_matrix: meter_matrices(&args.meter, &args.profiles, station.meter.as_ref())?,
             ..MeasureOptions::default()
         },
         ..VerifyOptions::default()
@@ -299,7 +300,7 @@ fn run_grid(
         inner: station.meter.as_mut(),
         xy_offset: offset.unwrap_or([0.0; 2]),
     };
-    let matrices = meter_matrices(args, corrected.inner)?;
+    let matrices = meter_matrices(&args.meter, &args.profiles, corrected.inner)?;
     let rig = Rig {
         pattern: station.pattern.as_mut(),
         meter: &mut corrected,

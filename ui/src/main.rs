@@ -17,6 +17,8 @@ mod cmd_meter_emulator;
 #[cfg(feature = "pattern-server")]
 mod cmd_pattern_server;
 mod cmd_profiles;
+#[cfg(feature = "station")]
+mod cmd_recalibrate;
 mod cmd_render;
 #[cfg(feature = "station")]
 mod cmd_verify;
@@ -43,6 +45,12 @@ enum Command {
     /// Measure every display of a wall and write one profile per display and eye.
     #[cfg(feature = "station")]
     Commission(cmd_commission::CommissionArgs),
+    /// The nightly run: re-read black, primaries and white of every display, and when a
+    /// display drifted, refit, solve the common white again and write new profiles.
+    /// Exit 0: nothing drifted; 10: recalibrated; 11: a display left the headroom (the
+    /// wall's white was lowered); 12: a device failed.
+    #[cfg(feature = "station")]
+    Recalibrate(cmd_recalibrate::RecalibrateArgs),
     /// Show target colours through the profiles and read them back with the meter.
     #[cfg(feature = "station")]
     Verify(cmd_verify::VerifyArgs),
@@ -107,6 +115,11 @@ fn main() {
         Command::Commission(a) => cmd_commission::run(a),
         #[cfg(feature = "station")]
         Command::Verify(a) => cmd_verify::run(a),
+        #[cfg(feature = "station")]
+        Command::Recalibrate(a) => match cmd_recalibrate::run(a) {
+            Ok(code) => std::process::exit(code),
+            Err(e) => Err(e),
+        },
         #[cfg(feature = "station")]
         Command::MeterMatrix(a) => cmd_commission::meter_matrix(a),
         #[cfg(feature = "station")]

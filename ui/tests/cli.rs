@@ -513,6 +513,56 @@ fn profiles_forecast_names_the_faster_decaying_lamp_and_its_date() {
     );
 }
 
+/// `lumiwall recalibrate` on the small wall (direct noiseless meter, 20 % reserve):
+/// exit 0 and nothing written while the wall holds; exit 10 with new profiles (the old
+/// ones in previous/, the run in the store) after 2000 h of lamp ageing; exit 11 when
+/// 9000 h leave a display unable to reach the white; `profiles rollback` restores.
+#[test]
+fn recalibrate_exit_codes_say_unchanged_recalibrated_and_left_headroom() {
+    let tmp = TempDir::new().unwrap();
+    let dir = tmp.path().join("profiles");
+    commission_small(&dir, &["--noise", "none", "--headroom", "0.8"])
+        .assert()
+        .success();
+    let profile = dir.join("d000-c0r0-mono.json");
+    let commissioned = std::fs::read(&profile).unwrap();
+    let store = tmp.path().join("store.lumistore");
+    let recalibrate = |hours: &str| {
+        let mut cmd = lumiwall();
+        cmd.args(["recalibrate", "--meter", "direct", "--noise", "none"])
+            .args(["--simulate-hours", hours, "--wall"])
+            .arg(small_wall())
+            .arg("--profiles")
+            .arg(&dir)
+            .arg("--store")
+            .arg(&store);
+        cmd.assert()
+    };
+    recalibrate("0")
+        .code(0)
+        .stdout(contains("0 drifted").and(contains("unchanged, no profiles written")));
+    assert_eq!(std::fs::read(&profile).unwrap(), commissioned);
+    recalibrate("2000")
+        .code(10)
+        .stdout(contains("2 drifted").and(contains("common white kept")))
+        .stdout(contains("recorded run 1"));
+    assert_ne!(std::fs::read(&profile).unwrap(), commissioned);
+    assert_eq!(
+        std::fs::read(dir.join("previous/d000-c0r0-mono.json")).unwrap(),
+        commissioned
+    );
+    lumiwall()
+        .args(["profiles", "rollback", "--profiles"])
+        .arg(&dir)
+        .assert()
+        .success()
+        .stdout(contains("restored 2 profiles"));
+    assert_eq!(std::fs::read(&profile).unwrap(), commissioned);
+    recalibrate("9000")
+        .code(11)
+        .stdout(contains("OUT OF REACH").and(contains("LEFT HEADROOM")));
+}
+
 #[test]
 fn profiles_report_a_missing_store_an_unknown_wall_and_a_duplicate_import() {
     let tmp = TempDir::new().unwrap();

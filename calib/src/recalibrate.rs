@@ -1,0 +1,572 @@
+//! Nightly recalibration: re-measure what lamps change, refit, re-solve the common
+//! white, and write new profiles only when something drifted.
+//!
+//! A commissioning leaves every display's full measurement in the profile folder
+//! (`run/*.measurement.json`). A recalibration reads each display again at its spot:
+//! black, the three primaries at full drive (repeated as in commissioning) and white,
+//! five to eleven readings instead of the ~40 of a commissioning. Each display is
+//! compared with its last measurement: the primaries' luminance (%) and chromaticity
+//! (Δxy) and the black (cd/m²). When no display drifted beyond the limits, nothing is
+//! written. Otherwise the measurement is refitted: black, primaries and white are the
+//! new readings, and each channel's tone curve keeps its shape (every ramp reading keeps
+//! its relative intensity `(Y − Y_black)/(Y_full − Y_black)` and is moved onto the new
+//! black and primary), and the wall is solved again with the profiles' own settings
+//! (target white chromaticity, black mode, out-of-gamut handling). Flat
+//! fields are kept from the current profiles. The current profiles and measurements
+//! are moved to `previous/` first, so [`rollback`] can restore them.
+//!
+//! The common white stays what it is (chromaticity and luminance) as long as every
+//! display still reaches it at full drive: that is what the headroom's reserve is for
+//! (each check reports the reserve left). A display that cannot reach it even at full
+//! drive has *left the headroom*: the wall is solved again within the configured
+//! headroom and its white is lowered (a lamp change is due; `profiles forecast`
+//! predicts when).
+
+use std::path::{Path, PathBuf};
+
+use lumiwall_core::files::FolderLock;
+use lumiwall_core::{Channel, Xyz};
+use lumiwall_devices::DisplayInfo;
+use lumiwall_profiles::{DisplayKey, DisplayProfile, ProfileError, ProfileSet, write_atomic};
+
+use crate::CalibError;
+use crate::commission::{
+    CommissionError, RUN_DIR, corrected_measurement, load_measurement, measurement_path,
+};
+use crate::measure::{
+    MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, Rig, Session, display_key,
+    measure_black_and_primaries, relative_intensity,
+};
+use crate::solve::{SolveOptions, WallSolution, WhiteTarget, now_rfc3339, solve_wall_at};
+
+/// Folder (inside the profile folder) that keeps the profiles and measurements a
+/// recalibration replaced.
+pub const PREVIOUS_DIR: &str = "previous";
+
+/// Drift beyond which a display is recalibrated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DriftLimits {
+    /// Largest change of a primary's luminance, percent.
+    pub luminance_pct: f64,
+    /// Largest change of a primary's chromaticity, CIE 1931 xy.
+    pub delta_xy: f64,
+    /// Largest change of the black luminance, cd/m².
+    pub black_cd_m2: f64,
+}
+
+impl Default for DriftLimits {
+    /// 2 %, 0.002 and 0.05 cd/m²: below what a viewer sees across a seam (about 2 % in
+    /// luminance at a tile border), above a K-10-class meter's repeatability.
+    fn default() -> Self {
+        Self {
+            luminance_pct: 2.0,
+            delta_xy: 0.002,
+            black_cd_m2: 0.05,
+        }
+    }
+}
+
+/// Options of a recalibration.
+#[derive(Debug, Clone)]
+pub struct RecalibrateOptions {
+    /// How to read (spot, repeats, low-light policy, meter matrices); the budget is not
+    /// used (a recalibration takes black, primaries and white only).
+    pub measure: MeasureOptions,
+    /// When a display counts as drifted.
+    pub limits: DriftLimits,
+    /// The reserve to keep when the white must be lowered; `None`: the current
+    /// profiles' headroom.
+    pub headroom: Option<f64>,
+}
+
+/// One display's readings against its last measurement.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DisplayCheck {
+    /// The display.
+    pub key: DisplayKey,
+    /// Change of each primary's luminance (black removed), percent.
+    pub luminance_change_pct: [f64; 3],
+    /// Change of each primary's chromaticity (black removed), xy.
+    pub primary_delta_xy: [f64; 3],
+    /// Change of the black luminance, cd/m².
+    pub black_change_cd_m2: f64,
+    /// Whether any change exceeds the limits.
+    pub drifted: bool,
+    /// Channel usage today's common white needs with the new primaries.
+    pub usage_for_current_white: [f64; 3],
+    /// The display's headroom (its profile's).
+    pub headroom: f64,
+    /// Readings taken.
+    pub readings: u32,
+}
+
+impl DisplayCheck {
+    /// Whether the display can no longer show today's common white (a channel would
+    /// need more than full drive).
+    pub fn cannot_reach_white(&self) -> bool {
+        self.usage_for_current_white
+            .iter()
+            .any(|&u| exceeds(u, 1.0 + 1e-9))
+    }
+
+    /// The reserve left for today's white: 1 minus the most used channel's usage
+    /// (negative when the white is out of reach).
+    pub fn reserve_left(&self) -> f64 {
+        1.0 - self
+            .usage_for_current_white
+            .iter()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max)
+    }
+}
+
+/// What a recalibration concluded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    /// Nothing drifted beyond the limits; no file was written.
+    Unchanged,
+    /// New profiles were written; the common white is kept (every display still
+    /// reaches it, some perhaps using part of the reserve above the headroom).
+    Recalibrated,
+    /// A display has left the headroom: it can no longer show the common white even at
+    /// full drive, so the wall was solved again within the headroom and its white
+    /// lowered. New profiles were written.
+    LeftHeadroom,
+}
+
+/// The result of [`recalibrate`].
+#[derive(Debug, Clone)]
+pub struct RecalibrationOutcome {
+    /// Wall name.
+    pub wall: String,
+    /// Every display's check, in wall order.
+    pub checks: Vec<DisplayCheck>,
+    /// The verdict.
+    pub verdict: Verdict,
+    /// The new solve, when profiles were written.
+    pub solution: Option<WallSolution>,
+    /// Common white luminance before, cd/m² (the first profile's target).
+    pub white_before_cd_m2: f64,
+    /// Common white luminance after, cd/m² (unchanged when nothing was written).
+    pub white_after_cd_m2: f64,
+}
+
+/// Why a recalibration stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum RecalibrateError {
+    /// The folder was not commissioned (or its measurements are missing).
+    #[error(
+        "{} has no measurement of {display} ({}); recalibrate needs a profile folder \
+         written by `lumiwall commission` (with its run/ folder)",
+        dir.display(), path.display()
+    )]
+    NotCommissioned {
+        /// Profile folder.
+        dir: PathBuf,
+        /// The display without a measurement.
+        display: String,
+        /// Where its measurement should be.
+        path: PathBuf,
+    },
+    /// The profile folder belongs to another wall or display layout.
+    #[error("{} holds {found}, the wall file describes {expected}", dir.display())]
+    WallMismatch {
+        /// Profile folder.
+        dir: PathBuf,
+        /// What the folder holds.
+        found: String,
+        /// What the wall file says.
+        expected: String,
+    },
+    /// No rollback is possible.
+    #[error(
+        "{} has no previous profiles to roll back to (a recalibration that wrote profiles \
+         keeps them in {PREVIOUS_DIR}/)",
+        dir.display()
+    )]
+    NothingToRollBack {
+        /// Profile folder.
+        dir: PathBuf,
+    },
+    /// A display could not be measured (meter, pattern output, aiming).
+    #[error("{0}")]
+    Measure(Box<MeasureError>),
+    /// A measurement file could not be read.
+    #[error(transparent)]
+    Commission(Box<CommissionError>),
+    /// The solve failed.
+    #[error("solving the wall again failed: {0}")]
+    Solve(#[from] CalibError),
+    /// Profiles could not be read or written.
+    #[error(transparent)]
+    Profile(#[from] ProfileError),
+    /// Another process writes into the folder.
+    #[error(transparent)]
+    Locked(#[from] lumiwall_core::files::LockError),
+    /// File system error.
+    #[error("cannot access {}: {source}", path.display())]
+    Io {
+        /// Path concerned.
+        path: PathBuf,
+        /// Underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl From<MeasureError> for RecalibrateError {
+    fn from(e: MeasureError) -> Self {
+        Self::Measure(Box::new(e))
+    }
+}
+
+impl From<CommissionError> for RecalibrateError {
+    fn from(e: CommissionError) -> Self {
+        Self::Commission(Box::new(e))
+    }
+}
+
+impl RecalibrateError {
+    /// Whether a device (meter, pattern output, positioner) failed, as opposed to the
+    /// files or the solve.
+    pub fn is_device_failure(&self) -> bool {
+        matches!(self, Self::Measure(_))
+    }
+}
+
+/// Recalibrates the wall whose profiles are in `dir` (see the module documentation).
+pub fn recalibrate(
+    wall: &str,
+    displays: &[DisplayInfo],
+    rig: &mut Rig<'_>,
+    dir: &Path,
+    opts: &RecalibrateOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<RecalibrationOutcome, RecalibrateError> {
+    let _lock = FolderLock::acquire(dir, &format!("recalibration of wall {wall}"))?;
+    let (profiles, last) = load_commissioned(wall, displays, dir)?;
+    let mut checks = Vec::with_capacity(displays.len());
+    let mut refitted = Vec::with_capacity(displays.len());
+    for ((info, old), profile) in displays.iter().zip(&last).zip(&profiles) {
+        let key = display_key(wall, info);
+        let (new, readings) = read_display(rig, info, &key, &opts.measure, progress)?;
+        checks.push(check(
+            &key,
+            &old.measurement,
+            &new,
+            profile,
+            readings,
+            &opts.limits,
+        ));
+        refitted.push(refit(old, new, readings));
+    }
+    let white_before_cd_m2 = profiles[0].target_white_xyz_cd_m2[1];
+    let mut outcome = RecalibrationOutcome {
+        wall: wall.to_string(),
+        verdict: Verdict::Unchanged,
+        solution: None,
+        white_before_cd_m2,
+        white_after_cd_m2: white_before_cd_m2,
+        checks,
+    };
+    if !outcome.checks.iter().any(|c| c.drifted) {
+        return Ok(outcome);
+    }
+    let (solution, kept) = solve_again(&refitted, &profiles, opts)?;
+    keep_previous(dir, &profiles, &last)?;
+    write_new(dir, wall, &refitted, &solution)?;
+    outcome.white_after_cd_m2 = solution.profiles[0].target_white_xyz_cd_m2[1];
+    outcome.verdict = if kept {
+        Verdict::Recalibrated
+    } else {
+        Verdict::LeftHeadroom
+    };
+    outcome.solution = Some(solution);
+    Ok(outcome)
+}
+
+/// The folder's profiles (wall order) and last measurements, checked against the wall.
+fn load_commissioned(
+    wall: &str,
+    displays: &[DisplayInfo],
+    dir: &Path,
+) -> Result<(Vec<DisplayProfile>, Vec<MeasuredDisplay>), RecalibrateError> {
+    let (set_wall, mut profiles) = ProfileSet::load_dir(dir)?;
+    profiles.sort_by(|a, b| a.display.cmp(&b.display));
+    let keys: Vec<DisplayKey> = displays.iter().map(|d| display_key(wall, d)).collect();
+    let found: Vec<&DisplayKey> = profiles.iter().map(|p| &p.display).collect();
+    if set_wall != wall || found != keys.iter().collect::<Vec<_>>() {
+        return Err(RecalibrateError::WallMismatch {
+            dir: dir.to_path_buf(),
+            found: format!("{} profiles of wall {set_wall}", profiles.len()),
+            expected: format!("{} displays of wall {wall}", keys.len()),
+        });
+    }
+    let run_dir = dir.join(RUN_DIR);
+    let last = keys
+        .iter()
+        .map(|key| {
+            let path = measurement_path(&run_dir, key);
+            match load_measurement(&path)? {
+                Some(m) if m.measurement.key == *key => Ok(m),
+                _ => Err(RecalibrateError::NotCommissioned {
+                    dir: dir.to_path_buf(),
+                    display: key.to_string(),
+                    path,
+                }),
+            }
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((profiles, last))
+}
+
+/// Black, primaries (repeated as commissioning does) and white of one display.
+fn read_display(
+    rig: &mut Rig<'_>,
+    info: &DisplayInfo,
+    key: &DisplayKey,
+    opts: &MeasureOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(Readings, u32), RecalibrateError> {
+    let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
+    let (black, primaries) = measure_black_and_primaries(&mut s, key, opts, progress)?;
+    let white = s.sample(Patch::White, true, progress)?;
+    let readings = s.log.readings;
+    progress(Progress::DisplayDone {
+        display: info.id,
+        readings,
+    });
+    Ok((
+        Readings {
+            black,
+            primaries,
+            white,
+        },
+        readings,
+    ))
+}
+
+/// What a recalibration reads of one display.
+struct Readings {
+    black: Xyz,
+    primaries: [Xyz; 3],
+    white: Option<Xyz>,
+}
+
+/// The display's drift against its last measurement, and the usage today's white needs.
+fn check(
+    key: &DisplayKey,
+    old: &crate::solve::DisplayMeasurement,
+    new: &Readings,
+    profile: &DisplayProfile,
+    readings: u32,
+    limits: &DriftLimits,
+) -> DisplayCheck {
+    let channel = |m: &[Xyz; 3], b: Xyz, c: usize| m[c] - b;
+    let mut luminance_change_pct = [0.0; 3];
+    let mut primary_delta_xy = [0.0; 3];
+    for c in 0..3 {
+        let (o, n) = (
+            channel(&old.primaries, old.black, c),
+            channel(&new.primaries, new.black, c),
+        );
+        luminance_change_pct[c] = 100.0 * (n.y / o.y - 1.0);
+        primary_delta_xy[c] = match (o.chromaticity(), n.chromaticity()) {
+            (Some(a), Some(b)) => a.distance(b),
+            _ => f64::INFINITY,
+        };
+    }
+    let black_change_cd_m2 = new.black.y - old.black.y;
+    let drifted = luminance_change_pct
+        .iter()
+        .any(|d| exceeds(d.abs(), limits.luminance_pct))
+        || primary_delta_xy
+            .iter()
+            .any(|d| exceeds(*d, limits.delta_xy))
+        || exceeds(black_change_cd_m2.abs(), limits.black_cd_m2);
+    DisplayCheck {
+        key: key.clone(),
+        luminance_change_pct,
+        primary_delta_xy,
+        black_change_cd_m2,
+        drifted,
+        usage_for_current_white: usage_for(new, profile),
+        headroom: profile.headroom,
+        readings,
+    }
+}
+
+/// `v` above `limit`, or not a number (an unreadable change counts as a change).
+fn exceeds(v: f64, limit: f64) -> bool {
+    v.is_nan() || v > limit
+}
+
+/// Linear channel intensities that show the profile's target white on the display
+/// with the new primaries (black removed from both); infinite where the primaries do
+/// not span it.
+fn usage_for(new: &Readings, profile: &DisplayProfile) -> [f64; 3] {
+    let cols: [[f64; 3]; 3] = std::array::from_fn(|c| (new.primaries[c] - new.black).to_array());
+    let m = lumiwall_core::mat3::from_columns(&cols);
+    let shown_black = Xyz::from_array(profile.shown_black_xyz_cd_m2);
+    let white = Xyz::from_array(profile.target_white_xyz_cd_m2) - shown_black;
+    lumiwall_core::mat3::inverse(&m).map_or([f64::INFINITY; 3], |inv| {
+        lumiwall_core::mat3::mul_vec(&inv, &white.to_array())
+    })
+}
+
+/// The last measurement moved onto the new readings: new black, primaries and white;
+/// every ramp reading keeps its relative intensity on the new black and primary.
+fn refit(old: &MeasuredDisplay, new: Readings, readings: u32) -> MeasuredDisplay {
+    let o = &old.measurement;
+    let mut m = o.clone();
+    for c in Channel::ALL {
+        let i = c.index();
+        for sample in &mut m.ramps[i] {
+            let t = relative_intensity(sample.1, o.black, o.primaries[i]);
+            sample.1 = new.black + (new.primaries[i] - new.black) * t;
+        }
+    }
+    m.black = new.black;
+    m.primaries = new.primaries;
+    m.white = new.white;
+    m.readings = readings;
+    MeasuredDisplay {
+        measurement: m,
+        log: old.log.clone(),
+    }
+}
+
+/// The wall solved again with the current profiles' settings (white chromaticity,
+/// black mode, out-of-gamut handling; flat fields kept), keeping today's white
+/// luminance when every display still reaches it at full drive, else the brightest
+/// white within the configured headroom. Returns the solve and whether the white was
+/// kept.
+fn solve_again(
+    refitted: &[MeasuredDisplay],
+    profiles: &[DisplayProfile],
+    opts: &RecalibrateOptions,
+) -> Result<(WallSolution, bool), RecalibrateError> {
+    let first = &profiles[0];
+    let configured = opts.headroom.unwrap_or(first.headroom);
+    let white_xy = Xyz::from_array(first.target_white_xyz_cd_m2)
+        .xy()
+        .unwrap_or([0.3127, 0.3290]);
+    let inputs: Vec<_> = refitted
+        .iter()
+        .map(|m| {
+            corrected_measurement(
+                &m.measurement,
+                [0.0; 2],
+                f64::from(opts.measure.primary_repeats()),
+            )
+        })
+        .collect();
+    let created = now_rfc3339();
+    let solve = |headroom: f64| {
+        let options = SolveOptions {
+            white: WhiteTarget::Xy(white_xy),
+            headroom,
+            black_mode: first.black_mode,
+            out_of_gamut: first.out_of_gamut,
+            ..SolveOptions::default()
+        };
+        solve_wall_at(&inputs, &options, &created)
+    };
+    let y_today = first.target_white_xyz_cd_m2[1];
+    let y_full = solve(1.0)?.white_xyz_cd_m2.y;
+    let (mut solution, kept) = if y_full >= y_today {
+        // the white's luminance is (nearly) proportional to the headroom; one secant
+        // step corrects the black offset's share
+        let mut h = (y_today / y_full).min(1.0);
+        let mut s = solve(h)?;
+        h = (h * y_today / s.white_xyz_cd_m2.y).min(1.0);
+        s = solve(h)?;
+        (s, true)
+    } else {
+        (solve(configured)?, false)
+    };
+    for (new, old) in solution.profiles.iter_mut().zip(profiles) {
+        new.flat_field.clone_from(&old.flat_field);
+        new.headroom = configured;
+    }
+    Ok((solution, kept))
+}
+
+/// Moves the current profiles, manifest and measurements to `previous/` (replacing an
+/// older one) by writing a fresh copy next to it and renaming it into place.
+fn keep_previous(
+    dir: &Path,
+    profiles: &[DisplayProfile],
+    last: &[MeasuredDisplay],
+) -> Result<(), RecalibrateError> {
+    let staging = dir.join(format!("{PREVIOUS_DIR}.new"));
+    let target = dir.join(PREVIOUS_DIR);
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| RecalibrateError::Io { path, source }
+    };
+    remove_dir_if_present(&staging)?;
+    std::fs::create_dir_all(staging.join(RUN_DIR)).map_err(io(&staging))?;
+    let wall = &profiles[0].display.wall;
+    ProfileSet::save_dir(&staging, wall, profiles)?;
+    for m in last {
+        let path = measurement_path(&staging.join(RUN_DIR), &m.measurement.key);
+        write_atomic(&path, &json(m))?;
+    }
+    remove_dir_if_present(&target)?;
+    std::fs::rename(&staging, &target).map_err(io(&target))
+}
+
+fn remove_dir_if_present(path: &Path) -> Result<(), RecalibrateError> {
+    match std::fs::remove_dir_all(path) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(source) => Err(RecalibrateError::Io {
+            path: path.to_path_buf(),
+            source,
+        }),
+    }
+}
+
+fn json<T: serde::Serialize>(v: &T) -> Vec<u8> {
+    // Plain numbers, strings and enums always serialise.
+    serde_json::to_vec_pretty(v).unwrap_or_default()
+}
+
+/// The refitted measurements (so the next recalibration compares with them) and the
+/// new profiles.
+fn write_new(
+    dir: &Path,
+    wall: &str,
+    refitted: &[MeasuredDisplay],
+    solution: &WallSolution,
+) -> Result<(), RecalibrateError> {
+    for m in refitted {
+        let path = measurement_path(&dir.join(RUN_DIR), &m.measurement.key);
+        write_atomic(&path, &json(m))?;
+    }
+    ProfileSet::save_dir(dir, wall, &solution.profiles)?;
+    Ok(())
+}
+
+/// Restores the profiles and measurements a recalibration replaced (`previous/`) and
+/// removes `previous/`; returns the restored profiles.
+pub fn rollback(dir: &Path) -> Result<Vec<DisplayProfile>, RecalibrateError> {
+    let _lock = FolderLock::acquire(dir, "rollback")?;
+    let previous = dir.join(PREVIOUS_DIR);
+    if !previous.join(ProfileSet::MANIFEST).is_file() {
+        return Err(RecalibrateError::NothingToRollBack {
+            dir: dir.to_path_buf(),
+        });
+    }
+    let (wall, profiles) = ProfileSet::load_dir(&previous)?;
+    for p in &profiles {
+        let from = measurement_path(&previous.join(RUN_DIR), &p.display);
+        if let Some(m) = load_measurement(&from)? {
+            write_atomic(&measurement_path(&dir.join(RUN_DIR), &p.display), &json(&m))?;
+        }
+    }
+    ProfileSet::save_dir(dir, &wall, &profiles)?;
+    remove_dir_if_present(&previous)?;
+    Ok(profiles)
+}

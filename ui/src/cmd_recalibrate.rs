@@ -1,0 +1,166 @@
+//! `lumiwall recalibrate`: the unattended nightly run (see
+//! `lumiwall_calib::recalibrate`). Prints one line per display and a one-line summary
+//! for logs; the exit code tells monitoring what happened.
+
+use std::path::PathBuf;
+
+use lumiwall_calib::measure::{MeasureOptions, Progress};
+use lumiwall_calib::recalibrate::{DriftLimits, RecalibrateOptions, RecalibrationOutcome, Verdict};
+use lumiwall_calib::station::Station;
+use lumiwall_profiles::store::{CommissionRun, ProfileStore, Timestamp};
+
+use crate::CliError;
+use crate::cmd_commission::MeterArgs;
+use crate::values;
+
+/// Exit code: new profiles were written, the common white kept.
+pub(crate) const EXIT_RECALIBRATED: i32 = 10;
+/// Exit code: a display left the headroom, the wall's white was lowered.
+pub(crate) const EXIT_LEFT_HEADROOM: i32 = 11;
+/// Exit code: a device (meter, pattern output, positioner) failed.
+pub(crate) const EXIT_DEVICE_FAILED: i32 = 12;
+
+/// Arguments of `lumiwall recalibrate`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct RecalibrateArgs {
+    /// Wall description (TOML).
+    #[arg(long)]
+    wall: PathBuf,
+    /// Profile folder written by `lumiwall commission`; new profiles replace the ones in
+    /// it (the old ones move to `previous/`, see `lumiwall profiles rollback`).
+    #[arg(long)]
+    profiles: PathBuf,
+    /// Record the run in this profile store when profiles are written.
+    #[arg(long)]
+    store: Option<PathBuf>,
+    /// Recalibrate when a primary's luminance changed by more than this (percent).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 2.0, value_parser = values::positive_finite)]
+    max_luminance_change_pct: f64,
+    /// Recalibrate when a primary's chromaticity moved by more than this (CIE 1931 xy).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.002, value_parser = values::positive_finite)]
+    max_delta_xy: f64,
+    /// Recalibrate when the black changed by more than this (cd/m²).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.05, value_parser = values::positive_finite)]
+    max_black_change: f64,
+    /// Reserve to keep when the white must be lowered, in (0, 1]; default: the
+    /// profiles' own.
+    #[arg(long, value_parser = |s: &str| values::positive_at_most(s, 1.0))]
+    headroom: Option<f64>,
+    /// Virtual wall only: let its lamps age this many hours before measuring (to try a
+    /// recalibration on the simulator).
+    #[arg(long, allow_negative_numbers = true, value_parser = values::non_negative_finite)]
+    simulate_hours: Option<f64>,
+    #[command(flatten)]
+    meter: MeterArgs,
+}
+
+/// Runs `lumiwall recalibrate`; returns the exit code (0: nothing drifted, 10:
+/// recalibrated, 11: a display left the headroom, 12: a device failed).
+pub(crate) fn run(args: RecalibrateArgs) -> Result<i32, CliError> {
+    let mut station = Station::open(&args.wall, &args.meter.station_options())?;
+    if let Some(h) = args.simulate_hours {
+        station.wall.advance_hours(h);
+    }
+    let opts = RecalibrateOptions {
+        measure: MeasureOptions {
+            meter_matrix: crate::cmd_verify::meter_matrices(
+                &args.meter,
+                &args.profiles,
+                station.meter.as_ref(),
+            )?,
+            ..MeasureOptions::default()
+        },
+        limits: DriftLimits {
+            luminance_pct: args.max_luminance_change_pct,
+            delta_xy: args.max_delta_xy,
+            black_cd_m2: args.max_black_change,
+        },
+        headroom: args.headroom,
+    };
+    let started = Timestamp::now();
+    let mut readings = 0u32;
+    let mut progress = |p: Progress| {
+        if let Progress::Reading { .. } = p {
+            readings += 1;
+        }
+    };
+    let outcome = match station.recalibrate(&args.profiles, &opts, &mut progress) {
+        Ok(o) => o,
+        Err(e) if e.is_device_failure() => {
+            println!("recalibrate {}: DEVICE FAILED: {e}", station.wall.name());
+            eprintln!("lumiwall: error: {e}");
+            return Ok(EXIT_DEVICE_FAILED);
+        }
+        Err(e) => return Err(CliError::failure(e.to_string())),
+    };
+    print!("{}", display_lines(&outcome));
+    if let (Some(store), Some(solution)) = (&args.store, &outcome.solution) {
+        let mut store = ProfileStore::open(store)?;
+        let mut run = CommissionRun::new(outcome.wall.clone(), started);
+        run.source = "recalibrate".into();
+        let id = store.record(&run, &solution.profiles)?;
+        println!("recorded run {} in {}", id.0, store.path().display());
+    }
+    println!("{}", summary(&outcome, readings));
+    Ok(match outcome.verdict {
+        Verdict::Unchanged => 0,
+        Verdict::Recalibrated => EXIT_RECALIBRATED,
+        Verdict::LeftHeadroom => EXIT_LEFT_HEADROOM,
+    })
+}
+
+/// One line per display: drift, reserve left, whether it drifted.
+fn display_lines(o: &RecalibrationOutcome) -> String {
+    let mut s = String::new();
+    for c in &o.checks {
+        let worst_dy = c
+            .luminance_change_pct
+            .iter()
+            .copied()
+            .fold(0.0, |a: f64, b| if b.abs() > a.abs() { b } else { a });
+        let worst_dxy = c.primary_delta_xy.iter().copied().fold(0.0, f64::max);
+        s += &format!(
+            "{:<44} ΔY {:+6.2} %  Δxy {:.4}  black {:+.3} cd/m²  reserve {:+.3}  {}\n",
+            c.key.to_string(),
+            worst_dy,
+            worst_dxy,
+            c.black_change_cd_m2,
+            c.reserve_left(),
+            if c.cannot_reach_white() {
+                "OUT OF REACH"
+            } else if c.drifted {
+                "drifted"
+            } else {
+                "ok"
+            }
+        );
+    }
+    s
+}
+
+/// The one-line summary for logs.
+fn summary(o: &RecalibrationOutcome, readings: u32) -> String {
+    let drifted = o.checks.iter().filter(|c| c.drifted).count();
+    let least_reserve = o
+        .checks
+        .iter()
+        .map(|c| c.reserve_left())
+        .fold(f64::INFINITY, f64::min);
+    let what = match o.verdict {
+        Verdict::Unchanged => "unchanged, no profiles written".to_string(),
+        Verdict::Recalibrated => format!(
+            "recalibrated, common white kept at {:.2} cd/m²",
+            o.white_after_cd_m2
+        ),
+        Verdict::LeftHeadroom => format!(
+            "LEFT HEADROOM: common white lowered {:.2} → {:.2} cd/m²",
+            o.white_before_cd_m2, o.white_after_cd_m2
+        ),
+    };
+    format!(
+        "recalibrate {}: {} displays, {readings} readings, {drifted} drifted, least reserve \
+         {least_reserve:.3}; {what}",
+        o.wall,
+        o.checks.len()
+    )
+}
