@@ -75,7 +75,9 @@ pub struct RecalibrateOptions {
     /// When a display counts as drifted.
     pub limits: DriftLimits,
     /// The reserve to keep when the white must be lowered; `None`: the current
-    /// profiles' headroom.
+    /// profiles' headroom. A profile's headroom is the largest usage its solve allowed:
+    /// after a recalibration that kept the white it is the usage of the kept white, so
+    /// nightly runs should give the commissioning's headroom here.
     pub headroom: Option<f64>,
 }
 
@@ -487,7 +489,6 @@ fn solve_again(
     };
     for (new, old) in solution.profiles.iter_mut().zip(profiles) {
         new.flat_field.clone_from(&old.flat_field);
-        new.headroom = configured;
     }
     Ok((solution, kept))
 }

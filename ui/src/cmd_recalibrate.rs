@@ -42,8 +42,9 @@ pub(crate) struct RecalibrateArgs {
     /// Recalibrate when the black changed by more than this (cd/m²).
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.05, value_parser = values::positive_finite)]
     max_black_change: f64,
-    /// Reserve to keep when the white must be lowered, in (0, 1]; default: the
-    /// profiles' own.
+    /// Reserve to keep when the white must be lowered, in (0, 1]: give the
+    /// commissioning's `--headroom` (default: the profiles' own, which after a
+    /// recalibration that kept the white is the usage of that white).
     #[arg(long, value_parser = |s: &str| values::positive_at_most(s, 1.0))]
     headroom: Option<f64>,
     /// Virtual wall only: let its lamps age this many hours before measuring (to try a

@@ -74,6 +74,10 @@ pub(crate) struct VerifyArgs {
     /// cell and the simulator's own truth is printed beside it.
     #[arg(long, value_parser = parse_grid)]
     grid: Option<[u32; 2]>,
+    /// Virtual wall only: let its lamps age this many hours before verifying (as
+    /// `recalibrate --simulate-hours`).
+    #[arg(long, allow_negative_numbers = true, value_parser = values::non_negative_finite)]
+    simulate_hours: Option<f64>,
     /// Write the spatial verification's heat map (SVG) here (with `--grid`).
     #[arg(long, requires = "grid")]
     heat_map: Option<PathBuf>,
@@ -164,6 +168,9 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
         ))
     })?;
     let mut station = Station::open(&args.wall, &args.meter.station_options())?;
+    if let Some(h) = args.simulate_hours {
+        station.wall.advance_hours(h);
+    }
     if station.wall.name() != wall_name {
         return Err(CliError::input(format!(
             "the profiles in {} are for wall '{wall_name}', the wall file is '{}'",
@@ -249,6 +256,9 @@ fn truth_report(
         &args.wall,
         &StationOptions::new(MeterChoice::Direct, Noise::None),
     )?;
+    if let Some(h) = args.simulate_hours {
+        truth.wall.advance_hours(h);
+    }
     let opts = VerifyOptions {
         patches: targets.len(),
         ..VerifyOptions::default()
