@@ -8,6 +8,7 @@ mod cmd_apply;
 #[cfg(feature = "camera")]
 mod cmd_camera;
 mod cmd_cie171;
+#[cfg(feature = "station")]
 mod cmd_commission;
 #[cfg(feature = "station")]
 mod cmd_export;

@@ -120,6 +120,10 @@ pub(crate) fn duration(s: &str) -> Result<Duration, String> {
 
 /// A duration like [`duration`] that may also be zero (`0s`, `0ms`), e.g. a settle
 /// time.
+#[cfg_attr(
+    not(feature = "pattern-server"),
+    expect(dead_code, reason = "used by the pattern server's options only")
+)]
 pub(crate) fn duration_or_zero(s: &str) -> Result<Duration, String> {
     let zero = s.trim().trim_end_matches(['m', 's', 'h']).trim();
     if zero.parse::<f64>().is_ok_and(|v| v == 0.0) {
