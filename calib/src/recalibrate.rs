@@ -3,14 +3,17 @@
 //!
 //! A commissioning leaves every display's full measurement in the profile folder
 //! (`run/*.measurement.json`). A recalibration reads each display again at its spot:
-//! black, the three primaries at full drive (repeated as in commissioning) and white,
-//! five to eleven readings instead of the ~40 of a commissioning. Each display is
+//! black, the three primaries at full drive (repeated as in commissioning), white and
+//! each channel at mid drive (the tone-curve check), 8 to 17 readings instead of the
+//! ~40 of a commissioning. Each display is
 //! compared with its last measurement: the primaries' luminance (%) and chromaticity
-//! (Δxy) and the black (cd/m²). When no display drifted beyond the limits, nothing is
-//! written. Otherwise the measurement is refitted: black, primaries and white are the
-//! new readings, and each channel's tone curve keeps its shape (every ramp reading keeps
-//! its relative intensity `(Y − Y_black)/(Y_full − Y_black)` and is moved onto the new
-//! black and primary), and the wall is solved again with the profiles' own settings
+//! (Δxy), the black (cd/m²) and the mid-drive intensities against the last tone curves
+//! (%). When no display drifted beyond the limits, nothing is written. Otherwise the
+//! measurement is refitted: black, primaries and white are the new readings, and each
+//! channel's tone curve keeps its shape (every ramp reading keeps its relative
+//! intensity `(Y − Y_black)/(Y_full − Y_black)` and is moved onto the new black and
+//! primary); a display whose curve moved is measured again in full instead. Then the
+//! wall is solved again with the profiles' own settings
 //! (target white chromaticity, black mode, out-of-gamut handling). Flat
 //! fields are kept from the current profiles. The current profiles and measurements
 //! are moved to `previous/` first, so [`rollback`] can restore them.
@@ -35,7 +38,7 @@ use crate::commission::{
 };
 use crate::measure::{
     MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, Rig, Session, display_key,
-    measure_black_and_primaries, relative_intensity,
+    measure_black_and_primaries, measure_display, relative_intensity,
 };
 use crate::solve::{SolveOptions, WallSolution, WhiteTarget, now_rfc3339, solve_wall_at};
 
@@ -52,16 +55,21 @@ pub struct DriftLimits {
     pub delta_xy: f64,
     /// Largest change of the black luminance, cd/m².
     pub black_cd_m2: f64,
+    /// Largest change of a channel's relative intensity at mid drive against its tone
+    /// curve, percent; beyond it the display is measured again in full.
+    pub curve_pct: f64,
 }
 
 impl Default for DriftLimits {
     /// 2 %, 0.002 and 0.05 cd/m²: below what a viewer sees across a seam (about 2 % in
-    /// luminance at a tile border), above a K-10-class meter's repeatability.
+    /// luminance at a tile border), above a K-10-class meter's repeatability; curves 3 %
+    /// (a mid grey 3 % off is about ΔE2000 1).
     fn default() -> Self {
         Self {
             luminance_pct: 2.0,
             delta_xy: 0.002,
             black_cd_m2: 0.05,
+            curve_pct: 3.0,
         }
     }
 }
@@ -98,6 +106,13 @@ pub struct DisplayCheck {
     pub usage_for_current_white: [f64; 3],
     /// The display's headroom (its profile's).
     pub headroom: f64,
+    /// Change of each channel's relative intensity at mid drive
+    /// ([`curve_check_drive`]) against its profile's tone curve, percent (NaN where it
+    /// could not be read).
+    pub curve_change_pct: [f64; 3],
+    /// Whether a tone curve moved beyond the limit: the display is measured again in
+    /// full (curves included) instead of refitted.
+    pub curves_moved: bool,
     /// Readings taken.
     pub readings: u32,
 }
@@ -252,15 +267,22 @@ pub fn recalibrate(
     for ((info, old), profile) in displays.iter().zip(&last).zip(&profiles) {
         let key = display_key(wall, info);
         let (new, readings) = read_display(rig, info, &key, &opts.measure, progress)?;
-        checks.push(check(
+        let mut c = check(
             &key,
             &old.measurement,
             &new,
             profile,
             readings,
             &opts.limits,
-        ));
-        refitted.push(refit(old, new, readings));
+        );
+        if c.curves_moved {
+            let full = measure_display(rig, info, &key, &opts.measure, progress)?;
+            c.readings += full.measurement.readings;
+            refitted.push(full);
+        } else {
+            refitted.push(refit(old, new, readings));
+        }
+        checks.push(c);
     }
     let white_before_cd_m2 = profiles[0].target_white_xyz_cd_m2[1];
     let mut outcome = RecalibrationOutcome {
@@ -333,6 +355,13 @@ fn read_display(
     let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
     let (black, primaries) = measure_black_and_primaries(&mut s, key, opts, progress)?;
     let white = s.sample(Patch::White, true, progress)?;
+    let mut mid = [None; 3];
+    let drive = curve_check_drive(info.bit_depth);
+    for c in Channel::ALL {
+        mid[c.index()] = s
+            .sample(Patch::Ramp(c, drive), true, progress)?
+            .map(|xyz| (drive, xyz));
+    }
     let readings = s.log.readings;
     progress(Progress::DisplayDone {
         display: info.id,
@@ -343,6 +372,7 @@ fn read_display(
             black,
             primaries,
             white,
+            mid,
         },
         readings,
     ))
@@ -353,6 +383,35 @@ struct Readings {
     black: Xyz,
     primaries: [Xyz; 3],
     white: Option<Xyz>,
+    /// Each channel alone at the curve-check drive, with that drive (`None`: too dark
+    /// to read).
+    mid: [Option<(f64, Xyz)>; 3],
+}
+
+/// Drive of the tone-curve check: one reading per channel where a curve's shape shows
+/// most (mid drive, well above the meter's low-light limit), on a code the display's
+/// input shows exactly (0.5 is not: on 8 bits it is shown as 128/255, which alone is
+/// 0.9 % more light on a gamma-2.2 channel).
+pub fn curve_check_drive(bit_depth: u32) -> f64 {
+    let top = f64::from((1u32 << bit_depth.clamp(1, 16)) - 1);
+    (0.5 * top).round() / top
+}
+
+/// A channel's relative intensity `(Y − Y_black)/(Y_full − Y_black)` at `drive` on the
+/// profile's fitted tone curve: the intensity whose drive (the curve's inverse LUT) is
+/// `drive`, by bisection (the curve is monotone).
+fn curve_at(profile: &DisplayProfile, c: usize, drive: f64) -> f64 {
+    let curve = &profile.curves[c];
+    let (mut lo, mut hi) = (0.0f32, 1.0f32);
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if f64::from(curve.drive_for(mid)) < drive {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    f64::from(0.5 * (lo + hi))
 }
 
 /// The display's drift against its last measurement, and the usage today's white needs.
@@ -379,9 +438,25 @@ fn check(
         };
     }
     let black_change_cd_m2 = new.black.y - old.black.y;
-    let drifted = luminance_change_pct
-        .iter()
-        .any(|d| exceeds(d.abs(), limits.luminance_pct))
+    let curve_change_pct: [f64; 3] = std::array::from_fn(|c| match new.mid[c] {
+        Some((drive, xyz)) => {
+            // luminance only: a dark blue's X and Z carry the meter's xy noise amplified
+            // by 1/y (a few percent per reading at 1 cd/m² on a K-10)
+            let seen = (xyz.y - new.black.y) / (new.primaries[c].y - new.black.y);
+            let expected = curve_at(profile, c, drive);
+            if expected > 0.0 {
+                100.0 * (seen / expected - 1.0)
+            } else {
+                f64::NAN
+            }
+        }
+        None => f64::NAN,
+    });
+    let curves_moved = curve_change_pct.iter().any(|d| d.abs() > limits.curve_pct);
+    let drifted = curves_moved
+        || luminance_change_pct
+            .iter()
+            .any(|d| exceeds(d.abs(), limits.luminance_pct))
         || primary_delta_xy
             .iter()
             .any(|d| exceeds(*d, limits.delta_xy))
@@ -394,6 +469,8 @@ fn check(
         drifted,
         usage_for_current_white: usage_for(new, profile),
         headroom: profile.headroom,
+        curve_change_pct,
+        curves_moved,
         readings,
     }
 }

@@ -42,6 +42,10 @@ pub(crate) struct RecalibrateArgs {
     /// Recalibrate when the black changed by more than this (cd/m²).
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.05, value_parser = values::positive_finite)]
     max_black_change: f64,
+    /// Measure a display again in full (tone curves included) when a channel's light at
+    /// mid drive is off its profile's curve by more than this (percent).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 3.0, value_parser = values::positive_finite)]
+    max_curve_change_pct: f64,
     /// Reserve to keep when the white must be lowered, in (0, 1]: give the
     /// commissioning's `--headroom` (default: the profiles' own, which after a
     /// recalibration that kept the white is the usage of that white).
@@ -75,6 +79,7 @@ pub(crate) fn run(args: RecalibrateArgs) -> Result<i32, CliError> {
             luminance_pct: args.max_luminance_change_pct,
             delta_xy: args.max_delta_xy,
             black_cd_m2: args.max_black_change,
+            curve_pct: args.max_curve_change_pct,
         },
         headroom: args.headroom,
     };
@@ -120,15 +125,25 @@ fn display_lines(o: &RecalibrationOutcome) -> String {
             .copied()
             .fold(0.0, |a: f64, b| if b.abs() > a.abs() { b } else { a });
         let worst_dxy = c.primary_delta_xy.iter().copied().fold(0.0, f64::max);
+        let worst_curve = c.curve_change_pct.iter().copied().fold(0.0, |a: f64, b| {
+            if b.is_nan() || b.abs() > a.abs() {
+                b
+            } else {
+                a
+            }
+        });
         s += &format!(
-            "{:<44} ΔY {:+6.2} %  Δxy {:.4}  black {:+.3} cd/m²  reserve {:+.3}  {}\n",
+            "{:<44} ΔY {:+6.2} %  Δxy {:.4}  black {:+.3} cd/m²  curve {:+5.1} %  reserve {:+.3}  {}\n",
             c.key.to_string(),
             worst_dy,
             worst_dxy,
             c.black_change_cd_m2,
+            worst_curve,
             c.reserve_left(),
             if c.cannot_reach_white() {
                 "OUT OF REACH"
+            } else if c.curves_moved {
+                "curve moved: measured in full"
             } else if c.drifted {
                 "drifted"
             } else {
