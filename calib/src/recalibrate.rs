@@ -40,6 +40,7 @@ use crate::measure::{
     MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, Rig, Session, display_key,
     measure_black_and_primaries, measure_display, relative_intensity,
 };
+use crate::report;
 use crate::solve::{SolveOptions, WallSolution, WhiteTarget, now_rfc3339, solve_wall_at};
 
 /// Folder (inside the profile folder) that keeps the profiles and measurements a
@@ -305,6 +306,7 @@ pub fn recalibrate(
     } else {
         Verdict::LeftHeadroom
     };
+    write_report(dir, &outcome, &refitted, &solution)?;
     outcome.solution = Some(solution);
     Ok(outcome)
 }
@@ -625,6 +627,93 @@ fn write_new(
     }
     ProfileSet::save_dir(dir, wall, &solution.profiles)?;
     Ok(())
+}
+
+/// The commissioning report of the new solve (gamut, usage, tables) with the
+/// recalibration's section (first in `report.md`, last in `report.html`): verdict,
+/// white before and after, and every display's drift, curve check and reserve.
+fn write_report(
+    dir: &Path,
+    outcome: &RecalibrationOutcome,
+    refitted: &[MeasuredDisplay],
+    solution: &WallSolution,
+) -> Result<(), RecalibrateError> {
+    let solve = solution_options(solution);
+    let inputs = report::ReportInputs {
+        wall: &outcome.wall,
+        measured: refitted,
+        solution,
+        solve: &solve,
+        meter_correction: None,
+        drift: None,
+    };
+    let section = recalibration_markdown(outcome);
+    write_atomic(
+        &dir.join("gamut.svg"),
+        report::gamut_svg(&inputs).as_bytes(),
+    )?;
+    write_atomic(
+        &dir.join("usage.svg"),
+        report::usage_svg(&inputs).as_bytes(),
+    )?;
+    let md = format!("{section}\n{}", report::markdown(&inputs));
+    write_atomic(&dir.join("report.md"), md.as_bytes())?;
+    let html = report::html_with_section(&report::html(&inputs), &section, &[]);
+    write_atomic(&dir.join("report.html"), html.as_bytes())?;
+    Ok(())
+}
+
+/// The options the new profiles were solved with, as the report shows them.
+fn solution_options(solution: &WallSolution) -> SolveOptions {
+    let p = &solution.profiles[0];
+    SolveOptions {
+        white: WhiteTarget::Xy(
+            Xyz::from_array(p.target_white_xyz_cd_m2)
+                .xy()
+                .unwrap_or([0.3127, 0.3290]),
+        ),
+        headroom: p.headroom,
+        black_mode: p.black_mode,
+        out_of_gamut: p.out_of_gamut,
+        ..SolveOptions::default()
+    }
+}
+
+/// The recalibration's section of the report (markdown).
+pub fn recalibration_markdown(o: &RecalibrationOutcome) -> String {
+    let mut s = format!(
+        "## Recalibration of {} ({})\n\n{:?}: common white {:.2} → {:.2} cd/m², {} readings.\n\n\
+         | display | ΔY R/G/B % | Δxy primaries (max) | black Δ cd/m² | curve at mid drive R/G/B % | reserve left | status |\n\
+         |---|---|---|---|---|---|---|\n",
+        o.wall,
+        now_rfc3339(),
+        o.verdict,
+        o.white_before_cd_m2,
+        o.white_after_cd_m2,
+        o.checks.iter().map(|c| c.readings).sum::<u32>()
+    );
+    for c in &o.checks {
+        let three = |v: [f64; 3]| format!("{:+.2} / {:+.2} / {:+.2}", v[0], v[1], v[2]);
+        let status = if c.cannot_reach_white() {
+            "white out of reach"
+        } else if c.curves_moved {
+            "curve moved: measured in full"
+        } else if c.drifted {
+            "drifted: refitted"
+        } else {
+            "ok"
+        };
+        s += &format!(
+            "| {} | {} | {:.4} | {:+.3} | {} | {:.3} | {status} |\n",
+            c.key,
+            three(c.luminance_change_pct),
+            c.primary_delta_xy.iter().copied().fold(0.0, f64::max),
+            c.black_change_cd_m2,
+            three(c.curve_change_pct),
+            c.reserve_left()
+        );
+    }
+    s
 }
 
 /// Restores the profiles and measurements a recalibration replaced (`previous/`) and

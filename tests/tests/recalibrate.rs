@@ -137,6 +137,10 @@ fn aged_lamps_are_recalibrated_to_the_truth_and_can_be_rolled_back() {
         stale.median_de
     );
     assert!(fresh.median_de <= 0.5 && fresh.max_de <= 2.0, "{fresh:?}");
+    // the report: the new solve's, with a section on the recalibration
+    let html = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
+    assert!(html.contains("<h2>Recalibration of mono-2x1") && html.contains("drifted: refitted"));
+    assert!(html.contains("<table") && html.contains("<svg"));
     // the flat fields and the folder layout stay; the old files are kept
     assert_eq!(ProfileSet::load_dir(dir.path()).unwrap().1.len(), 2);
     assert_eq!(files_of(&dir.path().join(PREVIOUS_DIR)), before);
