@@ -533,6 +533,7 @@ pub fn finish(
         },
     }
     ProfileSet::save_dir(out_dir, wall, &solution.profiles)?;
+    drop_previous(out_dir)?;
     let report_in = ReportInputs {
         wall,
         measured: &measured,
@@ -552,6 +553,21 @@ pub fn finish(
         meter_correction: correction,
         drift: drift.cloned(),
     })
+}
+
+/// Removes a recalibration's `previous/`: it belongs to the profiles this
+/// commissioning replaced, and `profiles rollback` must not bring them back over the
+/// new ones.
+fn drop_previous(out_dir: &Path) -> Result<(), CommissionError> {
+    let previous = out_dir.join(crate::recalibrate::PREVIOUS_DIR);
+    match std::fs::remove_dir_all(&previous) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(source) => Err(CommissionError::Io {
+            path: previous,
+            source,
+        }),
+    }
 }
 
 /// The report's plots, markdown and HTML into `out_dir`; returns the report files.

@@ -83,6 +83,10 @@ pub struct RecalibrateOptions {
     pub measure: MeasureOptions,
     /// When a display counts as drifted.
     pub limits: DriftLimits,
+    /// The meter's xy offset the commissioning corrected (its `meter-correction.json`,
+    /// `--meter-offset-correction`), applied again to the new readings; `[0, 0]` for
+    /// none.
+    pub meter_xy_offset: [f64; 2],
     /// The reserve to keep when the white must be lowered; `None`: the current
     /// profiles' headroom. A profile's headroom is the largest usage its solve allowed:
     /// after a recalibration that kept the white it is the usage of the kept white, so
@@ -455,7 +459,12 @@ fn check(
         None => f64::NAN,
     });
     let curves_moved = curve_change_pct.iter().any(|d| d.abs() > limits.curve_pct);
+    let usage_for_current_white = usage_for(new, profile);
+    let out_of_reach = usage_for_current_white
+        .iter()
+        .any(|&u| exceeds(u, 1.0 + 1e-9));
     let drifted = curves_moved
+        || out_of_reach
         || luminance_change_pct
             .iter()
             .any(|d| exceeds(d.abs(), limits.luminance_pct))
@@ -469,7 +478,7 @@ fn check(
         primary_delta_xy,
         black_change_cd_m2,
         drifted,
-        usage_for_current_white: usage_for(new, profile),
+        usage_for_current_white,
         headroom: profile.headroom,
         curve_change_pct,
         curves_moved,
@@ -482,16 +491,20 @@ fn exceeds(v: f64, limit: f64) -> bool {
     v.is_nan() || v > limit
 }
 
-/// Linear channel intensities that show the profile's target white on the display
-/// with the new primaries (black removed from both); infinite where the primaries do
-/// not span it.
+/// Linear channel intensities with which the display, as read now, shows what the wall
+/// shows for white: the target white plus the black the profile shows (own or common,
+/// by black mode), less the display's own black now; through the profile's display
+/// model (a white segment takes part of the load). Infinite where the primaries do not
+/// span it.
 fn usage_for(new: &Readings, profile: &DisplayProfile) -> [f64; 3] {
     let cols: [[f64; 3]; 3] = std::array::from_fn(|c| (new.primaries[c] - new.black).to_array());
-    let m = lumiwall_core::mat3::from_columns(&cols);
-    let shown_black = Xyz::from_array(profile.shown_black_xyz_cd_m2);
-    let white = Xyz::from_array(profile.target_white_xyz_cd_m2) - shown_black;
-    lumiwall_core::mat3::inverse(&m).map_or([f64::INFINITY; 3], |inv| {
-        lumiwall_core::mat3::mul_vec(&inv, &white.to_array())
+    let p = lumiwall_core::mat3::from_columns(&cols);
+    let shown = Xyz::from_array(profile.target_white_xyz_cd_m2)
+        + Xyz::from_array(profile.shown_black_xyz_cd_m2)
+        - new.black;
+    lumiwall_core::mat3::inverse(&p).map_or([f64::INFINITY; 3], |inv| {
+        let m = lumiwall_core::mat3::mul_vec(&inv, &shown.to_array());
+        profile.display_model.channels_for(&profile.xyz_to_drive, m)
     })
 }
 
@@ -537,7 +550,7 @@ fn solve_again(
         .map(|m| {
             corrected_measurement(
                 &m.measurement,
-                [0.0; 2],
+                opts.meter_xy_offset,
                 f64::from(opts.measure.primary_repeats()),
             )
         })
@@ -556,13 +569,16 @@ fn solve_again(
     let y_today = first.target_white_xyz_cd_m2[1];
     let y_full = solve(1.0)?.white_xyz_cd_m2.y;
     let (mut solution, kept) = if y_full >= y_today {
-        // the white's luminance is (nearly) proportional to the headroom; one secant
-        // step corrects the black offset's share
-        let mut h = (y_today / y_full).min(1.0);
-        let mut s = solve(h)?;
-        h = (h * y_today / s.white_xyz_cd_m2.y).min(1.0);
-        s = solve(h)?;
-        (s, true)
+        // the white's luminance is affine in the headroom (a black offset shifts it):
+        // a proportional first guess, then the secant through it and full drive
+        let h1 = (y_today / y_full).min(1.0);
+        let y1 = solve(h1)?.white_xyz_cd_m2.y;
+        let h = if (y_full - y1).abs() > 1e-12 && h1 < 1.0 {
+            h1 + (y_today - y1) * (1.0 - h1) / (y_full - y1)
+        } else {
+            h1
+        };
+        (solve(h.clamp(f64::MIN_POSITIVE, 1.0))?, true)
     } else {
         (solve(configured)?, false)
     };
@@ -613,19 +629,21 @@ fn json<T: serde::Serialize>(v: &T) -> Vec<u8> {
     serde_json::to_vec_pretty(v).unwrap_or_default()
 }
 
-/// The refitted measurements (so the next recalibration compares with them) and the
-/// new profiles.
+/// The new profiles, then the refitted measurements (so the next recalibration
+/// compares with them). In this order a run stopped halfway leaves new profiles with
+/// (some) old measurements: the next run sees the drift again and solves again,
+/// instead of old profiles with new measurements, which would hide the drift.
 fn write_new(
     dir: &Path,
     wall: &str,
     refitted: &[MeasuredDisplay],
     solution: &WallSolution,
 ) -> Result<(), RecalibrateError> {
+    ProfileSet::save_dir(dir, wall, &solution.profiles)?;
     for m in refitted {
         let path = measurement_path(&dir.join(RUN_DIR), &m.measurement.key);
         write_atomic(&path, &json(m))?;
     }
-    ProfileSet::save_dir(dir, wall, &solution.profiles)?;
     Ok(())
 }
 

@@ -32,6 +32,7 @@ fn options() -> RecalibrateOptions {
     RecalibrateOptions {
         measure: MeasureOptions::default(),
         limits: DriftLimits::default(),
+        meter_xy_offset: [0.0; 2],
         headroom: None,
     }
 }
@@ -147,6 +148,18 @@ fn aged_lamps_are_recalibrated_to_the_truth_and_can_be_rolled_back() {
     let restored = rollback(dir.path()).unwrap();
     assert_eq!(restored.len(), 2);
     assert_eq!(files_of(dir.path()), before);
+    assert!(matches!(
+        rollback(dir.path()),
+        Err(RecalibrateError::NothingToRollBack { .. })
+    ));
+    // a new commissioning into the folder drops a recalibration's previous/: a later
+    // rollback must not bring older profiles back over the new ones
+    station
+        .recalibrate(dir.path(), &options(), &mut |_| {})
+        .unwrap();
+    assert!(dir.path().join(PREVIOUS_DIR).is_dir());
+    commission(&mut station, dir.path(), 0.8);
+    assert!(!dir.path().join(PREVIOUS_DIR).exists());
     assert!(matches!(
         rollback(dir.path()),
         Err(RecalibrateError::NothingToRollBack { .. })

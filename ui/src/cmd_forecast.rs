@@ -108,7 +108,19 @@ fn table(forecasts: &[DisplayForecast], opts: &ForecastOptions) -> String {
                     .iter()
                     .map(|c| format!("{:.1}", c.decay_pct_per_1000_h))
                     .collect();
-                let rms = channels.iter().map(|c| c.fit_rms_pct).fold(0.0, f64::max);
+                if channels.iter().all(|c| c.fit_rms_pct.is_nan()) {
+                    let _ = writeln!(
+                        s,
+                        "{name:<14} {points:>6} {:<10} no forecast: the fit failed (light not \
+                         positive, or every run at one time)",
+                        day(*segment_start_utc)
+                    );
+                    continue;
+                }
+                let rms = channels
+                    .iter()
+                    .map(|c| c.fit_rms_pct)
+                    .fold(f64::NAN, f64::max);
                 let first =
                     |pick: fn(&lumiwall_profiles::store::ChannelForecast) -> Option<Crossing>| {
                         channels
@@ -153,10 +165,26 @@ fn replace_first(forecasts: &[DisplayForecast], opts: &ForecastOptions) -> Strin
         None => {
             let _ = writeln!(
                 s,
-                "every display reaches today's common white for the next {:.0} days",
+                "every forecast display reaches today's common white for the next {:.0} days",
                 opts.horizon_days
             );
         }
+    }
+    let unforecast = forecasts
+        .iter()
+        .filter(|f| match f {
+            DisplayForecast::NotEnoughHistory { .. } => true,
+            DisplayForecast::Fitted { channels, .. } => {
+                channels.iter().all(|c| c.fit_rms_pct.is_nan())
+            }
+        })
+        .count();
+    if unforecast > 0 {
+        let _ = writeln!(
+            s,
+            "({unforecast} of {} displays without a forecast, see above)",
+            forecasts.len()
+        );
     }
     s
 }

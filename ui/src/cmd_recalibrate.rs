@@ -62,6 +62,7 @@ pub(crate) struct RecalibrateArgs {
 /// Runs `lumiwall recalibrate`; returns the exit code (0: nothing drifted, 10:
 /// recalibrated, 11: a display left the headroom, 12: a device failed).
 pub(crate) fn run(args: RecalibrateArgs) -> Result<i32, CliError> {
+    refuse_simulation_on_a_real_meter(&args.meter, args.simulate_hours)?;
     let mut station = Station::open(&args.wall, &args.meter.station_options())?;
     if let Some(h) = args.simulate_hours {
         station.wall.advance_hours(h);
@@ -81,6 +82,11 @@ pub(crate) fn run(args: RecalibrateArgs) -> Result<i32, CliError> {
             black_cd_m2: args.max_black_change,
             curve_pct: args.max_curve_change_pct,
         },
+        meter_xy_offset: crate::cmd_verify::load_meter_correction(
+            &args.profiles,
+            station.meter.as_ref(),
+        )?
+        .unwrap_or([0.0; 2]),
         headroom: args.headroom,
     };
     let started = Timestamp::now();
@@ -113,6 +119,23 @@ pub(crate) fn run(args: RecalibrateArgs) -> Result<i32, CliError> {
         Verdict::Recalibrated => EXIT_RECALIBRATED,
         Verdict::LeftHeadroom => EXIT_LEFT_HEADROOM,
     })
+}
+
+/// `--simulate-hours` ages the virtual wall only: with a real meter it would age
+/// nothing and mislead.
+pub(crate) fn refuse_simulation_on_a_real_meter(
+    meter: &MeterArgs,
+    simulate_hours: Option<f64>,
+) -> Result<(), CliError> {
+    if simulate_hours.is_some()
+        && matches!(meter.meter, lumiwall_calib::station::MeterChoice::Serial(_))
+    {
+        return Err(CliError::input(
+            "--simulate-hours ages the virtual wall's lamps; it cannot be used with a real \
+             meter (--meter serial:…)",
+        ));
+    }
+    Ok(())
 }
 
 /// One line per display: drift, reserve left, whether it drifted.

@@ -97,7 +97,7 @@ fn parse_grid(s: &str) -> Result<[u32; 2], String> {
 }
 
 /// The xy correction saved by `lumiwall commission` for this instrument, if any.
-fn load_meter_correction(
+pub(crate) fn load_meter_correction(
     dir: &Path,
     meter: &dyn Colorimeter,
 ) -> Result<Option<[f64; 2]>, CliError> {
@@ -167,6 +167,7 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
             args.profiles.display()
         ))
     })?;
+    crate::cmd_recalibrate::refuse_simulation_on_a_real_meter(&args.meter, args.simulate_hours)?;
     let mut station = Station::open(&args.wall, &args.meter.station_options())?;
     if let Some(h) = args.simulate_hours {
         station.wall.advance_hours(h);

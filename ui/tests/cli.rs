@@ -561,6 +561,21 @@ fn recalibrate_exit_codes_say_unchanged_recalibrated_and_left_headroom() {
     recalibrate("9000")
         .code(11)
         .stdout(contains("OUT OF REACH").and(contains("LEFT HEADROOM")));
+    lumiwall()
+        .args([
+            "recalibrate",
+            "--meter",
+            "serial:/dev/ttyUSB-none",
+            "--simulate-hours",
+            "5",
+        ])
+        .arg("--wall")
+        .arg(small_wall())
+        .arg("--profiles")
+        .arg(&dir)
+        .assert()
+        .code(2)
+        .stderr(contains("cannot be used with a real meter"));
 }
 
 #[test]

@@ -20,17 +20,20 @@
 //! constant `τ` the model is linear; `τ` itself is the one that leaves the smallest
 //! residual (a log-grid search refined by golden section, from twice the spacing of the
 //! runs to a third of the segment's span), and the burn-in terms are kept only where
-//! they fit better than the plain exponential. A burn-in that multiplies the
+//! Akaike's criterion prefers them to the plain exponential. A burn-in that multiplies the
 //! light by `1 + B·exp(−s/τ)` has the logarithm `B·e − B²e²/2 + …` (e = exp(−s/τ)): the
 //! second term keeps a burn-in of B = 0.3 from biasing the steady slope (the forecast
 //! 46 days ahead is 5 days early with `c` alone, 0.3 days with both; tests/forecast.rs).
 //! The burn-in terms are fitted only when the segment has at least
-//! [`MIN_POINTS_BURN_IN`] points; otherwise the two-parameter exponential is used. The forecast is the first time
-//! after the newest profile at which the fitted curve, relative to its value at the
-//! newest profile, reaches `usage / headroom` (or `usage`), with a ±2σ interval: for
-//! each plausible τ (residual within the profile-likelihood bound ΔRSS ≤ 4σ̂² of the
-//! best) the fit's covariance propagated to that time (delta method: the model's
-//! standard error over its slope there), and the envelope of those intervals.
+//! [`MIN_POINTS_BURN_IN`] points; otherwise the two-parameter exponential is used.
+//!
+//! The forecast is the first time after the newest profile at which the fitted curve
+//! reaches `usage / headroom` (or `usage`) of the light measured at the newest profile
+//! (the usage was solved from that reading), with a 95 % interval: for each plausible
+//! τ (residual within the profile-likelihood bound ΔRSS ≤ 4σ̂² of the best) the fit's
+//! covariance propagated to that time (delta method: the model's standard error over
+//! its slope there, times Student's t for the fit's degrees of freedom), and the
+//! envelope of those intervals.
 //!
 //! **Lamp changes.** A rise of the native white's luminance (sum of the primaries) by
 //! more than `lamp_change_step` from one profile to the next is a new lamp (or a lamp
@@ -76,14 +79,14 @@ impl Default for ForecastOptions {
     }
 }
 
-/// When one channel reaches a limit: the predicted time and its ±2σ interval.
+/// When one channel reaches a limit: the predicted time and its 95 % interval.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Crossing {
     /// Predicted time.
     pub utc: Timestamp,
-    /// Earliest time within ±2σ of the fit.
+    /// Earliest time within the 95 % interval.
     pub earliest_utc: Timestamp,
-    /// Latest time within ±2σ of the fit (capped at the horizon).
+    /// Latest time within the 95 % interval (capped at the horizon).
     pub latest_utc: Timestamp,
 }
 
@@ -225,7 +228,8 @@ fn forecast_one(
             let limits = Limits {
                 start,
                 from_h: hours[hours.len() - 1],
-                horizon_h: opts.horizon_days * 24.0,
+                horizon_h: horizon_hours(opts.horizon_days),
+                newest_ln_light: light[light.len() - 1].ln(),
             };
             let usage = newest.channel_usage[c];
             ChannelForecast {
@@ -281,6 +285,20 @@ struct Limits {
     start: Timestamp,
     from_h: f64,
     horizon_h: f64,
+    /// ln of the light measured at the newest profile (its usage was solved from it).
+    newest_ln_light: f64,
+}
+
+/// Longest horizon searched: 100 years.
+const MAX_HORIZON_H: f64 = 100.0 * 365.25 * 24.0;
+
+/// The horizon in hours, 0 for a horizon that is not a positive finite number.
+fn horizon_hours(days: f64) -> f64 {
+    if days.is_finite() && days > 0.0 {
+        (days * 24.0).min(MAX_HORIZON_H)
+    } else {
+        0.0
+    }
 }
 
 impl Limits {
@@ -299,6 +317,8 @@ struct DecayFit {
     covariance: DMatrix<f64>,
     /// The burn-in time constant, when the burn-in terms are fitted.
     tau_h: Option<f64>,
+    /// Two-sided 95 % quantile of Student's t for the fit's degrees of freedom.
+    t95: f64,
     rms: f64,
     rss: f64,
 }
@@ -328,17 +348,17 @@ impl DecayFit {
         };
         let ln_best = grid_best.tau_h.map_or(lo, f64::ln);
         let ln_tau = golden_min(rss, (ln_best - step).max(lo), (ln_best + step).min(hi));
+        // the burn-in model (three more parameters: c, d, τ) only where Akaike's
+        // criterion prefers it: n·ln(RSS) + 2k smaller
+        let n = hours.len() as f64;
+        let prefers = |b: &Self| n * (b.rss / plain.rss).ln() + 6.0 < 0.0;
         let best = match Self::with_tau(hours, light, Some(ln_tau.exp())) {
-            Some(f) if f.rss < plain.rss => f,
-            _ => plain,
+            Some(f) if prefers(&f) => f,
+            _ => return Some((plain, Vec::new())),
         };
         let dof = hours.len().saturating_sub(best.params.len()).max(1) as f64;
         let bound = best.rss * (1.0 + 4.0 / dof);
-        let plausible = grid
-            .into_iter()
-            .chain(Self::with_tau(hours, light, None))
-            .filter(|f| f.rss <= bound)
-            .collect();
+        let plausible = grid.into_iter().filter(|f| f.rss <= bound).collect();
         Some((best, plausible))
     }
 
@@ -359,11 +379,15 @@ impl DecayFit {
         let params = svd.solve(&y, 1e-12).ok()?;
         let residual = &y - &x * &params;
         let rss = residual.norm_squared();
-        let dof = (hours.len().saturating_sub(columns)).max(1) as f64;
-        let covariance = (x.transpose() * &x).try_inverse()? * (rss / dof);
+        let dof = hours.len().saturating_sub(columns).max(1);
+        // (XᵀX)⁻¹ = V Σ⁻² Vᵀ from the SVD: forming XᵀX would square the condition number
+        let v_t = svd.v_t.as_ref()?;
+        let inv_sq = DMatrix::from_diagonal(&svd.singular_values.map(|s| 1.0 / (s * s)));
+        let covariance = v_t.transpose() * inv_sq * v_t * (rss / dof as f64);
         Some(Self {
             params: params.iter().copied().collect(),
             covariance,
+            t95: student_t_975(dof),
             tau_h,
             rms: (rss / hours.len() as f64).sqrt(),
             rss,
@@ -400,20 +424,20 @@ impl DecayFit {
             .sqrt()
     }
 
-    /// First time after `limits.from_h` at which the light falls to `fraction` of the
-    /// light at `from_h` (the fitted curve), within the horizon.
+    /// First time after `limits.from_h` at which the fitted light falls to `fraction` of
+    /// the light measured at the newest profile, within the horizon.
     fn crossing(&self, fraction: f64, limits: &Limits) -> Option<Crossing> {
         if !(fraction > 0.0 && fraction.is_finite()) {
             return None;
         }
-        let target = fraction.ln();
+        let target = fraction.ln() + limits.newest_ln_light - self.ln_light(limits.from_h);
         let from = limits.from_h;
         let end = from + limits.horizon_h;
         let drop = |h: f64| self.ln_light(h) - self.ln_light(from);
         let when = |margin: f64| first_below(|h| drop(h) + margin, target, from, end);
         let h = when(0.0)?;
         let slope = self.slope_per_h(h).abs().max(1e-12);
-        let half_width_h = 2.0 * self.sigma_change(h, from) / slope;
+        let half_width_h = self.t95 * self.sigma_change(h, from) / slope;
         Some(Crossing {
             utc: limits.time(h),
             earliest_utc: limits.time((h - half_width_h).max(from)),
@@ -441,6 +465,21 @@ fn crossing(
         }
     }
     Some(x)
+}
+
+/// The 97.5 % quantile of Student's t with `dof` degrees of freedom (a 95 % interval
+/// from few points is wide: 12.7σ from three points of a two-parameter fit).
+fn student_t_975(dof: usize) -> f64 {
+    const TABLE: [f64; 10] = [
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
+    ];
+    match dof {
+        0 => f64::INFINITY,
+        1..=10 => TABLE[dof - 1],
+        11..=20 => 2.228 - (2.228 - 2.086) * (dof - 10) as f64 / 10.0,
+        21..=60 => 2.086 - (2.086 - 2.000) * (dof - 20) as f64 / 40.0,
+        _ => 1.96,
+    }
 }
 
 /// Points of the log grid the burn-in time constant is first searched on.
