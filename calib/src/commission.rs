@@ -198,7 +198,7 @@ pub(crate) fn measurement_path(run_dir: &Path, key: &DisplayKey) -> PathBuf {
     run_dir.join(format!("{}.measurement.json", key.file_stem()))
 }
 
-fn to_json<T: Serialize>(v: &T) -> Vec<u8> {
+pub(crate) fn to_json<T: Serialize>(v: &T) -> Vec<u8> {
     // Plain numbers, strings and enums always serialise.
     serde_json::to_vec_pretty(v).unwrap_or_default()
 }
@@ -560,14 +560,10 @@ pub fn finish(
 /// new ones.
 fn drop_previous(out_dir: &Path) -> Result<(), CommissionError> {
     let previous = out_dir.join(crate::recalibrate::PREVIOUS_DIR);
-    match std::fs::remove_dir_all(&previous) {
-        Ok(()) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-        Err(source) => Err(CommissionError::Io {
-            path: previous,
-            source,
-        }),
-    }
+    crate::recalibrate::remove_dir_all_if_present(&previous).map_err(|source| CommissionError::Io {
+        path: previous.clone(),
+        source,
+    })
 }
 
 /// The report's plots, markdown and HTML into `out_dir`; returns the report files.

@@ -34,7 +34,7 @@ use lumiwall_profiles::{DisplayKey, DisplayProfile, ProfileError, ProfileSet, wr
 
 use crate::CalibError;
 use crate::commission::{
-    CommissionError, RUN_DIR, corrected_measurement, load_measurement, measurement_path,
+    CommissionError, RUN_DIR, corrected_measurement, load_measurement, measurement_path, to_json,
 };
 use crate::measure::{
     MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, Rig, Session, display_key,
@@ -542,9 +542,6 @@ fn solve_again(
 ) -> Result<(WallSolution, bool), RecalibrateError> {
     let first = &profiles[0];
     let configured = opts.headroom.unwrap_or(first.headroom);
-    let white_xy = Xyz::from_array(first.target_white_xyz_cd_m2)
-        .xy()
-        .unwrap_or([0.3127, 0.3290]);
     let inputs: Vec<_> = refitted
         .iter()
         .map(|m| {
@@ -556,16 +553,7 @@ fn solve_again(
         })
         .collect();
     let created = now_rfc3339();
-    let solve = |headroom: f64| {
-        let options = SolveOptions {
-            white: WhiteTarget::Xy(white_xy),
-            headroom,
-            black_mode: first.black_mode,
-            out_of_gamut: first.out_of_gamut,
-            ..SolveOptions::default()
-        };
-        solve_wall_at(&inputs, &options, &created)
-    };
+    let solve = |headroom: f64| solve_wall_at(&inputs, &options_of(first, headroom), &created);
     let y_today = first.target_white_xyz_cd_m2[1];
     let y_full = solve(1.0)?.white_xyz_cd_m2.y;
     let (mut solution, kept) = if y_full >= y_today {
@@ -607,26 +595,25 @@ fn keep_previous(
     ProfileSet::save_dir(&staging, wall, profiles)?;
     for m in last {
         let path = measurement_path(&staging.join(RUN_DIR), &m.measurement.key);
-        write_atomic(&path, &json(m))?;
+        write_atomic(&path, &to_json(m))?;
     }
     remove_dir_if_present(&target)?;
     std::fs::rename(&staging, &target).map_err(io(&target))
 }
 
 fn remove_dir_if_present(path: &Path) -> Result<(), RecalibrateError> {
-    match std::fs::remove_dir_all(path) {
-        Ok(()) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-        Err(source) => Err(RecalibrateError::Io {
-            path: path.to_path_buf(),
-            source,
-        }),
-    }
+    remove_dir_all_if_present(path).map_err(|source| RecalibrateError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
-fn json<T: serde::Serialize>(v: &T) -> Vec<u8> {
-    // Plain numbers, strings and enums always serialise.
-    serde_json::to_vec_pretty(v).unwrap_or_default()
+/// Removes `path` and everything in it; a folder that is not there is no error.
+pub(crate) fn remove_dir_all_if_present(path: &Path) -> std::io::Result<()> {
+    match std::fs::remove_dir_all(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        other => other,
+    }
 }
 
 /// The new profiles, then the refitted measurements (so the next recalibration
@@ -642,7 +629,7 @@ fn write_new(
     ProfileSet::save_dir(dir, wall, &solution.profiles)?;
     for m in refitted {
         let path = measurement_path(&dir.join(RUN_DIR), &m.measurement.key);
-        write_atomic(&path, &json(m))?;
+        write_atomic(&path, &to_json(m))?;
     }
     Ok(())
 }
@@ -656,7 +643,8 @@ fn write_report(
     refitted: &[MeasuredDisplay],
     solution: &WallSolution,
 ) -> Result<(), RecalibrateError> {
-    let solve = solution_options(solution);
+    let first = &solution.profiles[0];
+    let solve = options_of(first, first.headroom);
     let inputs = report::ReportInputs {
         wall: &outcome.wall,
         measured: refitted,
@@ -681,16 +669,16 @@ fn write_report(
     Ok(())
 }
 
-/// The options the new profiles were solved with, as the report shows them.
-fn solution_options(solution: &WallSolution) -> SolveOptions {
-    let p = &solution.profiles[0];
+/// The solve options a profile was made with (its white chromaticity, black mode and
+/// out-of-gamut handling), at `headroom`.
+fn options_of(p: &DisplayProfile, headroom: f64) -> SolveOptions {
     SolveOptions {
         white: WhiteTarget::Xy(
             Xyz::from_array(p.target_white_xyz_cd_m2)
                 .xy()
                 .unwrap_or([0.3127, 0.3290]),
         ),
-        headroom: p.headroom,
+        headroom,
         black_mode: p.black_mode,
         out_of_gamut: p.out_of_gamut,
         ..SolveOptions::default()
@@ -748,7 +736,10 @@ pub fn rollback(dir: &Path) -> Result<Vec<DisplayProfile>, RecalibrateError> {
     for p in &profiles {
         let from = measurement_path(&previous.join(RUN_DIR), &p.display);
         if let Some(m) = load_measurement(&from)? {
-            write_atomic(&measurement_path(&dir.join(RUN_DIR), &p.display), &json(&m))?;
+            write_atomic(
+                &measurement_path(&dir.join(RUN_DIR), &p.display),
+                &to_json(&m),
+            )?;
         }
     }
     ProfileSet::save_dir(dir, &wall, &profiles)?;

@@ -631,6 +631,18 @@ impl ProfileStore {
             .collect()
     }
 
+    /// The projector numbers of `wall` that have profiles (each once, whatever its
+    /// eyes), in order.
+    pub fn display_numbers(&self, wall: &str) -> Result<Vec<u32>, StoreError> {
+        let mut numbers: Vec<u32> = self
+            .displays(wall, None)?
+            .into_iter()
+            .map(|(d, _)| d)
+            .collect();
+        numbers.dedup();
+        Ok(numbers)
+    }
+
     /// Lamp-life forecast of every display and eye of `wall` from its whole history
     /// (see [`forecast`]), in display order.
     pub fn forecast_wall(
@@ -638,14 +650,8 @@ impl ProfileStore {
         wall: &str,
         opts: &ForecastOptions,
     ) -> Result<Vec<DisplayForecast>, StoreError> {
-        let mut numbers: Vec<u32> = self
-            .displays(wall, None)?
-            .into_iter()
-            .map(|(d, _)| d)
-            .collect();
-        numbers.dedup();
         let mut out = Vec::new();
-        for d in numbers {
+        for d in self.display_numbers(wall)? {
             out.extend(forecast::forecast(&self.history(wall, d)?, opts));
         }
         Ok(out)

@@ -180,15 +180,7 @@ fn history_table(
 ) -> Result<String, CliError> {
     let displays: Vec<u32> = match display {
         Some(d) => vec![d],
-        None => {
-            let mut ds: Vec<u32> = store
-                .displays(wall, None)?
-                .into_iter()
-                .map(|(d, _)| d)
-                .collect();
-            ds.dedup();
-            ds
-        }
+        None => store.display_numbers(wall)?,
     };
     let mut out = String::new();
     let _ = writeln!(
