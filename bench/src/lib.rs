@@ -8,3 +8,4 @@ pub mod image_reference;
 pub mod patterns;
 pub mod radiosity;
 pub mod readings;
+pub mod season;

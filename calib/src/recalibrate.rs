@@ -8,7 +8,8 @@
 //! ~40 of a commissioning. Each display is
 //! compared with its last measurement: the primaries' luminance (%) and chromaticity
 //! (Δxy), the black (cd/m²) and the mid-drive intensities against the last tone curves
-//! (%). When no display drifted beyond the limits, nothing is written. Otherwise the
+//! (%), and the white the display shows through its current profile, predicted from
+//! the readings (ΔE2000). When no display drifted beyond the limits, nothing is written. Otherwise the
 //! measurement is refitted: black, primaries and white are the new readings, and each
 //! channel's tone curve keeps its shape (every ramp reading keeps its relative
 //! intensity `(Y − Y_black)/(Y_full − Y_black)` and is moved onto the new black and
@@ -30,6 +31,7 @@ use std::path::{Path, PathBuf};
 use lumiwall_core::files::FolderLock;
 use lumiwall_core::{Channel, Xyz};
 use lumiwall_devices::DisplayInfo;
+use lumiwall_profiles::store::LampReading;
 use lumiwall_profiles::{DisplayKey, DisplayProfile, ProfileError, ProfileSet, write_atomic};
 
 use crate::CalibError;
@@ -59,18 +61,25 @@ pub struct DriftLimits {
     /// Largest change of a channel's relative intensity at mid drive against its tone
     /// curve, percent; beyond it the display is measured again in full.
     pub curve_pct: f64,
+    /// Largest ΔE2000 of the white the display shows through its current profile,
+    /// predicted from the night's readings, against the common white: the changes
+    /// above are each small, yet together they can move the white a viewer sees.
+    pub white_de2000: f64,
 }
 
 impl Default for DriftLimits {
     /// 2 %, 0.002 and 0.05 cd/m²: below what a viewer sees across a seam (about 2 % in
     /// luminance at a tile border), above a K-10-class meter's repeatability; curves 3 %
-    /// (a mid grey 3 % off is about ΔE2000 1).
+    /// (a mid grey 3 % off is about ΔE2000 1); the white 0.25 ΔE2000 (a quarter of
+    /// DisplayCAL's white limit: the commissioning's own error and the meter's share
+    /// the rest; on `heyewall-48` 0.5 let the truth's white reach 1.09).
     fn default() -> Self {
         Self {
             luminance_pct: 2.0,
             delta_xy: 0.002,
             black_cd_m2: 0.05,
             curve_pct: 3.0,
+            white_de2000: 0.25,
         }
     }
 }
@@ -105,6 +114,11 @@ pub struct DisplayCheck {
     pub primary_delta_xy: [f64; 3],
     /// Change of the black luminance, cd/m².
     pub black_change_cd_m2: f64,
+    /// ΔE2000 of the white the display shows through its current profile, predicted
+    /// from the readings (NaN where the last primaries do not span it).
+    pub white_de2000: f64,
+    /// Each primary at full drive as read now, black removed (cd/m²).
+    pub primaries_xyz_cd_m2: [[f64; 3]; 3],
     /// Whether any change exceeds the limits.
     pub drifted: bool,
     /// Channel usage today's common white needs with the new primaries.
@@ -129,6 +143,20 @@ impl DisplayCheck {
         self.usage_for_current_white
             .iter()
             .any(|&u| exceeds(u, 1.0 + 1e-9))
+    }
+
+    /// What the check read, as the lamp-life forecast stores it (measured at `utc`);
+    /// `None` where the usage is not finite (the primaries do not span the white).
+    pub fn lamp_reading(&self, utc: lumiwall_profiles::store::Timestamp) -> Option<LampReading> {
+        let r = LampReading {
+            display: self.key.clone(),
+            utc,
+            primaries_y_cd_m2: std::array::from_fn(|c| self.primaries_xyz_cd_m2[c][1]),
+            channel_usage: self.usage_for_current_white,
+            headroom: self.headroom,
+        };
+        let finite = |v: &[f64; 3]| v.iter().all(|x| x.is_finite());
+        (finite(&r.primaries_y_cd_m2) && finite(&r.channel_usage)).then_some(r)
     }
 
     /// The reserve left for today's white: 1 minus the most used channel's usage
@@ -171,6 +199,38 @@ pub struct RecalibrationOutcome {
     pub white_before_cd_m2: f64,
     /// Common white luminance after, cd/m² (unchanged when nothing was written).
     pub white_after_cd_m2: f64,
+}
+
+/// What [`record_in_store`] kept of a recalibration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Recorded {
+    /// The new profiles, as a run (source `recalibrate`).
+    Run(lumiwall_profiles::store::RunId),
+    /// No profile was written: this many displays' lamp readings.
+    LampReadings(usize),
+}
+
+/// Records a recalibration that measured at `utc` in `store`: the new profiles as a
+/// run where it wrote some, otherwise every display's readings as lamp readings (the
+/// lamp-life forecast needs every night, not only the nights that rewrote profiles).
+pub fn record_in_store(
+    store: &mut lumiwall_profiles::store::ProfileStore,
+    outcome: &RecalibrationOutcome,
+    utc: lumiwall_profiles::store::Timestamp,
+) -> Result<Recorded, lumiwall_profiles::store::StoreError> {
+    if let Some(solution) = &outcome.solution {
+        let mut run = lumiwall_profiles::store::CommissionRun::new(outcome.wall.clone(), utc);
+        run.source = "recalibrate".into();
+        return store.record(&run, &solution.profiles).map(Recorded::Run);
+    }
+    let readings: Vec<LampReading> = outcome
+        .checks
+        .iter()
+        .filter_map(|c| c.lamp_reading(utc))
+        .collect();
+    store
+        .record_lamp_readings(&outcome.wall, "recalibrate", &readings)
+        .map(Recorded::LampReadings)
 }
 
 /// Why a recalibration stopped.
@@ -460,6 +520,7 @@ fn check(
     });
     let curves_moved = curve_change_pct.iter().any(|d| d.abs() > limits.curve_pct);
     let usage_for_current_white = usage_for(new, profile);
+    let white_de2000 = white_shown_de2000(old, new, profile);
     let out_of_reach = usage_for_current_white
         .iter()
         .any(|&u| exceeds(u, 1.0 + 1e-9));
@@ -471,12 +532,17 @@ fn check(
         || primary_delta_xy
             .iter()
             .any(|d| exceeds(*d, limits.delta_xy))
-        || exceeds(black_change_cd_m2.abs(), limits.black_cd_m2);
+        || exceeds(black_change_cd_m2.abs(), limits.black_cd_m2)
+        || exceeds(white_de2000, limits.white_de2000);
     DisplayCheck {
         key: key.clone(),
         luminance_change_pct,
         primary_delta_xy,
         black_change_cd_m2,
+        white_de2000,
+        primaries_xyz_cd_m2: std::array::from_fn(|c| {
+            channel(&new.primaries, new.black, c).to_array()
+        }),
         drifted,
         usage_for_current_white,
         headroom: profile.headroom,
@@ -484,6 +550,28 @@ fn check(
         curves_moved,
         readings,
     }
+}
+
+/// ΔE2000 between the white the display shows now through its current profile and
+/// the white it should show: the mix of the last primaries that made the white
+/// (profile's target plus the black it shows), shown with tonight's primaries and
+/// black (additivity). NaN where the last primaries do not span the white.
+fn white_shown_de2000(
+    old: &crate::solve::DisplayMeasurement,
+    new: &Readings,
+    profile: &DisplayProfile,
+) -> f64 {
+    let target = Xyz::from_array(profile.target_white_xyz_cd_m2)
+        + Xyz::from_array(profile.shown_black_xyz_cd_m2);
+    let cols: [[f64; 3]; 3] = std::array::from_fn(|c| (old.primaries[c] - old.black).to_array());
+    let Some(inv) = lumiwall_core::mat3::inverse(&lumiwall_core::mat3::from_columns(&cols)) else {
+        return f64::NAN;
+    };
+    let mix = lumiwall_core::mat3::mul_vec(&inv, &(target - old.black).to_array());
+    let shown = (0..3).fold(new.black, |acc, c| {
+        acc + (new.primaries[c] - new.black) * mix[c]
+    });
+    lumiwall_core::lab::delta_e2000_xyz(target, shown, target)
 }
 
 /// `v` above `limit`, or not a number (an unreadable change counts as a change).
@@ -497,11 +585,18 @@ fn exceeds(v: f64, limit: f64) -> bool {
 /// model (a white segment takes part of the load). Infinite where the primaries do not
 /// span it.
 fn usage_for(new: &Readings, profile: &DisplayProfile) -> [f64; 3] {
-    let cols: [[f64; 3]; 3] = std::array::from_fn(|c| (new.primaries[c] - new.black).to_array());
+    usage_for_white(new.black, new.primaries, profile)
+}
+
+/// Linear channel intensities with which a display whose black and primaries at full
+/// drive (black included) read `black` and `primaries` shows the white of `profile`
+/// (see the recalibration's checks); infinite where the primaries do not span it.
+pub fn usage_for_white(black: Xyz, primaries: [Xyz; 3], profile: &DisplayProfile) -> [f64; 3] {
+    let cols: [[f64; 3]; 3] = std::array::from_fn(|c| (primaries[c] - black).to_array());
     let p = lumiwall_core::mat3::from_columns(&cols);
     let shown = Xyz::from_array(profile.target_white_xyz_cd_m2)
         + Xyz::from_array(profile.shown_black_xyz_cd_m2)
-        - new.black;
+        - black;
     lumiwall_core::mat3::inverse(&p).map_or([f64::INFINITY; 3], |inv| {
         let m = lumiwall_core::mat3::mul_vec(&inv, &shown.to_array());
         profile.display_model.channels_for(&profile.xyz_to_drive, m)
@@ -689,8 +784,8 @@ fn options_of(p: &DisplayProfile, headroom: f64) -> SolveOptions {
 pub fn recalibration_markdown(o: &RecalibrationOutcome) -> String {
     let mut s = format!(
         "## Recalibration of {} ({})\n\n{:?}: common white {:.2} → {:.2} cd/m², {} readings.\n\n\
-         | display | ΔY R/G/B % | Δxy primaries (max) | black Δ cd/m² | curve at mid drive R/G/B % | reserve left | status |\n\
-         |---|---|---|---|---|---|---|\n",
+         | display | ΔY R/G/B % | Δxy primaries (max) | black Δ cd/m² | curve at mid drive R/G/B % | white shown ΔE2000 | reserve left | status |\n\
+         |---|---|---|---|---|---|---|---|\n",
         o.wall,
         now_rfc3339(),
         o.verdict,
@@ -710,12 +805,13 @@ pub fn recalibration_markdown(o: &RecalibrationOutcome) -> String {
             "ok"
         };
         s += &format!(
-            "| {} | {} | {:.4} | {:+.3} | {} | {:.3} | {status} |\n",
+            "| {} | {} | {:.4} | {:+.3} | {} | {:.2} | {:.3} | {status} |\n",
             c.key,
             three(c.luminance_change_pct),
             c.primary_delta_xy.iter().copied().fold(0.0, f64::max),
             c.black_change_cd_m2,
             three(c.curve_change_pct),
+            c.white_de2000,
             c.reserve_left()
         );
     }

@@ -23,7 +23,8 @@ use lumiwall_devices::serial::{
 use lumiwall_devices::sim::{MeterModel, SpectroModel, VirtualWall};
 use lumiwall_devices::{BandpassCorrected, Spectroradiometer};
 use lumiwall_devices::{
-    Colorimeter, DeviceError, DisplayInfo, GuidedPositioner, MeterPositioner, PatternOutput,
+    Colorimeter, DeviceError, DisplayId, DisplayInfo, DriveImage, GuidedPositioner,
+    MeterPositioner, PatternOutput,
 };
 use lumiwall_pattern::client::{NodeOptions, RemotePatternOutput, Route, SimulatorSink};
 use lumiwall_pattern::{OutputAddress, Token};
@@ -155,6 +156,49 @@ pub struct StationOptions {
     pub driver: K10aConfig,
     /// Who aims the meter.
     pub aim: AimChoice,
+    /// Set to stop the run: the next pattern is refused with
+    /// [`DeviceError::Stopped`](lumiwall_devices::DeviceError::Stopped) (`None`: the run
+    /// cannot be stopped from outside).
+    pub stop: Option<StopFlag>,
+}
+
+/// A flag another thread sets to stop a station's run between two patterns.
+pub type StopFlag = std::sync::Arc<std::sync::atomic::AtomicBool>;
+
+/// A pattern output that refuses to show anything once its stop flag is set.
+struct Stoppable {
+    inner: Box<dyn PatternOutput + Send>,
+    stop: StopFlag,
+}
+
+impl Stoppable {
+    fn check(&self, display: DisplayId) -> Result<(), DeviceError> {
+        if self.stop.load(std::sync::atomic::Ordering::Relaxed) {
+            return Err(DeviceError::Stopped(display.to_string()));
+        }
+        Ok(())
+    }
+}
+
+impl PatternOutput for Stoppable {
+    fn displays(&self) -> Vec<DisplayInfo> {
+        self.inner.displays()
+    }
+
+    fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError> {
+        self.check(display)?;
+        self.inner.show(display, drive)
+    }
+
+    fn show_image(&mut self, display: DisplayId, image: &DriveImage) -> Result<(), DeviceError> {
+        self.check(display)?;
+        self.inner.show_image(display, image)
+    }
+
+    fn show_aim_marker(&mut self, display: DisplayId, uv: [f64; 2]) -> Result<(), DeviceError> {
+        self.check(display)?;
+        self.inner.show_aim_marker(display, uv)
+    }
 }
 
 /// Who aims the meter at each display.
@@ -195,6 +239,7 @@ impl StationOptions {
             faults: FaultPlan::default(),
             driver: driver_config(),
             aim: AimChoice::Auto,
+            stop: None,
         }
     }
 }
@@ -286,6 +331,16 @@ impl Station {
             return Err(StationError::NoOutputs {
                 wall: station.wall.name(),
                 port: port.clone(),
+            });
+        }
+        if let Some(stop) = &opts.stop {
+            let inner = std::mem::replace(
+                &mut station.pattern,
+                Box::new(station.wall.pattern_output()),
+            );
+            station.pattern = Box::new(Stoppable {
+                inner,
+                stop: stop.clone(),
             });
         }
         Ok(station)

@@ -73,6 +73,10 @@ pub enum DeviceError {
     /// The technician stopped while aiming the meter.
     #[error("stopped by the technician while aiming the meter at {0}")]
     AimStopped(String),
+    /// The technician stopped the run (the station app's Stop): what was measured
+    /// before is kept, the run can be resumed.
+    #[error("stopped by the technician before showing a pattern on {0}")]
+    Stopped(String),
     /// The technician skipped a display while aiming the meter.
     #[error("skipped by the technician while aiming the meter at {0}")]
     AimSkipped(String),

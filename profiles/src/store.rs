@@ -25,6 +25,7 @@ pub mod document;
 pub mod drift;
 pub mod error;
 pub mod forecast;
+mod lamp;
 pub mod schema;
 
 use std::collections::HashSet;
@@ -37,7 +38,7 @@ use rusqlite::{Connection, ErrorCode, OpenFlags, OptionalExtension, params};
 
 pub use drift::{Drift, DriftLimits};
 pub use error::StoreError;
-pub use forecast::{ChannelForecast, Crossing, DisplayForecast, ForecastOptions};
+pub use forecast::{ChannelForecast, Crossing, DisplayForecast, ForecastOptions, LampReading};
 
 use crate::{DisplayProfile, Eye, ProfileError};
 
@@ -643,8 +644,9 @@ impl ProfileStore {
         Ok(numbers)
     }
 
-    /// Lamp-life forecast of every display and eye of `wall` from its whole history
-    /// (see [`forecast`]), in display order.
+    /// Lamp-life forecast of every display and eye of `wall` from its whole history,
+    /// the profiles and the lamp readings of nightly checks (see [`forecast`]), in
+    /// display order.
     pub fn forecast_wall(
         &self,
         wall: &str,
@@ -652,7 +654,10 @@ impl ProfileStore {
     ) -> Result<Vec<DisplayForecast>, StoreError> {
         let mut out = Vec::new();
         for d in self.display_numbers(wall)? {
-            out.extend(forecast::forecast(&self.history(wall, d)?, opts));
+            out.extend(forecast::forecast_readings(
+                &self.lamp_readings(wall, d)?,
+                opts,
+            ));
         }
         Ok(out)
     }

@@ -6,7 +6,8 @@ mod common;
 use common::profile_with;
 use lumiwall_core::Channel;
 use lumiwall_profiles::store::{
-    CommissionRun, DisplayForecast, ForecastOptions, ProfileStore, Timestamp, forecast::forecast,
+    CommissionRun, DisplayForecast, ForecastOptions, LampReading, ProfileStore, Timestamp,
+    forecast::forecast,
 };
 use lumiwall_profiles::{DisplayProfile, Eye};
 
@@ -270,4 +271,65 @@ fn the_store_forecasts_every_display_of_a_wall_from_its_runs() {
     let first = |i: usize| out[i].first_to_leave_headroom().unwrap().1.utc;
     assert_eq!(out[0].display().display, 0);
     assert!(first(0) < first(1), "the faster lamp leaves first");
+}
+
+#[test]
+fn nightly_lamp_readings_between_runs_give_the_same_forecast_as_profiles() {
+    // One run at the start, then eleven nights in which only the lamp readings of a
+    // check that rewrote nothing are stored: the forecast must use them all.
+    let history = nights(0, 0.0, 12, |h| [(-4e-4 * h).exp(); 3], [0.8; 3], 0.0);
+    let mut store = ProfileStore::open_in_memory().unwrap();
+    store
+        .record(
+            &CommissionRun::new(WALL, history[0].0),
+            &[history[0].1.clone()],
+        )
+        .unwrap();
+    for (t, p) in &history[1..] {
+        let reading = LampReading::of_profile(*t, p);
+        assert_eq!(
+            store
+                .record_lamp_readings(WALL, "recalibrate", &[reading])
+                .unwrap(),
+            1
+        );
+    }
+    assert_eq!(store.lamp_readings(WALL, 0).unwrap().len(), 12);
+    let from_store = store
+        .forecast_wall(WALL, &ForecastOptions::default())
+        .unwrap();
+    let from_profiles = forecast(&history, &ForecastOptions::default());
+    assert_eq!(from_store, from_profiles);
+    let (_, points, _) = fitted(&from_store[0]);
+    assert_eq!(points, 12);
+}
+
+#[test]
+fn a_lamp_reading_that_is_not_finite_or_of_another_wall_is_refused_and_nothing_is_written() {
+    let mut store = ProfileStore::open_in_memory().unwrap();
+    let good = LampReading::of_profile(at(0.0), &profile_at(0, [1.0; 3], [0.8; 3], 0.9));
+    let mut dark = LampReading::of_profile(at(24.0), &profile_at(1, [1.0; 3], [0.8; 3], 0.9));
+    dark.primaries_y_cd_m2[2] = 0.0;
+    let mut unspanned = good.clone();
+    unspanned.utc = at(48.0);
+    unspanned.channel_usage[0] = f64::INFINITY;
+    for bad in [dark, unspanned] {
+        let e = store
+            .record_lamp_readings(WALL, "recalibrate", &[good.clone(), bad])
+            .unwrap_err();
+        assert!(e.to_string().contains("lamp reading of"), "{e}");
+    }
+    let e = store
+        .record_lamp_readings("other-wall", "recalibrate", std::slice::from_ref(&good))
+        .unwrap_err();
+    assert!(e.to_string().contains("belongs to wall"), "{e}");
+    assert!(store.lamp_readings(WALL, 0).unwrap().is_empty());
+    // the same display and time twice is refused
+    store
+        .record_lamp_readings(WALL, "recalibrate", std::slice::from_ref(&good))
+        .unwrap();
+    let e = store
+        .record_lamp_readings(WALL, "recalibrate", &[good])
+        .unwrap_err();
+    assert!(e.to_string().contains("already has a lamp reading"), "{e}");
 }

@@ -7,7 +7,7 @@
 //! pty; `--meter serial:/dev/ttyUSB0` opens a real meter). The devices themselves are
 //! opened by [`lumiwall_calib::station::Station`].
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
@@ -95,6 +95,9 @@ pub(crate) struct MeterArgs {
     /// copy in the profile folder, which `verify` then uses when this is not given.
     #[arg(long)]
     pub(crate) meter_matrix: Option<PathBuf>,
+    /// Set by the station app to stop the run (no command-line option).
+    #[arg(skip)]
+    pub(crate) stop: Option<lumiwall_calib::station::StopFlag>,
 }
 
 /// Largest `--time-scale`: ten times slower than a real K-10A.
@@ -117,6 +120,7 @@ impl MeterArgs {
         StationOptions {
             time_scale: self.time_scale,
             aim: self.aim,
+            stop: self.stop.clone(),
             ..StationOptions::new(self.meter.clone(), self.noise.into())
         }
     }
@@ -184,7 +188,7 @@ pub(crate) struct CommissionArgs {
     #[command(flatten)]
     solve: SolveArgs,
     #[command(flatten)]
-    meter: MeterArgs,
+    pub(crate) meter: MeterArgs,
     /// Meter readings allowed per display (11 to 10 000).
     #[arg(long, default_value_t = 40, value_parser = parse_budget)]
     budget: u32,
@@ -355,6 +359,40 @@ impl ProgressReport {
 
 /// Runs `lumiwall commission`.
 pub(crate) fn run(args: CommissionArgs) -> Result<(), CliError> {
+    let mut report: Option<ProgressReport> = None;
+    let started = Instant::now();
+    let done = commission_with(&args, &mut |p, wall, displays| {
+        report
+            .get_or_insert_with(|| {
+                println!(
+                    "commissioning {wall}: {} displays, budget {} readings per display, meter {:?}",
+                    displays.len(),
+                    args.budget,
+                    args.meter.meter
+                );
+                ProgressReport::new(displays, args.budget)
+            })
+            .on(p);
+    });
+    if let Some(r) = &report {
+        r.bar.finish_and_clear();
+    }
+    let (mut station, outcome) = done?;
+    print_outcome(&outcome, started.elapsed());
+    if let Some(camera) = &args.camera {
+        camera_stage(&mut station, &outcome, &args, camera)?;
+    }
+    Ok(())
+}
+
+/// `lumiwall commission` up to the camera stage, without printing (the station app
+/// runs it too): measures and solves the wall, keeps the meter matrix beside the
+/// profiles and drops an earlier verification. `progress` sees every step with the
+/// wall's name and displays.
+pub(crate) fn commission_with(
+    args: &CommissionArgs,
+    progress: &mut dyn FnMut(Progress, &str, &[DisplayInfo]),
+) -> Result<(Station, CommissionOutcome), CliError> {
     let opts = args.commission_options()?;
     values::check_output_dir("--out", &args.out)?;
     let mut station = args.open_station()?;
@@ -369,50 +407,36 @@ pub(crate) fn run(args: CommissionArgs) -> Result<(), CliError> {
         }
     }
     if let Some(camera) = &args.camera {
-        camera_stage_possible(&station, &args, camera)?;
+        camera_stage_possible(&station, args, camera)?;
     }
-    let displays = station.displays();
-    println!(
-        "commissioning {}: {} displays, budget {} readings per display, meter {:?}",
-        station.wall.name(),
-        displays.len(),
-        args.budget,
-        args.meter.meter
-    );
-    let mut report = ProgressReport::new(&displays, args.budget);
-    let started = Instant::now();
-    let outcome = station.commission(&args.out, &opts, &mut |p| report.on(p));
-    report.bar.finish_and_clear();
-    let outcome = outcome?;
-    let copy = args.out.join(METER_MATRIX_FILE);
-    match &opts.measure.meter_matrix {
-        Some(m) => m
-            .save(&copy)
-            .map_err(|e| CliError::failure(e.to_string()))?,
-        // A copy from an earlier commission must not correct these profiles' verify.
-        None => match std::fs::remove_file(&copy) {
-            Ok(()) => {}
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => {
-                return Err(CliError::failure(format!(
-                    "cannot remove the old {}: {e}",
-                    copy.display()
-                )));
-            }
-        },
-    }
+    let (wall, displays) = (station.wall.name(), station.displays());
+    let outcome = station.commission(&args.out, &opts, &mut |p| progress(p, &wall, &displays))?;
+    keep_meter_matrix(&args.out, opts.measure.meter_matrix.as_ref())?;
     // An earlier verification judged other profiles (the MPCDI export carries it).
     let verified = args.out.join(crate::cmd_verify::VERIFY_FILE);
     match std::fs::remove_file(&verified) {
-        Ok(()) => println!("removed the earlier verification {}", verified.display()),
+        Ok(()) => tracing::info!("removed the earlier verification {}", verified.display()),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(e) => println!("warning: cannot remove {}: {e}", verified.display()),
+        Err(e) => tracing::warn!("cannot remove {}: {e}", verified.display()),
     }
-    print_outcome(&outcome, started.elapsed());
-    if let Some(camera) = &args.camera {
-        camera_stage(&mut station, &outcome, &args, camera)?;
+    Ok((station, outcome))
+}
+
+/// A copy of the meter matrix beside the profiles (verify and recalibrate use it); a
+/// copy from an earlier commission is removed, it must not correct these profiles.
+fn keep_meter_matrix(out: &Path, matrix: Option<&MeterMatrices>) -> Result<(), CliError> {
+    let copy = out.join(METER_MATRIX_FILE);
+    match matrix {
+        Some(m) => m.save(&copy).map_err(|e| CliError::failure(e.to_string())),
+        None => match std::fs::remove_file(&copy) {
+            Ok(()) => Ok(()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+            Err(e) => Err(CliError::failure(format!(
+                "cannot remove the old {}: {e}",
+                copy.display()
+            ))),
+        },
     }
-    Ok(())
 }
 
 #[cfg(feature = "camera")]
@@ -612,7 +636,7 @@ pub(crate) struct MeterMatrixArgs {
     #[arg(long)]
     wall: PathBuf,
     #[command(flatten)]
-    meter: MeterArgs,
+    pub(crate) meter: MeterArgs,
     /// Output file (JSON), e.g. meter-matrix.json.
     #[arg(long)]
     out: PathBuf,

@@ -5,9 +5,11 @@
 use std::path::PathBuf;
 
 use lumiwall_calib::measure::{MeasureOptions, Progress};
-use lumiwall_calib::recalibrate::{DriftLimits, RecalibrateOptions, RecalibrationOutcome, Verdict};
+use lumiwall_calib::recalibrate::{
+    DriftLimits, RecalibrateOptions, RecalibrationOutcome, Recorded, Verdict, record_in_store,
+};
 use lumiwall_calib::station::Station;
-use lumiwall_profiles::store::{CommissionRun, ProfileStore, Timestamp};
+use lumiwall_profiles::store::{ProfileStore, Timestamp};
 
 use crate::CliError;
 use crate::cmd_commission::MeterArgs;
@@ -29,8 +31,9 @@ pub(crate) struct RecalibrateArgs {
     /// Profile folder written by `lumiwall commission`; new profiles replace the ones in
     /// it (the old ones move to `previous/`, see `lumiwall profiles rollback`).
     #[arg(long)]
-    profiles: PathBuf,
-    /// Record the run in this profile store when profiles are written.
+    pub(crate) profiles: PathBuf,
+    /// Record the run in this profile store: the new profiles when profiles are
+    /// written, otherwise every display's readings (for `lumiwall profiles forecast`).
     #[arg(long)]
     store: Option<PathBuf>,
     /// Recalibrate when a primary's luminance changed by more than this (percent).
@@ -46,6 +49,10 @@ pub(crate) struct RecalibrateArgs {
     /// mid drive is off its profile's curve by more than this (percent).
     #[arg(long, allow_negative_numbers = true, default_value_t = 3.0, value_parser = values::positive_finite)]
     max_curve_change_pct: f64,
+    /// Recalibrate when the white a display shows through its profile, predicted from
+    /// the night's readings, is more than this ΔE2000 off the common white.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.25, value_parser = values::positive_finite)]
+    max_white_de: f64,
     /// Reserve to keep when the white must be lowered, in (0, 1]: give the
     /// commissioning's `--headroom` (default: the profiles' own, which after a
     /// recalibration that kept the white is the usage of that white).
@@ -56,18 +63,105 @@ pub(crate) struct RecalibrateArgs {
     #[arg(long, allow_negative_numbers = true, value_parser = values::non_negative_finite)]
     simulate_hours: Option<f64>,
     #[command(flatten)]
-    meter: MeterArgs,
+    pub(crate) meter: MeterArgs,
 }
 
 /// Runs `lumiwall recalibrate`; returns the exit code (0: nothing drifted, 10:
 /// recalibrated, 11: a display left the headroom, 12: a device failed).
 pub(crate) fn run(args: RecalibrateArgs) -> Result<i32, CliError> {
+    let mut readings = 0u32;
+    let done = recalibrate_with(&args, &mut |p| {
+        if let Progress::Reading { .. } = p {
+            readings += 1;
+        }
+    })?;
+    match done {
+        Recalibrated::DeviceFailed { wall, error } => {
+            println!("recalibrate {wall}: DEVICE FAILED: {error}");
+            eprintln!("lumiwall: error: {error}");
+            Ok(EXIT_DEVICE_FAILED)
+        }
+        Recalibrated::Done { outcome, recorded } => {
+            print!("{}", display_lines(&outcome));
+            if let Some(line) = recorded {
+                println!("{line}");
+            }
+            println!("{}", summary(&outcome, readings));
+            Ok(exit_code(outcome.verdict))
+        }
+    }
+}
+
+/// The exit code of a verdict.
+pub(crate) fn exit_code(v: Verdict) -> i32 {
+    match v {
+        Verdict::Unchanged => 0,
+        Verdict::Recalibrated => EXIT_RECALIBRATED,
+        Verdict::LeftHeadroom => EXIT_LEFT_HEADROOM,
+    }
+}
+
+/// What [`recalibrate_with`] ended with.
+pub(crate) enum Recalibrated {
+    /// The run went through; `recorded` says what the store kept.
+    Done {
+        /// The outcome.
+        outcome: Box<RecalibrationOutcome>,
+        /// What was recorded in the store, as a line for the log.
+        recorded: Option<String>,
+    },
+    /// A device failed (the profiles are untouched).
+    DeviceFailed {
+        /// Wall name.
+        wall: String,
+        /// What failed.
+        error: String,
+    },
+}
+
+/// `lumiwall recalibrate` without printing (the station app runs it too).
+pub(crate) fn recalibrate_with(
+    args: &RecalibrateArgs,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Recalibrated, CliError> {
     refuse_simulation_on_a_real_meter(&args.meter, args.simulate_hours)?;
     let mut station = Station::open(&args.wall, &args.meter.station_options())?;
     if let Some(h) = args.simulate_hours {
         station.wall.advance_hours(h);
     }
-    let opts = RecalibrateOptions {
+    let opts = options(args, &station)?;
+    let started = Timestamp::now();
+    let outcome = match station.recalibrate(&args.profiles, &opts, progress) {
+        Ok(o) => o,
+        Err(e) if e.is_device_failure() => {
+            return Ok(Recalibrated::DeviceFailed {
+                wall: station.wall.name(),
+                error: e.to_string(),
+            });
+        }
+        Err(e) => return Err(CliError::failure(e.to_string())),
+    };
+    let recorded = match &args.store {
+        Some(store) => {
+            let mut store = ProfileStore::open(store)?;
+            Some(match record_in_store(&mut store, &outcome, started)? {
+                Recorded::Run(id) => format!("recorded run {} in {}", id.0, store.path().display()),
+                Recorded::LampReadings(n) => {
+                    format!("recorded {n} lamp readings in {}", store.path().display())
+                }
+            })
+        }
+        None => None,
+    };
+    Ok(Recalibrated::Done {
+        outcome: Box::new(outcome),
+        recorded,
+    })
+}
+
+/// The recalibration's options from the command line and the profile folder.
+fn options(args: &RecalibrateArgs, station: &Station) -> Result<RecalibrateOptions, CliError> {
+    Ok(RecalibrateOptions {
         measure: MeasureOptions {
             meter_matrix: crate::cmd_verify::meter_matrices(
                 &args.meter,
@@ -81,6 +175,7 @@ pub(crate) fn run(args: RecalibrateArgs) -> Result<i32, CliError> {
             delta_xy: args.max_delta_xy,
             black_cd_m2: args.max_black_change,
             curve_pct: args.max_curve_change_pct,
+            white_de2000: args.max_white_de,
         },
         meter_xy_offset: crate::cmd_verify::load_meter_correction(
             &args.profiles,
@@ -88,36 +183,6 @@ pub(crate) fn run(args: RecalibrateArgs) -> Result<i32, CliError> {
         )?
         .unwrap_or([0.0; 2]),
         headroom: args.headroom,
-    };
-    let started = Timestamp::now();
-    let mut readings = 0u32;
-    let mut progress = |p: Progress| {
-        if let Progress::Reading { .. } = p {
-            readings += 1;
-        }
-    };
-    let outcome = match station.recalibrate(&args.profiles, &opts, &mut progress) {
-        Ok(o) => o,
-        Err(e) if e.is_device_failure() => {
-            println!("recalibrate {}: DEVICE FAILED: {e}", station.wall.name());
-            eprintln!("lumiwall: error: {e}");
-            return Ok(EXIT_DEVICE_FAILED);
-        }
-        Err(e) => return Err(CliError::failure(e.to_string())),
-    };
-    print!("{}", display_lines(&outcome));
-    if let (Some(store), Some(solution)) = (&args.store, &outcome.solution) {
-        let mut store = ProfileStore::open(store)?;
-        let mut run = CommissionRun::new(outcome.wall.clone(), started);
-        run.source = "recalibrate".into();
-        let id = store.record(&run, &solution.profiles)?;
-        println!("recorded run {} in {}", id.0, store.path().display());
-    }
-    println!("{}", summary(&outcome, readings));
-    Ok(match outcome.verdict {
-        Verdict::Unchanged => 0,
-        Verdict::Recalibrated => EXIT_RECALIBRATED,
-        Verdict::LeftHeadroom => EXIT_LEFT_HEADROOM,
     })
 }
 
@@ -139,7 +204,7 @@ pub(crate) fn refuse_simulation_on_a_real_meter(
 }
 
 /// One line per display: drift, reserve left, whether it drifted.
-fn display_lines(o: &RecalibrationOutcome) -> String {
+pub(crate) fn display_lines(o: &RecalibrationOutcome) -> String {
     let mut s = String::new();
     for c in &o.checks {
         let worst_dy = c
@@ -156,12 +221,13 @@ fn display_lines(o: &RecalibrationOutcome) -> String {
             }
         });
         s += &format!(
-            "{:<44} ΔY {:+6.2} %  Δxy {:.4}  black {:+.3} cd/m²  curve {:+5.1} %  reserve {:+.3}  {}\n",
+            "{:<44} ΔY {:+6.2} %  Δxy {:.4}  black {:+.3} cd/m²  curve {:+5.1} %  white ΔE {:.2}  reserve {:+.3}  {}\n",
             c.key.to_string(),
             worst_dy,
             worst_dxy,
             c.black_change_cd_m2,
             worst_curve,
+            c.white_de2000,
             c.reserve_left(),
             if c.cannot_reach_white() {
                 "OUT OF REACH"
@@ -178,7 +244,7 @@ fn display_lines(o: &RecalibrationOutcome) -> String {
 }
 
 /// The one-line summary for logs.
-fn summary(o: &RecalibrationOutcome, readings: u32) -> String {
+pub(crate) fn summary(o: &RecalibrationOutcome, readings: u32) -> String {
     let drifted = o.checks.iter().filter(|c| c.drifted).count();
     let least_reserve = o
         .checks

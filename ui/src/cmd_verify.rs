@@ -64,7 +64,7 @@ pub(crate) struct VerifyArgs {
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.008, value_parser = values::positive_finite)]
     black_dxy: f64,
     #[command(flatten)]
-    meter: MeterArgs,
+    pub(crate) meter: MeterArgs,
     /// Print only the summary, not every patch.
     #[arg(long)]
     summary_only: bool,
@@ -161,6 +161,57 @@ pub(crate) fn meter_matrices(
 
 /// Runs `lumiwall verify`.
 pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
+    if let Some(cells) = args.grid {
+        let (mut station, profiles) = open_checked(&args)?;
+        return run_grid(&mut station, &profiles, cells, &args);
+    }
+    let mut pb: Option<ProgressBar> = None;
+    let verified = verify_with(&args, &mut |p, total| {
+        let bar = pb.get_or_insert_with(|| {
+            let b = ProgressBar::new(total);
+            b.set_style(
+                ProgressStyle::with_template(
+                    "{bar:40} {pos}/{len} readings [{elapsed}, eta {eta}]",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
+            b
+        });
+        if let Progress::Reading { .. } = p {
+            bar.inc(1);
+        }
+    });
+    if let Some(b) = &pb {
+        b.finish_and_clear();
+    }
+    let Verified {
+        report,
+        profiles,
+        targets,
+    } = verified?;
+    let verdict = print_report(&report, &args);
+    match truth_report(&args, &profiles, &targets) {
+        Ok(Some(t)) => print_truth(&t, &args),
+        Ok(None) => {}
+        Err(e) => println!("\nthe simulator's truth could not be read: {e}"),
+    }
+    verdict
+}
+
+/// What [`verify_with`] read.
+pub(crate) struct Verified {
+    /// The verification, also kept in the profile folder ([`VERIFY_FILE`]).
+    pub(crate) report: VerifyReport,
+    /// The profiles verified.
+    pub(crate) profiles: Vec<lumiwall_profiles::DisplayProfile>,
+    /// The targets shown.
+    pub(crate) targets: Vec<lumiwall_calib::verify::Target>,
+}
+
+/// The station and the folder's profiles, checked to be of the same wall.
+fn open_checked(
+    args: &VerifyArgs,
+) -> Result<(Station, Vec<lumiwall_profiles::DisplayProfile>), CliError> {
     let (wall_name, profiles) = ProfileSet::load_dir(&args.profiles).map_err(|e| {
         CliError::input(format!(
             "cannot read profiles in {}: {e}",
@@ -168,7 +219,7 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
         ))
     })?;
     crate::cmd_recalibrate::refuse_simulation_on_a_real_meter(&args.meter, args.simulate_hours)?;
-    let mut station = Station::open(&args.wall, &args.meter.station_options())?;
+    let station = Station::open(&args.wall, &args.meter.station_options())?;
     if let Some(h) = args.simulate_hours {
         station.wall.advance_hours(h);
     }
@@ -179,9 +230,17 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
             station.wall.name()
         )));
     }
-    if let Some(cells) = args.grid {
-        return run_grid(&mut station, &profiles, cells, &args);
-    }
+    Ok((station, profiles))
+}
+
+/// `lumiwall verify` without printing (the station app runs it too): reads the targets
+/// through the profiles and keeps the verification in the profile folder. `progress`
+/// sees every step with the number of readings to expect.
+pub(crate) fn verify_with(
+    args: &VerifyArgs,
+    progress: &mut dyn FnMut(Progress, u64),
+) -> Result<Verified, CliError> {
+    let (mut station, profiles) = open_checked(args)?;
     let targets = match args.chart {
         Some(_) => chart_targets(&profiles)?,
         None => default_targets(&profiles, args.patches)?,
@@ -195,29 +254,14 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
         },
         ..VerifyOptions::default()
     };
-    let pb = ProgressBar::new((station.displays().len() * targets.len()) as u64);
-    pb.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} readings [{elapsed}, eta {eta}]")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    let report = station.verify(&profiles, &targets, &opts, &mut |p| {
-        if let Progress::Reading { .. } = p {
-            pb.inc(1);
-        }
-    });
-    pb.finish_and_clear();
-    let report = report?;
+    let total = (station.displays().len() * targets.len()) as u64;
+    let report = station.verify(&profiles, &targets, &opts, &mut |p| progress(p, total))?;
     save_report(&args.profiles, &report);
-    // The truth opens the wall again: let go of its outputs first (a networked wall's
-    // pattern servers serve one station at a time).
-    drop(station);
-    let verdict = print_report(&report, &args);
-    match truth_report(&args, &profiles, &targets) {
-        Ok(Some(t)) => print_truth(&t, &args),
-        Ok(None) => {}
-        Err(e) => println!("\nthe simulator's truth could not be read: {e}"),
-    }
-    verdict
+    Ok(Verified {
+        report,
+        profiles,
+        targets,
+    })
 }
 
 /// Name of the last verification's record in the profile folder (read by `export

@@ -22,8 +22,12 @@ mod cmd_profiles;
 mod cmd_recalibrate;
 mod cmd_render;
 #[cfg(feature = "station")]
+mod cmd_season;
+#[cfg(feature = "station")]
 mod cmd_verify;
 mod error;
+#[cfg(feature = "station-app")]
+mod station_app;
 mod values;
 
 use clap::{Parser, Subcommand};
@@ -75,6 +79,10 @@ enum Command {
     /// Serve this render node's outputs to calibration stations (gRPC pattern service).
     #[cfg(feature = "pattern-server")]
     PatternServer(cmd_pattern_server::PatternServerArgs),
+    /// The station app: wall map, commission / verify / recalibrate with progress,
+    /// gamut, drift and forecast (a window; the same commands as the command line).
+    #[cfg(feature = "station-app")]
+    Station(station_app::StationArgs),
     /// Benchmarks that print a table.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -91,6 +99,10 @@ enum BenchCommand {
     /// Calibration accuracy against the number of meter readings per display.
     #[cfg(feature = "station")]
     Readings(cmd_commission::BenchArgs),
+    /// A season of nightly recalibrations on the virtual wall (lamps ageing, one lamp
+    /// changed) against the simulator's truth; the forecast checked.
+    #[cfg(feature = "station")]
+    Season(cmd_season::SeasonArgs),
     /// Pattern service: time per pattern change on loopback against a raw TCP round
     /// trip; the share of a 48-projector commissioning.
     #[cfg(all(feature = "station", feature = "pattern-server"))]
@@ -132,11 +144,15 @@ fn main() {
         Command::Profiles(a) => cmd_profiles::run(a),
         #[cfg(feature = "pattern-server")]
         Command::PatternServer(a) => cmd_pattern_server::run(a),
+        #[cfg(feature = "station-app")]
+        Command::Station(a) => station_app::run(a),
         Command::Bench(BenchCommand::Apply(a)) => cmd_apply::bench(a),
         Command::Bench(BenchCommand::Radiosity(a)) => cmd_render::bench(a),
         Command::Bench(BenchCommand::Cie171(a)) => cmd_cie171::bench(a),
         #[cfg(feature = "station")]
         Command::Bench(BenchCommand::Readings(a)) => cmd_commission::bench(a),
+        #[cfg(feature = "station")]
+        Command::Bench(BenchCommand::Season(a)) => cmd_season::bench(a),
         #[cfg(all(feature = "station", feature = "pattern-server"))]
         Command::Bench(BenchCommand::Patterns(a)) => cmd_pattern_server::bench(a),
     };

@@ -38,7 +38,7 @@ impl Shown {
     }
 }
 
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub(crate) struct WallState {
     pub(crate) file: WallFile,
     pub(crate) displays: Vec<SimDisplay>,
@@ -621,6 +621,29 @@ impl VirtualWall {
     pub fn advance_hours(&self, hours: f64) {
         if hours.is_finite() && hours > 0.0 {
             self.lock().clock_s += hours * 3600.0;
+        }
+    }
+
+    /// Replaces the lamp of display `id` now: its lamp hours start again at 0 (the
+    /// new lamp's burn-in is still to come). The lamp's power and the projector's
+    /// optics stay as they were.
+    pub fn replace_lamp(&self, id: DisplayId) -> Result<(), DeviceError> {
+        let mut s = self.lock();
+        let now_h = s.clock_s / 3600.0;
+        s.display(id)?;
+        if let Some(d) = s.displays.get_mut(id.0 as usize) {
+            d.lamp_hours_at_start = -now_h;
+        }
+        Ok(())
+    }
+
+    /// An independent copy of the wall as it is now (displays, lamps, clock, the
+    /// pattern shown): advancing its clock or replacing its lamps leaves this wall
+    /// untouched, and the other way round. For looking ahead at the truth, e.g. when a
+    /// forecast is checked.
+    pub fn snapshot(&self) -> VirtualWall {
+        VirtualWall {
+            state: Arc::new(Mutex::new(self.lock().clone())),
         }
     }
 

@@ -2,7 +2,8 @@
 //! reaching the wall's common white?
 //!
 //! Each profile in the store records the display's measured primaries at full drive
-//! (`primaries_xyz_cd_m2`, black removed) and the linear channel intensities the
+//! (`primaries_xyz_cd_m2`, black removed; a recalibration that rewrote nothing stores
+//! the same readings as a [`LampReading`]) and the linear channel intensities the
 //! common white needs (`channel_usage`). When a lamp loses the fraction `1 − f` of a
 //! channel's light, the same white needs `usage / f` of that channel; the display
 //! leaves its headroom when `usage / f` exceeds the profile's `headroom` (the reserve
@@ -176,31 +177,74 @@ impl DisplayForecast {
     }
 }
 
+/// One measurement of a display's light in its lamp's life: what the forecast fits.
+/// Every stored profile is one ([`LampReading::of_profile`]); a nightly recalibration
+/// that found nothing to rewrite stores its readings as one too
+/// ([`super::ProfileStore::record_lamp_readings`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LampReading {
+    /// The display.
+    pub display: DisplayKey,
+    /// When it was measured.
+    pub utc: Timestamp,
+    /// Luminance of each primary at full drive, black removed (cd/m²).
+    pub primaries_y_cd_m2: [f64; 3],
+    /// Linear intensity of each channel that the common white needs with these
+    /// primaries.
+    pub channel_usage: [f64; 3],
+    /// The largest usage the wall's solve allows (the profile's headroom).
+    pub headroom: f64,
+}
+
+impl LampReading {
+    /// The reading a profile records, measured at `utc`.
+    pub fn of_profile(utc: Timestamp, p: &DisplayProfile) -> Self {
+        Self {
+            display: p.display.clone(),
+            utc,
+            primaries_y_cd_m2: std::array::from_fn(|c| p.primaries_xyz_cd_m2[c][1]),
+            channel_usage: p.channel_usage,
+            headroom: p.headroom,
+        }
+    }
+
+    /// Luminance of the native white (the three primaries at full drive), cd/m².
+    pub fn native_white_y_cd_m2(&self) -> f64 {
+        self.primaries_y_cd_m2.iter().sum()
+    }
+}
+
 /// Forecasts every display and eye in `history` (as [`super::ProfileStore::history`]
 /// returns it, oldest first), one entry per display and eye.
 pub fn forecast(
     history: &[(Timestamp, DisplayProfile)],
     opts: &ForecastOptions,
 ) -> Vec<DisplayForecast> {
-    let mut keys: Vec<&DisplayKey> = history.iter().map(|(_, p)| &p.display).collect();
+    let readings: Vec<LampReading> = history
+        .iter()
+        .map(|(t, p)| LampReading::of_profile(*t, p))
+        .collect();
+    forecast_readings(&readings, opts)
+}
+
+/// Forecasts every display and eye in `readings` (any order), one entry per display
+/// and eye, in display order.
+pub fn forecast_readings(readings: &[LampReading], opts: &ForecastOptions) -> Vec<DisplayForecast> {
+    let mut keys: Vec<&DisplayKey> = readings.iter().map(|r| &r.display).collect();
     keys.sort();
     keys.dedup();
     keys.into_iter()
         .map(|key| {
-            let mut own: Vec<&(Timestamp, DisplayProfile)> =
-                history.iter().filter(|(_, p)| &p.display == key).collect();
-            own.sort_by_key(|(t, _)| *t);
+            let mut own: Vec<&LampReading> =
+                readings.iter().filter(|r| &r.display == key).collect();
+            own.sort_by_key(|r| r.utc);
             forecast_one(key, &own, opts)
         })
         .collect()
 }
 
-/// The forecast of one display and eye from its profiles, oldest first.
-fn forecast_one(
-    key: &DisplayKey,
-    own: &[&(Timestamp, DisplayProfile)],
-    opts: &ForecastOptions,
-) -> DisplayForecast {
+/// The forecast of one display and eye from its readings, oldest first.
+fn forecast_one(key: &DisplayKey, own: &[&LampReading], opts: &ForecastOptions) -> DisplayForecast {
     let (segment, lamp_changes) = current_segment(own, opts.lamp_change_step);
     if segment.len() < MIN_POINTS {
         return DisplayForecast::NotEnoughHistory {
@@ -209,20 +253,17 @@ fn forecast_one(
             lamp_changes,
         };
     }
-    let start = segment[0].0;
-    let (newest_utc, newest) = (segment[segment.len() - 1].0, &segment[segment.len() - 1].1);
+    let start = segment[0].utc;
+    let newest = segment[segment.len() - 1];
     let hours: Vec<f64> = segment
         .iter()
-        .map(|(t, _)| hours_between(start, *t))
+        .map(|r| hours_between(start, r.utc))
         .collect();
     let channels = Channel::ALL
         .iter()
         .map(|&channel| {
             let c = channel.index();
-            let light: Vec<f64> = segment
-                .iter()
-                .map(|(_, p)| p.primaries_xyz_cd_m2[c][1])
-                .collect();
+            let light: Vec<f64> = segment.iter().map(|r| r.primaries_y_cd_m2[c]).collect();
             let fits = DecayFit::best(&hours, &light, opts.burn_in);
             let fit = fits.as_ref().map(|(best, _)| best);
             let limits = Limits {
@@ -249,7 +290,7 @@ fn forecast_one(
     DisplayForecast::Fitted {
         display: key.clone(),
         headroom: newest.headroom,
-        newest_utc,
+        newest_utc: newest.utc,
         segment_start_utc: start,
         points: segment.len(),
         lamp_changes,
@@ -257,18 +298,18 @@ fn forecast_one(
     }
 }
 
-/// The profiles since the last lamp change, and the times of every lamp change.
+/// The readings since the last lamp change, and the times of every lamp change.
 fn current_segment<'a>(
-    own: &[&'a (Timestamp, DisplayProfile)],
+    own: &[&'a LampReading],
     step: f64,
-) -> (Vec<&'a (Timestamp, DisplayProfile)>, Vec<Timestamp>) {
+) -> (Vec<&'a LampReading>, Vec<Timestamp>) {
     let mut changes = Vec::new();
     let mut first = 0;
     for i in 1..own.len() {
-        let before = super::drift::native_white_xyz_cd_m2(&own[i - 1].1)[1];
-        let after = super::drift::native_white_xyz_cd_m2(&own[i].1)[1];
+        let before = own[i - 1].native_white_y_cd_m2();
+        let after = own[i].native_white_y_cd_m2();
         if before > 0.0 && after > before * (1.0 + step) {
-            changes.push(own[i].0);
+            changes.push(own[i].utc);
             first = i;
         }
     }

@@ -52,6 +52,25 @@ pub const MIGRATIONS: &[&str] = &[
          PRIMARY KEY (run_id, display, eye)
      );
      CREATE INDEX profiles_by_display ON profiles (display, eye);",
+    // 2: a nightly check's readings where no profile was rewritten (for the forecast).
+    "CREATE TABLE lamp_readings (
+         wall             TEXT NOT NULL,
+         measured_utc     TEXT NOT NULL,
+         measured_unix_ms INTEGER NOT NULL,
+         display          INTEGER NOT NULL CHECK (display >= 0),
+         eye              TEXT NOT NULL CHECK (eye IN ('mono', 'left', 'right')),
+         tile_col         INTEGER NOT NULL,
+         tile_row         INTEGER NOT NULL,
+         red_cd_m2        REAL NOT NULL,
+         green_cd_m2      REAL NOT NULL,
+         blue_cd_m2       REAL NOT NULL,
+         usage_red        REAL NOT NULL,
+         usage_green      REAL NOT NULL,
+         usage_blue       REAL NOT NULL,
+         headroom         REAL NOT NULL,
+         source           TEXT NOT NULL,
+         PRIMARY KEY (wall, measured_unix_ms, display, eye)
+     );",
 ];
 
 /// Newest schema version this build knows.

@@ -1,0 +1,206 @@
+//! The station app's runs: each action is a `lumiwall` command line, parsed by the
+//! command line's own parser and run by the same function the command runs, on a
+//! worker thread that reports progress to the window.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, channel};
+
+use clap::Parser;
+use lumiwall_calib::measure::Progress;
+use lumiwall_calib::station::StopFlag;
+
+use crate::cmd_recalibrate::Recalibrated;
+use crate::{Cli, Command};
+
+/// What a run tells the window.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum JobEvent {
+    /// Fraction done (0..=1) and what is being measured.
+    Progress {
+        /// Fraction done.
+        fraction: f32,
+        /// Readings so far.
+        readings: u64,
+    },
+    /// A line for the run log.
+    Line(String),
+    /// The run ended: a summary, or what failed.
+    Finished(Result<String, String>),
+}
+
+/// A run in progress.
+pub(crate) struct Job {
+    /// The command line it runs (shown, and what a technician types for the same).
+    pub(crate) argv: Vec<String>,
+    events: Receiver<JobEvent>,
+    stop: StopFlag,
+    /// Latest progress.
+    pub(crate) fraction: f32,
+    /// Readings so far.
+    pub(crate) readings: u64,
+    /// Set once the run has ended.
+    pub(crate) finished: Option<Result<String, String>>,
+}
+
+impl Job {
+    /// Starts `argv` (a `lumiwall` command line) on a worker thread; `wake` is called
+    /// after every event (the window repaints).
+    pub(crate) fn start(argv: Vec<String>, wake: impl Fn() + Send + 'static) -> Self {
+        let (tx, rx) = channel();
+        let stop: StopFlag = Arc::new(AtomicBool::new(false));
+        let (args, flag) = (argv.clone(), stop.clone());
+        std::thread::spawn(move || {
+            let send = |e: JobEvent| {
+                // the window may be gone: nothing is left to tell
+                let _ = tx.send(e);
+                wake();
+            };
+            let result = run_command(&args, flag, &send);
+            send(JobEvent::Finished(result));
+        });
+        Self {
+            argv,
+            events: rx,
+            stop,
+            fraction: 0.0,
+            readings: 0,
+            finished: None,
+        }
+    }
+
+    /// Asks the run to stop before its next pattern (what was measured is kept).
+    pub(crate) fn stop(&self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether a stop was asked for.
+    pub(crate) fn stopping(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+
+    /// Takes the events that arrived; returns the log lines among them.
+    pub(crate) fn poll(&mut self) -> Vec<String> {
+        let mut lines = Vec::new();
+        while let Ok(e) = self.events.try_recv() {
+            match e {
+                JobEvent::Progress { fraction, readings } => {
+                    self.fraction = fraction;
+                    self.readings = readings;
+                }
+                JobEvent::Line(l) => lines.push(l),
+                JobEvent::Finished(r) => {
+                    if r.is_ok() {
+                        self.fraction = 1.0;
+                    }
+                    self.finished = Some(r);
+                }
+            }
+        }
+        lines
+    }
+}
+
+/// Counts readings and finished displays into progress events.
+struct Counter<'a> {
+    send: &'a dyn Fn(JobEvent),
+    readings: u64,
+    displays_done: u64,
+}
+
+impl Counter<'_> {
+    fn on(&mut self, p: &Progress, displays: u64, readings_total: Option<u64>) {
+        match p {
+            Progress::Reading { .. } => self.readings += 1,
+            Progress::DisplayDone { display, readings } => {
+                self.displays_done += 1;
+                (self.send)(JobEvent::Line(format!("{display}: {readings} readings")));
+            }
+            Progress::Resumed { display, .. } => {
+                self.displays_done += 1;
+                (self.send)(JobEvent::Line(format!(
+                    "{display}: kept from the stopped run"
+                )));
+            }
+            _ => {}
+        }
+        let fraction = match readings_total {
+            Some(t) if t > 0 => self.readings as f32 / t as f32,
+            _ => self.displays_done as f32 / displays.max(1) as f32,
+        };
+        (self.send)(JobEvent::Progress {
+            fraction: fraction.min(1.0),
+            readings: self.readings,
+        });
+    }
+}
+
+/// Parses `argv` with the command line's parser and runs it as the command does.
+fn run_command(argv: &[String], stop: StopFlag, send: &dyn Fn(JobEvent)) -> Result<String, String> {
+    let cli = Cli::try_parse_from(argv).map_err(|e| e.to_string())?;
+    let mut count = Counter {
+        send,
+        readings: 0,
+        displays_done: 0,
+    };
+    match cli.command {
+        Command::Commission(mut a) => {
+            a.meter.stop = Some(stop);
+            let (_, outcome) = crate::cmd_commission::commission_with(&a, &mut |p, _, d| {
+                count.on(&p, d.len() as u64, None);
+            })
+            .map_err(|e| e.to_string())?;
+            Ok(format!(
+                "commissioned {}: {} displays, common white {:.2} cd/m²",
+                outcome.wall,
+                outcome.measured.len(),
+                outcome
+                    .solution
+                    .profiles
+                    .first()
+                    .map_or(0.0, |p| p.target_white_xyz_cd_m2[1])
+            ))
+        }
+        Command::Verify(mut a) => {
+            a.meter.stop = Some(stop);
+            let v =
+                crate::cmd_verify::verify_with(&a, &mut |p, total| count.on(&p, 0, Some(total)))
+                    .map_err(|e| e.to_string())?;
+            let o = &v.report.overall;
+            Ok(format!(
+                "verified: median ΔE2000 {:.2}, max {:.2} over {} patches",
+                o.median_de, o.max_de, o.patches
+            ))
+        }
+        Command::Recalibrate(mut a) => {
+            a.meter.stop = Some(stop);
+            let displays = lumiwall_profiles::ProfileSet::load_dir(&a.profiles)
+                .map_or(1, |(_, p)| p.len() as u64);
+            let done = crate::cmd_recalibrate::recalibrate_with(&a, &mut |p| {
+                count.on(&p, displays, None);
+            })
+            .map_err(|e| e.to_string())?;
+            match done {
+                Recalibrated::Done { outcome, recorded } => {
+                    for line in crate::cmd_recalibrate::display_lines(&outcome).lines() {
+                        send(JobEvent::Line(line.to_string()));
+                    }
+                    if let Some(r) = recorded {
+                        send(JobEvent::Line(r));
+                    }
+                    Ok(crate::cmd_recalibrate::summary(
+                        &outcome,
+                        count.readings as u32,
+                    ))
+                }
+                Recalibrated::DeviceFailed { wall, error } => {
+                    Err(format!("recalibrate {wall}: DEVICE FAILED: {error}"))
+                }
+            }
+        }
+        _ => Err(format!(
+            "the station app runs commission, verify and recalibrate, not {}",
+            argv.get(1).map_or("", String::as_str)
+        )),
+    }
+}

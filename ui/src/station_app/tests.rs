@@ -1,0 +1,189 @@
+//! The station app driven through its own widgets (egui_kittest: clicks by label,
+//! AccessKit queries) on the virtual wall, and screenshots of its main views compared
+//! with the ones checked in (`ui/tests/snapshots`; `UPDATE_SNAPSHOTS=1` writes new
+//! ones). Screenshots need a wgpu adapter (Mesa's lavapipe in CI); without one they are
+//! skipped with a message unless `LUMIWALL_REQUIRE_GPU=1`.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use eframe::egui;
+use egui_kittest::Harness;
+use egui_kittest::kittest::{NodeT, Queryable};
+
+use super::{StationApp, StationArgs};
+use crate::cmd_commission::NoiseArg;
+use lumiwall_calib::station::MeterChoice;
+
+/// A wall file, relative to the crate (the tests' working folder), so that the path
+/// shown in the screenshots is the same on every machine.
+fn fixture(wall: &str) -> PathBuf {
+    let path = Path::new("../fixtures/walls").join(wall);
+    assert!(
+        path.is_file(),
+        "run from the ui crate's folder: {} not found",
+        path.display()
+    );
+    path
+}
+
+/// A fresh profile folder at a fixed path (it is shown in the window, so the
+/// screenshots must not depend on a random name).
+fn fresh_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir()
+        .join("lumiwall-station-app-test")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn app(wall: &str, profiles: PathBuf) -> StationApp {
+    StationApp::new(StationArgs {
+        wall: fixture(wall),
+        profiles,
+        store: None,
+        meter: MeterChoice::Direct,
+        noise: NoiseArg::None,
+    })
+}
+
+fn harness(app: StationApp) -> Harness<'static, StationApp> {
+    Harness::builder()
+        .with_size(egui::vec2(1280.0, 820.0))
+        .build_ui_state(|ui, app: &mut StationApp| app.show(ui), app)
+}
+
+/// Steps the window until the run has ended (at most two minutes).
+fn wait_for_run(h: &mut Harness<'static, StationApp>) {
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while h.state().busy() {
+        assert!(
+            Instant::now() < deadline,
+            "the run did not end: {:?}",
+            h.state().log
+        );
+        h.step();
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // one more frame takes the end of the run and reloads the files
+    h.step();
+    h.run_steps(3);
+}
+
+fn click(h: &mut Harness<'static, StationApp>, label: &str) {
+    h.get_by_label(label).click();
+    h.run_steps(2);
+}
+
+fn log_has(h: &Harness<'static, StationApp>, text: &str) -> bool {
+    h.state().log.iter().any(|l| l.contains(text))
+}
+
+/// Compares a screenshot with the checked-in one, or says why it cannot.
+fn screenshot(h: &mut Harness<'static, StationApp>, name: &str) {
+    match h.render() {
+        Ok(image) => egui_kittest::image_snapshot(&image, name),
+        Err(e) if std::env::var("LUMIWALL_REQUIRE_GPU").as_deref() != Ok("1") => {
+            eprintln!(
+                "skipping screenshot {name}: no wgpu adapter ({e}); LUMIWALL_REQUIRE_GPU=1 requires one"
+            );
+        }
+        Err(e) => panic!("screenshot {name}: no wgpu adapter: {e}"),
+    }
+}
+
+#[test]
+fn the_app_commissions_and_verifies_the_virtual_wall_and_colours_the_map_by_the_verification() {
+    let dir = fresh_dir("mono");
+    let mut h = harness(app("mono-2x1.toml", dir.clone()));
+    h.run_steps(2);
+    assert!(h.state().data.profiles.is_empty());
+    // Verify needs profiles: disabled before the commissioning
+    assert!(h.get_by_label("Verify").accesskit_node().is_disabled());
+    click(&mut h, "Commission");
+    assert!(
+        log_has(&h, "$ lumiwall commission --out"),
+        "the command line is shown: {:?}",
+        h.state().log
+    );
+    wait_for_run(&mut h);
+    assert!(
+        log_has(&h, "commissioned mono-2x1: 2 displays"),
+        "{:?}",
+        h.state().log
+    );
+    assert_eq!(
+        h.state().data.profiles.len(),
+        2,
+        "the new profiles are read back"
+    );
+    click(&mut h, "Verify");
+    wait_for_run(&mut h);
+    assert!(
+        log_has(&h, "verified: median ΔE2000"),
+        "{:?}",
+        h.state().log
+    );
+    let verified = h
+        .state()
+        .data
+        .verify
+        .as_ref()
+        .expect("verify.json read back");
+    assert_eq!(verified.per_display.len(), 2);
+    click(&mut h, "Wall");
+    // each tile is coloured by its display's largest ΔE2000 in the verification
+    let data = &h.state().data;
+    for info in &data.displays {
+        let key = lumiwall_profiles::DisplayKey {
+            wall: data.name.clone(),
+            display: info.id.0,
+            tile_col: info.tile_col,
+            tile_row: info.tile_row,
+            eye: info.eye,
+        };
+        let max = data.verified(info.id.0, info.eye).map(|s| s.max_de);
+        let (shown, colour) =
+            super::views::status(data, &key, super::views::MapColour::Verification);
+        assert_eq!(shown, max);
+        assert_eq!(
+            colour == super::views::GOOD,
+            max.is_some_and(|m| m <= 1.5),
+            "{key}: {max:?}"
+        );
+    }
+    screenshot(&mut h, "station_wall");
+    click(&mut h, "Gamut & usage");
+    screenshot(&mut h, "station_gamut");
+}
+
+#[test]
+fn a_stopped_commissioning_says_so_and_resume_finishes_it() {
+    let dir = fresh_dir("stop");
+    let mut h = harness(app("heyewall-48.toml", dir.clone()));
+    h.run_steps(2);
+    click(&mut h, "Commission");
+    // stop before the first pattern is shown: the run ends with the technician's stop
+    h.state().job.as_ref().expect("a run").stop();
+    wait_for_run(&mut h);
+    assert!(
+        log_has(&h, "stopped by the technician"),
+        "{:?}",
+        h.state().log
+    );
+    assert!(h.state().data.profiles.is_empty());
+    click(&mut h, "Resume");
+    assert!(log_has(&h, "--resume"), "{:?}", h.state().log);
+    wait_for_run(&mut h);
+    assert!(
+        log_has(&h, "commissioned heyewall-48: 48 displays"),
+        "{:?}",
+        h.state().log
+    );
+    assert_eq!(h.state().data.profiles.len(), 48);
+    // the README's screenshot: the 48-projector wall after its verification
+    click(&mut h, "Verify");
+    wait_for_run(&mut h);
+    click(&mut h, "Wall");
+    screenshot(&mut h, "station_heyewall");
+}
