@@ -157,7 +157,7 @@ pub struct StationOptions {
     /// Who aims the meter.
     pub aim: AimChoice,
     /// Set to stop the run: the next pattern is refused with
-    /// [`DeviceError::Stopped`](lumiwall_devices::DeviceError::Stopped) (`None`: the run
+    /// [`DeviceError::Stopped`] (`None`: the run
     /// cannot be stopped from outside).
     pub stop: Option<StopFlag>,
 }

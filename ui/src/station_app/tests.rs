@@ -187,3 +187,53 @@ fn a_stopped_commissioning_says_so_and_resume_finishes_it() {
     click(&mut h, "Wall");
     screenshot(&mut h, "station_heyewall");
 }
+
+#[test]
+fn the_forecast_view_lists_every_display_of_the_store_and_charts_the_selected_one() {
+    use lumiwall_bench::season::{self, SeasonBench};
+    use lumiwall_calib::recalibrate::DriftLimits;
+    use lumiwall_calib::solve::SolveOptions;
+    use lumiwall_calib::station::Noise;
+    use lumiwall_calib::verify::Tolerances;
+    use lumiwall_profiles::store::ForecastOptions;
+
+    // a short season writes the profiles and the store the app reads
+    let out = fresh_dir("season");
+    let bench = SeasonBench {
+        wall: fixture("mono-2x1.toml"),
+        nights: 8,
+        lamp_hours_per_day: 24.0,
+        lamp_change_night: None,
+        lamp_change_display: None,
+        forecast_night: 4,
+        forecast: ForecastOptions::default(),
+        noise: Noise::None,
+        meter: MeterChoice::Direct,
+        solve: SolveOptions {
+            headroom: 0.85,
+            ..SolveOptions::default()
+        },
+        limits: DriftLimits::default(),
+        tolerances: Tolerances::default(),
+        out: out.clone(),
+        start_utc: "2026-01-01T02:00:00Z".parse().expect("a time"),
+    };
+    season::run(&bench, &mut |_| {}).expect("the season runs");
+    let mut a = app("mono-2x1.toml", out.join("profiles"));
+    a.args.store = Some(out.join("season.lumistore"));
+    a = StationApp::new(a.args);
+    assert_eq!(a.data.forecast.len(), 2, "{:?}", a.data.problems);
+    assert_eq!(a.data.readings.values().map(Vec::len).sum::<usize>(), 18, "9 nights × 2 displays");
+    let mut h = harness(a);
+    h.run_steps(2);
+    click(&mut h, "Drift & forecast");
+    for d in 0..2 {
+        let name = format!("mono-2x1 display {d} (tile col {d} row 0, mono)");
+        assert!(h.query_by_label(&name).is_some(), "{name} listed");
+    }
+    let key = h.state().data.forecast[1].display().clone();
+    h.state_mut().selected = Some(key);
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("native white of mono-2x1 display 1").is_some());
+    screenshot(&mut h, "station_forecast");
+}

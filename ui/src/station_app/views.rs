@@ -2,9 +2,12 @@
 //! channel usage, drift charts with the forecast.
 
 use eframe::egui;
-use egui::{Align2, Color32, FontId, Pos2, Rect, Sense, Stroke, StrokeKind, Ui, pos2, vec2};
+use egui::{
+    Align2, Color32, FontId, Painter, Pos2, Rect, Sense, Stroke, StrokeKind, Ui, Vec2, pos2, vec2,
+};
 use lumiwall_calib::verify::Tolerances;
-use lumiwall_profiles::store::{Crossing, DisplayForecast};
+use lumiwall_devices::DisplayInfo;
+use lumiwall_profiles::store::{Crossing, DisplayForecast, LampReading};
 use lumiwall_profiles::{DisplayKey, Eye};
 
 use super::data::WallData;
@@ -87,7 +90,43 @@ pub(crate) fn wall_map(
         ui.label("no wall loaded");
         return None;
     }
-    let avail = ui.available_size();
+    let tile = tile_size(ui.available_size(), d);
+    let (response, painter) = ui.allocate_painter(
+        vec2(tile.x * cols as f32, tile.y * rows as f32),
+        Sense::click(),
+    );
+    let mut clicked = None;
+    for info in &d.displays {
+        let key = display_key(d, info);
+        let rect = eye_rect(response.rect.min, tile, info);
+        let (value, colour) = status(d, &key, by);
+        painter.rect_filled(rect, 3.0, colour);
+        if selected == Some(&key) {
+            let white = Stroke::new(3.0, Color32::WHITE);
+            painter.rect_stroke(rect, 3.0, white, StrokeKind::Inside);
+        }
+        let font = FontId::proportional((tile.y / 6.0).clamp(9.0, 14.0));
+        let text = tile_label(info, value, by);
+        painter.text(
+            rect.center(),
+            Align2::CENTER_CENTER,
+            text,
+            font,
+            Color32::WHITE,
+        );
+        let hit = response
+            .interact_pointer_pos()
+            .is_some_and(|p| rect.contains(p));
+        if response.clicked() && hit {
+            clicked = Some(key);
+        }
+    }
+    clicked
+}
+
+/// One tile's size on screen: the tiles' aspect, as large as `avail` allows.
+fn tile_size(avail: Vec2, d: &WallData) -> Vec2 {
+    let [cols, rows] = d.tiles;
     let aspect = if d.tile_aspect.is_finite() && d.tile_aspect > 0.0 {
         d.tile_aspect
     } else {
@@ -96,67 +135,42 @@ pub(crate) fn wall_map(
     let h = (avail.x / (cols as f32 * aspect))
         .min((avail.y - 24.0) / rows as f32)
         .max(20.0);
-    let tile = vec2(h * aspect, h);
-    let (response, painter) = ui.allocate_painter(
-        vec2(tile.x * cols as f32, tile.y * rows as f32),
-        Sense::click(),
-    );
-    let origin = response.rect.min;
-    let mut clicked = None;
-    for info in &d.displays {
-        let key = DisplayKey {
-            wall: d.name.clone(),
-            display: info.id.0,
-            tile_col: info.tile_col,
-            tile_row: info.tile_row,
-            eye: info.eye,
-        };
-        let cell = Rect::from_min_size(
-            origin + vec2(info.tile_col as f32 * tile.x, info.tile_row as f32 * tile.y),
-            tile,
-        )
-        .shrink(2.0);
-        let rect = match info.eye {
-            Eye::Mono => cell,
-            Eye::Left => Rect::from_min_max(cell.min, pos2(cell.center().x - 1.0, cell.max.y)),
-            Eye::Right => Rect::from_min_max(pos2(cell.center().x + 1.0, cell.min.y), cell.max),
-        };
-        let (value, colour) = status(d, &key, by);
-        painter.rect_filled(rect, 3.0, colour);
-        if selected == Some(&key) {
-            painter.rect_stroke(
-                rect,
-                3.0,
-                Stroke::new(3.0, Color32::WHITE),
-                StrokeKind::Inside,
-            );
-        }
-        let eye = match info.eye {
-            Eye::Mono => "",
-            Eye::Left => " L",
-            Eye::Right => " R",
-        };
-        let text = match value {
-            Some(v) if by == MapColour::Drift => format!("#{}{eye}\n{v:+.1} %", info.id.0),
-            Some(v) => format!("#{}{eye}\n{v:.2}", info.id.0),
-            None => format!("#{}{eye}\n–", info.id.0),
-        };
-        painter.text(
-            rect.center(),
-            Align2::CENTER_CENTER,
-            text,
-            FontId::proportional((tile.y / 6.0).clamp(9.0, 14.0)),
-            Color32::WHITE,
-        );
-        if response.clicked()
-            && response
-                .interact_pointer_pos()
-                .is_some_and(|p| rect.contains(p))
-        {
-            clicked = Some(key);
-        }
+    vec2(h * aspect, h)
+}
+
+fn display_key(d: &WallData, info: &DisplayInfo) -> DisplayKey {
+    DisplayKey {
+        wall: d.name.clone(),
+        display: info.id.0,
+        tile_col: info.tile_col,
+        tile_row: info.tile_row,
+        eye: info.eye,
     }
-    clicked
+}
+
+/// Where a display is drawn: its tile, or the tile's left or right half for an eye.
+fn eye_rect(origin: Pos2, tile: Vec2, info: &DisplayInfo) -> Rect {
+    let offset = vec2(info.tile_col as f32 * tile.x, info.tile_row as f32 * tile.y);
+    let cell = Rect::from_min_size(origin + offset, tile).shrink(2.0);
+    match info.eye {
+        Eye::Mono => cell,
+        Eye::Left => Rect::from_min_max(cell.min, pos2(cell.center().x - 1.0, cell.max.y)),
+        Eye::Right => Rect::from_min_max(pos2(cell.center().x + 1.0, cell.min.y), cell.max),
+    }
+}
+
+/// `#7 L` and the value the map is coloured by.
+fn tile_label(info: &DisplayInfo, value: Option<f64>, by: MapColour) -> String {
+    let eye = match info.eye {
+        Eye::Mono => "",
+        Eye::Left => " L",
+        Eye::Right => " R",
+    };
+    match value {
+        Some(v) if by == MapColour::Drift => format!("#{}{eye}\n{v:+.1} %", info.id.0),
+        Some(v) => format!("#{}{eye}\n{v:.2}", info.id.0),
+        None => format!("#{}{eye}\n–", info.id.0),
+    }
 }
 
 /// Maps CIE xy (0..0.8, 0..0.9) into `rect`.
@@ -181,45 +195,7 @@ pub(crate) fn gamut_plot(ui: &mut Ui, d: &WallData, selected: Option<&DisplayKey
         .clamp(200.0, 520.0);
     let (response, painter) = ui.allocate_painter(vec2(side, side), Sense::hover());
     let rect = response.rect.shrink(24.0);
-    painter.rect_stroke(
-        rect,
-        0.0,
-        Stroke::new(1.0, Color32::GRAY),
-        StrokeKind::Inside,
-    );
-    for i in 1..8 {
-        let v = f64::from(i) * 0.1;
-        let a = xy_to(rect, [v, 0.0]);
-        painter.text(
-            a + vec2(0.0, 4.0),
-            Align2::CENTER_TOP,
-            format!("{v:.1}"),
-            FontId::proportional(10.0),
-            Color32::GRAY,
-        );
-        let b = xy_to(rect, [0.0, v]);
-        painter.text(
-            b - vec2(4.0, 0.0),
-            Align2::RIGHT_CENTER,
-            format!("{v:.1}"),
-            FontId::proportional(10.0),
-            Color32::GRAY,
-        );
-    }
-    painter.text(
-        rect.right_bottom() + vec2(0.0, 4.0),
-        Align2::RIGHT_TOP,
-        "x",
-        FontId::proportional(12.0),
-        Color32::GRAY,
-    );
-    painter.text(
-        rect.left_top() - vec2(4.0, 0.0),
-        Align2::RIGHT_TOP,
-        "y",
-        FontId::proportional(12.0),
-        Color32::GRAY,
-    );
+    xy_axes(&painter, rect);
     for p in &d.profiles {
         let pts: Vec<Pos2> = p
             .primaries_xyz_cd_m2
@@ -235,25 +211,62 @@ pub(crate) fn gamut_plot(ui: &mut Ui, d: &WallData, selected: Option<&DisplayKey
         painter.add(egui::Shape::closed_line(pts, Stroke::new(w, c)));
     }
     if let Some(p) = d.profiles.first() {
-        let common: Vec<Pos2> = p
-            .common_primaries_xy
-            .iter()
-            .map(|xy| xy_to(rect, *xy))
-            .collect();
-        painter.add(egui::Shape::closed_line(
-            common,
-            Stroke::new(2.5, Color32::from_rgb(90, 170, 255)),
-        ));
-        if let Some(w) = xy_of(p.target_white_xyz_cd_m2) {
-            painter.circle_filled(xy_to(rect, w), 4.0, Color32::YELLOW);
-            painter.text(
-                xy_to(rect, w) + vec2(6.0, -6.0),
-                Align2::LEFT_BOTTOM,
-                format!("white {:.3}, {:.3}", w[0], w[1]),
-                FontId::proportional(11.0),
-                Color32::YELLOW,
-            );
-        }
+        common_gamut_and_white(&painter, rect, p);
+    }
+}
+
+/// The frame and ticks of the xy diagram.
+fn xy_axes(painter: &Painter, rect: Rect) {
+    let grey = Stroke::new(1.0, Color32::GRAY);
+    painter.rect_stroke(rect, 0.0, grey, StrokeKind::Inside);
+    let small = FontId::proportional(10.0);
+    for i in 1..8 {
+        let v = f64::from(i) * 0.1;
+        let (x, y) = (xy_to(rect, [v, 0.0]), xy_to(rect, [0.0, v]));
+        let label = format!("{v:.1}");
+        painter.text(
+            x + vec2(0.0, 4.0),
+            Align2::CENTER_TOP,
+            &label,
+            small.clone(),
+            Color32::GRAY,
+        );
+        painter.text(
+            y - vec2(4.0, 0.0),
+            Align2::RIGHT_CENTER,
+            &label,
+            small.clone(),
+            Color32::GRAY,
+        );
+    }
+    let font = FontId::proportional(12.0);
+    let x_at = rect.right_bottom() + vec2(0.0, 4.0);
+    painter.text(x_at, Align2::RIGHT_TOP, "x", font.clone(), Color32::GRAY);
+    let y_at = rect.left_top() - vec2(4.0, 0.0);
+    painter.text(y_at, Align2::RIGHT_TOP, "y", font, Color32::GRAY);
+}
+
+/// The wall's common gamut (thick) and its white (a dot with its xy).
+fn common_gamut_and_white(painter: &Painter, rect: Rect, p: &lumiwall_profiles::DisplayProfile) {
+    let common: Vec<Pos2> = p
+        .common_primaries_xy
+        .iter()
+        .map(|xy| xy_to(rect, *xy))
+        .collect();
+    let blue = Stroke::new(2.5, Color32::from_rgb(90, 170, 255));
+    painter.add(egui::Shape::closed_line(common, blue));
+    if let Some(w) = xy_of(p.target_white_xyz_cd_m2) {
+        let at = xy_to(rect, w);
+        painter.circle_filled(at, 4.0, Color32::YELLOW);
+        let label = format!("white {:.3}, {:.3}", w[0], w[1]);
+        let font = FontId::proportional(11.0);
+        painter.text(
+            at + vec2(6.0, -6.0),
+            Align2::LEFT_BOTTOM,
+            label,
+            font,
+            Color32::YELLOW,
+        );
     }
 }
 
@@ -310,99 +323,113 @@ fn day(c: &Crossing) -> String {
 /// first) and every display's forecast.
 pub(crate) fn drift_and_forecast(ui: &mut Ui, d: &WallData, selected: Option<&DisplayKey>) {
     if d.readings.is_empty() {
-        ui.label("no history: give the station a profile store (--store) that commissioning and recalibrate record into");
+        ui.label(
+            "no history: give the station a profile store (--store) that commissioning and \
+             recalibrate record into",
+        );
         return;
     }
-    if let Some(rs) = selected.and_then(|k| d.readings.get(k)) {
-        ui.label(format!(
-            "native white of {} over {} readings (relative to the first)",
-            rs[0].display,
-            rs.len()
-        ));
-        let width = ui.available_width().max(200.0);
-        let (response, painter) = ui.allocate_painter(vec2(width, 160.0), Sense::hover());
-        let rect = response.rect.shrink(12.0);
-        painter.rect_stroke(
-            rect,
-            0.0,
-            Stroke::new(1.0, Color32::GRAY),
-            StrokeKind::Inside,
-        );
-        let t0 = rs[0].utc.as_second() as f64;
-        let span = (rs[rs.len() - 1].utc.as_second() as f64 - t0).max(1.0);
-        let y0 = rs[0].native_white_y_cd_m2().max(1e-9);
-        let rel: Vec<f64> = rs.iter().map(|r| r.native_white_y_cd_m2() / y0).collect();
-        let (lo, hi) = rel
-            .iter()
-            .fold((1.0f64, 1.0f64), |(a, b), v| (a.min(*v), b.max(*v)));
-        let pad = ((hi - lo) * 0.1).max(0.005);
-        let pts: Vec<Pos2> = rs
-            .iter()
-            .zip(&rel)
-            .map(|(r, v)| {
-                pos2(
-                    rect.min.x + rect.width() * ((r.utc.as_second() as f64 - t0) / span) as f32,
-                    rect.max.y - rect.height() * ((v - lo + pad) / (hi - lo + 2.0 * pad)) as f32,
-                )
-            })
-            .collect();
-        painter.add(egui::Shape::line(
-            pts,
-            Stroke::new(1.5, Color32::LIGHT_BLUE),
-        ));
-        painter.text(
-            rect.left_top(),
-            Align2::LEFT_TOP,
-            format!("{:.1} %", 100.0 * (hi + pad - 1.0)),
-            FontId::proportional(10.0),
-            Color32::GRAY,
-        );
-        painter.text(
-            rect.left_bottom(),
-            Align2::LEFT_BOTTOM,
-            format!("{:.1} %", 100.0 * (lo - pad - 1.0)),
-            FontId::proportional(10.0),
-            Color32::GRAY,
-        );
-    } else {
-        ui.label("select a display on the wall map for its chart");
+    match selected.and_then(|k| d.readings.get(k)) {
+        Some(rs) if !rs.is_empty() => drift_chart(ui, rs),
+        _ => {
+            ui.label("select a display on the wall map for its chart");
+        }
     }
-    egui::ScrollArea::vertical().show(ui, |ui| {
-        egui::Grid::new("forecast")
-            .striped(true)
-            .num_columns(4)
-            .show(ui, |ui| {
-                ui.strong("display");
-                ui.strong("readings");
-                ui.strong("leaves headroom");
-                ui.strong("beyond full drive");
-                ui.end_row();
-                for f in &d.forecast {
-                    ui.label(f.display().to_string());
-                    match f {
-                        DisplayForecast::Fitted { points, .. } => {
-                            ui.label(points.to_string());
-                            ui.label(
-                                f.first_to_leave_headroom()
-                                    .map_or("beyond horizon".into(), |(c, x)| {
-                                        format!("{} ({c:?})", day(&x))
-                                    }),
-                            );
-                            ui.label(
-                                f.first_beyond_full_drive()
-                                    .map_or("beyond horizon".into(), |(c, x)| {
-                                        format!("{} ({c:?})", day(&x))
-                                    }),
-                            );
-                        }
-                        DisplayForecast::NotEnoughHistory { points, .. } => {
-                            ui.label(points.to_string());
-                            ui.label("too little history");
-                            ui.label("");
-                        }
+    egui::ScrollArea::vertical().show(ui, |ui| forecast_table(ui, d));
+}
+
+/// A display's native white over its readings, relative to the first.
+fn drift_chart(ui: &mut Ui, rs: &[LampReading]) {
+    ui.label(format!(
+        "native white of {} over {} readings (relative to the first)",
+        rs[0].display,
+        rs.len()
+    ));
+    let width = ui.available_width().max(200.0);
+    let (response, painter) = ui.allocate_painter(vec2(width, 160.0), Sense::hover());
+    let rect = response.rect.shrink(12.0);
+    let grey = Stroke::new(1.0, Color32::GRAY);
+    painter.rect_stroke(rect, 0.0, grey, StrokeKind::Inside);
+    let t0 = rs[0].utc.as_second() as f64;
+    let span = (rs[rs.len() - 1].utc.as_second() as f64 - t0).max(1.0);
+    let y0 = rs[0].native_white_y_cd_m2().max(1e-9);
+    let rel: Vec<f64> = rs.iter().map(|r| r.native_white_y_cd_m2() / y0).collect();
+    let (lo, hi) = rel
+        .iter()
+        .fold((1.0f64, 1.0f64), |(a, b), v| (a.min(*v), b.max(*v)));
+    let pad = ((hi - lo) * 0.1).max(0.005);
+    let (bottom, range) = (lo - pad, hi - lo + 2.0 * pad);
+    let pts: Vec<Pos2> = rs
+        .iter()
+        .zip(&rel)
+        .map(|(r, v)| {
+            let x = (r.utc.as_second() as f64 - t0) / span;
+            let y = (v - bottom) / range;
+            pos2(
+                rect.min.x + rect.width() * x as f32,
+                rect.max.y - rect.height() * y as f32,
+            )
+        })
+        .collect();
+    painter.add(egui::Shape::line(
+        pts,
+        Stroke::new(1.5, Color32::LIGHT_BLUE),
+    ));
+    let font = FontId::proportional(10.0);
+    let top = format!("{:+.1} %", 100.0 * (bottom + range - 1.0));
+    painter.text(
+        rect.left_top(),
+        Align2::LEFT_TOP,
+        top,
+        font.clone(),
+        Color32::GRAY,
+    );
+    let low = format!("{:+.1} %", 100.0 * (bottom - 1.0));
+    painter.text(
+        rect.left_bottom(),
+        Align2::LEFT_BOTTOM,
+        low,
+        font,
+        Color32::GRAY,
+    );
+}
+
+/// Every display's forecast: when it leaves its headroom and when it can no longer
+/// show the common white.
+fn forecast_table(ui: &mut Ui, d: &WallData) {
+    let when = |x: Option<(lumiwall_core::Channel, Crossing)>| {
+        x.map_or("beyond horizon".to_string(), |(c, x)| {
+            format!("{} ({c:?})", day(&x))
+        })
+    };
+    egui::Grid::new("forecast")
+        .striped(true)
+        .num_columns(4)
+        .show(ui, |ui| {
+            for h in [
+                "display",
+                "readings",
+                "leaves headroom",
+                "beyond full drive",
+            ] {
+                ui.strong(h);
+            }
+            ui.end_row();
+            for f in &d.forecast {
+                ui.label(f.display().to_string());
+                match f {
+                    DisplayForecast::Fitted { points, .. } => {
+                        ui.label(points.to_string());
+                        ui.label(when(f.first_to_leave_headroom()));
+                        ui.label(when(f.first_beyond_full_drive()));
                     }
-                    ui.end_row();
+                    DisplayForecast::NotEnoughHistory { points, .. } => {
+                        ui.label(points.to_string());
+                        ui.label("too little history");
+                        ui.label("");
+                    }
                 }
-            });
-    });
+                ui.end_row();
+            }
+        });
 }
