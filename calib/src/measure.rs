@@ -515,6 +515,24 @@ pub enum MeasureError {
 }
 
 impl MeasureError {
+    /// True when the technician stopped the run (the station app's Stop): what was
+    /// measured is kept, nothing failed.
+    pub fn is_stopped(&self) -> bool {
+        matches!(
+            self,
+            MeasureError::Reading {
+                source: DeviceError::Stopped(_),
+                ..
+            } | MeasureError::Pattern {
+                source: DeviceError::Stopped(_),
+                ..
+            } | MeasureError::Aim {
+                source: DeviceError::Stopped(_),
+                ..
+            }
+        )
+    }
+
     /// True when the meter itself failed (timeout, garbled, I/O): the run can be resumed
     /// after fixing the instrument.
     pub fn is_meter_failure(&self) -> bool {

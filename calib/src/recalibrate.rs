@@ -146,7 +146,8 @@ impl DisplayCheck {
     }
 
     /// What the check read, as the lamp-life forecast stores it (measured at `utc`);
-    /// `None` where the usage is not finite (the primaries do not span the white).
+    /// `None` where the forecast could not use it (e.g. the primaries do not span the
+    /// white, see [`LampReading::is_usable`]).
     pub fn lamp_reading(&self, utc: lumiwall_profiles::store::Timestamp) -> Option<LampReading> {
         let r = LampReading {
             display: self.key.clone(),
@@ -155,8 +156,7 @@ impl DisplayCheck {
             channel_usage: self.usage_for_current_white,
             headroom: self.headroom,
         };
-        let finite = |v: &[f64; 3]| v.iter().all(|x| x.is_finite());
-        (finite(&r.primaries_y_cd_m2) && finite(&r.channel_usage)).then_some(r)
+        r.is_usable().then_some(r)
     }
 
     /// The reserve left for today's white: 1 minus the most used channel's usage
@@ -312,7 +312,12 @@ impl RecalibrateError {
     /// Whether a device (meter, pattern output, positioner) failed, as opposed to the
     /// files or the solve.
     pub fn is_device_failure(&self) -> bool {
-        matches!(self, Self::Measure(_))
+        matches!(self, Self::Measure(_)) && !self.is_stopped()
+    }
+
+    /// Whether the technician stopped the run (nothing was written).
+    pub fn is_stopped(&self) -> bool {
+        matches!(self, Self::Measure(m) if m.is_stopped())
     }
 }
 

@@ -327,20 +327,11 @@ impl Station {
         let mut station = Self::with_wall(wall, opts)?;
         if !station.wall.output_routes().is_empty() {
             station.pattern = remote_pattern(&station.wall, wall_path, &opts.meter)?;
+            station.stoppable(opts);
         } else if let MeterChoice::Serial(port) = &opts.meter {
             return Err(StationError::NoOutputs {
                 wall: station.wall.name(),
                 port: port.clone(),
-            });
-        }
-        if let Some(stop) = &opts.stop {
-            let inner = std::mem::replace(
-                &mut station.pattern,
-                Box::new(station.wall.pattern_output()),
-            );
-            station.pattern = Box::new(Stoppable {
-                inner,
-                stop: stop.clone(),
             });
         }
         Ok(station)
@@ -372,13 +363,28 @@ impl Station {
                 (Box::new(driver), None)
             }
         };
-        Ok(Self {
+        let mut station = Self {
             pattern: Box::new(wall.pattern_output()),
             positioner: positioner(&wall, opts),
             wall,
             meter,
             emulator,
-        })
+        };
+        station.stoppable(opts);
+        Ok(station)
+    }
+
+    /// Wraps the pattern output so that `opts.stop` stops the run (see
+    /// [`StationOptions::stop`]); nothing without one.
+    fn stoppable(&mut self, opts: &StationOptions) {
+        if let Some(stop) = &opts.stop {
+            let own = Box::new(self.wall.pattern_output());
+            let inner = std::mem::replace(&mut self.pattern, own);
+            self.pattern = Box::new(Stoppable {
+                inner,
+                stop: stop.clone(),
+            });
+        }
     }
 
     /// The displays of the wall.

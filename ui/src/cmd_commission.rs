@@ -361,18 +361,21 @@ impl ProgressReport {
 pub(crate) fn run(args: CommissionArgs) -> Result<(), CliError> {
     let mut report: Option<ProgressReport> = None;
     let started = Instant::now();
-    let done = commission_with(&args, &mut |p, wall, displays| {
-        report
-            .get_or_insert_with(|| {
-                println!(
-                    "commissioning {wall}: {} displays, budget {} readings per display, meter {:?}",
-                    displays.len(),
-                    args.budget,
-                    args.meter.meter
-                );
-                ProgressReport::new(displays, args.budget)
-            })
-            .on(p);
+    let done = commission_with(&args, &mut |step| match step {
+        CommissionStep::Started { wall, displays } => {
+            println!(
+                "commissioning {wall}: {} displays, budget {} readings per display, meter {:?}",
+                displays.len(),
+                args.budget,
+                args.meter.meter
+            );
+            report = Some(ProgressReport::new(displays, args.budget));
+        }
+        CommissionStep::Progress(p) => {
+            if let Some(r) = &mut report {
+                r.on(p);
+            }
+        }
     });
     if let Some(r) = &report {
         r.bar.finish_and_clear();
@@ -385,13 +388,26 @@ pub(crate) fn run(args: CommissionArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-/// `lumiwall commission` up to the camera stage, without printing (the station app
-/// runs it too): measures and solves the wall, keeps the meter matrix beside the
-/// profiles and drops an earlier verification. `progress` sees every step with the
-/// wall's name and displays.
+/// What [`commission_with`] reports as it goes.
+pub(crate) enum CommissionStep<'a> {
+    /// The station is open and checked; the measurement starts.
+    Started {
+        /// Wall name.
+        wall: &'a str,
+        /// Its displays.
+        displays: &'a [DisplayInfo],
+    },
+    /// A step of the measurement.
+    Progress(Progress),
+}
+
+/// `lumiwall commission` up to the camera stage (the station app runs it too):
+/// measures and solves the wall, keeps the meter matrix beside the profiles and drops
+/// an earlier verification. `progress` hears when the measurement starts and every
+/// step of it.
 pub(crate) fn commission_with(
     args: &CommissionArgs,
-    progress: &mut dyn FnMut(Progress, &str, &[DisplayInfo]),
+    progress: &mut dyn FnMut(CommissionStep<'_>),
 ) -> Result<(Station, CommissionOutcome), CliError> {
     let opts = args.commission_options()?;
     values::check_output_dir("--out", &args.out)?;
@@ -410,14 +426,20 @@ pub(crate) fn commission_with(
         camera_stage_possible(&station, args, camera)?;
     }
     let (wall, displays) = (station.wall.name(), station.displays());
-    let outcome = station.commission(&args.out, &opts, &mut |p| progress(p, &wall, &displays))?;
+    progress(CommissionStep::Started {
+        wall: &wall,
+        displays: &displays,
+    });
+    let outcome = station.commission(&args.out, &opts, &mut |p| {
+        progress(CommissionStep::Progress(p));
+    })?;
     keep_meter_matrix(&args.out, opts.measure.meter_matrix.as_ref())?;
     // An earlier verification judged other profiles (the MPCDI export carries it).
     let verified = args.out.join(crate::cmd_verify::VERIFY_FILE);
     match std::fs::remove_file(&verified) {
-        Ok(()) => tracing::info!("removed the earlier verification {}", verified.display()),
+        Ok(()) => println!("removed the earlier verification {}", verified.display()),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(e) => tracing::warn!("cannot remove {}: {e}", verified.display()),
+        Err(e) => println!("warning: cannot remove {}: {e}", verified.display()),
     }
     Ok((station, outcome))
 }

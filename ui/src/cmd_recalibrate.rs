@@ -83,8 +83,11 @@ pub(crate) fn run(args: RecalibrateArgs) -> Result<i32, CliError> {
         }
         Recalibrated::Done { outcome, recorded } => {
             print!("{}", display_lines(&outcome));
-            if let Some(line) = recorded {
-                println!("{line}");
+            match recorded {
+                Some(Ok(line)) => println!("{line}"),
+                // the profiles are what the wall needs; the store's loss is said loudly
+                Some(Err(e)) => eprintln!("lumiwall: warning: the run was not recorded: {e}"),
+                None => {}
             }
             println!("{}", summary(&outcome, readings));
             Ok(exit_code(outcome.verdict))
@@ -107,8 +110,9 @@ pub(crate) enum Recalibrated {
     Done {
         /// The outcome.
         outcome: Box<RecalibrationOutcome>,
-        /// What was recorded in the store, as a line for the log.
-        recorded: Option<String>,
+        /// What was recorded in the store, as a line for the log, or why nothing was
+        /// (`None`: no store given).
+        recorded: Option<Result<String, String>>,
     },
     /// A device failed (the profiles are untouched).
     DeviceFailed {
@@ -133,6 +137,9 @@ pub(crate) fn recalibrate_with(
     let started = Timestamp::now();
     let outcome = match station.recalibrate(&args.profiles, &opts, progress) {
         Ok(o) => o,
+        Err(e) if e.is_stopped() => {
+            return Err(CliError::failure(format!("{e}; no profile was written")));
+        }
         Err(e) if e.is_device_failure() => {
             return Ok(Recalibrated::DeviceFailed {
                 wall: station.wall.name(),
@@ -141,22 +148,28 @@ pub(crate) fn recalibrate_with(
         }
         Err(e) => return Err(CliError::failure(e.to_string())),
     };
-    let recorded = match &args.store {
-        Some(store) => {
-            let mut store = ProfileStore::open(store)?;
-            Some(match record_in_store(&mut store, &outcome, started)? {
-                Recorded::Run(id) => format!("recorded run {} in {}", id.0, store.path().display()),
-                Recorded::LampReadings(n) => {
-                    format!("recorded {n} lamp readings in {}", store.path().display())
-                }
-            })
-        }
-        None => None,
-    };
+    let recorded = args
+        .store
+        .as_ref()
+        .map(|store| record(store, &outcome, started));
     Ok(Recalibrated::Done {
         outcome: Box::new(outcome),
         recorded,
     })
+}
+
+/// Records the outcome in the store at `path`; the line for the log, or what failed.
+fn record(
+    path: &std::path::Path,
+    outcome: &RecalibrationOutcome,
+    started: Timestamp,
+) -> Result<String, String> {
+    let mut store = ProfileStore::open(path).map_err(|e| e.to_string())?;
+    let at = store.path().display().to_string();
+    match record_in_store(&mut store, outcome, started).map_err(|e| e.to_string())? {
+        Recorded::Run(id) => Ok(format!("recorded run {} in {at}", id.0)),
+        Recorded::LampReadings(n) => Ok(format!("recorded {n} lamp readings in {at}")),
+    }
 }
 
 /// The recalibration's options from the command line and the profile folder.

@@ -172,8 +172,8 @@ fn forecast_lines(checks: &[ForecastCheck]) -> String {
 fn summary_text(s: &SeasonSummary) -> String {
     let [m, x, w] = s.limits_de;
     let mut out = format!(
-        "limits (verify tolerance, or 110 % of the commissioning's figure where it was not \
-         within): median ≤ {m:.3}, max ≤ {x:.2}, white ≤ {w:.2}\n"
+        "limits (the verify tolerance, or 110 % of the commissioning's figure where the \
+         commissioning was not within it): median ≤ {m:.3}, max ≤ {x:.2}, white ≤ {w:.2}\n"
     );
     if s.forecast.is_empty() {
         out += "forecast: not checked (the season ended before the forecast night)\n";
@@ -205,16 +205,20 @@ fn summary_text(s: &SeasonSummary) -> String {
     );
     let ((cr, cs), (nr, ns)) = (s.commission_cost, s.nightly_cost);
     out += &format!(
-        "cost per night: {nr:.0} meter readings, 0 camera captures, {:.1} min measuring \
-         ({:.1} % of the commissioning's {cr} readings, {:.1} min)\n",
+        "cost per night: {nr:.0} meter readings ({:.1} % of the commissioning's {cr}), 0 \
+         camera captures, {:.1} min measuring ({:.1} % of the commissioning's {:.1} min)\n",
+        100.0 * nr / (cr as f64).max(1.0),
         ns / 60.0,
         100.0 * ns / cs.max(1e-9),
         cs / 60.0
     );
     out += &format!("plot: {}\n", s.plot.display());
     out += &format!(
-        "SEASON nights {} within-tolerance {} forecast-error {:.1} %\n",
-        s.nights, s.within, s.forecast_error_pct_of_horizon
+        "SEASON nights {} within-tolerance {} forecast-error {}\n",
+        s.nights,
+        s.within,
+        s.forecast_error_pct_of_horizon
+            .map_or("n/a".to_string(), |e| format!("{e:.1} %"))
     );
     out
 }

@@ -540,8 +540,28 @@ fn recalibrate_exit_codes_say_unchanged_recalibrated_and_left_headroom() {
     };
     recalibrate("0")
         .code(0)
-        .stdout(contains("0 drifted").and(contains("unchanged, no profiles written")));
+        .stdout(contains("0 drifted").and(contains("unchanged, no profiles written")))
+        .stdout(contains("recorded 2 lamp readings"));
     assert_eq!(std::fs::read(&profile).unwrap(), commissioned);
+    // a store that cannot be opened loses the record, not the night's lines or verdict
+    lumiwall()
+        .args([
+            "recalibrate",
+            "--meter",
+            "direct",
+            "--noise",
+            "none",
+            "--wall",
+        ])
+        .arg(small_wall())
+        .arg("--profiles")
+        .arg(&dir)
+        .arg("--store")
+        .arg(tmp.path())
+        .assert()
+        .code(0)
+        .stdout(contains("unchanged, no profiles written"))
+        .stderr(contains("warning: the run was not recorded"));
     recalibrate("2000")
         .code(10)
         .stdout(contains("2 drifted").and(contains("common white kept")))

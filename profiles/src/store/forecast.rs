@@ -208,6 +208,18 @@ impl LampReading {
         }
     }
 
+    /// Whether the forecast can use the reading: positive finite luminances, finite
+    /// usages that are not negative, a positive finite headroom.
+    pub fn is_usable(&self) -> bool {
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        self.primaries_y_cd_m2.iter().all(|&v| positive(v))
+            && self
+                .channel_usage
+                .iter()
+                .all(|&v| v.is_finite() && v >= 0.0)
+            && positive(self.headroom)
+    }
+
     /// Luminance of the native white (the three primaries at full drive), cd/m².
     pub fn native_white_y_cd_m2(&self) -> f64 {
         self.primaries_y_cd_m2.iter().sum()

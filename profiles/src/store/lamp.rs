@@ -171,17 +171,11 @@ fn check_reading(wall: &str, r: &LampReading) -> Result<(), StoreError> {
             r.display.wall
         ));
     }
-    let positive = |v: f64| v.is_finite() && v > 0.0;
-    if !r.primaries_y_cd_m2.iter().all(|&v| positive(v)) {
+    if !r.is_usable() {
         return bad(format!(
-            "primary luminances {:?} cd/m² are not all positive",
-            r.primaries_y_cd_m2
-        ));
-    }
-    if !r.channel_usage.iter().all(|&v| v.is_finite() && v >= 0.0) || !positive(r.headroom) {
-        return bad(format!(
-            "usage {:?} and headroom {} must be finite and not negative",
-            r.channel_usage, r.headroom
+            "luminances {:?} cd/m² must be positive, usages {:?} finite and not negative, \
+             headroom {} positive",
+            r.primaries_y_cd_m2, r.channel_usage, r.headroom
         ));
     }
     Ok(())

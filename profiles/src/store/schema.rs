@@ -70,7 +70,8 @@ pub const MIGRATIONS: &[&str] = &[
          headroom         REAL NOT NULL,
          source           TEXT NOT NULL,
          PRIMARY KEY (wall, measured_unix_ms, display, eye)
-     );",
+     );
+     CREATE INDEX lamp_readings_by_display ON lamp_readings (wall, display);",
 ];
 
 /// Newest schema version this build knows.

@@ -10,6 +10,7 @@ use clap::Parser;
 use lumiwall_calib::measure::Progress;
 use lumiwall_calib::station::StopFlag;
 
+use crate::cmd_commission::CommissionStep;
 use crate::cmd_recalibrate::Recalibrated;
 use crate::{Cli, Command};
 
@@ -82,7 +83,18 @@ impl Job {
     /// Takes the events that arrived; returns the log lines among them.
     pub(crate) fn poll(&mut self) -> Vec<String> {
         let mut lines = Vec::new();
-        while let Ok(e) = self.events.try_recv() {
+        loop {
+            let e = match self.events.try_recv() {
+                Ok(e) => e,
+                Err(std::sync::mpsc::TryRecvError::Empty) => break,
+                Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                    // the worker is gone without a word (it panicked): say so, free the buttons
+                    if self.finished.is_none() {
+                        self.finished = Some(Err("the run ended without a result".into()));
+                    }
+                    break;
+                }
+            };
             match e {
                 JobEvent::Progress { fraction, readings } => {
                     self.fraction = fraction;
@@ -146,8 +158,10 @@ fn run_command(argv: &[String], stop: StopFlag, send: &dyn Fn(JobEvent)) -> Resu
     match cli.command {
         Command::Commission(mut a) => {
             a.meter.stop = Some(stop);
-            let (_, outcome) = crate::cmd_commission::commission_with(&a, &mut |p, _, d| {
-                count.on(&p, d.len() as u64, None);
+            let mut displays = 1;
+            let (_, outcome) = crate::cmd_commission::commission_with(&a, &mut |step| match step {
+                CommissionStep::Started { displays: d, .. } => displays = d.len() as u64,
+                CommissionStep::Progress(p) => count.on(&p, displays, None),
             })
             .map_err(|e| e.to_string())?;
             Ok(format!(
@@ -185,8 +199,10 @@ fn run_command(argv: &[String], stop: StopFlag, send: &dyn Fn(JobEvent)) -> Resu
                     for line in crate::cmd_recalibrate::display_lines(&outcome).lines() {
                         send(JobEvent::Line(line.to_string()));
                     }
-                    if let Some(r) = recorded {
-                        send(JobEvent::Line(r));
+                    match recorded {
+                        Some(Ok(line)) => send(JobEvent::Line(line)),
+                        Some(Err(e)) => send(JobEvent::Line(format!("WARNING: not recorded: {e}"))),
+                        None => {}
                     }
                     Ok(crate::cmd_recalibrate::summary(
                         &outcome,

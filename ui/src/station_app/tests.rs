@@ -223,7 +223,11 @@ fn the_forecast_view_lists_every_display_of_the_store_and_charts_the_selected_on
     a.args.store = Some(out.join("season.lumistore"));
     a = StationApp::new(a.args);
     assert_eq!(a.data.forecast.len(), 2, "{:?}", a.data.problems);
-    assert_eq!(a.data.readings.values().map(Vec::len).sum::<usize>(), 18, "9 nights × 2 displays");
+    assert_eq!(
+        a.data.readings.values().map(Vec::len).sum::<usize>(),
+        18,
+        "9 nights × 2 displays"
+    );
     let mut h = harness(a);
     h.run_steps(2);
     click(&mut h, "Drift & forecast");
@@ -234,6 +238,9 @@ fn the_forecast_view_lists_every_display_of_the_store_and_charts_the_selected_on
     let key = h.state().data.forecast[1].display().clone();
     h.state_mut().selected = Some(key);
     h.run_steps(2);
-    assert!(h.query_by_label_contains("native white of mono-2x1 display 1").is_some());
+    assert!(
+        h.query_by_label_contains("native white of mono-2x1 display 1")
+            .is_some()
+    );
     screenshot(&mut h, "station_forecast");
 }
