@@ -38,7 +38,9 @@ use rusqlite::{Connection, ErrorCode, OpenFlags, OptionalExtension, params};
 
 pub use drift::{Drift, DriftLimits};
 pub use error::StoreError;
-pub use forecast::{ChannelForecast, Crossing, DisplayForecast, ForecastOptions, LampReading};
+pub use forecast::{
+    ChannelForecast, Crossing, DecayLaw, DisplayForecast, ForecastOptions, LampReading,
+};
 
 use crate::{DisplayProfile, Eye, ProfileError};
 

@@ -6,8 +6,8 @@ mod common;
 use common::profile_with;
 use lumiwall_core::Channel;
 use lumiwall_profiles::store::{
-    CommissionRun, DisplayForecast, ForecastOptions, LampReading, ProfileStore, Timestamp,
-    forecast::forecast,
+    CommissionRun, DecayLaw, DisplayForecast, ForecastOptions, LampReading, ProfileStore,
+    Timestamp, forecast::forecast,
 };
 use lumiwall_profiles::{DisplayProfile, Eye};
 
@@ -15,6 +15,14 @@ const WALL: &str = "forecast-wall";
 
 /// Full-drive luminance of R, G, B of a new lamp (cd/m²).
 const NEW_LAMP_Y: [f64; 3] = [25.0, 70.0, 8.0];
+
+/// The forecast's settings for these histories, whose light falls exponentially.
+fn exponential() -> ForecastOptions {
+    ForecastOptions {
+        decay: DecayLaw::Exponential,
+        ..ForecastOptions::default()
+    }
+}
 
 fn t0() -> Timestamp {
     "2026-06-01T02:00:00Z".parse().unwrap()
@@ -94,7 +102,7 @@ fn steady_exponential_decay_is_forecast_within_a_day_and_inside_its_interval() {
     let light = |h: f64| std::array::from_fn(|c| (-rate_per_h[c] * h).exp());
     let history = nights(0, 0.0, 40, light, usage, 0.002);
     let newest_h = 39.0 * 24.0;
-    let out = forecast(&history, &ForecastOptions::default());
+    let out = forecast(&history, &exponential());
     assert_eq!(out.len(), 1);
     let (channels, points, changes) = fitted(&out[0]);
     assert_eq!((points, changes.len()), (40, 0));
@@ -140,12 +148,12 @@ fn a_uhp_burn_in_is_fitted_and_not_mistaken_for_the_steady_decay() {
     let history = nights(0, 0.0, 30, |h| uhp(h, 100.0), usage, 0.001);
     let newest_h = 29.0 * 24.0;
     let exact_h = crossing_h(|h| uhp(h, 100.0)[0], newest_h, usage[0] / 0.95);
-    let with = forecast(&history, &ForecastOptions::default());
+    let with = forecast(&history, &exponential());
     let without = forecast(
         &history,
         &ForecastOptions {
             burn_in: false,
-            ..ForecastOptions::default()
+            ..exponential()
         },
     );
     let predicted = |f: &DisplayForecast| fitted(f).0[1].leaves_headroom.unwrap().utc;
@@ -173,7 +181,7 @@ fn a_uhp_burn_in_is_fitted_and_not_mistaken_for_the_steady_decay() {
     // a lamp whose burn-in is 50 % slower: its own time constant is found
     let slower = nights(0, 0.0, 30, |h| uhp(h, 150.0), usage, 0.001);
     let exact_h = crossing_h(|h| uhp(h, 150.0)[0], newest_h, usage[0] / 0.95);
-    let out = forecast(&slower, &ForecastOptions::default());
+    let out = forecast(&slower, &exponential());
     let x = fitted(&out[0]).0[1].leaves_headroom.unwrap();
     let miss = days_between(at(exact_h), x.utc);
     let lead_days = (exact_h - newest_h) / 24.0;
@@ -205,7 +213,7 @@ fn a_lamp_change_restarts_the_fit_at_the_new_lamp() {
     history.extend(nights(0, change_h, 10, new, [0.8; 3], 0.001));
     let opts = ForecastOptions {
         burn_in: false,
-        ..ForecastOptions::default()
+        ..exponential()
     };
     let out = forecast(&history, &opts);
     let (channels, points, changes) = fitted(&out[0]);
@@ -224,7 +232,7 @@ fn a_lamp_change_restarts_the_fit_at_the_new_lamp() {
 #[test]
 fn too_short_a_history_is_said_instead_of_a_date() {
     let history = nights(0, 0.0, 2, |h| [(-1e-3 * h).exp(); 3], [0.9; 3], 0.0);
-    let out = forecast(&history, &ForecastOptions::default());
+    let out = forecast(&history, &exponential());
     assert!(matches!(
         out[0],
         DisplayForecast::NotEnoughHistory { points: 2, .. }
@@ -235,7 +243,7 @@ fn too_short_a_history_is_said_instead_of_a_date() {
 #[test]
 fn steady_light_gives_no_date_within_the_horizon_and_overused_channels_leave_now() {
     let steady = nights(0, 0.0, 30, |_| [1.0; 3], [0.85; 3], 0.002);
-    let out = forecast(&steady, &ForecastOptions::default());
+    let out = forecast(&steady, &exponential());
     let (channels, ..) = fitted(&out[0]);
     assert!(
         channels.iter().all(|c| c.leaves_headroom.is_none()),
@@ -250,7 +258,7 @@ fn steady_light_gives_no_date_within_the_horizon_and_overused_channels_leave_now
         [0.97, 0.5, 0.5],
         0.0,
     );
-    let out = forecast(&over, &ForecastOptions::default());
+    let out = forecast(&over, &exponential());
     let (channel, x) = out[0].first_to_leave_headroom().unwrap();
     assert_eq!((channel, x.utc), (Channel::Red, at(9.0 * 24.0)));
 }
@@ -264,9 +272,7 @@ fn the_store_forecasts_every_display_of_a_wall_from_its_runs() {
         let run = CommissionRun::new(WALL, a.0);
         store.record(&run, &[a.1.clone(), b.1.clone()]).unwrap();
     }
-    let out = store
-        .forecast_wall(WALL, &ForecastOptions::default())
-        .unwrap();
+    let out = store.forecast_wall(WALL, &exponential()).unwrap();
     assert_eq!(out.len(), 2);
     let first = |i: usize| out[i].first_to_leave_headroom().unwrap().1.utc;
     assert_eq!(out[0].display().display, 0);
@@ -295,10 +301,8 @@ fn nightly_lamp_readings_between_runs_give_the_same_forecast_as_profiles() {
         );
     }
     assert_eq!(store.lamp_readings(WALL, 0).unwrap().len(), 12);
-    let from_store = store
-        .forecast_wall(WALL, &ForecastOptions::default())
-        .unwrap();
-    let from_profiles = forecast(&history, &ForecastOptions::default());
+    let from_store = store.forecast_wall(WALL, &exponential()).unwrap();
+    let from_profiles = forecast(&history, &exponential());
     assert_eq!(from_store, from_profiles);
     let (_, points, _) = fitted(&from_store[0]);
     assert_eq!(points, 12);
@@ -332,4 +336,40 @@ fn a_lamp_reading_that_is_not_finite_or_of_another_wall_is_refused_and_nothing_i
         .record_lamp_readings(WALL, "recalibrate", &[good])
         .unwrap_err();
     assert!(e.to_string().contains("already has a lamp reading"), "{e}");
+}
+
+#[test]
+fn a_discharge_lamp_whose_light_falls_linearly_is_forecast_by_the_linear_law_and_late_by_the_exponential()
+ {
+    // the virtual wall's UHP lamp after its burn-in: 3 % of the new light per 1000 h;
+    // 30 nightly readings (720 h) at 0.8 of the new light, the white needs 0.85 of it now
+    let light = |h: f64| [0.8 - 0.03 * h / 1000.0; 3];
+    let usage = [0.85; 3];
+    let history = nights(0, 0.0, 30, light, usage, 0.0);
+    let newest_h = 24.0 * 29.0;
+    // beyond full drive when the light is 0.85 of the newest's
+    let exact_h = newest_h + (1.0 - 0.85) * light(newest_h)[0] / (0.03 / 1000.0);
+    let days_late = |law: DecayLaw| {
+        let opts = ForecastOptions {
+            decay: law,
+            ..ForecastOptions::default()
+        };
+        let out = forecast(&history, &opts);
+        let (_, x) = out[0]
+            .first_beyond_full_drive()
+            .expect("a date within the horizon");
+        days_between(at(exact_h), x.utc)
+    };
+    let lead_days = (exact_h - newest_h) / 24.0;
+    assert!(
+        days_late(DecayLaw::Linear).abs() < 1.0,
+        "{}",
+        days_late(DecayLaw::Linear)
+    );
+    // the exponential law keeps the relative rate of today: late by about 8 % of the lead
+    let late = days_late(DecayLaw::Exponential);
+    assert!(
+        late > 0.05 * lead_days && late < 0.12 * lead_days,
+        "{late} of {lead_days}"
+    );
 }

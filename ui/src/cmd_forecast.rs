@@ -5,11 +5,20 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use lumiwall_profiles::store::{
-    Crossing, DisplayForecast, ForecastOptions, ProfileStore, Timestamp,
+    Crossing, DecayLaw, DisplayForecast, ForecastOptions, ProfileStore, Timestamp,
 };
 
 use crate::CliError;
 use crate::values;
+
+/// The decay law on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum DecayArg {
+    /// The light falls by the same amount every hour (UHP, xenon).
+    Linear,
+    /// The light falls by the same fraction every hour (LED, laser; IES TM-21).
+    Exponential,
+}
 
 /// Arguments of `lumiwall profiles forecast`.
 #[derive(Debug, clap::Args)]
@@ -28,6 +37,10 @@ pub(crate) struct ForecastArgs {
     /// sources, so that noise is not read as one.
     #[arg(long)]
     no_burn_in: bool,
+    /// How the light falls after the burn-in: linear (discharge lamps: UHP, xenon) or
+    /// exponential (LED and laser light sources, as IES TM-21 projects them).
+    #[arg(long, value_enum, default_value = "linear")]
+    decay: DecayArg,
     /// No date is predicted further ahead than this many days (1 to 3650).
     #[arg(long, default_value_t = 730, value_parser = clap::value_parser!(u32).range(1..=3650))]
     horizon_days: u32,
@@ -40,6 +53,10 @@ pub(crate) fn run(a: &ForecastArgs) -> Result<(), CliError> {
     let opts = ForecastOptions {
         lamp_change_step: a.lamp_change_step,
         burn_in: !a.no_burn_in,
+        decay: match a.decay {
+            DecayArg::Linear => DecayLaw::Linear,
+            DecayArg::Exponential => DecayLaw::Exponential,
+        },
         horizon_days: f64::from(a.horizon_days),
     };
     let forecasts = store.forecast_wall(&a.wall, &opts)?;

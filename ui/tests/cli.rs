@@ -487,6 +487,8 @@ fn profiles_forecast_names_the_faster_decaying_lamp_and_its_date() {
     let exact = Timestamp::from_second(newest.as_second() + lead_s as i64).unwrap();
     let out = lumiwall()
         .args(["profiles", "forecast", "--wall", "mono-2x1", "--no-burn-in"])
+        // the imported nights lose light exponentially (LAMP_DECAY_PER_H)
+        .args(["--decay", "exponential"])
         .arg("--store")
         .arg(&store)
         .assert()

@@ -10,23 +10,25 @@
 //! the solve kept is used up) and cannot show the common white at all past
 //! `usage / f > 1` (full drive).
 //!
-//! **Model.** Per channel, the logarithm of the channel's luminance against the hours
-//! since the lamp went in, fitted by linear least squares (SVD) over the current lamp's
-//! segment of the history:
+//! **Model.** Per channel, the channel's luminance against the hours since the lamp
+//! went in, fitted by linear least squares (SVD) over the current lamp's segment of the
+//! history, in one of two laws ([`DecayLaw`]): the light itself (relative to the newest
+//! reading) for discharge lamps (UHP, xenon), whose light falls by about the same amount
+//! every hour after the burn-in, or its logarithm for LEDs and lasers (IES TM-21):
 //!
-//! `ln Y(s) = a + b·s + c·exp(−s/τ) + d·exp(−2s/τ)`
+//! `v(s) = a + b·s + c·exp(−s/τ) + d·exp(−2s/τ)`, `v = Y/Y_newest` or `v = ln Y`
 //!
-//! `b` is the slow, steady decay (UHP and xenon lamps, LEDs); the `c` and `d` terms are
-//! a UHP lamp's burn-in, the large loss of its first 100–200 hours. For a given time
-//! constant `τ` the model is linear; `τ` itself is the one that leaves the smallest
-//! residual (a log-grid search refined by golden section, from twice the spacing of the
-//! runs to a third of the segment's span), and the burn-in terms are kept only where
-//! Akaike's criterion prefers them to the plain exponential. A burn-in that multiplies the
-//! light by `1 + B·exp(−s/τ)` has the logarithm `B·e − B²e²/2 + …` (e = exp(−s/τ)): the
-//! second term keeps a burn-in of B = 0.3 from biasing the steady slope (the forecast
-//! 46 days ahead is 5 days early with `c` alone, 0.3 days with both; tests/forecast.rs).
-//! The burn-in terms are fitted only when the segment has at least
-//! [`MIN_POINTS_BURN_IN`] points; otherwise the two-parameter exponential is used.
+//! `b` is the slow, steady decay; the `c` and `d` terms are a UHP lamp's burn-in, the
+//! large loss of its first 100–200 hours. For a given time constant `τ` the model is
+//! linear; `τ` itself is the one that leaves the smallest residual (a log-grid search
+//! refined by golden section, from twice the spacing of the runs to a third of the
+//! segment's span), and the burn-in terms are kept only where Akaike's criterion prefers
+//! them to the plain line. In the logarithm a burn-in that multiplies the light by
+//! `1 + B·exp(−s/τ)` is `B·e − B²e²/2 + …` (e = exp(−s/τ)): the second term keeps a
+//! burn-in of B = 0.3 from biasing the steady slope (the forecast 46 days ahead is 5 days
+//! early with `c` alone, 0.3 days with both; tests/forecast.rs). The burn-in terms are
+//! fitted only when the segment has at least [`MIN_POINTS_BURN_IN`] points; otherwise
+//! the two-parameter line is used.
 //!
 //! The forecast is the first time after the newest profile at which the fitted curve
 //! reaches `usage / headroom` (or `usage`) of the light measured at the newest profile
@@ -66,6 +68,8 @@ pub struct ForecastOptions {
     /// Fit a burn-in (UHP lamps); `false` for lamps without one (LED, laser), which
     /// keeps noise from being read as one.
     pub burn_in: bool,
+    /// How the light falls after the burn-in.
+    pub decay: DecayLaw,
     /// No date is predicted beyond this many days after the newest profile.
     pub horizon_days: f64,
 }
@@ -75,7 +79,32 @@ impl Default for ForecastOptions {
         Self {
             lamp_change_step: 0.10,
             burn_in: true,
+            decay: DecayLaw::Linear,
             horizon_days: 730.0,
+        }
+    }
+}
+
+/// How a lamp's light falls after its burn-in: the steady part of the model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DecayLaw {
+    /// By the same amount every hour: `Y = a + b·s (+ burn-in terms)`. Discharge lamps
+    /// (UHP, xenon) after their burn-in, as the virtual wall models them; an exponential
+    /// fitted to such a lamp over a month forecasts its end about 10 % of the lead time
+    /// late (`lumiwall bench season`).
+    Linear,
+    /// By the same fraction every hour: `ln Y = a + b·s (+ burn-in terms)`. LEDs and
+    /// laser phosphors (the IES TM-21 lumen-maintenance projection).
+    Exponential,
+}
+
+impl DecayLaw {
+    /// The light as the model is fitted to it: relative to `newest` (linear) or its
+    /// logarithm (exponential).
+    fn fitted_value(self, light: f64, newest: f64) -> f64 {
+        match self {
+            Self::Linear => light / newest,
+            Self::Exponential => light.ln(),
         }
     }
 }
@@ -276,13 +305,21 @@ fn forecast_one(key: &DisplayKey, own: &[&LampReading], opts: &ForecastOptions) 
         .map(|&channel| {
             let c = channel.index();
             let light: Vec<f64> = segment.iter().map(|r| r.primaries_y_cd_m2[c]).collect();
-            let fits = DecayFit::best(&hours, &light, opts.burn_in);
+            let newest_light = light[light.len() - 1];
+            let values: Vec<f64> = light
+                .iter()
+                .map(|&y| opts.decay.fitted_value(y, newest_light))
+                .collect();
+            let fits = (light.iter().all(|&y| y > 0.0 && y.is_finite()))
+                .then(|| DecayFit::best(&hours, &values, opts.burn_in))
+                .flatten();
             let fit = fits.as_ref().map(|(best, _)| best);
             let limits = Limits {
                 start,
                 from_h: hours[hours.len() - 1],
                 horizon_h: horizon_hours(opts.horizon_days),
-                newest_ln_light: light[light.len() - 1].ln(),
+                newest_light,
+                law: opts.decay,
             };
             let usage = newest.channel_usage[c];
             ChannelForecast {
@@ -338,8 +375,10 @@ struct Limits {
     start: Timestamp,
     from_h: f64,
     horizon_h: f64,
-    /// ln of the light measured at the newest profile (its usage was solved from it).
-    newest_ln_light: f64,
+    /// The light measured at the newest reading (its usage was solved from it).
+    newest_light: f64,
+    /// The law the fit follows.
+    law: DecayLaw,
 }
 
 /// Longest horizon searched: 100 years.
@@ -418,13 +457,13 @@ impl DecayFit {
     /// The linear fit for a given burn-in time constant (`None`: no burn-in terms);
     /// `None` where the light is not positive or the points do not determine the model.
     fn with_tau(hours: &[f64], light: &[f64], tau_h: Option<f64>) -> Option<Self> {
-        if light.iter().any(|&y| !(y > 0.0 && y.is_finite())) {
+        if light.iter().any(|y| !y.is_finite()) {
             return None;
         }
         let columns = if tau_h.is_some() { 4 } else { 2 };
         let tau = tau_h.unwrap_or(f64::INFINITY);
         let x = DMatrix::from_fn(hours.len(), columns, |i, j| basis(hours[i], tau, j));
-        let y = DVector::from_iterator(light.len(), light.iter().map(|v| v.ln()));
+        let y = DVector::from_iterator(light.len(), light.iter().copied());
         let svd = x.clone().svd(true, true);
         if svd.singular_values.min() <= 1e-9 * svd.singular_values.max() {
             return None;
@@ -452,7 +491,8 @@ impl DecayFit {
         DVector::from_fn(self.params.len(), |j, _| basis(h, tau, j))
     }
 
-    fn ln_light(&self, h: f64) -> f64 {
+    /// The fitted value (relative light or its logarithm, by the law) at `h`.
+    fn fitted(&self, h: f64) -> f64 {
         self.row(h)
             .iter()
             .zip(&self.params)
@@ -460,7 +500,8 @@ impl DecayFit {
             .sum()
     }
 
-    /// d ln Y / ds at `h` (per hour).
+    /// Slope of the fitted value at `h` (per hour): d ln Y / ds, or dY/ds relative to
+    /// the newest light.
     fn slope_per_h(&self, h: f64) -> f64 {
         let burn = self.tau_h.map_or(0.0, |tau| {
             -(self.params[2] * (-h / tau).exp() + 2.0 * self.params[3] * (-2.0 * h / tau).exp())
@@ -469,7 +510,8 @@ impl DecayFit {
         self.params[1] + burn
     }
 
-    /// Standard error of `ln Y(h) − ln Y(from)` under the fit's covariance.
+    /// Standard error of the fitted value's change from `from` to `h` under the fit's
+    /// covariance.
     fn sigma_change(&self, h: f64, from: f64) -> f64 {
         let g = self.row(h) - self.row(from);
         (g.transpose() * &self.covariance * &g)[(0, 0)]
@@ -483,10 +525,13 @@ impl DecayFit {
         if !(fraction > 0.0 && fraction.is_finite()) {
             return None;
         }
-        let target = fraction.ln() + limits.newest_ln_light - self.ln_light(limits.from_h);
+        let target = limits
+            .law
+            .fitted_value(fraction * limits.newest_light, limits.newest_light)
+            - self.fitted(limits.from_h);
         let from = limits.from_h;
         let end = from + limits.horizon_h;
-        let drop = |h: f64| self.ln_light(h) - self.ln_light(from);
+        let drop = |h: f64| self.fitted(h) - self.fitted(from);
         let when = |margin: f64| first_below(|h| drop(h) + margin, target, from, end);
         let h = when(0.0)?;
         let slope = self.slope_per_h(h).abs().max(1e-12);
