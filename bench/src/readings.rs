@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 
 use lumiwall_calib::commission::{CommissionError, CommissionOptions};
 use lumiwall_calib::measure::MeasureOptions;
-use lumiwall_calib::measure::meter_matrix::MeterMatrixError;
+use lumiwall_calib::measure::meter_matrix::{MeterMatrices, MeterMatrixError};
 use lumiwall_calib::solve::SolveOptions;
 use lumiwall_calib::station::{
     MeterChoice, Noise, ReferenceChoice, Station, StationError, StationOptions,
@@ -161,6 +161,24 @@ pub fn run(
     Ok(rows)
 }
 
+/// With the realistic meter, the station's meter matched to the simulated reference
+/// spectroradiometer (a CS-2000, one matrix per eye), as a station commissioning Infitec
+/// walls with a filter colorimeter would; nothing for the exact meter.
+pub(crate) fn match_meter(
+    station: &mut Station,
+    noise: Noise,
+) -> Result<Option<MeterMatrices>, MeterMatrixError> {
+    Ok(match noise {
+        Noise::Realistic => {
+            let mut reference = station
+                .open_reference(&ReferenceChoice::Simulated(SpectroModel::cs2000(2000)))
+                .map_err(MeterMatrixError::Reference)?;
+            Some(station.meter_matrices(reference.as_mut(), [0.5, 0.5], false)?)
+        }
+        Noise::None => None,
+    })
+}
+
 /// Commissions the wall with `budget` readings per display (after matching a noisy
 /// meter to the reference) and verifies the chart against the truth.
 fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsRow, ReadingsError> {
@@ -169,15 +187,7 @@ fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsR
         &bench.wall,
         &StationOptions::new(bench.meter.clone(), noise),
     )?;
-    let meter_matrix = match noise {
-        Noise::Realistic => {
-            let mut reference = station
-                .open_reference(&ReferenceChoice::Simulated(SpectroModel::cs2000(2000)))
-                .map_err(MeterMatrixError::Reference)?;
-            Some(station.meter_matrices(reference.as_mut(), [0.5, 0.5], false)?)
-        }
-        Noise::None => None,
-    };
+    let meter_matrix = match_meter(&mut station, noise)?;
     let out = bench.out.join(format!("{}-{budget}", noise.name()));
     let opts = CommissionOptions {
         measure: MeasureOptions {

@@ -35,11 +35,9 @@ use lumiwall_calib::recalibrate::{
     DriftLimits, RecalibrateError, RecalibrateOptions, Verdict, record_in_store, usage_for_white,
 };
 use lumiwall_calib::solve::SolveOptions;
-use lumiwall_calib::station::{
-    MeterChoice, Noise, ReferenceChoice, Station, StationError, StationOptions,
-};
+use lumiwall_calib::station::{MeterChoice, Noise, Station, StationError, StationOptions};
 use lumiwall_calib::verify::{Tolerances, VerifyError, VerifyOptions, chart_targets};
-use lumiwall_devices::sim::{SpectroModel, VirtualWall};
+use lumiwall_devices::sim::VirtualWall;
 use lumiwall_devices::{DeviceError, DisplayId};
 use lumiwall_profiles::store::{
     DisplayForecast, ForecastOptions, ProfileStore, StoreError, Timestamp,
@@ -220,7 +218,7 @@ pub fn run(
         &bench.wall,
         &StationOptions::new(bench.meter.clone(), bench.noise),
     )?;
-    let meter_matrix = match_meter(&mut station, bench.noise)?;
+    let meter_matrix = crate::readings::match_meter(&mut station, bench.noise)?;
     let profiles_dir = bench.out.join("profiles");
     let mut store = ProfileStore::open(&store_path)?;
     let mut season = Season {
@@ -278,20 +276,6 @@ fn check_settings(b: &SeasonBench) -> Result<(), SeasonError> {
         return bad("--forecast-night must be 1 or later (night 0 is the commissioning)".into());
     }
     Ok(())
-}
-
-/// With the realistic meter, the station matches its meter to the simulated reference
-/// spectroradiometer first, as `bench readings` does.
-fn match_meter(station: &mut Station, noise: Noise) -> Result<Option<MeterMatrices>, SeasonError> {
-    Ok(match noise {
-        Noise::Realistic => {
-            let mut reference = station
-                .open_reference(&ReferenceChoice::Simulated(SpectroModel::cs2000(2000)))
-                .map_err(MeterMatrixError::Reference)?;
-            Some(station.meter_matrices(reference.as_mut(), [0.5, 0.5], false)?)
-        }
-        Noise::None => None,
-    })
 }
 
 /// The season so far.
