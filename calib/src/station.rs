@@ -160,10 +160,48 @@ pub struct StationOptions {
     /// [`DeviceError::Stopped`] (`None`: the run
     /// cannot be stopped from outside).
     pub stop: Option<StopFlag>,
+    /// Where guided aiming prompts the technician and reads the answers (`None`: the
+    /// terminal, stdin and stdout; the station app passes its own window).
+    pub technician: Option<TechnicianLink>,
 }
 
 /// A flag another thread sets to stop a station's run between two patterns.
 pub type StopFlag = std::sync::Arc<std::sync::atomic::AtomicBool>;
+
+/// The technician's side of guided aiming for a station opened elsewhere: the answers
+/// (lines, as typed at the terminal: empty = aimed, `r`, `s`, `q`) and where the prompts
+/// and live readings go. The first station opened with it takes both.
+#[derive(Clone, Default)]
+pub struct TechnicianLink(std::sync::Arc<std::sync::Mutex<Option<TechnicianIo>>>);
+
+/// The two ends a [`TechnicianLink`] carries.
+type TechnicianIo = (
+    Box<dyn std::io::BufRead + Send>,
+    Box<dyn std::io::Write + Send>,
+);
+
+impl TechnicianLink {
+    /// A link that reads answers from `answers` and writes prompts to `prompts`.
+    pub fn new(
+        answers: Box<dyn std::io::BufRead + Send>,
+        prompts: Box<dyn std::io::Write + Send>,
+    ) -> Self {
+        Self(std::sync::Arc::new(std::sync::Mutex::new(Some((
+            answers, prompts,
+        )))))
+    }
+
+    /// Both ends, once (`None` once taken).
+    fn take(&self) -> Option<TechnicianIo> {
+        self.0.lock().ok().and_then(|mut io| io.take())
+    }
+}
+
+impl std::fmt::Debug for TechnicianLink {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("TechnicianLink")
+    }
+}
 
 /// A pattern output that refuses to show anything once its stop flag is set.
 struct Stoppable {
@@ -240,6 +278,7 @@ impl StationOptions {
             driver: driver_config(),
             aim: AimChoice::Auto,
             stop: None,
+            technician: None,
         }
     }
 }
@@ -601,13 +640,18 @@ fn positioner(wall: &VirtualWall, opts: &StationOptions) -> Box<dyn MeterPositio
         AimChoice::Auto => matches!(opts.meter, MeterChoice::Serial(_)),
     };
     let sim = Box::new(wall.positioner());
-    if guided {
-        Box::new(GuidedPositioner::new(
-            sim,
-            Box::new(std::io::BufReader::new(std::io::stdin())),
-            Box::new(std::io::stdout()),
-        ))
-    } else {
-        sim
+    if !guided {
+        return sim;
     }
+    let (answers, prompts) = opts
+        .technician
+        .as_ref()
+        .and_then(TechnicianLink::take)
+        .unwrap_or_else(|| {
+            (
+                Box::new(std::io::BufReader::new(std::io::stdin())),
+                Box::new(std::io::stdout()),
+            )
+        });
+    Box::new(GuidedPositioner::new(sim, answers, prompts))
 }

@@ -98,6 +98,10 @@ pub(crate) struct MeterArgs {
     /// Set by the station app to stop the run (no command-line option).
     #[arg(skip)]
     pub(crate) stop: Option<lumiwall_calib::station::StopFlag>,
+    /// Set by the station app: guided aiming prompts in its window, not the terminal
+    /// (no command-line option).
+    #[arg(skip)]
+    pub(crate) technician: Option<lumiwall_calib::station::TechnicianLink>,
 }
 
 /// Largest `--time-scale`: ten times slower than a real K-10A.
@@ -121,6 +125,7 @@ impl MeterArgs {
             time_scale: self.time_scale,
             aim: self.aim,
             stop: self.stop.clone(),
+            technician: self.technician.clone(),
             ..StationOptions::new(self.meter.clone(), self.noise.into())
         }
     }

@@ -80,6 +80,9 @@ pub(crate) struct StationApp {
     selected: Option<DisplayKey>,
     job: Option<Job>,
     log: Vec<String>,
+    /// Whether runs aim the meter with the technician (`--aim guided`): the prompts and
+    /// live readings appear in the window.
+    guided: bool,
 }
 
 /// The actions, each a `lumiwall` command.
@@ -94,6 +97,8 @@ impl StationApp {
     /// The app on `args`, with the files read.
     pub(crate) fn new(args: StationArgs) -> Self {
         let data = WallData::load(&args.wall, &args.profiles, args.store.as_deref());
+        // a real meter is aimed by hand (as the command line's `--aim auto`)
+        let guided = matches!(args.meter, MeterChoice::Serial(_));
         Self {
             args,
             data,
@@ -102,6 +107,7 @@ impl StationApp {
             selected: None,
             job: None,
             log: Vec::new(),
+            guided,
         }
     }
 
@@ -129,6 +135,9 @@ impl StationApp {
                     v.extend(["--store".into(), path(s)]);
                 }
             }
+        }
+        if self.guided {
+            v.extend(["--aim".into(), "guided".into()]);
         }
         let meter = match &a.meter {
             MeterChoice::Emulated => "emulated".to_string(),
@@ -182,6 +191,12 @@ impl StationApp {
     pub(crate) fn show(&mut self, ui: &mut egui::Ui) {
         self.poll();
         egui::Panel::top("actions").show(ui, |ui| self.actions(ui));
+        if let Some(job) = &self.job {
+            let prompt = job.aim_prompt();
+            if !prompt.is_empty() {
+                egui::Panel::top("aiming").show(ui, |ui| views::aiming(ui, job, &prompt));
+            }
+        }
         egui::Panel::left("details")
             .default_size(300.0)
             .show(ui, |ui| self.details(ui));
@@ -220,6 +235,10 @@ impl StationApp {
             {
                 self.start(Action::Recalibrate, &ctx);
             }
+            ui.add_enabled(idle, egui::Checkbox::new(&mut self.guided, "Guided aiming"))
+                .on_hover_text(
+                    "aim the meter by hand at each display, prompted here (--aim guided)",
+                );
             if let Some(job) = self.job.as_ref().filter(|_| !idle) {
                 let stop = egui::Button::new(if job.stopping() {
                     "Stopping…"

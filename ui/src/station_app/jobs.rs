@@ -2,13 +2,14 @@
 //! command line's own parser and run by the same function the command runs, on a
 //! worker thread that reports progress to the window.
 
-use std::sync::Arc;
+use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{Receiver, channel};
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::sync::{Arc, Mutex};
 
 use clap::Parser;
 use lumiwall_calib::measure::Progress;
-use lumiwall_calib::station::StopFlag;
+use lumiwall_calib::station::{StopFlag, TechnicianLink};
 
 use crate::cmd_commission::CommissionStep;
 use crate::cmd_recalibrate::Recalibrated;
@@ -42,14 +43,119 @@ pub(crate) struct Job {
     pub(crate) readings: u64,
     /// Set once the run has ended.
     pub(crate) finished: Option<Result<String, String>>,
+    /// Guided aiming: the technician's answers go to the run, its prompts come back.
+    aiming: Aiming,
+}
+
+/// The window's side of guided aiming ([`TechnicianLink`]): the answers the buttons
+/// give, as lines a technician would type, and the prompt and live readings since the
+/// last answer.
+struct Aiming {
+    answers: Sender<String>,
+    prompt: Arc<Mutex<Vec<String>>>,
+}
+
+/// The run's side of the answers: lines from the window; the end (the window gone)
+/// reads as the end of the input, which guided aiming takes as stop.
+struct Answers {
+    lines: Receiver<String>,
+    pending: Vec<u8>,
+}
+
+impl Read for Answers {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        if self.pending.is_empty() {
+            match self.lines.recv() {
+                Ok(line) => self.pending = format!("{line}\n").into_bytes(),
+                Err(_) => return Ok(0),
+            }
+        }
+        let n = buf.len().min(self.pending.len());
+        buf[..n].copy_from_slice(&self.pending[..n]);
+        self.pending.drain(..n);
+        Ok(n)
+    }
+}
+
+/// The run's side of the prompts: whole lines into the window's prompt, which is
+/// repainted.
+struct Prompts {
+    prompt: Arc<Mutex<Vec<String>>>,
+    partial: String,
+    wake: Arc<dyn Fn() + Send + Sync>,
+}
+
+impl Write for Prompts {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.partial.push_str(&String::from_utf8_lossy(buf));
+        while let Some(end) = self.partial.find('\n') {
+            let line: String = self.partial.drain(..=end).collect();
+            if let Ok(mut p) = self.prompt.lock() {
+                p.push(line.trim_end().to_string());
+            }
+        }
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        (self.wake)();
+        Ok(())
+    }
+}
+
+impl Aiming {
+    /// Both sides: the window's, and the link the run's station takes.
+    fn new(wake: Arc<dyn Fn() + Send + Sync>) -> (Self, TechnicianLink) {
+        let (answers, lines) = channel();
+        let prompt = Arc::new(Mutex::new(Vec::new()));
+        let link = TechnicianLink::new(
+            Box::new(std::io::BufReader::new(Answers {
+                lines,
+                pending: Vec::new(),
+            })),
+            Box::new(Prompts {
+                prompt: prompt.clone(),
+                partial: String::new(),
+                wake,
+            }),
+        );
+        (Self { answers, prompt }, link)
+    }
+}
+
+/// What the technician answers to an aiming prompt.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum AimAnswer {
+    /// The meter is on the cross.
+    Aimed,
+    /// Read again (the live reading).
+    ReadAgain,
+    /// Skip this display (`--resume` measures it later).
+    Skip,
+    /// Stop the run (`--resume` continues here).
+    Stop,
+}
+
+impl AimAnswer {
+    /// The line a technician types at the terminal for it.
+    fn typed(self) -> &'static str {
+        match self {
+            Self::Aimed => "",
+            Self::ReadAgain => "r",
+            Self::Skip => "s",
+            Self::Stop => "q",
+        }
+    }
 }
 
 impl Job {
     /// Starts `argv` (a `lumiwall` command line) on a worker thread; `wake` is called
     /// after every event (the window repaints).
-    pub(crate) fn start(argv: Vec<String>, wake: impl Fn() + Send + 'static) -> Self {
+    pub(crate) fn start(argv: Vec<String>, wake: impl Fn() + Send + Sync + 'static) -> Self {
         let (tx, rx) = channel();
         let stop: StopFlag = Arc::new(AtomicBool::new(false));
+        let wake: Arc<dyn Fn() + Send + Sync> = Arc::new(wake);
+        let (aiming, link) = Aiming::new(wake.clone());
         let (args, flag) = (argv.clone(), stop.clone());
         std::thread::spawn(move || {
             let send = |e: JobEvent| {
@@ -57,7 +163,7 @@ impl Job {
                 let _ = tx.send(e);
                 wake();
             };
-            let result = run_command(&args, flag, &send);
+            let result = run_command(&args, flag, link, &send);
             send(JobEvent::Finished(result));
         });
         Self {
@@ -67,12 +173,34 @@ impl Job {
             fraction: 0.0,
             readings: 0,
             finished: None,
+            aiming,
         }
     }
 
-    /// Asks the run to stop before its next pattern (what was measured is kept).
+    /// Asks the run to stop before its next pattern (what was measured is kept); a
+    /// run waiting at an aiming prompt is answered "stop".
     pub(crate) fn stop(&self) {
         self.stop.store(true, Ordering::Relaxed);
+        if !self.aim_prompt().is_empty() {
+            self.answer(AimAnswer::Stop);
+        }
+    }
+
+    /// The aiming prompt the run waits at, with its live readings (empty: none).
+    pub(crate) fn aim_prompt(&self) -> Vec<String> {
+        if self.finished.is_some() {
+            return Vec::new();
+        }
+        self.aiming.prompt.lock().map_or(Vec::new(), |p| p.clone())
+    }
+
+    /// Answers the aiming prompt.
+    pub(crate) fn answer(&self, a: AimAnswer) {
+        if let Ok(mut p) = self.aiming.prompt.lock() {
+            p.clear();
+        }
+        // a run that has ended reads no more answers
+        let _ = self.aiming.answers.send(a.typed().to_string());
     }
 
     /// Whether a stop was asked for.
@@ -148,7 +276,12 @@ impl Counter<'_> {
 }
 
 /// Parses `argv` with the command line's parser and runs it as the command does.
-fn run_command(argv: &[String], stop: StopFlag, send: &dyn Fn(JobEvent)) -> Result<String, String> {
+fn run_command(
+    argv: &[String],
+    stop: StopFlag,
+    technician: TechnicianLink,
+    send: &dyn Fn(JobEvent),
+) -> Result<String, String> {
     let cli = Cli::try_parse_from(argv).map_err(|e| e.to_string())?;
     let mut count = Counter {
         send,
@@ -158,6 +291,7 @@ fn run_command(argv: &[String], stop: StopFlag, send: &dyn Fn(JobEvent)) -> Resu
     match cli.command {
         Command::Commission(mut a) => {
             a.meter.stop = Some(stop);
+            a.meter.technician = Some(technician);
             let mut displays = 1;
             let (_, outcome) = crate::cmd_commission::commission_with(&a, &mut |step| match step {
                 CommissionStep::Started { displays: d, .. } => displays = d.len() as u64,
@@ -177,6 +311,7 @@ fn run_command(argv: &[String], stop: StopFlag, send: &dyn Fn(JobEvent)) -> Resu
         }
         Command::Verify(mut a) => {
             a.meter.stop = Some(stop);
+            a.meter.technician = Some(technician);
             let v =
                 crate::cmd_verify::verify_with(&a, &mut |p, total| count.on(&p, 0, Some(total)))
                     .map_err(|e| e.to_string())?;
@@ -188,6 +323,7 @@ fn run_command(argv: &[String], stop: StopFlag, send: &dyn Fn(JobEvent)) -> Resu
         }
         Command::Recalibrate(mut a) => {
             a.meter.stop = Some(stop);
+            a.meter.technician = Some(technician);
             let displays = lumiwall_profiles::ProfileSet::load_dir(&a.profiles)
                 .map_or(1, |(_, p)| p.len() as u64);
             let done = crate::cmd_recalibrate::recalibrate_with(&a, &mut |p| {

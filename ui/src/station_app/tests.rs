@@ -214,6 +214,7 @@ fn the_forecast_view_lists_every_display_of_the_store_and_charts_the_selected_on
             ..SolveOptions::default()
         },
         limits: DriftLimits::default(),
+        full_check_every_nights: 1,
         tolerances: Tolerances::default(),
         out: out.clone(),
         start_utc: "2026-01-01T02:00:00Z".parse().expect("a time"),
@@ -243,4 +244,59 @@ fn the_forecast_view_lists_every_display_of_the_store_and_charts_the_selected_on
             .is_some()
     );
     screenshot(&mut h, "station_forecast");
+}
+
+#[test]
+fn guided_aiming_prompts_in_the_window_and_the_buttons_answer_it() {
+    let dir = fresh_dir("guided");
+    let mut h = harness(app("mono-2x1.toml", dir.clone()));
+    h.run_steps(2);
+    click(&mut h, "Guided aiming");
+    click(&mut h, "Commission");
+    assert!(log_has(&h, "--aim guided"), "{:?}", h.state().log);
+    let deadline = Instant::now() + Duration::from_secs(120);
+    let mut prompts = Vec::new();
+    while h.state().busy() {
+        assert!(Instant::now() < deadline, "{:?}", h.state().log);
+        h.step();
+        let prompt = h
+            .state()
+            .job
+            .as_ref()
+            .map(|j| j.aim_prompt())
+            .unwrap_or_default();
+        if prompt.iter().any(|l| l.contains("live:")) {
+            h.run_steps(2);
+            if prompts.is_empty() {
+                screenshot(&mut h, "station_aiming");
+            }
+            prompts.push(prompt);
+            // the first display is read again once: a second live reading follows
+            if prompts.len() == 1 {
+                click(&mut h, "Read again");
+                continue;
+            }
+            click(&mut h, "Aimed");
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    h.step();
+    h.run_steps(3);
+    assert!(
+        log_has(&h, "commissioned mono-2x1: 2 displays"),
+        "{:?}",
+        h.state().log
+    );
+    println!("{prompts:#?}");
+    assert!(prompts[0][0].contains("aim the meter at"), "{prompts:?}");
+    assert!(prompts[0][1].contains("live: Y ="), "{prompts:?}");
+    // read again: the same prompt, one live reading more is not kept (cleared by the
+    // answer), so the next prompt shows a fresh reading for the same display
+    assert!(prompts[1][0].contains("live: Y ="), "{prompts:?}");
+    let aimed = prompts
+        .iter()
+        .filter(|p| p[0].contains("aim the meter at"))
+        .count();
+    assert!(aimed >= 2, "one prompt per display at least: {prompts:?}");
+    assert_eq!(h.state().data.profiles.len(), 2);
 }

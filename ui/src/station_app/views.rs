@@ -433,3 +433,25 @@ fn forecast_table(ui: &mut Ui, d: &WallData) {
             }
         });
 }
+
+/// The aiming prompt of guided aiming: where to aim, the live readings, and the
+/// technician's answers (the keys of the terminal prompt).
+pub(super) fn aiming(ui: &mut egui::Ui, job: &super::jobs::Job, prompt: &[String]) {
+    use super::jobs::AimAnswer;
+    ui.strong("Aim the meter");
+    for line in prompt {
+        ui.monospace(line.trim_end_matches("; Enter = aimed, r = read again, s = skip, q = stop"));
+    }
+    ui.horizontal(|ui| {
+        for (answer, label) in [
+            (AimAnswer::Aimed, "Aimed"),
+            (AimAnswer::ReadAgain, "Read again"),
+            (AimAnswer::Skip, "Skip display"),
+            (AimAnswer::Stop, "Stop here"),
+        ] {
+            if ui.button(label).clicked() {
+                job.answer(answer);
+            }
+        }
+    });
+}
