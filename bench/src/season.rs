@@ -32,7 +32,8 @@ use lumiwall_calib::commission::{CommissionError, CommissionOptions};
 use lumiwall_calib::measure::meter_matrix::{MeterMatrices, MeterMatrixError};
 use lumiwall_calib::measure::{MeasureOptions, Progress};
 use lumiwall_calib::recalibrate::{
-    DriftLimits, RecalibrateError, RecalibrateOptions, Verdict, record_in_store, usage_for_white,
+    DriftLimits, FullCheckRotation, RecalibrateError, RecalibrateOptions, Verdict, record_in_store,
+    usage_for_white,
 };
 use lumiwall_calib::solve::SolveOptions;
 use lumiwall_calib::station::{MeterChoice, Noise, Station, StationError, StationOptions};
@@ -70,6 +71,9 @@ pub struct SeasonBench {
     pub solve: SolveOptions,
     /// Drift limits of the nightly run.
     pub limits: DriftLimits,
+    /// Each display is measured in full once in this many nights (the nightly run's
+    /// `--full-check-every`); a white reading checks it on the others.
+    pub full_check_every_nights: u32,
     /// Verification tolerances a night is held to (see the module documentation).
     pub tolerances: Tolerances,
     /// Scratch folder: profiles, the store and the plot.
@@ -233,7 +237,7 @@ pub fn run(
     let row = season.commission(&mut station, &mut store, meter_matrix.clone())?;
     on_night(&row);
     season.rows.push(row);
-    let opts = RecalibrateOptions {
+    let mut opts = RecalibrateOptions {
         measure: MeasureOptions {
             meter_matrix,
             ..MeasureOptions::default()
@@ -241,8 +245,13 @@ pub fn run(
         limits: bench.limits,
         meter_xy_offset: [0.0; 2],
         headroom: Some(bench.solve.headroom),
+        rotation: FullCheckRotation::EVERY_NIGHT,
     };
     for night in 1..=bench.nights {
+        opts.rotation = FullCheckRotation {
+            every_nights: bench.full_check_every_nights,
+            night: u64::from(night),
+        };
         let row = season.night(night, &mut station, &mut store, &opts)?;
         on_night(&row);
         season.rows.push(row);

@@ -360,6 +360,34 @@ pub struct MeasuredDisplay {
     pub measurement: DisplayMeasurement,
     /// How it was taken.
     pub log: MeasureLog,
+    /// The display's last full reading, where the measurement has since been refitted
+    /// from white checks alone (see `recalibrate::FullCheckRotation`): the next white
+    /// check infers from it, so that the errors of single white readings do not add up
+    /// night after night. `None`: the measurement is itself a full reading.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub anchor: Option<FullReading>,
+}
+
+/// Black, primaries and white of one full reading of a display (cd/m²).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FullReading {
+    /// Black.
+    pub black: Xyz,
+    /// Each primary at full drive, black included.
+    pub primaries: [Xyz; 3],
+    /// White at full drive (`None`: not read).
+    pub white: Option<Xyz>,
+}
+
+impl MeasuredDisplay {
+    /// The last full reading: the anchor, or the measurement itself.
+    pub fn last_full_reading(&self) -> FullReading {
+        self.anchor.unwrap_or(FullReading {
+            black: self.measurement.black,
+            primaries: self.measurement.primaries,
+            white: self.measurement.white,
+        })
+    }
 }
 
 /// Errors while measuring, each naming the display and the reading.
@@ -883,6 +911,7 @@ pub fn measure_display(
             instrument,
         },
         log,
+        anchor: None,
     })
 }
 

@@ -2,10 +2,13 @@
 //! white, and write new profiles only when something drifted.
 //!
 //! A commissioning leaves every display's full measurement in the profile folder
-//! (`run/*.measurement.json`). A recalibration reads each display again at its spot:
-//! black, the three primaries at full drive (repeated as in commissioning), white and
-//! each channel at mid drive (the tone-curve check), 8 to 17 readings instead of the
-//! ~40 of a commissioning. Each display is
+//! (`run/*.measurement.json`). A recalibration reads each display again at its spot,
+//! in full on its night of the [`FullCheckRotation`]: black, the three primaries at full
+//! drive (repeated as in commissioning), white and each channel at mid drive (the
+//! tone-curve check), 8 to 17 readings instead of the ~40 of a commissioning; on the
+//! other nights one reading of full white, from which the channel factors are inferred
+//! ([`scales_from_white`]; a white that shows what ageing does not do is followed by the
+//! full check at once). Each display is
 //! compared with its last measurement: the primaries' luminance (%) and chromaticity
 //! (Δxy), the black (cd/m²) and the mid-drive intensities against the last tone curves
 //! (%), and the white the display shows through its current profile, predicted from
@@ -39,8 +42,8 @@ use crate::commission::{
     CommissionError, RUN_DIR, corrected_measurement, load_measurement, measurement_path, to_json,
 };
 use crate::measure::{
-    MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, Rig, Session, display_key,
-    measure_black_and_primaries, measure_display, relative_intensity,
+    FullReading, MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, Rig, Session,
+    display_key, measure_black_and_primaries, measure_display, relative_intensity,
 };
 use crate::report;
 use crate::solve::{SolveOptions, WallSolution, WhiteTarget, now_rfc3339, solve_wall_at};
@@ -101,6 +104,59 @@ pub struct RecalibrateOptions {
     /// after a recalibration that kept the white it is the usage of the kept white, so
     /// nightly runs should give the commissioning's headroom here.
     pub headroom: Option<f64>,
+    /// Which displays are measured in full tonight; the others get the one-reading
+    /// white check (see [`FullCheckRotation`]).
+    pub rotation: FullCheckRotation,
+}
+
+/// Which displays a recalibration measures in full (black, primaries, white, tone-curve
+/// check: 14 readings on a K-10 with its repeats) and which it only checks with one
+/// reading of full white.
+///
+/// Lamps age by losing light, little by changing colour: a three-chip projector's
+/// primaries are the lamp through fixed dichroic filters, so their chromaticities
+/// stay put while each channel's intensity falls by its own factor, and the black and
+/// a white segment (the whole lamp through closed or clear paths) fall with the lamp's
+/// mean. With that, one white reading gives the three channel factors (three
+/// equations, three unknowns; see [`scales_from_white`]). What it cannot see (a
+/// primary changing colour, a tone curve moving) the full check finds: every display
+/// gets one every `every_nights` nights, in turn, and at once when its white check sees
+/// something a lamp's ageing does not do (a channel brightening, as after a lamp change;
+/// a factor out of range; a white too dark to read).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FullCheckRotation {
+    /// Every display is measured in full once in this many nights (1: every night).
+    pub every_nights: u32,
+    /// Tonight's number: any count that grows by one a night (the CLI uses days since
+    /// 1970-01-01 UTC). Display `i` (wall order) is measured in full when
+    /// `(night + i) % every_nights == 0`.
+    pub night: u64,
+}
+
+impl FullCheckRotation {
+    /// Every display in full, every night.
+    pub const EVERY_NIGHT: Self = Self {
+        every_nights: 1,
+        night: 0,
+    };
+
+    /// Whether the display at `index` (wall order) is measured in full tonight.
+    pub fn is_full(&self, index: usize) -> bool {
+        let every = u64::from(self.every_nights.max(1));
+        self.night.wrapping_add(index as u64).is_multiple_of(every)
+    }
+}
+
+/// How a display was checked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CheckKind {
+    /// In full: black, primaries (repeated), white and the tone-curve check.
+    Full,
+    /// One reading of full white; the channel factors inferred from it.
+    White,
+    /// The white check saw something a lamp's ageing does not do, so the display was
+    /// measured in full as well.
+    Escalated,
 }
 
 /// One display's readings against its last measurement.
@@ -134,6 +190,8 @@ pub struct DisplayCheck {
     pub curves_moved: bool,
     /// Readings taken.
     pub readings: u32,
+    /// How the display was checked.
+    pub kind: CheckKind,
 }
 
 impl DisplayCheck {
@@ -334,25 +392,12 @@ pub fn recalibrate(
     let (profiles, last) = load_commissioned(wall, displays, dir)?;
     let mut checks = Vec::with_capacity(displays.len());
     let mut refitted = Vec::with_capacity(displays.len());
-    for ((info, old), profile) in displays.iter().zip(&last).zip(&profiles) {
+    for (i, ((info, old), profile)) in displays.iter().zip(&last).zip(&profiles).enumerate() {
         let key = display_key(wall, info);
-        let (new, readings) = read_display(rig, info, &key, &opts.measure, progress)?;
-        let mut c = check(
-            &key,
-            &old.measurement,
-            &new,
-            profile,
-            readings,
-            &opts.limits,
-        );
-        if c.curves_moved {
-            let full = measure_display(rig, info, &key, &opts.measure, progress)?;
-            c.readings += full.measurement.readings;
-            refitted.push(full);
-        } else {
-            refitted.push(refit(old, new, readings));
-        }
+        let full = opts.rotation.is_full(i);
+        let (c, m) = check_display(rig, info, &key, old, profile, full, opts, progress)?;
         checks.push(c);
+        refitted.push(m);
     }
     let white_before_cd_m2 = profiles[0].target_white_xyz_cd_m2[1];
     let mut outcome = RecalibrationOutcome {
@@ -378,6 +423,108 @@ pub fn recalibrate(
     write_report(dir, &outcome, &refitted, &solution)?;
     outcome.solution = Some(solution);
     Ok(outcome)
+}
+
+/// One display's check (full, or the white check escalated to a full one where it saw
+/// something ageing does not do) and its refitted measurement.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the recalibration's state, passed through"
+)]
+fn check_display(
+    rig: &mut Rig<'_>,
+    info: &DisplayInfo,
+    key: &DisplayKey,
+    old: &MeasuredDisplay,
+    profile: &DisplayProfile,
+    full: bool,
+    opts: &RecalibrateOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(DisplayCheck, MeasuredDisplay), RecalibrateError> {
+    let mut spent = 0;
+    if !full {
+        let (white, readings) = read_white(rig, info, key, &opts.measure, progress)?;
+        spent = readings;
+        let anchor = old.last_full_reading();
+        let inferred = white.and_then(|w| readings_from_white(&anchor, w, &opts.limits));
+        if let Some(new) = inferred {
+            let c = check(key, &old.measurement, &new, profile, readings, &opts.limits);
+            let c = DisplayCheck {
+                kind: CheckKind::White,
+                ..c
+            };
+            let mut m = refit(old, new, readings);
+            m.anchor = Some(anchor);
+            return Ok((c, m));
+        }
+    }
+    let (new, readings) = read_display(rig, info, key, &opts.measure, progress)?;
+    let mut c = check(key, &old.measurement, &new, profile, readings, &opts.limits);
+    c.readings += spent;
+    if !full {
+        c.kind = CheckKind::Escalated;
+    }
+    if c.curves_moved {
+        let m = measure_display(rig, info, key, &opts.measure, progress)?;
+        c.readings += m.measurement.readings;
+        return Ok((c, m));
+    }
+    Ok((c, refit(old, new, readings)))
+}
+
+/// One reading of full white (`None`: too dark to read).
+fn read_white(
+    rig: &mut Rig<'_>,
+    info: &DisplayInfo,
+    key: &DisplayKey,
+    opts: &MeasureOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(Option<Xyz>, u32), RecalibrateError> {
+    let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
+    let white = s.sample(Patch::White, true, progress)?;
+    let readings = s.log.readings;
+    progress(Progress::DisplayDone {
+        display: info.id,
+        readings,
+    });
+    Ok((white, readings))
+}
+
+/// Tonight's black and primaries inferred from one white reading and the display's
+/// last full reading (see [`FullCheckRotation`]); `None` where the white shows something
+/// a lamp's ageing does not do: a channel brighter by more than the luminance limit, a
+/// factor not positive, or primaries that do not span the white.
+fn readings_from_white(old: &FullReading, white: Xyz, limits: &DriftLimits) -> Option<Readings> {
+    let s = scales_from_white(old, white)?;
+    let brightest = 1.0 + limits.luminance_pct / 100.0;
+    if s.iter().any(|&k| !(k > 0.0 && k <= brightest)) {
+        return None;
+    }
+    let lamp = (s[0] + s[1] + s[2]) / 3.0;
+    let black = old.black * lamp;
+    Some(Readings {
+        black,
+        primaries: std::array::from_fn(|c| black + (old.primaries[c] - old.black) * s[c]),
+        white: Some(white),
+        mid: [None; 3],
+    })
+}
+
+/// The factors `s` by which each channel's light changed since the full reading `old`,
+/// from a white reading: `W = Σ s_c·p_c + mean(s)·(b + e)` with `p_c` the old primaries less the
+/// black, `b` the old black and `e` what the old white had beyond black and primaries
+/// (a white segment, or the display's non-additivity), both falling with the lamp's
+/// mean. Linear in `s`: columns `p_c + (b + e)/3`. `None` where they do not span it.
+pub fn scales_from_white(old: &FullReading, white: Xyz) -> Option<[f64; 3]> {
+    let p: [Xyz; 3] = std::array::from_fn(|c| old.primaries[c] - old.black);
+    let rest = match old.white {
+        Some(w) => w - (p[0] + p[1] + p[2]),
+        None => old.black,
+    };
+    let cols: [[f64; 3]; 3] = std::array::from_fn(|c| (p[c] + rest * (1.0 / 3.0)).to_array());
+    let inv = lumiwall_core::mat3::inverse(&lumiwall_core::mat3::from_columns(&cols))?;
+    let s = lumiwall_core::mat3::mul_vec(&inv, &white.to_array());
+    s.iter().all(|v| v.is_finite()).then_some(s)
 }
 
 /// The folder's profiles (wall order) and last measurements, checked against the wall.
@@ -554,6 +701,7 @@ fn check(
         curve_change_pct,
         curves_moved,
         readings,
+        kind: CheckKind::Full,
     }
 }
 
@@ -627,6 +775,7 @@ fn refit(old: &MeasuredDisplay, new: Readings, readings: u32) -> MeasuredDisplay
     MeasuredDisplay {
         measurement: m,
         log: old.log.clone(),
+        anchor: None,
     }
 }
 
@@ -789,8 +938,8 @@ fn options_of(p: &DisplayProfile, headroom: f64) -> SolveOptions {
 pub fn recalibration_markdown(o: &RecalibrationOutcome) -> String {
     let mut s = format!(
         "## Recalibration of {} ({})\n\n{:?}: common white {:.2} → {:.2} cd/m², {} readings.\n\n\
-         | display | ΔY R/G/B % | Δxy primaries (max) | black Δ cd/m² | curve at mid drive R/G/B % | white shown ΔE2000 | reserve left | status |\n\
-         |---|---|---|---|---|---|---|---|\n",
+         | display | ΔY R/G/B % | Δxy primaries (max) | black Δ cd/m² | curve at mid drive R/G/B % | white shown ΔE2000 | reserve left | checked | status |\n\
+         |---|---|---|---|---|---|---|---|---|\n",
         o.wall,
         now_rfc3339(),
         o.verdict,
@@ -810,14 +959,19 @@ pub fn recalibration_markdown(o: &RecalibrationOutcome) -> String {
             "ok"
         };
         s += &format!(
-            "| {} | {} | {:.4} | {:+.3} | {} | {:.2} | {:.3} | {status} |\n",
+            "| {} | {} | {:.4} | {:+.3} | {} | {:.2} | {:.3} | {} | {status} |\n",
             c.key,
             three(c.luminance_change_pct),
             c.primary_delta_xy.iter().copied().fold(0.0, f64::max),
             c.black_change_cd_m2,
             three(c.curve_change_pct),
             c.white_de2000,
-            c.reserve_left()
+            c.reserve_left(),
+            match c.kind {
+                CheckKind::Full => "in full",
+                CheckKind::White => "white (factors inferred)",
+                CheckKind::Escalated => "white, then in full",
+            }
         );
     }
     s

@@ -8,10 +8,11 @@ mod support;
 
 use std::path::Path;
 
-use lumiwall_calib::commission::CommissionOptions;
-use lumiwall_calib::measure::MeasureOptions;
+use lumiwall_calib::commission::{CommissionOptions, RUN_DIR, load_measurement};
+use lumiwall_calib::measure::{FullReading, MeasureOptions, MeasuredDisplay};
 use lumiwall_calib::recalibrate::{
-    DriftLimits, PREVIOUS_DIR, RecalibrateError, RecalibrateOptions, Verdict, rollback,
+    CheckKind, DriftLimits, FullCheckRotation, PREVIOUS_DIR, RecalibrateError, RecalibrateOptions,
+    Verdict, rollback,
 };
 use lumiwall_calib::station::{MeterChoice, Noise, Station, StationOptions};
 use lumiwall_calib::verify::{Summary, VerifyOptions, chart_targets};
@@ -34,6 +35,7 @@ fn options() -> RecalibrateOptions {
         limits: DriftLimits::default(),
         meter_xy_offset: [0.0; 2],
         headroom: None,
+        rotation: FullCheckRotation::EVERY_NIGHT,
     }
 }
 
@@ -164,6 +166,113 @@ fn aged_lamps_are_recalibrated_to_the_truth_and_can_be_rolled_back() {
         rollback(dir.path()),
         Err(RecalibrateError::NothingToRollBack { .. })
     ));
+}
+
+/// Each display's anchor in the run folder (display order).
+fn anchors(dir: &Path) -> Vec<Option<FullReading>> {
+    measured(dir).into_iter().map(|m| m.anchor).collect()
+}
+
+/// The run folder's measurements, in display order.
+fn measured(dir: &Path) -> Vec<MeasuredDisplay> {
+    let mut out: Vec<MeasuredDisplay> = std::fs::read_dir(dir.join(RUN_DIR))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.to_string_lossy().ends_with(".measurement.json"))
+        .map(|p| load_measurement(&p).unwrap().unwrap())
+        .collect();
+    out.sort_by_key(|m| m.measurement.key.display);
+    out
+}
+
+/// Display `i`'s full reading as the commissioning left it (kept in `previous/`).
+fn commissioned_reading(dir: &Path, i: usize) -> FullReading {
+    measured(&dir.join(PREVIOUS_DIR))[i].last_full_reading()
+}
+
+/// Display 0 checked by one white reading, display 1 in full (rotation of 2, night 1).
+fn white_check_of_display_0() -> RecalibrateOptions {
+    RecalibrateOptions {
+        rotation: FullCheckRotation {
+            every_nights: 2,
+            night: 1,
+        },
+        ..options()
+    }
+}
+
+#[test]
+fn one_white_reading_recalibrates_an_aged_lamp_as_well_as_a_full_check() {
+    let mut station = support::direct_station("mono-2x1.toml", Noise::None);
+    let dir = tempfile::tempdir().unwrap();
+    let commissioned = commission(&mut station, dir.path(), 0.8);
+    station.wall.advance_hours(2000.0);
+    let stale = truth(&station, &commissioned);
+    let o = station
+        .recalibrate(dir.path(), &white_check_of_display_0(), &mut |_| {})
+        .unwrap();
+    let (white, full) = (&o.checks[0], &o.checks[1]);
+    assert_eq!(white.kind, CheckKind::White);
+    assert_eq!(white.readings, 1);
+    assert_eq!(full.kind, CheckKind::Full);
+    assert!(full.readings >= 8, "{} readings", full.readings);
+    // 2000 h take 10-30 % of a channel: the white reading sees it per channel
+    println!(
+        "display 0 from its white: ΔY {:?} %; display 1 in full: ΔY {:?} %",
+        white.luminance_change_pct, full.luminance_change_pct
+    );
+    assert!(white.drifted);
+    assert!(white.luminance_change_pct.iter().all(|d| *d < -5.0));
+    let new = o.solution.clone().expect("profiles written").profiles;
+    let fresh = truth(&station, &new);
+    println!("truth before {stale:?}\nafter {fresh:?}");
+    assert!(stale.median_de > 1.0, "ageing should show: {stale:?}");
+    assert!(fresh.median_de <= 0.5 && fresh.max_de <= 2.0, "{fresh:?}");
+    // the white-checked display keeps its commissioning's full reading as the anchor
+    // the next white check infers from; the fully checked one has none
+    let anchors = anchors(dir.path());
+    assert_eq!(anchors[0], Some(commissioned_reading(dir.path(), 0)));
+    assert_eq!(anchors[1], None);
+    // the next full check of display 0 finds what its white check inferred
+    let o = station
+        .recalibrate(dir.path(), &options(), &mut |_| {})
+        .unwrap();
+    for c in &o.checks {
+        println!(
+            "{}: ΔY {:?} %, Δxy {:?}",
+            c.key, c.luminance_change_pct, c.primary_delta_xy
+        );
+        assert!(
+            c.luminance_change_pct.iter().all(|d| d.abs() < 0.2),
+            "{c:?}"
+        );
+        assert!(c.primary_delta_xy.iter().all(|d| *d < 5e-4), "{c:?}");
+    }
+}
+
+#[test]
+fn a_white_check_that_sees_a_lamp_brighten_measures_the_display_in_full() {
+    let mut station = support::direct_station("mono-2x1.toml", Noise::None);
+    let dir = tempfile::tempdir().unwrap();
+    commission(&mut station, dir.path(), 0.8);
+    station.wall.advance_hours(1000.0);
+    station
+        .wall
+        .replace_lamp(lumiwall_devices::DisplayId(0))
+        .unwrap();
+    let o = station
+        .recalibrate(dir.path(), &white_check_of_display_0(), &mut |_| {})
+        .unwrap();
+    let c = &o.checks[0];
+    println!("{c:?}");
+    assert_eq!(c.kind, CheckKind::Escalated);
+    assert!(
+        c.readings >= 9,
+        "the white and a full check: {}",
+        c.readings
+    );
+    assert!(c.luminance_change_pct.iter().all(|d| *d > 5.0), "{c:?}");
+    assert!(c.drifted);
 }
 
 #[test]

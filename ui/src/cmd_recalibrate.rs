@@ -6,7 +6,8 @@ use std::path::PathBuf;
 
 use lumiwall_calib::measure::{MeasureOptions, Progress};
 use lumiwall_calib::recalibrate::{
-    DriftLimits, RecalibrateOptions, RecalibrationOutcome, Recorded, Verdict, record_in_store,
+    CheckKind, DriftLimits, FullCheckRotation, RecalibrateOptions, RecalibrationOutcome, Recorded,
+    Verdict, record_in_store,
 };
 use lumiwall_calib::station::Station;
 use lumiwall_profiles::store::{ProfileStore, Timestamp};
@@ -58,6 +59,16 @@ pub(crate) struct RecalibrateArgs {
     /// recalibration that kept the white is the usage of that white).
     #[arg(long, value_parser = |s: &str| values::positive_at_most(s, 1.0))]
     headroom: Option<f64>,
+    /// Measure each display in full (black, primaries, white, tone-curve check) once in
+    /// this many nights, in turn; on the other nights one reading of white checks it
+    /// (and a full check follows at once where that reading shows what ageing does not
+    /// do). 1: every display in full every night.
+    #[arg(long, default_value_t = 7, value_parser = clap::value_parser!(u32).range(1..=366))]
+    full_check_every: u32,
+    /// Tonight's number for the rotation of full checks (default: days since
+    /// 1970-01-01 UTC, so a nightly service needs none).
+    #[arg(long)]
+    night: Option<u64>,
     /// Virtual wall only: let its lamps age this many hours before measuring (to try a
     /// recalibration on the simulator).
     #[arg(long, allow_negative_numbers = true, value_parser = values::non_negative_finite)]
@@ -196,7 +207,18 @@ fn options(args: &RecalibrateArgs, station: &Station) -> Result<RecalibrateOptio
         )?
         .unwrap_or([0.0; 2]),
         headroom: args.headroom,
+        rotation: FullCheckRotation {
+            every_nights: args.full_check_every,
+            night: args.night.unwrap_or_else(days_since_epoch),
+        },
     })
+}
+
+/// Days since 1970-01-01 UTC by the system clock (0 if the clock is before it).
+fn days_since_epoch() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs() / 86_400)
 }
 
 /// `--simulate-hours` ages the virtual wall only: with a real meter it would age
@@ -233,13 +255,17 @@ pub(crate) fn display_lines(o: &RecalibrationOutcome) -> String {
                 a
             }
         });
+        let (checked, curve) = match c.kind {
+            CheckKind::Full => ("full", format!("{worst_curve:+5.1} %")),
+            CheckKind::Escalated => ("white+full", format!("{worst_curve:+5.1} %")),
+            CheckKind::White => ("white", "   –   ".to_string()),
+        };
         s += &format!(
-            "{:<44} ΔY {:+6.2} %  Δxy {:.4}  black {:+.3} cd/m²  curve {:+5.1} %  white ΔE {:.2}  reserve {:+.3}  {}\n",
+            "{:<44} {checked:<10} ΔY {:+6.2} %  Δxy {:.4}  black {:+.3} cd/m²  curve {curve}  white ΔE {:.2}  reserve {:+.3}  {}\n",
             c.key.to_string(),
             worst_dy,
             worst_dxy,
             c.black_change_cd_m2,
-            worst_curve,
             c.white_de2000,
             c.reserve_left(),
             if c.cannot_reach_white() {

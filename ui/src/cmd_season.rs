@@ -51,6 +51,10 @@ pub(crate) struct SeasonArgs {
     /// the nightly runs live on), in (0, 1].
     #[arg(long, default_value_t = 0.85, value_parser = |s: &str| values::positive_at_most(s, 1.0))]
     headroom: f64,
+    /// Each display is measured in full once in this many nights, in turn (the nightly
+    /// run's `--full-check-every`); one white reading checks it on the others.
+    #[arg(long, default_value_t = 7, value_parser = clap::value_parser!(u32).range(1..=366))]
+    full_check_every: u32,
     /// Scratch folder: profiles, the season's store, the plot (season.svg).
     #[arg(long, default_value = "out/bench-season")]
     out: PathBuf,
@@ -78,17 +82,20 @@ pub(crate) fn bench(a: SeasonArgs) -> Result<(), CliError> {
         noise: a.noise,
         meter: a.meter,
         limits: DriftLimits::default(),
+        full_check_every_nights: a.full_check_every,
         tolerances: Tolerances::default(),
         out: a.out,
         start_utc: Timestamp::now(),
     };
     println!(
-        "season on {}: {} nights, lamps {} h/day, headroom {}, meter noise {}; truth = the \
-         51-patch chart read by a perfect meter after each night",
+        "season on {}: {} nights, lamps {} h/day, headroom {}, each display in full every {} \
+         nights (a white reading between), meter noise {}; truth = the 51-patch chart read \
+         by a perfect meter after each night",
         bench.wall.display(),
         bench.nights,
         bench.lamp_hours_per_day,
         bench.solve.headroom,
+        bench.full_check_every_nights,
         bench.noise.name()
     );
     println!(

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use assert_cmd::Command;
 use predicates::prelude::*;
-use predicates::str::contains;
+use predicates::str::{contains, is_match};
 use tempfile::TempDir;
 
 mod common;
@@ -532,6 +532,7 @@ fn recalibrate_exit_codes_say_unchanged_recalibrated_and_left_headroom() {
     let recalibrate = |hours: &str| {
         let mut cmd = lumiwall();
         cmd.args(["recalibrate", "--meter", "direct", "--noise", "none"])
+            .args(["--full-check-every", "2", "--night", "0"])
             .args(["--simulate-hours", hours, "--wall"])
             .arg(small_wall())
             .arg("--profiles")
@@ -564,10 +565,15 @@ fn recalibrate_exit_codes_say_unchanged_recalibrated_and_left_headroom() {
         .code(0)
         .stdout(contains("unchanged, no profiles written"))
         .stderr(contains("warning: the run was not recorded"));
+    // tonight (night 0 of a rotation of 2) display 0 is measured in full, display 1
+    // by one white reading
     recalibrate("2000")
         .code(10)
         .stdout(contains("2 drifted").and(contains("common white kept")))
-        .stdout(contains("recorded run 1"));
+        .stdout(contains("recorded run 1"))
+        .stdout(contains("2 displays, 15 readings"))
+        .stdout(is_match(r"display 0 \(tile col 0 row 0, mono\) +full ").unwrap())
+        .stdout(is_match(r"display 1 \(tile col 1 row 0, mono\) +white ").unwrap());
     assert_ne!(std::fs::read(&profile).unwrap(), commissioned);
     assert_eq!(
         std::fs::read(dir.join("previous/d000-c0r0-mono.json")).unwrap(),
