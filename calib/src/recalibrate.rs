@@ -446,7 +446,9 @@ fn check_display(
         let (white, readings) = read_white(rig, info, key, &opts.measure, progress)?;
         spent = readings;
         let anchor = old.last_full_reading();
-        let inferred = white.and_then(|w| readings_from_white(&anchor, w, &opts.limits));
+        let xy_repeatability = rig.meter.info().xy_repeatability.unwrap_or(0.0);
+        let inferred =
+            white.and_then(|w| readings_from_white(&anchor, w, xy_repeatability, &opts.limits));
         if let Some(new) = inferred {
             let c = check(key, &old.measurement, &new, profile, readings, &opts.limits);
             let c = DisplayCheck {
@@ -459,6 +461,7 @@ fn check_display(
         }
     }
     let (new, readings) = read_display(rig, info, key, &opts.measure, progress)?;
+    let new = steady_chromaticities(&old.measurement, new, opts.limits.delta_xy);
     let mut c = check(key, &old.measurement, &new, profile, readings, &opts.limits);
     c.readings += spent;
     if !full {
@@ -470,6 +473,30 @@ fn check_display(
         return Ok((c, m));
     }
     Ok((c, refit(old, new, readings)))
+}
+
+/// Tonight's primaries with the last measurement's chromaticities where they moved by
+/// no more than `delta_xy` (the drift limit, above the meter's repeatability), at
+/// tonight's luminance: a deadband, so that the meter's colour noise on a dim primary
+/// (the blue of a UHP projector reads a few cd/m², where a colorimeter's xy noise grows)
+/// is not written into the profiles night after night. A change beyond it is taken
+/// whole.
+fn steady_chromaticities(
+    old: &crate::solve::DisplayMeasurement,
+    mut new: Readings,
+    delta_xy: f64,
+) -> Readings {
+    for c in 0..3 {
+        let (o, n) = (old.primaries[c] - old.black, new.primaries[c] - new.black);
+        let moved = match (o.chromaticity(), n.chromaticity()) {
+            (Some(a), Some(b)) => a.distance(b),
+            _ => continue,
+        };
+        if moved <= delta_xy && o.y > 0.0 {
+            new.primaries[c] = new.black + o * (n.y / o.y);
+        }
+    }
+    new
 }
 
 /// One reading of full white (`None`: too dark to read).
@@ -494,8 +521,13 @@ fn read_white(
 /// last full reading (see [`FullCheckRotation`]); `None` where the white shows something
 /// a lamp's ageing does not do: a channel brighter by more than the luminance limit, a
 /// factor not positive, or primaries that do not span the white.
-fn readings_from_white(old: &FullReading, white: Xyz, limits: &DriftLimits) -> Option<Readings> {
-    let s = scales_from_white(old, white)?;
+fn readings_from_white(
+    old: &FullReading,
+    white: Xyz,
+    xy_repeatability: f64,
+    limits: &DriftLimits,
+) -> Option<Readings> {
+    let s = channel_factors(old, white, xy_repeatability)?;
     let brightest = 1.0 + limits.luminance_pct / 100.0;
     if s.iter().any(|&k| !(k > 0.0 && k <= brightest)) {
         return None;
@@ -508,6 +540,28 @@ fn readings_from_white(old: &FullReading, white: Xyz, limits: &DriftLimits) -> O
         white: Some(white),
         mid: [None; 3],
     })
+}
+
+/// The channel factors a white reading shows against the full reading `old`: all three
+/// alike, the white's luminance ratio, where its chromaticity moved no more than the
+/// meter's repeatability explains (3σ of the difference of two readings); else each its
+/// own ([`scales_from_white`]). The inversion amplifies a reading's colour noise about
+/// threefold (on heyewall-48, 0.1 % on one tristimulus value moves a factor 0.25 %):
+/// unchecked, a realistic meter's noise would be written into the profiles as drift.
+/// `None` as for [`scales_from_white`].
+pub fn channel_factors(old: &FullReading, white: Xyz, xy_repeatability: f64) -> Option<[f64; 3]> {
+    let p: [Xyz; 3] = std::array::from_fn(|c| old.primaries[c] - old.black);
+    let reference = old.white.unwrap_or(p[0] + p[1] + p[2] + old.black);
+    let moved = match (white.chromaticity(), reference.chromaticity()) {
+        (Some(a), Some(b)) => a.distance(b),
+        _ => return None,
+    };
+    let noise = 3.0 * std::f64::consts::SQRT_2 * xy_repeatability;
+    if moved <= noise && reference.y > 0.0 {
+        let k = white.y / reference.y;
+        return k.is_finite().then_some([k; 3]);
+    }
+    scales_from_white(old, white)
 }
 
 /// The factors `s` by which each channel's light changed since the full reading `old`,
@@ -1000,4 +1054,125 @@ pub fn rollback(dir: &Path) -> Result<Vec<DisplayProfile>, RecalibrateError> {
     ProfileSet::save_dir(dir, &wall, &profiles)?;
     remove_dir_if_present(&previous)?;
     Ok(profiles)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// heyewall-48's display 1 as a realistic meter read it at commissioning (cd/m²).
+    fn commissioned() -> FullReading {
+        FullReading {
+            black: Xyz::new(0.1729, 0.0875, 0.4526),
+            primaries: [
+                Xyz::new(85.519, 41.953, 0.4734),
+                Xyz::new(4.9416, 35.383, 3.3672),
+                Xyz::new(28.849, 4.8377, 156.03),
+            ],
+            white: Some(Xyz::new(118.88, 81.81, 159.23)),
+        }
+    }
+
+    /// The commissioning's white with its chromaticity moved by `dx` and its luminance
+    /// scaled by `k`.
+    fn white_moved(dx: f64, k: f64) -> Xyz {
+        let w = commissioned().white.unwrap();
+        let xy = w.chromaticity().unwrap();
+        Xyz::from_xy_luminance(xy.x + dx, xy.y, w.y * k)
+    }
+
+    #[test]
+    fn a_white_whose_colour_moved_within_the_meter_noise_scales_all_channels_alike() {
+        // one reading 1σ off in x (K-10-A, CS-100A: 0.0005), 1 % darker
+        let s = channel_factors(&commissioned(), white_moved(0.0005, 0.99), 0.0005).unwrap();
+        for k in s {
+            assert!((k - 0.99).abs() < 1e-12, "{s:?}");
+        }
+        // the same reading inverted per channel: the noise shows as per-channel drift
+        let raw = scales_from_white(&commissioned(), white_moved(0.0005, 0.99)).unwrap();
+        let spread = raw.iter().fold(0.0f64, |m, k| m.max((k - 0.99).abs()));
+        assert!(spread > 0.002, "{raw:?}");
+    }
+
+    #[test]
+    fn a_white_whose_colour_moved_beyond_the_meter_noise_gets_its_own_channel_factors() {
+        let white = white_moved(0.004, 0.99);
+        let s = channel_factors(&commissioned(), white, 0.0005).unwrap();
+        assert_eq!(Some(s), scales_from_white(&commissioned(), white));
+        assert!(s[0] > s[2] + 0.01, "redder white: red kept more: {s:?}");
+    }
+
+    #[test]
+    fn a_noiseless_meter_infers_every_colour_change_per_channel() {
+        let white = white_moved(1e-6, 1.0);
+        let s = channel_factors(&commissioned(), white, 0.0).unwrap();
+        assert_eq!(Some(s), scales_from_white(&commissioned(), white));
+        assert_ne!(s[0], s[2]);
+    }
+
+    /// A full check's readings: the commissioning's with blue moved by `dx` in x and
+    /// 2 % darker.
+    fn full_check_with_blue_moved(dx: f64) -> (crate::solve::DisplayMeasurement, Readings) {
+        let c = commissioned();
+        let old = crate::solve::DisplayMeasurement {
+            key: DisplayKey {
+                wall: "w".into(),
+                display: 0,
+                tile_col: 0,
+                tile_row: 0,
+                eye: lumiwall_core::Eye::Mono,
+            },
+            bit_depth: 8,
+            black: c.black,
+            primaries: c.primaries,
+            white: c.white,
+            ramps: Default::default(),
+            readings: 0,
+            instrument: String::new(),
+        };
+        let mut primaries = c.primaries;
+        let b = primaries[2] - c.black;
+        let xy = b.chromaticity().unwrap();
+        primaries[2] = c.black + Xyz::from_xy_luminance(xy.x + dx, xy.y, b.y * 0.98);
+        let new = Readings {
+            black: c.black,
+            primaries,
+            white: c.white,
+            mid: [None; 3],
+        };
+        (old, new)
+    }
+
+    #[test]
+    fn a_primary_whose_colour_moved_within_the_drift_limit_keeps_its_colour_at_its_new_luminance() {
+        let (old, new) = full_check_with_blue_moved(0.0015);
+        let steady = steady_chromaticities(&old, new, 0.002);
+        let (o, n) = (
+            old.primaries[2] - old.black,
+            steady.primaries[2] - steady.black,
+        );
+        assert!(
+            o.chromaticity()
+                .unwrap()
+                .distance(n.chromaticity().unwrap())
+                < 1e-12
+        );
+        assert!((n.y / o.y - 0.98).abs() < 1e-12);
+        // red and green did not move: unchanged
+        assert_eq!(steady.primaries[0], old.primaries[0]);
+        // beyond the limit the reading is taken whole
+        let (old, new) = full_check_with_blue_moved(0.004);
+        let read = new.primaries[2];
+        let taken = steady_chromaticities(&old, new, 0.002);
+        assert_eq!(taken.primaries[2], read);
+    }
+
+    #[test]
+    fn an_unchanged_white_gives_factors_of_one() {
+        let w = commissioned().white.unwrap();
+        let s = scales_from_white(&commissioned(), w).unwrap();
+        for k in s {
+            assert!((k - 1.0).abs() < 1e-12, "{s:?}");
+        }
+    }
 }

@@ -87,6 +87,7 @@ impl Colorimeter for Meter<'_> {
             serial: "1".into(),
             min_reliable_cd_m2: self.0.borrow().min_reliable_cd_m2,
             max_cd_m2: 1e6,
+            xy_repeatability: None,
         }
     }
     fn measure(&mut self) -> Result<Xyz, DeviceError> {

@@ -34,6 +34,9 @@ pub struct MeterInfo {
     pub min_reliable_cd_m2: f64,
     /// Largest luminance it can read (cd/m²).
     pub max_cd_m2: f64,
+    /// 1σ repeatability of x and y of one reading at high luminance, where published
+    /// (the maker's figure; the simulator's error model); `None`: not known.
+    pub xy_repeatability: Option<f64>,
 }
 
 /// A spot colorimeter: measures the XYZ (Y in cd/m²) of the spot it is aimed at.

@@ -367,6 +367,8 @@ impl Colorimeter for JetiSpecbos {
             serial: self.serial.clone(),
             min_reliable_cd_m2: 0.2,
             max_cd_m2: 70_000.0,
+            // no published figure at hand (see fixtures/instruments)
+            xy_repeatability: None,
         }
     }
 

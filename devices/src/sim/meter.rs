@@ -306,6 +306,7 @@ impl Colorimeter for SimMeter {
             serial: format!("SIM-{}", self.model.seed),
             min_reliable_cd_m2: self.model.min_reliable_cd_m2,
             max_cd_m2: self.model.max_cd_m2,
+            xy_repeatability: Some(self.model.xy_noise),
         }
     }
 
