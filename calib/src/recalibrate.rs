@@ -154,6 +154,10 @@ pub enum CheckKind {
     Full,
     /// One reading of full white; the channel factors inferred from it.
     White,
+    /// One reading of full white whose colour moved within the meter's noise: every
+    /// channel scaled alike by its luminance. It says nothing of each channel's own
+    /// decay, so the lamp-life forecast does not use it.
+    WhiteLuminance,
     /// The white check saw something a lamp's ageing does not do, so the display was
     /// measured in full as well.
     Escalated,
@@ -204,9 +208,13 @@ impl DisplayCheck {
     }
 
     /// What the check read, as the lamp-life forecast stores it (measured at `utc`);
-    /// `None` where the forecast could not use it (e.g. the primaries do not span the
-    /// white, see [`LampReading::is_usable`]).
+    /// `None` where the forecast could not use it (the primaries do not span the white,
+    /// see [`LampReading::is_usable`]; a luminance-only white check, which says nothing
+    /// of each channel's decay).
     pub fn lamp_reading(&self, utc: lumiwall_profiles::store::Timestamp) -> Option<LampReading> {
+        if self.kind == CheckKind::WhiteLuminance {
+            return None;
+        }
         let r = LampReading {
             display: self.key.clone(),
             utc,
@@ -449,12 +457,9 @@ fn check_display(
         let xy_repeatability = rig.meter.info().xy_repeatability.unwrap_or(0.0);
         let inferred =
             white.and_then(|w| readings_from_white(&anchor, w, xy_repeatability, &opts.limits));
-        if let Some(new) = inferred {
+        if let Some((new, kind)) = inferred {
             let c = check(key, &old.measurement, &new, profile, readings, &opts.limits);
-            let c = DisplayCheck {
-                kind: CheckKind::White,
-                ..c
-            };
+            let c = DisplayCheck { kind, ..c };
             let mut m = refit(old, new, readings);
             m.anchor = Some(anchor);
             return Ok((c, m));
@@ -526,7 +531,7 @@ fn readings_from_white(
     white: Xyz,
     xy_repeatability: f64,
     limits: &DriftLimits,
-) -> Option<Readings> {
+) -> Option<(Readings, CheckKind)> {
     let s = channel_factors(old, white, xy_repeatability)?;
     let brightest = 1.0 + limits.luminance_pct / 100.0;
     if s.iter().any(|&k| !(k > 0.0 && k <= brightest)) {
@@ -534,12 +539,18 @@ fn readings_from_white(
     }
     let lamp = (s[0] + s[1] + s[2]) / 3.0;
     let black = old.black * lamp;
-    Some(Readings {
+    let kind = if s[0] == s[1] && s[1] == s[2] {
+        CheckKind::WhiteLuminance
+    } else {
+        CheckKind::White
+    };
+    let readings = Readings {
         black,
         primaries: std::array::from_fn(|c| black + (old.primaries[c] - old.black) * s[c]),
         white: Some(white),
         mid: [None; 3],
-    })
+    };
+    Some((readings, kind))
 }
 
 /// The channel factors a white reading shows against the full reading `old`: all three
@@ -1024,6 +1035,7 @@ pub fn recalibration_markdown(o: &RecalibrationOutcome) -> String {
             match c.kind {
                 CheckKind::Full => "in full",
                 CheckKind::White => "white (factors inferred)",
+                CheckKind::WhiteLuminance => "white (luminance only)",
                 CheckKind::Escalated => "white, then in full",
             }
         );
@@ -1165,6 +1177,35 @@ mod tests {
         let read = new.primaries[2];
         let taken = steady_chromaticities(&old, new, 0.002);
         assert_eq!(taken.primaries[2], read);
+    }
+
+    #[test]
+    fn a_luminance_only_white_check_gives_the_forecast_no_lamp_reading() {
+        let check = |kind| DisplayCheck {
+            key: DisplayKey {
+                wall: "w".into(),
+                display: 0,
+                tile_col: 0,
+                tile_row: 0,
+                eye: lumiwall_core::Eye::Mono,
+            },
+            luminance_change_pct: [-1.0; 3],
+            primary_delta_xy: [0.0; 3],
+            black_change_cd_m2: 0.0,
+            white_de2000: 0.1,
+            primaries_xyz_cd_m2: [[40.0, 20.0, 1.0], [30.0, 60.0, 10.0], [15.0, 6.0, 80.0]],
+            drifted: false,
+            usage_for_current_white: [0.8, 0.7, 0.6],
+            headroom: 0.85,
+            curve_change_pct: [f64::NAN; 3],
+            curves_moved: false,
+            readings: 1,
+            kind,
+        };
+        let utc = "2026-01-01T02:00:00Z".parse().unwrap();
+        assert!(check(CheckKind::White).lamp_reading(utc).is_some());
+        assert!(check(CheckKind::Full).lamp_reading(utc).is_some());
+        assert!(check(CheckKind::WhiteLuminance).lamp_reading(utc).is_none());
     }
 
     #[test]

@@ -259,6 +259,7 @@ pub(crate) fn display_lines(o: &RecalibrationOutcome) -> String {
             CheckKind::Full => ("full", format!("{worst_curve:+5.1} %")),
             CheckKind::Escalated => ("white+full", format!("{worst_curve:+5.1} %")),
             CheckKind::White => ("white", "   –   ".to_string()),
+            CheckKind::WhiteLuminance => ("white lum", "   –   ".to_string()),
         };
         s += &format!(
             "{:<44} {checked:<10} ΔY {:+6.2} %  Δxy {:.4}  black {:+.3} cd/m²  curve {curve}  white ΔE {:.2}  reserve {:+.3}  {}\n",
