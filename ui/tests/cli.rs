@@ -589,6 +589,11 @@ fn recalibrate_exit_codes_say_unchanged_recalibrated_and_left_headroom() {
     recalibrate("9000")
         .code(11)
         .stdout(contains("OUT OF REACH").and(contains("LEFT HEADROOM")));
+}
+
+#[test]
+fn recalibrate_refuses_simulated_lamp_hours_with_a_real_meter() {
+    let tmp = TempDir::new().unwrap();
     lumiwall()
         .args([
             "recalibrate",
@@ -600,7 +605,7 @@ fn recalibrate_exit_codes_say_unchanged_recalibrated_and_left_headroom() {
         .arg("--wall")
         .arg(small_wall())
         .arg("--profiles")
-        .arg(&dir)
+        .arg(tmp.path())
         .assert()
         .code(2)
         .stderr(contains("cannot be used with a real meter"));
