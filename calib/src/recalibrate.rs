@@ -493,9 +493,8 @@ fn steady_chromaticities(
 ) -> Readings {
     for c in 0..3 {
         let (o, n) = (old.primaries[c] - old.black, new.primaries[c] - new.black);
-        let moved = match (o.chromaticity(), n.chromaticity()) {
-            (Some(a), Some(b)) => a.distance(b),
-            _ => continue,
+        let Some(moved) = xy_distance(o, n) else {
+            continue;
         };
         if moved <= delta_xy && o.y > 0.0 {
             new.primaries[c] = new.black + o * (n.y / o.y);
@@ -563,10 +562,7 @@ fn readings_from_white(
 pub fn channel_factors(old: &FullReading, white: Xyz, xy_repeatability: f64) -> Option<[f64; 3]> {
     let p: [Xyz; 3] = std::array::from_fn(|c| old.primaries[c] - old.black);
     let reference = old.white.unwrap_or(p[0] + p[1] + p[2] + old.black);
-    let moved = match (white.chromaticity(), reference.chromaticity()) {
-        (Some(a), Some(b)) => a.distance(b),
-        _ => return None,
-    };
+    let moved = xy_distance(white, reference)?;
     let noise = 3.0 * std::f64::consts::SQRT_2 * xy_repeatability;
     if moved <= noise && reference.y > 0.0 {
         let k = white.y / reference.y;
@@ -715,10 +711,7 @@ fn check(
             channel(&new.primaries, new.black, c),
         );
         luminance_change_pct[c] = 100.0 * (n.y / o.y - 1.0);
-        primary_delta_xy[c] = match (o.chromaticity(), n.chromaticity()) {
-            (Some(a), Some(b)) => a.distance(b),
-            _ => f64::INFINITY,
-        };
+        primary_delta_xy[c] = xy_distance(o, n).unwrap_or(f64::INFINITY);
     }
     let black_change_cd_m2 = new.black.y - old.black.y;
     let curve_change_pct: [f64; 3] = std::array::from_fn(|c| match new.mid[c] {
@@ -790,6 +783,11 @@ fn white_shown_de2000(
         acc + (new.primaries[c] - new.black) * mix[c]
     });
     lumiwall_core::lab::delta_e2000_xyz(target, shown, target)
+}
+
+/// CIE 1931 xy distance between two colours (`None` where either has no chromaticity).
+fn xy_distance(a: Xyz, b: Xyz) -> Option<f64> {
+    Some(a.chromaticity()?.distance(b.chromaticity()?))
 }
 
 /// `v` above `limit`, or not a number (an unreadable change counts as a change).
@@ -1072,6 +1070,17 @@ pub fn rollback(dir: &Path) -> Result<Vec<DisplayProfile>, RecalibrateError> {
 mod tests {
     use super::*;
 
+    /// A display key for the checks below.
+    fn test_key() -> DisplayKey {
+        DisplayKey {
+            wall: "w".into(),
+            display: 0,
+            tile_col: 0,
+            tile_row: 0,
+            eye: lumiwall_core::Eye::Mono,
+        }
+    }
+
     /// heyewall-48's display 1 as a realistic meter read it at commissioning (cd/m²).
     fn commissioned() -> FullReading {
         FullReading {
@@ -1127,13 +1136,7 @@ mod tests {
     fn full_check_with_blue_moved(dx: f64) -> (crate::solve::DisplayMeasurement, Readings) {
         let c = commissioned();
         let old = crate::solve::DisplayMeasurement {
-            key: DisplayKey {
-                wall: "w".into(),
-                display: 0,
-                tile_col: 0,
-                tile_row: 0,
-                eye: lumiwall_core::Eye::Mono,
-            },
+            key: test_key(),
             bit_depth: 8,
             black: c.black,
             primaries: c.primaries,
@@ -1182,13 +1185,7 @@ mod tests {
     #[test]
     fn a_luminance_only_white_check_gives_the_forecast_no_lamp_reading() {
         let check = |kind| DisplayCheck {
-            key: DisplayKey {
-                wall: "w".into(),
-                display: 0,
-                tile_col: 0,
-                tile_row: 0,
-                eye: lumiwall_core::Eye::Mono,
-            },
+            key: test_key(),
             luminance_change_pct: [-1.0; 3],
             primary_delta_xy: [0.0; 3],
             black_change_cd_m2: 0.0,
