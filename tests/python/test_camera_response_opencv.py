@@ -20,17 +20,21 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 def write_stack(folder: pathlib.Path) -> dict:
+    """Runs the Rust test that writes the stack: the program scripts/test built
+    (LUMIWALL_CAMERA_RESPONSE_TEST) or, without it, through cargo (a build of its own:
+    about a minute more)."""
     env = dict(os.environ, LUMIWALL_STACK_DIR=str(folder))
-    subprocess.run(
-        [
+    test = ["exposure_stack_for_the_opencv_cross_check", "--exact"]
+    program = os.environ.get("LUMIWALL_CAMERA_RESPONSE_TEST")
+    if program:
+        assert pathlib.Path(program).is_file(), f"LUMIWALL_CAMERA_RESPONSE_TEST={program} is not a file"
+        command = [program, *test]
+    else:
+        command = [
             "cargo", "test", "-q", "-p", "lumiwall-calib", "--features", "camera",
-            "--test", "camera_response", "--", "exposure_stack_for_the_opencv_cross_check", "--exact",
-        ],
-        cwd=ROOT,
-        env=env,
-        check=True,
-        capture_output=True,
-    )
+            "--test", "camera_response", "--", *test,
+        ]
+    subprocess.run(command, cwd=ROOT / "calib", env=env, check=True, capture_output=True)
     return json.loads((folder / "stack.json").read_text())
 
 
