@@ -11,6 +11,8 @@
 //!    to meter readings of the same spots.
 //! 4. [`flat`]: flat-field textures per display by a closed loop (show, photograph,
 //!    ratio update) until the residual is below a threshold.
+//! 5. [`nightly`]: the same loop as the nightly run's check, with the commissioning's
+//!    calibration, measuring a flat field again only where it changed.
 
 pub mod anchor;
 pub mod checkpoint;
@@ -18,6 +20,7 @@ mod cv;
 pub mod error;
 pub mod flat;
 pub mod hdr;
+pub mod nightly;
 pub mod registration;
 
 pub use anchor::{CameraPhotometry, SpotAgreement, SpotPair};
@@ -27,4 +30,5 @@ pub use flat::{DisplayFlat, FlatFieldOptions, FlatFieldOutcome, measure_flat_fie
 pub use hdr::{
     HdrImage, ResponseCurve, calibrate_response, capture_hdr, response_from_series, response_series,
 };
+pub use nightly::{FixedCamera, NightlyFlatOptions};
 pub use registration::{DotGrid, Registration, check_still, register_displays};

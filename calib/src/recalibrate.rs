@@ -19,7 +19,8 @@
 //! primary); a display whose curve moved is measured again in full instead. Then the
 //! wall is solved again with the profiles' own settings
 //! (target white chromaticity, black mode, out-of-gamut handling). Flat
-//! fields are kept from the current profiles. The current profiles and measurements
+//! fields are kept from the current profiles, except where the fixed camera measured
+//! one again tonight ([`recalibrate_with_camera`]). The current profiles and measurements
 //! are moved to `previous/` first, so [`rollback`] can restore them.
 //!
 //! The common white stays what it is (chromaticity and luminance) as long as every
@@ -47,6 +48,11 @@ use crate::measure::{
 };
 use crate::report;
 use crate::solve::{SolveOptions, WallSolution, WhiteTarget, now_rfc3339, solve_wall_at};
+use crate::spatial::{fit_white_to_flat_fields, flat_field_white_scale};
+
+mod flat_fields;
+
+pub use flat_fields::{FlatFieldCheck, FlatFieldFinding, FlatFieldLook};
 
 /// Folder (inside the profile folder) that keeps the profiles and measurements a
 /// recalibration replaced.
@@ -196,6 +202,8 @@ pub struct DisplayCheck {
     pub readings: u32,
     /// How the display was checked.
     pub kind: CheckKind,
+    /// The fixed camera's look at its flat field (`None`: no camera, or not tonight).
+    pub flat_field: Option<FlatFieldLook>,
 }
 
 impl DisplayCheck {
@@ -348,6 +356,15 @@ pub enum RecalibrateError {
     /// Profiles could not be read or written.
     #[error(transparent)]
     Profile(#[from] ProfileError),
+    /// The camera's check of the flat fields failed.
+    #[error("camera: {message}")]
+    Camera {
+        /// What failed.
+        message: String,
+        /// Whether the camera or pattern output stopped answering (as opposed to a
+        /// fit).
+        device: bool,
+    },
     /// Another process writes into the folder.
     #[error(transparent)]
     Locked(#[from] lumiwall_core::files::LockError),
@@ -378,7 +395,7 @@ impl RecalibrateError {
     /// Whether a device (meter, pattern output, positioner) failed, as opposed to the
     /// files or the solve.
     pub fn is_device_failure(&self) -> bool {
-        matches!(self, Self::Measure(_)) && !self.is_stopped()
+        matches!(self, Self::Measure(_) | Self::Camera { device: true, .. }) && !self.is_stopped()
     }
 
     /// Whether the technician stopped the run (nothing was written).
@@ -396,6 +413,21 @@ pub fn recalibrate(
     opts: &RecalibrateOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<RecalibrationOutcome, RecalibrateError> {
+    recalibrate_with_camera(wall, displays, rig, None, dir, opts, progress)
+}
+
+/// [`recalibrate`], and with `camera` a look at the flat fields of the displays
+/// measured in full tonight: where one changed, the camera measures it again and the
+/// new profiles carry it (see [`FlatFieldCheck`]).
+pub fn recalibrate_with_camera(
+    wall: &str,
+    displays: &[DisplayInfo],
+    rig: &mut Rig<'_>,
+    camera: Option<&mut dyn FlatFieldCheck>,
+    dir: &Path,
+    opts: &RecalibrateOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<RecalibrationOutcome, RecalibrateError> {
     let _lock = FolderLock::acquire(dir, &format!("recalibration of wall {wall}"))?;
     let (profiles, last) = load_commissioned(wall, displays, dir)?;
     let mut checks = Vec::with_capacity(displays.len());
@@ -406,6 +438,17 @@ pub fn recalibrate(
         let (c, m) = check_display(rig, info, &key, old, profile, full, opts, progress)?;
         checks.push(c);
         refitted.push(m);
+    }
+    let mut current = profiles.clone();
+    if let Some(camera) = camera {
+        let tonight: Vec<usize> = checks
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| matches!(c.kind, CheckKind::Full | CheckKind::Escalated))
+            .map(|(i, _)| i)
+            .collect();
+        let findings = camera.check(rig.pattern, &tonight, displays, &profiles)?;
+        flat_fields::take_findings(findings, &mut checks, &mut current);
     }
     let white_before_cd_m2 = profiles[0].target_white_xyz_cd_m2[1];
     let mut outcome = RecalibrationOutcome {
@@ -419,7 +462,7 @@ pub fn recalibrate(
     if !outcome.checks.iter().any(|c| c.drifted) {
         return Ok(outcome);
     }
-    let (solution, kept) = solve_again(&refitted, &profiles, opts)?;
+    let (solution, kept) = solve_again(&refitted, &current, opts)?;
     keep_previous(dir, &profiles, &last)?;
     write_new(dir, wall, &refitted, &solution)?;
     outcome.white_after_cd_m2 = solution.profiles[0].target_white_xyz_cd_m2[1];
@@ -760,6 +803,7 @@ fn check(
         curves_moved,
         readings,
         kind: CheckKind::Full,
+        flat_field: None,
     }
 }
 
@@ -843,10 +887,10 @@ fn refit(old: &MeasuredDisplay, new: Readings, readings: u32) -> MeasuredDisplay
 }
 
 /// The wall solved again with the current profiles' settings (white chromaticity,
-/// black mode, out-of-gamut handling; flat fields kept), keeping today's white
-/// luminance when every display still reaches it at full drive, else the brightest
-/// white within the configured headroom. Returns the solve and whether the white was
-/// kept.
+/// black mode, out-of-gamut handling) and flat fields, keeping today's white
+/// luminance when every display still reaches it at full drive at every texel, else
+/// the brightest white within the configured headroom that every texel reaches within
+/// it. Returns the solve and whether the white was kept.
 fn solve_again(
     refitted: &[MeasuredDisplay],
     profiles: &[DisplayProfile],
@@ -868,7 +912,7 @@ fn solve_again(
     let solve = |headroom: f64| solve_wall_at(&inputs, &options_of(first, headroom), &created);
     let y_today = first.target_white_xyz_cd_m2[1];
     let y_full = solve(1.0)?.white_xyz_cd_m2.y;
-    let (mut solution, kept) = if y_full >= y_today {
+    let (mut solution, mut kept) = if y_full >= y_today {
         // the white's luminance is affine in the headroom (a black offset shifts it):
         // a proportional first guess, then the secant through it and full drive
         let h1 = (y_today / y_full).min(1.0);
@@ -882,8 +926,21 @@ fn solve_again(
     } else {
         (solve(configured)?, false)
     };
-    for (new, old) in solution.profiles.iter_mut().zip(profiles) {
-        new.flat_field.clone_from(&old.flat_field);
+    let with_flats = |mut solution: WallSolution| {
+        for (new, old) in solution.profiles.iter_mut().zip(profiles) {
+            new.flat_field.clone_from(&old.flat_field);
+        }
+        solution
+    };
+    solution = with_flats(solution);
+    // Every texel must reach the kept white at full drive (a flat field measured again
+    // tonight may be darker somewhere); where one cannot, the white is lowered as at
+    // the commissioning: solved within the headroom, then down to the darkest texel.
+    if kept && flat_field_white_scale(&solution.profiles, |_| 1.0) < 1.0 {
+        (solution, kept) = (with_flats(solve(configured)?), false);
+    }
+    if !kept {
+        fit_white_to_flat_fields(&mut solution.profiles);
     }
     Ok((solution, kept))
 }
@@ -1016,13 +1073,21 @@ pub fn recalibration_markdown(o: &RecalibrationOutcome) -> String {
             "white out of reach"
         } else if c.curves_moved {
             "curve moved: measured in full"
+        } else if c.flat_field.is_some_and(|f| f.refit) {
+            "flat field changed: measured again with the camera"
         } else if c.drifted {
             "drifted: refitted"
         } else {
             "ok"
         };
+        let camera = c.flat_field.map_or(String::new(), |f| {
+            format!(
+                "; camera: flat field residual {:.2} %",
+                100.0 * f.residual_rms
+            )
+        });
         s += &format!(
-            "| {} | {} | {:.4} | {:+.3} | {} | {:.2} | {:.3} | {} | {status} |\n",
+            "| {} | {} | {:.4} | {:+.3} | {} | {:.2} | {:.3} | {}{camera} | {status} |\n",
             c.key,
             three(c.luminance_change_pct),
             c.primary_delta_xy.iter().copied().fold(0.0, f64::max),
@@ -1198,6 +1263,7 @@ mod tests {
             curves_moved: false,
             readings: 1,
             kind,
+            flat_field: None,
         };
         let utc = "2026-01-01T02:00:00Z".parse().unwrap();
         assert!(check(CheckKind::White).lamp_reading(utc).is_some());

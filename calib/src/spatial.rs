@@ -25,21 +25,7 @@ pub struct WhiteCost {
 /// Lowers the common white (every profile alike) so that, with its flat field, no
 /// display needs more than its headroom anywhere: `usage_c / gain_c(texel) ≤ headroom`.
 pub fn fit_white_to_flat_fields(profiles: &mut [DisplayProfile]) -> WhiteCost {
-    let mut scale: f64 = 1.0;
-    for p in profiles.iter() {
-        let Some(ff) = &p.flat_field else { continue };
-        for c in 0..3 {
-            let min_gain = ff
-                .gain
-                .iter()
-                .map(|g| f64::from(g[c]))
-                .fold(f64::INFINITY, f64::min);
-            let need = p.channel_usage[c] / min_gain.max(1e-6);
-            if need > p.headroom {
-                scale = scale.min(p.headroom / need);
-            }
-        }
-    }
+    let scale = flat_field_white_scale(profiles, |p| p.headroom);
     let before = profiles
         .first()
         .map_or(0.0, |p| p.target_white_xyz_cd_m2[1]);
@@ -51,6 +37,32 @@ pub fn fit_white_to_flat_fields(profiles: &mut [DisplayProfile]) -> WhiteCost {
         before_cd_m2: before,
         after_cd_m2: before * scale,
     }
+}
+
+/// The factor (at most 1) the common white must be scaled by so that, with its flat
+/// field, no display needs more than `limit(profile)` of full drive at any texel; 1
+/// where every display reaches it (and for profiles without a flat field).
+pub fn flat_field_white_scale(
+    profiles: &[DisplayProfile],
+    limit: impl Fn(&DisplayProfile) -> f64,
+) -> f64 {
+    let mut scale: f64 = 1.0;
+    for p in profiles {
+        let Some(ff) = &p.flat_field else { continue };
+        let limit = limit(p);
+        for c in 0..3 {
+            let min_gain = ff
+                .gain
+                .iter()
+                .map(|g| f64::from(g[c]))
+                .fold(f64::INFINITY, f64::min);
+            let need = p.channel_usage[c] / min_gain.max(1e-6);
+            if need > limit {
+                scale = scale.min(limit / need);
+            }
+        }
+    }
+    scale
 }
 
 /// How uniform the wall white must be across the wall.

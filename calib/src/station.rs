@@ -540,6 +540,29 @@ impl Station {
         crate::recalibrate::recalibrate(&wall, &displays, &mut self.rig(), dir, opts, progress)
     }
 
+    /// [`Self::recalibrate`] with the fixed camera checking the flat fields (see
+    /// [`crate::recalibrate::recalibrate_with_camera`]).
+    pub fn recalibrate_with_camera(
+        &mut self,
+        dir: &Path,
+        camera: &mut dyn crate::recalibrate::FlatFieldCheck,
+        opts: &crate::recalibrate::RecalibrateOptions,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<crate::recalibrate::RecalibrationOutcome, crate::recalibrate::RecalibrateError>
+    {
+        let wall = self.wall.name();
+        let displays = self.displays();
+        crate::recalibrate::recalibrate_with_camera(
+            &wall,
+            &displays,
+            &mut self.rig(),
+            Some(camera),
+            dir,
+            opts,
+            progress,
+        )
+    }
+
     /// Shows `targets` through `profiles` on every display and reads them back (see
     /// [`verify_wall`]).
     pub fn verify(

@@ -21,6 +21,50 @@ use crate::cmd_commission::UniformityArg;
 /// File of the camera stage's results in the profile folder.
 pub(crate) const CAMERA_FILE: &str = "camera.json";
 
+/// The camera stage of the commissioning in the profile folder `dir` (its
+/// camera.json), for the nightly check.
+pub(crate) fn load_stage(dir: &Path) -> Result<FlatFieldOutcome, CliError> {
+    let path = dir.join(CAMERA_FILE);
+    let text = std::fs::read(&path).map_err(|e| {
+        CliError::input(format!(
+            "--camera: cannot read {} ({e}); the nightly camera check needs the camera \
+             calibration of `lumiwall commission --camera`",
+            path.display()
+        ))
+    })?;
+    serde_json::from_slice(&text)
+        .map_err(|e| CliError::input(format!("{}: not a camera stage: {e}", path.display())))
+}
+
+/// Writes the camera stage (tonight's refitted flat fields in it) back to camera.json.
+pub(crate) fn save_stage(dir: &Path, stage: &FlatFieldOutcome) -> Result<(), CliError> {
+    let json = serde_json::to_vec_pretty(stage).map_err(|e| CliError::failure(e.to_string()))?;
+    write_atomic(&dir.join(CAMERA_FILE), &json)
+        .map_err(|e| CliError::failure(format!("cannot write {CAMERA_FILE}: {e}")))
+}
+
+/// Opens the camera `choice` names and checks it can take photometric frames.
+pub(crate) fn open_photometric(
+    station: &Station,
+    choice: &str,
+    noiseless: bool,
+) -> Result<Box<dyn Camera>, CliError> {
+    let cam = open_camera(station, choice, noiseless)?;
+    refuse_auto_exposure(cam.as_ref(), choice)?;
+    Ok(cam)
+}
+
+fn refuse_auto_exposure(cam: &dyn Camera, choice: &str) -> Result<(), CliError> {
+    let info = cam.info();
+    if !info.manual_exposure {
+        return Err(CliError::input(format!(
+            "camera {choice}: {}",
+            lumiwall_devices::DeviceError::AutoExposureOnly(info.name)
+        )));
+    }
+    Ok(())
+}
+
 /// Opens the camera `choice` names: `virtual` (the wall's simulated camera; noiseless
 /// with `noiseless`) or a device (index, `/dev/videoN` or name).
 fn open_camera(
@@ -40,15 +84,7 @@ fn open_camera(
 
 /// Opens the camera and checks it can take photometric frames (manual exposure).
 pub(crate) fn check(station: &Station, choice: &str, noiseless: bool) -> Result<(), CliError> {
-    let cam = open_camera(station, choice, noiseless)?;
-    let info = cam.info();
-    if !info.manual_exposure {
-        return Err(CliError::input(format!(
-            "camera {choice}: {}",
-            lumiwall_devices::DeviceError::AutoExposureOnly(info.name)
-        )));
-    }
-    Ok(())
+    open_photometric(station, choice, noiseless).map(|_| ())
 }
 
 /// Folder (inside the profile folder) where the camera stage keeps what it has
@@ -315,9 +351,7 @@ fn save(
     ProfileSet::save_dir(out, wall, profiles).map_err(|e| {
         CliError::failure(format!("cannot write the profiles with flat fields: {e}"))
     })?;
-    let json = serde_json::to_vec_pretty(flats).map_err(|e| CliError::failure(e.to_string()))?;
-    write_atomic(&out.join(CAMERA_FILE), &json)
-        .map_err(|e| CliError::failure(format!("cannot write {CAMERA_FILE}: {e}")))?;
+    save_stage(out, flats)?;
     println!(
         "profiles with flat fields: {}/{}",
         out.display(),

@@ -6,8 +6,8 @@ use std::path::PathBuf;
 
 use lumiwall_calib::measure::{MeasureOptions, Progress};
 use lumiwall_calib::recalibrate::{
-    CheckKind, DriftLimits, FullCheckRotation, RecalibrateOptions, RecalibrationOutcome, Recorded,
-    Verdict, record_in_store,
+    CheckKind, DriftLimits, FullCheckRotation, RecalibrateError, RecalibrateOptions,
+    RecalibrationOutcome, Recorded, Verdict, record_in_store,
 };
 use lumiwall_calib::station::Station;
 use lumiwall_profiles::store::{ProfileStore, Timestamp};
@@ -69,6 +69,17 @@ pub(crate) struct RecalibrateArgs {
     /// 1970-01-01 UTC, so a nightly service needs none).
     #[arg(long)]
     night: Option<u64>,
+    /// Check the flat fields with this fixed camera (`virtual`, or a V4L2/UVC device:
+    /// index, `/dev/videoN` or name), calibrated by `lumiwall commission --camera` (its
+    /// camera.json): every display measured in full tonight is photographed through
+    /// its flat field, and one that is no longer uniform is measured again. Needs the
+    /// `camera` feature (OpenCV).
+    #[arg(long)]
+    camera: Option<String>,
+    /// With `--camera`: measure a flat field again when the display shown through it
+    /// is non-uniform by more than this RMS over its texels (percent).
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1.0, value_parser = values::positive_finite, requires = "camera")]
+    max_flat_field_residual_pct: f64,
     /// Virtual wall only: let its lamps age this many hours before measuring (to try a
     /// recalibration on the simulator).
     #[arg(long, allow_negative_numbers = true, value_parser = values::non_negative_finite)]
@@ -92,15 +103,25 @@ pub(crate) fn run(args: RecalibrateArgs) -> Result<i32, CliError> {
             eprintln!("lumiwall: error: {error}");
             Ok(EXIT_DEVICE_FAILED)
         }
-        Recalibrated::Done { outcome, recorded } => {
+        Recalibrated::Done {
+            outcome,
+            recorded,
+            camera,
+        } => {
             print!("{}", display_lines(&outcome));
+            for line in camera.iter().flat_map(|c| &c.lines) {
+                println!("{line}");
+            }
             match recorded {
                 Some(Ok(line)) => println!("{line}"),
                 // the profiles are what the wall needs; the store's loss is said loudly
                 Some(Err(e)) => eprintln!("lumiwall: warning: the run was not recorded: {e}"),
                 None => {}
             }
-            println!("{}", summary(&outcome, readings));
+            println!(
+                "{}",
+                summary(&outcome, readings, camera.as_ref().map(|c| c.frames))
+            );
             Ok(exit_code(outcome.verdict))
         }
     }
@@ -124,6 +145,8 @@ pub(crate) enum Recalibrated {
         /// What was recorded in the store, as a line for the log, or why nothing was
         /// (`None`: no store given).
         recorded: Option<Result<String, String>>,
+        /// What the fixed camera did (`None`: no `--camera`).
+        camera: Option<CameraNight>,
     },
     /// A device failed (the profiles are untouched).
     DeviceFailed {
@@ -146,7 +169,7 @@ pub(crate) fn recalibrate_with(
     }
     let opts = options(args, &station)?;
     let started = Timestamp::now();
-    let outcome = match station.recalibrate(&args.profiles, &opts, progress) {
+    let (outcome, camera) = match run_checks(&mut station, args, &opts, progress)? {
         Ok(o) => o,
         Err(e) if e.is_stopped() => {
             return Err(CliError::failure(format!("{e}; no profile was written")));
@@ -166,7 +189,77 @@ pub(crate) fn recalibrate_with(
     Ok(Recalibrated::Done {
         outcome: Box::new(outcome),
         recorded,
+        camera,
     })
+}
+
+/// What the fixed camera did in a recalibration.
+pub(crate) struct CameraNight {
+    /// One line per step.
+    pub(crate) lines: Vec<String>,
+    /// Frames captured.
+    pub(crate) frames: u32,
+}
+
+/// The recalibration's measurements and solve: a run's error is the caller's to sort
+/// (device, stopped, other); a camera that cannot be used is an error at once.
+type Checked = Result<(RecalibrationOutcome, Option<CameraNight>), RecalibrateError>;
+
+/// The recalibration, with the fixed camera where `--camera` names one; its refitted
+/// flat fields are written back to camera.json once the new profiles are written.
+#[cfg(feature = "camera")]
+fn run_checks(
+    station: &mut Station,
+    args: &RecalibrateArgs,
+    opts: &RecalibrateOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Checked, CliError> {
+    use lumiwall_calib::camera::{FixedCamera, NightlyFlatOptions};
+    let Some(choice) = &args.camera else {
+        return Ok(station
+            .recalibrate(&args.profiles, opts, progress)
+            .map(|o| (o, None)));
+    };
+    let stage = crate::cmd_camera::load_stage(&args.profiles)?;
+    let noiseless = matches!(args.meter.noise, crate::cmd_commission::NoiseArg::None);
+    let mut cam = crate::cmd_camera::open_photometric(station, choice, noiseless)?;
+    let nightly = NightlyFlatOptions {
+        tolerance_rms: args.max_flat_field_residual_pct / 100.0,
+        ..NightlyFlatOptions::default()
+    };
+    let mut fixed = FixedCamera::new(cam.as_mut(), stage, nightly);
+    let outcome = match station.recalibrate_with_camera(&args.profiles, &mut fixed, opts, progress)
+    {
+        Ok(o) => o,
+        Err(e) => return Ok(Err(e)),
+    };
+    if fixed.refitted && outcome.solution.is_some() {
+        crate::cmd_camera::save_stage(&args.profiles, fixed.stage())?;
+    }
+    let night = CameraNight {
+        lines: std::mem::take(&mut fixed.lines),
+        frames: fixed.frames,
+    };
+    Ok(Ok((outcome, Some(night))))
+}
+
+#[cfg(not(feature = "camera"))]
+fn run_checks(
+    station: &mut Station,
+    args: &RecalibrateArgs,
+    opts: &RecalibrateOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Checked, CliError> {
+    if let Some(camera) = &args.camera {
+        return Err(CliError::input(format!(
+            "--camera {camera}: this lumiwall was built without the camera stage; build it \
+             with `cargo build --release --features camera` (needs Debian libopencv-dev and \
+             clang)"
+        )));
+    }
+    Ok(station
+        .recalibrate(&args.profiles, opts, progress)
+        .map(|o| (o, None)))
 }
 
 /// Records the outcome in the store at `path`; the line for the log, or what failed.
@@ -273,6 +366,8 @@ pub(crate) fn display_lines(o: &RecalibrationOutcome) -> String {
                 "OUT OF REACH"
             } else if c.curves_moved {
                 "curve moved: measured in full"
+            } else if c.flat_field.is_some_and(|f| f.refit) {
+                "flat field measured again"
             } else if c.drifted {
                 "drifted"
             } else {
@@ -284,7 +379,7 @@ pub(crate) fn display_lines(o: &RecalibrationOutcome) -> String {
 }
 
 /// The one-line summary for logs.
-pub(crate) fn summary(o: &RecalibrationOutcome, readings: u32) -> String {
+pub(crate) fn summary(o: &RecalibrationOutcome, readings: u32, frames: Option<u32>) -> String {
     let drifted = o.checks.iter().filter(|c| c.drifted).count();
     let least_reserve = o
         .checks
@@ -302,9 +397,10 @@ pub(crate) fn summary(o: &RecalibrationOutcome, readings: u32) -> String {
             o.white_before_cd_m2, o.white_after_cd_m2
         ),
     };
+    let camera = frames.map_or(String::new(), |n| format!(", {n} camera captures"));
     format!(
-        "recalibrate {}: {} displays, {readings} readings, {drifted} drifted, least reserve \
-         {least_reserve:.3}; {what}",
+        "recalibrate {}: {} displays, {readings} readings{camera}, {drifted} drifted, least \
+         reserve {least_reserve:.3}; {what}",
         o.wall,
         o.checks.len()
     )

@@ -123,9 +123,9 @@ pub struct FlatFieldOutcome {
 }
 
 /// A camera that counts its frames.
-struct Counting<'c> {
-    cam: &'c mut dyn Camera,
-    frames: u32,
+pub(super) struct Counting<'c> {
+    pub(super) cam: &'c mut dyn Camera,
+    pub(super) frames: u32,
 }
 
 impl Camera for Counting<'_> {
@@ -432,7 +432,7 @@ impl Context<'_> {
     }
 }
 
-fn profile_of<'p>(
+pub(super) fn profile_of<'p>(
     profiles: &'p [DisplayProfile],
     info: &DisplayInfo,
 ) -> Result<&'p DisplayProfile, CameraCalibError> {
@@ -477,10 +477,10 @@ struct OpenLoop {
     channels: [HdrImage; 3],
 }
 
-struct Context<'a> {
-    response: &'a ResponseCurve,
-    registration: &'a Registration,
-    opts: &'a FlatFieldOptions,
+pub(super) struct Context<'a> {
+    pub(super) response: &'a ResponseCurve,
+    pub(super) registration: &'a Registration,
+    pub(super) opts: &'a FlatFieldOptions,
 }
 
 impl Context<'_> {
@@ -538,7 +538,7 @@ impl Context<'_> {
         Some((acc.map(|v| v / n), self.rho(p)))
     }
 
-    fn capture(
+    pub(super) fn capture(
         &self,
         cam: &mut dyn Camera,
         pattern: &mut dyn PatternOutput,
@@ -745,29 +745,28 @@ impl Context<'_> {
         let mut residual_open = [0.0; 3];
         let mut residual_final = [0.0; 3];
         let mut residual_history: [Vec<f64>; 3] = Default::default();
-        let margin = self.edge_margin(info);
-        for (c, mut g) in initial.into_iter().enumerate() {
-            let cam_c = cam_channels[c];
+        let run = ChannelRun {
+            phot,
+            info,
+            profile,
+            dark: &open.dark,
+        };
+        for (c, g) in initial.into_iter().enumerate() {
             residual_open[c] = rms_residual(&g);
-            residual_final[c] = residual_open[c];
-            for _ in 0..self.opts.max_iterations {
-                let img = loop_pattern(profile, c, &g, [w, h], level[c])?;
-                let shot =
-                    self.capture(cam, pattern, info, Shown::Image(&img), "flat-field loop")?;
-                let r = self.ratios(phot, info, &shot, &open.dark, cam_c)?;
-                iterations[c] += 1;
-                residual_final[c] = rms_residual(&r);
-                residual_history[c].push(residual_final[c]);
-                for (gk, rk) in g.iter_mut().zip(&r) {
-                    *gk *= rk;
-                }
-                extrapolate_edges(&mut g, [w, h], margin);
-                normalise_at(&mut g, [w, h], self.opts.spot_uv);
-                if residual_final[c] < self.opts.threshold {
-                    break;
-                }
-            }
-            gains[c] = g;
+            let done = self.loop_channel(
+                cam,
+                pattern,
+                &run,
+                c,
+                g,
+                Some(cam_channels[c]),
+                level[c],
+                None,
+            )?;
+            iterations[c] = done.iterations;
+            residual_final[c] = done.history.last().copied().unwrap_or(residual_open[c]);
+            residual_history[c] = done.history;
+            gains[c] = done.gains;
         }
         let texels = (0..(w * h) as usize)
             .map(|k| std::array::from_fn(|c| (gains[c][k] as f32).clamp(1e-3, FlatField::MAX_GAIN)))
@@ -789,6 +788,88 @@ impl Context<'_> {
             residual_history,
             min_gain,
             frames: 0,
+        })
+    }
+}
+
+/// What one channel's loop runs on besides its gains: the anchor, the display, its
+/// profile and its dark frame.
+pub(super) struct ChannelRun<'r> {
+    pub(super) phot: &'r CameraPhotometry,
+    pub(super) info: &'r DisplayInfo,
+    pub(super) profile: &'r DisplayProfile,
+    pub(super) dark: &'r HdrImage,
+}
+
+/// The end of one channel's loop.
+pub(super) struct ChannelLoop {
+    /// The gains (unchanged when the first capture was within `keep_below`).
+    pub(super) gains: Vec<f64>,
+    /// Captures made.
+    pub(super) iterations: u32,
+    /// RMS residual of every capture, in order.
+    pub(super) history: Vec<f64>,
+}
+
+impl Context<'_> {
+    /// The closed loop of channel `c` from `gains`: show the channel through them,
+    /// photograph, multiply by the measured ratio, until the residual is below the
+    /// threshold or the iterations are spent. With `keep_below`, a first capture whose
+    /// residual is below it ends the loop with the gains as they were (the nightly
+    /// check). `cam_c`: the camera channel to read (`None`: the one with the most
+    /// signal in the first capture).
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the loop's devices, its display and one channel's state"
+    )]
+    pub(super) fn loop_channel(
+        &self,
+        cam: &mut dyn Camera,
+        pattern: &mut dyn PatternOutput,
+        run: &ChannelRun<'_>,
+        c: usize,
+        mut g: Vec<f64>,
+        mut cam_c: Option<usize>,
+        level: f64,
+        keep_below: Option<f64>,
+    ) -> Result<ChannelLoop, CameraCalibError> {
+        let size = self.opts.texture;
+        let margin = self.edge_margin(run.info);
+        let mut history = Vec::new();
+        // the nightly check captures at least once
+        let most = self
+            .opts
+            .max_iterations
+            .max(u32::from(keep_below.is_some()));
+        for _ in 0..most {
+            let img = loop_pattern(run.profile, c, &g, size, level)?;
+            let shot = self.capture(
+                cam,
+                pattern,
+                run.info,
+                Shown::Image(&img),
+                "flat-field loop",
+            )?;
+            let cc = *cam_c.get_or_insert_with(|| self.dominant_channel(run.info, &shot, run.dark));
+            let r = self.ratios(run.phot, run.info, &shot, run.dark, cc)?;
+            let residual = rms_residual(&r);
+            history.push(residual);
+            if history.len() == 1 && keep_below.is_some_and(|k| residual < k) {
+                break;
+            }
+            for (gk, rk) in g.iter_mut().zip(&r) {
+                *gk *= rk;
+            }
+            extrapolate_edges(&mut g, size, margin);
+            normalise_at(&mut g, size, self.opts.spot_uv);
+            if residual < self.opts.threshold {
+                break;
+            }
+        }
+        Ok(ChannelLoop {
+            gains: g,
+            iterations: history.len() as u32,
+            history,
         })
     }
 }
@@ -908,7 +989,7 @@ fn normalise_at(g: &mut [f64], size: [u32; 2], spot: [f64; 2]) {
     }
 }
 
-enum Shown<'i> {
+pub(super) enum Shown<'i> {
     Uniform([f64; 3]),
     Image(&'i DriveImage),
 }

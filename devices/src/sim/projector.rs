@@ -278,6 +278,17 @@ impl Individual {
             if let Some(w) = o.white_segment {
                 self.white_segment = w;
             }
+            if let Some([du, dv]) = o.hotspot_shift {
+                self.falloff.hotspot_offset[0] += du;
+                self.falloff.hotspot_offset[1] += dv;
+            }
+        }
+        for v in self.falloff.hotspot_offset {
+            if !v.is_finite() {
+                return Err(DeviceError::Config(format!(
+                    "[[override]] hotspot_shift of display {index} must be finite"
+                )));
+            }
         }
         check_finite_nonneg("override lamp_hours", self.lamp_hours)?;
         check_finite_nonneg(

@@ -596,6 +596,10 @@ pub struct OverrideSpec {
     /// White segment (DLP non-additivity).
     #[serde(default)]
     pub white_segment: Option<f64>,
+    /// Added to the hotspot's offset from the image centre (uv units): a lamp whose arc
+    /// sits elsewhere in its reflector, as after a lamp change.
+    #[serde(default)]
+    pub hotspot_shift: Option<[f64; 2]>,
 }
 
 /// Defines the serde default functions of the wall file, one per defaulted value, each

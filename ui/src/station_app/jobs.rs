@@ -324,35 +324,53 @@ fn run_command(
         Command::Recalibrate(mut a) => {
             a.meter.stop = Some(stop);
             a.meter.technician = Some(technician);
-            let displays = lumiwall_profiles::ProfileSet::load_dir(&a.profiles)
-                .map_or(1, |(_, p)| p.len() as u64);
-            let done = crate::cmd_recalibrate::recalibrate_with(&a, &mut |p| {
-                count.on(&p, displays, None);
-            })
-            .map_err(|e| e.to_string())?;
-            match done {
-                Recalibrated::Done { outcome, recorded } => {
-                    for line in crate::cmd_recalibrate::display_lines(&outcome).lines() {
-                        send(JobEvent::Line(line.to_string()));
-                    }
-                    match recorded {
-                        Some(Ok(line)) => send(JobEvent::Line(line)),
-                        Some(Err(e)) => send(JobEvent::Line(format!("WARNING: not recorded: {e}"))),
-                        None => {}
-                    }
-                    Ok(crate::cmd_recalibrate::summary(
-                        &outcome,
-                        count.readings as u32,
-                    ))
-                }
-                Recalibrated::DeviceFailed { wall, error } => {
-                    Err(format!("recalibrate {wall}: DEVICE FAILED: {error}"))
-                }
-            }
+            recalibrate(&a, &mut count, send)
         }
         _ => Err(format!(
             "the station app runs commission, verify and recalibrate, not {}",
             argv.get(1).map_or("", String::as_str)
         )),
+    }
+}
+
+/// `lumiwall recalibrate` in the app: the display and camera lines as the job's lines,
+/// the summary as its result.
+fn recalibrate(
+    a: &crate::cmd_recalibrate::RecalibrateArgs,
+    count: &mut Counter<'_>,
+    send: &dyn Fn(JobEvent),
+) -> Result<String, String> {
+    let displays =
+        lumiwall_profiles::ProfileSet::load_dir(&a.profiles).map_or(1, |(_, p)| p.len() as u64);
+    let done = crate::cmd_recalibrate::recalibrate_with(a, &mut |p| {
+        count.on(&p, displays, None);
+    })
+    .map_err(|e| e.to_string())?;
+    match done {
+        Recalibrated::Done {
+            outcome,
+            recorded,
+            camera,
+        } => {
+            for line in crate::cmd_recalibrate::display_lines(&outcome).lines() {
+                send(JobEvent::Line(line.to_string()));
+            }
+            for line in camera.iter().flat_map(|c| &c.lines) {
+                send(JobEvent::Line(line.clone()));
+            }
+            match recorded {
+                Some(Ok(line)) => send(JobEvent::Line(line)),
+                Some(Err(e)) => send(JobEvent::Line(format!("WARNING: not recorded: {e}"))),
+                None => {}
+            }
+            Ok(crate::cmd_recalibrate::summary(
+                &outcome,
+                count.readings as u32,
+                camera.as_ref().map(|c| c.frames),
+            ))
+        }
+        Recalibrated::DeviceFailed { wall, error } => {
+            Err(format!("recalibrate {wall}: DEVICE FAILED: {error}"))
+        }
     }
 }
