@@ -18,8 +18,7 @@ use lumiwall_profiles::{DisplayProfile, ProfileSet};
 use crate::CliError;
 use crate::cmd_commission::UniformityArg;
 
-/// File of the camera stage's results in the profile folder.
-pub(crate) const CAMERA_FILE: &str = "camera.json";
+use crate::cmd_commission::CAMERA_FILE;
 
 /// The camera stage of the commissioning in the profile folder `dir` (its
 /// camera.json), for the nightly check.

@@ -181,6 +181,10 @@ pub(crate) enum UniformityArg {
     Perceptual,
 }
 
+/// File of the camera stage's results in the profile folder (`--camera`; read again
+/// by `recalibrate --camera`).
+pub(crate) const CAMERA_FILE: &str = "camera.json";
+
 /// Arguments of `lumiwall commission`.
 #[derive(Debug, clap::Args)]
 pub(crate) struct CommissionArgs {

@@ -45,6 +45,12 @@ pub(crate) struct StationArgs {
     /// Error model of the simulated meter.
     #[arg(long, value_enum, default_value = "realistic")]
     noise: NoiseArg,
+    /// Camera (`virtual`, or a V4L2/UVC device) for the commissioning's camera stage
+    /// (`commission --camera`) and the nightly flat-field check (`recalibrate
+    /// --camera`, once the folder has a camera stage): a "Camera" box appears beside
+    /// the actions. Needs a build with the `camera` feature.
+    #[arg(long)]
+    camera: Option<String>,
 }
 
 /// Opens the station window.
@@ -83,6 +89,8 @@ pub(crate) struct StationApp {
     /// Whether runs aim the meter with the technician (`--aim guided`): the prompts and
     /// live readings appear in the window.
     guided: bool,
+    /// Whether runs use `args.camera` (the "Camera" box).
+    use_camera: bool,
 }
 
 /// The actions, each a `lumiwall` command.
@@ -99,6 +107,7 @@ impl StationApp {
         let data = WallData::load(&args.wall, &args.profiles, args.store.as_deref());
         // a real meter is aimed by hand (as the command line's `--aim auto`)
         let guided = matches!(args.meter, MeterChoice::Serial(_));
+        let use_camera = args.camera.is_some();
         Self {
             args,
             data,
@@ -108,12 +117,29 @@ impl StationApp {
             job: None,
             log: Vec::new(),
             guided,
+            use_camera,
         }
     }
 
     /// Whether a run is in progress.
     pub(crate) fn busy(&self) -> bool {
         self.job.as_ref().is_some_and(|j| j.finished.is_none())
+    }
+
+    /// The camera `action` runs with: the commissioning's camera stage, and the nightly
+    /// check where the folder has a camera stage to check against.
+    fn camera_for(&self, action: Action) -> Option<&String> {
+        let camera = self.args.camera.as_ref().filter(|_| self.use_camera)?;
+        match action {
+            Action::Commission { .. } => Some(camera),
+            Action::Recalibrate => self
+                .args
+                .profiles
+                .join(crate::cmd_commission::CAMERA_FILE)
+                .is_file()
+                .then_some(camera),
+            Action::Verify => None,
+        }
     }
 
     /// The command line of `action`.
@@ -138,6 +164,9 @@ impl StationApp {
         }
         if self.guided {
             v.extend(["--aim".into(), "guided".into()]);
+        }
+        if let Some(camera) = self.camera_for(action) {
+            v.extend(["--camera".into(), camera.clone()]);
         }
         let meter = match &a.meter {
             MeterChoice::Emulated => "emulated".to_string(),
@@ -239,6 +268,12 @@ impl StationApp {
                 .on_hover_text(
                     "aim the meter by hand at each display, prompted here (--aim guided)",
                 );
+            if let Some(camera) = &self.args.camera {
+                ui.add_enabled(idle, egui::Checkbox::new(&mut self.use_camera, "Camera"))
+                    .on_hover_text(format!(
+                        "flat fields with camera {camera}: commission --camera, recalibrate --camera"
+                    ));
+            }
             if let Some(job) = self.job.as_ref().filter(|_| !idle) {
                 let stop = egui::Button::new(if job.stopping() {
                     "Stopping…"

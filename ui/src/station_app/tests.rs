@@ -44,6 +44,7 @@ fn app(wall: &str, profiles: PathBuf) -> StationApp {
         store: None,
         meter: MeterChoice::Direct,
         noise: NoiseArg::None,
+        camera: None,
     })
 }
 
@@ -299,4 +300,31 @@ fn guided_aiming_prompts_in_the_window_and_the_buttons_answer_it() {
         .count();
     assert!(aimed >= 2, "one prompt per display at least: {prompts:?}");
     assert_eq!(h.state().data.profiles.len(), 2);
+}
+
+/// With `--camera`, the "Camera" box gives the commissioning its camera stage and the
+/// nightly run its flat-field check, the latter only once the folder has a camera
+/// stage to check against; unticked, neither.
+#[test]
+fn the_camera_box_adds_the_camera_to_commission_and_to_recalibrate_once_the_folder_has_a_camera_stage()
+ {
+    use super::Action;
+    let dir = fresh_dir("camera-box");
+    let mut a = app("mono-2x1.toml", dir.clone());
+    a.args.camera = Some("virtual".into());
+    a.use_camera = true;
+    let has_camera = |a: &StationApp, action| {
+        a.argv(action)
+            .windows(2)
+            .any(|w| w[0] == "--camera" && w[1] == "virtual")
+    };
+    assert!(has_camera(&a, Action::Commission { resume: false }));
+    assert!(!has_camera(&a, Action::Recalibrate));
+    assert!(!has_camera(&a, Action::Verify));
+    std::fs::create_dir_all(&dir).expect("folder");
+    std::fs::write(dir.join(crate::cmd_commission::CAMERA_FILE), "{}").expect("camera.json");
+    assert!(has_camera(&a, Action::Recalibrate));
+    a.use_camera = false;
+    assert!(!has_camera(&a, Action::Commission { resume: false }));
+    assert!(!has_camera(&a, Action::Recalibrate));
 }
