@@ -1,7 +1,7 @@
 //! The nightly run's look at the flat fields: a fixed camera photographs the displays
 //! measured in full tonight through the flat fields they were commissioned with, and
 //! measures them again where the screen's uniformity changed (a new lamp's arc, a
-//! nudged lens). The camera itself is [`crate::camera::FixedCamera`] (the `camera`
+//! nudged lens). The camera itself is `camera::FixedCamera` (the `camera`
 //! feature); the recalibration only needs this trait.
 
 use lumiwall_devices::{DisplayInfo, PatternOutput};
