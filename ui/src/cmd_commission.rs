@@ -507,10 +507,16 @@ fn camera_stage_possible(
     _args: &CommissionArgs,
     camera: &str,
 ) -> Result<(), CliError> {
-    Err(CliError::input(format!(
+    Err(camera_not_built(camera))
+}
+
+/// The refusal of `--camera` by a build without the `camera` feature.
+#[cfg(not(feature = "camera"))]
+pub(crate) fn camera_not_built(camera: &str) -> CliError {
+    CliError::input(format!(
         "--camera {camera}: this lumiwall was built without the camera stage; build it with \
          `cargo build --release --features camera` (needs Debian libopencv-dev and clang)"
-    )))
+    ))
 }
 
 #[cfg(not(feature = "camera"))]

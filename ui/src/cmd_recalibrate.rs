@@ -205,21 +205,32 @@ pub(crate) struct CameraNight {
 /// (device, stopped, other); a camera that cannot be used is an error at once.
 type Checked = Result<(RecalibrationOutcome, Option<CameraNight>), RecalibrateError>;
 
-/// The recalibration, with the fixed camera where `--camera` names one; its refitted
-/// flat fields are written back to camera.json once the new profiles are written.
-#[cfg(feature = "camera")]
+/// The recalibration, with the fixed camera where `--camera` names one.
 fn run_checks(
     station: &mut Station,
     args: &RecalibrateArgs,
     opts: &RecalibrateOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Checked, CliError> {
-    use lumiwall_calib::camera::{FixedCamera, NightlyFlatOptions};
-    let Some(choice) = &args.camera else {
-        return Ok(station
+    match &args.camera {
+        Some(choice) => with_camera(station, args, choice, opts, progress),
+        None => Ok(station
             .recalibrate(&args.profiles, opts, progress)
-            .map(|o| (o, None)));
-    };
+            .map(|o| (o, None))),
+    }
+}
+
+/// The recalibration with the fixed camera `choice`; its refitted flat fields are
+/// written back to camera.json once the new profiles are written.
+#[cfg(feature = "camera")]
+fn with_camera(
+    station: &mut Station,
+    args: &RecalibrateArgs,
+    choice: &str,
+    opts: &RecalibrateOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Checked, CliError> {
+    use lumiwall_calib::camera::{FixedCamera, NightlyFlatOptions};
     let stage = crate::cmd_camera::load_stage(&args.profiles)?;
     let noiseless = matches!(args.meter.noise, crate::cmd_commission::NoiseArg::None);
     let mut cam = crate::cmd_camera::open_photometric(station, choice, noiseless)?;
@@ -244,22 +255,14 @@ fn run_checks(
 }
 
 #[cfg(not(feature = "camera"))]
-fn run_checks(
-    station: &mut Station,
-    args: &RecalibrateArgs,
-    opts: &RecalibrateOptions,
-    progress: &mut dyn FnMut(Progress),
+fn with_camera(
+    _station: &mut Station,
+    _args: &RecalibrateArgs,
+    choice: &str,
+    _opts: &RecalibrateOptions,
+    _progress: &mut dyn FnMut(Progress),
 ) -> Result<Checked, CliError> {
-    if let Some(camera) = &args.camera {
-        return Err(CliError::input(format!(
-            "--camera {camera}: this lumiwall was built without the camera stage; build it \
-             with `cargo build --release --features camera` (needs Debian libopencv-dev and \
-             clang)"
-        )));
-    }
-    Ok(station
-        .recalibrate(&args.profiles, opts, progress)
-        .map(|o| (o, None)))
+    Err(crate::cmd_commission::camera_not_built(choice))
 }
 
 /// Records the outcome in the store at `path`; the line for the log, or what failed.
