@@ -175,6 +175,15 @@ fn parent_of(p: &Path) -> PathBuf {
     }
 }
 
+/// A probe file name no other check running at the same time uses: the process
+/// id alone is not enough, since the station app and the tests run several
+/// commands at once in one process.
+fn probe_name() -> String {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    format!(".lumiwall-write-test-{}-{n}", std::process::id())
+}
+
 /// Checks that files can be created in the existing folder `dir` by creating and
 /// removing a probe file there.
 fn check_writable_dir(dir: &Path, option: &str, what: &Path) -> Result<(), CliError> {
@@ -185,7 +194,7 @@ fn check_writable_dir(dir: &Path, option: &str, what: &Path) -> Result<(), CliEr
             dir.display()
         )));
     }
-    let probe = dir.join(format!(".lumiwall-write-test-{}", std::process::id()));
+    let probe = dir.join(probe_name());
     match std::fs::OpenOptions::new()
         .write(true)
         .create_new(true)
@@ -317,5 +326,26 @@ mod tests {
         std::fs::write(&ok, b"").unwrap();
         assert!(check_output_dir("--out", &ok).is_err());
         assert!(check_output_dir("--out", &ok.join("sub")).is_err());
+    }
+
+    #[test]
+    fn writability_checks_of_one_folder_from_many_threads_at_once_all_pass() {
+        let tmp = tempfile::tempdir().unwrap();
+        let file = tmp.path().join("a.json");
+        let failures: usize = std::thread::scope(|s| {
+            let workers: Vec<_> = (0..8)
+                .map(|_| {
+                    s.spawn(|| {
+                        (0..200)
+                            .filter(|_| check_output_files("--out", &[&file]).is_err())
+                            .count()
+                    })
+                })
+                .collect();
+            workers.into_iter().map(|w| w.join().unwrap()).sum()
+        });
+        assert_eq!(failures, 0, "checks refused a writable folder");
+        let left = std::fs::read_dir(tmp.path()).unwrap().count();
+        assert_eq!(left, 0, "probe files were left behind");
     }
 }
