@@ -165,13 +165,28 @@ fn transfer_curves_are_monotone_s_shaped_and_differ_per_channel() {
 }
 
 #[test]
-fn drive_is_quantised_to_the_bit_depth() {
+fn a_drive_between_codes_is_shown_dithered_and_reads_as_the_mean_of_its_two_codes() {
     let w = wall("mono-2x1.toml"); // 8-bit
-    let a = w.emitted_xyz(D0, [0.5, 0.0, 0.0], C).unwrap();
-    let b = w.emitted_xyz(D0, [0.5 + 0.3 / 255.0, 0.0, 0.0], C).unwrap();
-    let c = w.emitted_xyz(D0, [0.5 + 1.0 / 255.0, 0.0, 0.0], C).unwrap();
-    assert_eq!(a, b);
-    assert!(c.y > a.y);
+    let e = |code: f64| w.emitted_xyz(D0, [code / 255.0, 0.0, 0.0], C).unwrap();
+    let (lo, hi) = (e(127.0), e(128.0));
+    assert!(hi.y > lo.y);
+    // 127.3: the upper code where the Bayer threshold (k + 0.5)/256 is at least 0.7,
+    // k = 179..=255, 77 of the cell's 256 pixels.
+    for (code, upper_share) in [
+        (127.0, 0.0),
+        (127.5, 0.5),
+        (127.3, 77.0 / 256.0),
+        (128.0, 1.0),
+    ] {
+        let want = lo * (1.0 - upper_share) + hi * upper_share;
+        let got = e(code);
+        for (a, b) in got.to_array().iter().zip(want.to_array()) {
+            assert!(
+                (a - b).abs() <= 1e-12 * b.abs().max(1.0),
+                "code {code}: {a} vs {b}"
+            );
+        }
+    }
 }
 
 /// Kresse Tab. 6 / 3.1.5: the right-eye ("green") filter gives a bright, saturated

@@ -5,6 +5,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
+use lumiwall_core::dither;
 use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, Eye, PatternOutput};
 use lumiwall_pattern::client::{NodeClient, NodeOptions, RemotePatternOutput, Route};
 use lumiwall_pattern::server::{
@@ -88,6 +89,41 @@ fn uniform_codes_are_presented_exactly_and_the_other_outputs_are_black() {
         out.read_back(DisplayId(0)).unwrap().uniform_code(),
         Some([0, 0, 0])
     );
+}
+
+#[test]
+fn a_drive_between_codes_is_presented_as_the_post_pass_dither_whose_cell_mean_is_the_drive() {
+    let s = start(&["L=40x20@8"], 0);
+    let mut out = RemotePatternOutput::connect(
+        vec![display(0, 8)],
+        &[route(0, &s, "L")],
+        &opts("station-a"),
+    )
+    .unwrap();
+    let drive = [0.5, 100.25 / 255.0, 3.0 / 255.0];
+    out.show(DisplayId(0), drive).unwrap();
+    let f = out.read_back(DisplayId(0)).unwrap();
+    assert_eq!(f.uniform_code(), None);
+    let mut sum = [0.0f64; 3];
+    for y in 0..f.height {
+        for x in 0..f.width {
+            let t = dither::dither_threshold(x, y);
+            let want = drive.map(|d| dither::quantise(d as f32, 255, t));
+            assert_eq!(f.codes[(y * f.width + x) as usize], want, "pixel {x},{y}");
+            if x < 16 && y < 16 {
+                for c in 0..3 {
+                    sum[c] += f64::from(want[c]) / 256.0;
+                }
+            }
+        }
+    }
+    for c in 0..3 {
+        assert!(
+            (sum[c] - drive[c] * 255.0).abs() <= 0.5 / 256.0 + 1e-9,
+            "{c}: {sum:?}"
+        );
+    }
+    assert_eq!(f.codes[0][2], 3, "a drive on a code stays on it");
 }
 
 #[test]

@@ -39,6 +39,7 @@
 pub mod lut;
 pub use lumiwall_core::mat3;
 pub mod model;
+pub use lumiwall_core::dither::{dither_threshold, quantise};
 pub use lumiwall_core::srgb;
 
 use std::ops::BitOr;
@@ -651,49 +652,6 @@ pub fn apply_pixel(
 ) -> Result<PixelOut, ApplyError> {
     Ok(PreparedProfile::new(profile, opts)?.apply(xyz_cd_m2, uv))
 }
-
-/// Code value for a normalised drive: `floor(drive · max_code + threshold)`, clamped to
-/// `0..=max_code`. `threshold` 0.5 rounds to nearest; a dither threshold in (0, 1)
-/// dithers.
-#[inline(always)]
-pub fn quantise(drive: f32, max_code: u32, threshold: f32) -> u16 {
-    let v = drive * max_code as f32 + threshold;
-    // `as` saturates: NaN → 0, negative → 0.
-    (v as u32).min(max_code) as u16
-}
-
-/// Ordered-dither threshold in (0, 1) at pixel `(x, y)`: the 16×16 Bayer matrix
-/// (256 distinct levels, `(index + 0.5) / 256`). Integer-exact, so the GPU computes the
-/// same thresholds.
-#[inline(always)]
-pub fn dither_threshold(x: u32, y: u32) -> f32 {
-    BAYER16[((y & 15) * 16 + (x & 15)) as usize]
-}
-
-/// Bayer index (0..256) of `(x, y)` in the 16×16 matrix: bit pairs of `(x ^ y, y)`,
-/// least significant pair first into the most significant position.
-const fn bayer_index(x: u32, y: u32) -> u32 {
-    let z = x ^ y;
-    let mut v = 0u32;
-    let mut i = 0;
-    while i < 4 {
-        let bit = ((z >> i) & 1) * 2 + ((y >> i) & 1);
-        v |= bit << (2 * (3 - i));
-        i += 1;
-    }
-    v
-}
-
-/// The 16×16 thresholds, row-major (`BAYER16[y * 16 + x]`).
-const BAYER16: [f32; 256] = {
-    let mut t = [0f32; 256];
-    let mut k = 0;
-    while k < 256 {
-        t[k] = (bayer_index(k as u32 % 16, k as u32 / 16) as f32 + 0.5) / 256.0;
-        k += 1;
-    }
-    t
-};
 
 #[cfg(test)]
 mod tests;

@@ -68,7 +68,7 @@ def common_gamut_xyz(profile: dict, encoded: np.ndarray) -> np.ndarray:
 def post_pass_codes(lumiwall: pathlib.Path, profile: pathlib.Path, exr, png) -> np.ndarray:
     subprocess.run(
         [str(lumiwall), "apply", "--profile", str(profile), "--in", str(exr),
-         "--bit-depth", str(BITS), "--out", str(png)],
+         "--bit-depth", str(BITS), "--no-dither", "--out", str(png)],
         check=True,
         capture_output=True,
     )

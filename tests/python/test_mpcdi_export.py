@@ -127,7 +127,7 @@ def post_pass(lumiwall, profile, encoded, tmp):
     write_exr(exr, xyz)
     subprocess.run(
         [str(lumiwall), "apply", "--profile", str(profile), "--in", str(exr), "--bit-depth",
-         str(BITS), "--out", str(png)],
+         str(BITS), "--no-dither", "--out", str(png)],
         check=True,
         capture_output=True,
     )

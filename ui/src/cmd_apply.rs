@@ -64,8 +64,13 @@ pub(crate) struct ApplyArgs {
     /// Use the CPU reference only (the GPU is used when an adapter exists).
     #[arg(long)]
     cpu: bool,
-    /// Ordered dithering before quantisation.
+    /// Round every pixel to its nearest code instead of the default ordered dither
+    /// (the 16×16 Bayer dither that lets a display's few used codes show the drives
+    /// between them on average, as the calibration's verification patches do).
     #[arg(long)]
+    no_dither: bool,
+    /// Ordered dithering before quantisation (the default; kept for scripts).
+    #[arg(long, hide = true, conflicts_with = "no_dither")]
     dither: bool,
     /// Out-of-gamut handling (default: the profile's).
     #[arg(long, value_enum)]
@@ -197,7 +202,7 @@ fn options(args: &ApplyArgs) -> ApplyOptions {
             OogArg::FalseColour => OutOfGamut::FalseColour,
         }),
         bit_depth: args.bit_depth,
-        dither: args.dither,
+        dither: !args.no_dither,
     }
 }
 

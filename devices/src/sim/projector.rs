@@ -10,7 +10,7 @@ use super::observer::{Spectrum, cie1931};
 use super::spectra::{self, Band};
 use super::wall_file::{AgeingSpec, FalloffSpec, ProjectorSpec, ScatterSpec, WallFile, WarmupSpec};
 use crate::{DeviceError, DisplayId, DisplayInfo, Eye};
-use lumiwall_core::{BitDepth, Channel};
+use lumiwall_core::{BitDepth, Channel, dither};
 
 /// Everything the simulator knows about one display, fixed at construction.
 #[derive(Debug, Clone)]
@@ -492,9 +492,14 @@ impl SimDisplay {
     }
 
     /// Relative intensity (black removed, 1 at full drive) of channel `c` for a drive,
-    /// after quantisation.
+    /// as the display shows it: a drive between two codes is shown as the post pass's
+    /// ordered dither of the two ([`lumiwall_core::dither`]) and this is the mean over a
+    /// dither cell.
     pub fn relative_intensity(&self, c: usize, drive: f64) -> f64 {
-        self.curves[c].intensity(self.quantise(drive))
+        dither::mix([drive; 3], self.depth.max_code())
+            .iter()
+            .map(|(codes, share)| share * self.curves[c].intensity(codes[c]))
+            .sum()
     }
 
     /// Spatial factor per channel at `uv` (1 at the centre).
@@ -576,20 +581,23 @@ impl SimDisplay {
     /// How much of each of the five spectra (`[R, G, B, black, white segment]`, see
     /// [`DisplaySpectra`]) the display emits at `drive` and `uv`: its light is
     /// `Σ weights[j] · spectra[j]`.
+    ///
+    /// A drive between codes is shown dithered ([`lumiwall_core::dither`]); the weights
+    /// are the mean over a dither cell (the white segment per pixel, then averaged).
     pub fn weights(&self, drive: [f64; 3], uv: [f64; 2], cond: Conditions) -> [f64; 5] {
-        let f: [f64; 3] = std::array::from_fn(|c| self.relative_intensity(c, drive[c]));
         let fall = self.falloff_factor(uv);
         let age = self.ageing_factor(cond.lamp_hours);
         let warm = self.warmup_factor(cond.minutes_on);
         let k: [f64; 3] = std::array::from_fn(|c| fall[c] * age[c] * warm[c]);
         let k_mean = (k[0] + k[1] + k[2]) / 3.0;
-        let white = f[0].min(f[1]).min(f[2]);
-        [
-            f[0] * k[0],
-            f[1] * k[1],
-            f[2] * k[2],
-            k_mean,
-            white * k_mean,
-        ]
+        let mut w = [0.0, 0.0, 0.0, k_mean, 0.0];
+        for (codes, share) in dither::mix(drive, self.depth.max_code()) {
+            let f: [f64; 3] = std::array::from_fn(|c| self.curves[c].intensity(codes[c]));
+            for c in 0..3 {
+                w[c] += share * f[c] * k[c];
+            }
+            w[4] += share * f[0].min(f[1]).min(f[2]) * k_mean;
+        }
+        w
     }
 }

@@ -3,11 +3,13 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
+use lumiwall_core::dither;
 use lumiwall_devices::traits::check_drive;
 use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, DriveImage, PatternOutput};
 
 use crate::address::OutputAddress;
 use crate::framebuffer::{Framebuffer, max_code};
+use crate::proto;
 
 use super::{NodeClient, NodeOptions};
 
@@ -138,6 +140,17 @@ impl RemotePatternOutput {
             .ok_or_else(|| DeviceError::NoSuchDisplay(display.to_string()))
     }
 
+    /// The output that shows `display`.
+    fn output_of(&self, display: DisplayId) -> Result<proto::Output, DeviceError> {
+        let (n, output) = self.route(display)?;
+        self.nodes[n]
+            .outputs()
+            .iter()
+            .find(|o| o.name == output)
+            .cloned()
+            .ok_or_else(|| DeviceError::NoSuchDisplay(display.to_string()))
+    }
+
     /// Blacks out the node that shows the previous pattern if it is not `next`.
     fn blank_previous(&mut self, next: usize) -> Result<(), DeviceError> {
         if let Some(prev) = self.lit_node.filter(|p| *p != next) {
@@ -208,13 +221,7 @@ impl PatternOutput for RemotePatternOutput {
     /// A white crosshair (lines a hundredth of the height wide, at least 2 pixels) on
     /// black through the spot, with a white square at the spot.
     fn show_aim_marker(&mut self, display: DisplayId, uv: [f64; 2]) -> Result<(), DeviceError> {
-        let (n, output) = self.route(display)?;
-        let o = self.nodes[n]
-            .outputs()
-            .iter()
-            .find(|o| o.name == output)
-            .cloned()
-            .ok_or_else(|| DeviceError::NoSuchDisplay(display.to_string()))?;
+        let o = self.output_of(display)?;
         let png = crosshair(o.width_px, o.height_px, o.bit_depth, uv)
             .to_png()
             .map_err(|e| DeviceError::Config(format!("aiming pattern: {e}")))?;
@@ -223,24 +230,29 @@ impl PatternOutput for RemotePatternOutput {
 
     /// The image resampled (nearest pixel) to the output's size and codes, sent as PNG.
     fn show_image(&mut self, display: DisplayId, image: &DriveImage) -> Result<(), DeviceError> {
-        let (n, output) = self.route(display)?;
-        let o = self.nodes[n]
-            .outputs()
-            .iter()
-            .find(|o| o.name == output)
-            .cloned()
-            .ok_or_else(|| DeviceError::NoSuchDisplay(display.to_string()))?;
+        let o = self.output_of(display)?;
         let png = framebuffer_of(image, o.width_px, o.height_px, o.bit_depth)
             .to_png()
             .map_err(|e| DeviceError::Config(format!("pattern image: {e}")))?;
         RemotePatternOutput::show_image(self, display, png)
     }
 
+    /// A drive on codes as a uniform field; one between codes as the post pass's ordered
+    /// dither of the neighbouring codes ([`dither`]), sent as an image.
     fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError> {
         check_drive(drive)?;
         let bits = self.info(display)?.bit_depth;
-        let top = f64::from(max_code(bits));
-        let code = drive.map(|d| (d * top).round() as u32);
+        let top = max_code(bits);
+        let cell = dither::mix(drive, top);
+        let [(on_codes, _)] = cell.as_slice() else {
+            let o = self.output_of(display)?;
+            let uniform = DriveImage::from_fn(1, 1, |_, _| drive)?;
+            let png = framebuffer_of(&uniform, o.width_px, o.height_px, o.bit_depth)
+                .to_png()
+                .map_err(|e| DeviceError::Config(format!("dithered pattern: {e}")))?;
+            return RemotePatternOutput::show_image(self, display, png);
+        };
+        let code = on_codes.map(|d| (d * f64::from(top)).round() as u32);
         let (n, output) = self.route(display)?;
         let output = output.to_string();
         self.blank_previous(n)?;
@@ -248,7 +260,8 @@ impl PatternOutput for RemotePatternOutput {
     }
 }
 
-/// `image` at `width` × `height` pixels (nearest pixel) in `bits`-bit codes.
+/// `image` at `width` × `height` pixels (nearest pixel) in `bits`-bit codes, drives
+/// between codes dithered as the post pass does.
 pub(super) fn framebuffer_of(
     image: &DriveImage,
     width: u32,
@@ -256,15 +269,16 @@ pub(super) fn framebuffer_of(
     bits: u32,
 ) -> Framebuffer {
     let mut f = Framebuffer::black(width, height, bits);
-    let top = f64::from(max_code(bits));
+    let top = max_code(bits);
     for y in 0..height {
         for x in 0..width {
             let uv = [
                 (f64::from(x) + 0.5) / f64::from(width),
                 (f64::from(y) + 0.5) / f64::from(height),
             ];
+            let t = dither::dither_threshold(x, y);
             let d = image.sample(uv);
-            f.codes[(y * width + x) as usize] = d.map(|c| (c.clamp(0.0, 1.0) * top).round() as u16);
+            f.codes[(y * width + x) as usize] = d.map(|c| dither::quantise(c as f32, top, t));
         }
     }
     f

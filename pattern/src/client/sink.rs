@@ -5,7 +5,7 @@
 
 use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, DriveImage, PatternOutput};
 
-use crate::framebuffer::max_code;
+use crate::framebuffer::{Framebuffer, max_code};
 
 use super::RemotePatternOutput;
 
@@ -43,16 +43,46 @@ impl<S: PatternOutput> PatternOutput for SimulatorSink<S> {
             .show_image(display, &super::remote::drive_image_of(&frame)?)
     }
 
+    /// The frame the node presented must repeat one 16×16 dither cell (a uniform
+    /// field is the case of one code); the simulator shows the cell's mean drive,
+    /// which it dithers into the same codes.
     fn show(&mut self, display: DisplayId, drive: [f64; 3]) -> Result<(), DeviceError> {
         self.remote.show(display, drive)?;
         let frame = self.remote.read_back(display)?;
-        let code = frame.uniform_code().ok_or_else(|| {
+        let mean = dither_cell_mean(&frame).ok_or_else(|| {
             DeviceError::Config(format!(
-                "display {display}: the node presented a frame that is not uniform"
+                "display {display}: the node presented a frame that is neither uniform nor \
+                 one repeated 16×16 dither cell"
             ))
         })?;
-        let top = f64::from(max_code(frame.bits));
-        self.simulator
-            .show(display, code.map(|c| f64::from(c) / top))
+        self.simulator.show(display, mean)
     }
+}
+
+/// Side of the post pass's ordered-dither cell.
+const CELL: u32 = 16;
+
+/// The mean drive (code / max code) of the frame's top-left 16×16 cell, if the whole
+/// frame repeats that cell.
+fn dither_cell_mean(frame: &Framebuffer) -> Option<[f64; 3]> {
+    let at = |x: u32, y: u32| frame.codes.get((y * frame.width + x) as usize).copied();
+    for y in 0..frame.height {
+        for x in 0..frame.width {
+            if at(x, y)? != at(x % CELL, y % CELL)? {
+                return None;
+            }
+        }
+    }
+    let (w, h) = (frame.width.min(CELL), frame.height.min(CELL));
+    let mut sum = [0u64; 3];
+    for y in 0..h {
+        for x in 0..w {
+            let c = at(x, y)?;
+            for (s, v) in sum.iter_mut().zip(c) {
+                *s += u64::from(v);
+            }
+        }
+    }
+    let n = f64::from(w * h) * f64::from(max_code(frame.bits));
+    Some(sum.map(|s| s as f64 / n))
 }

@@ -3,6 +3,7 @@
 //! - colour: [`Xyz`] (absolute CIE 1931 tristimulus, Y in cd/m²), [`Xy`] (chromaticity),
 //!   [`Lab`] (CIELAB against an absolute reference white) with CIEDE2000 in [`lab`];
 //! - displays: [`Channel`] (red, green, blue), [`BitDepth`] (max code, quantisation),
+//!   [`dither`] (how a drive between codes is shown),
 //!   [`Headroom`] (largest planned channel usage), [`Eye`], [`DisplayId`] and [`DisplayKey`];
 //! - data: the CIE 1931 2° observer and D65 ([`observer`], parsed once), the sRGB
 //!   decoding curve ([`srgb`]) and row-major 3×3 matrices ([`Mat3`], [`mat3`]);
@@ -19,6 +20,7 @@
 mod bit_depth;
 mod channel;
 mod display;
+pub mod dither;
 mod error;
 pub mod files;
 mod headroom;
