@@ -6,7 +6,8 @@
 //! per display and eye: a mono wall has one profile per display and does no per-eye
 //! work; a profile without a flat-field texture does no texture fetch. [`io`] reads EXR
 //! and sRGB PNG input and writes PNG output; [`wall`] cuts a wall's frame into its
-//! displays' tiles and routes each eye's frame.
+//! displays' tiles and routes each eye's frame; [`scale`] is the stated luminance scale
+//! between a scene and the wall.
 
 pub mod cpu;
 #[cfg(target_arch = "x86_64")]
@@ -16,6 +17,7 @@ pub mod frame;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod io;
+pub mod scale;
 pub mod wall;
 
 pub use cpu::{apply_cpu, apply_cpu_into};

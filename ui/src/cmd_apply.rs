@@ -6,9 +6,10 @@ use std::path::{Path, PathBuf};
 use lumiwall_bench::apply::ApplyBenchOptions;
 use lumiwall_core::files::FolderLock;
 use lumiwall_profiles::apply::srgb::SRGB_PRIMARIES_XY;
-use lumiwall_profiles::apply::{ApplyOptions, PreparedProfile, rgb_to_xyz_matrix};
+use lumiwall_profiles::apply::{ApplyOptions, PreparedProfile, mat3, rgb_to_xyz_matrix};
 use lumiwall_profiles::{DisplayKey, DisplayProfile, OutOfGamut, ProfileSet};
 use lumiwall_render::post::io::{ReadOptions, read_exr, read_png_srgb, write_png};
+use lumiwall_render::post::scale::{self, LuminanceScale};
 use lumiwall_render::post::wall::{
     EyeFrames, FrameSize, WallError, WallTiling, check_display_size,
 };
@@ -90,6 +91,55 @@ pub(crate) struct ApplyArgs {
     /// Primaries assumed for PNG input.
     #[arg(long, value_enum, default_value = "common")]
     srgb_primaries: SrgbPrimaries,
+    /// Scene luminance to wall luminance: `1` (1:1, the scene as it is; what the wall
+    /// cannot show is over range), a factor such as `0.25`, or `auto` / `auto:P` (the
+    /// largest factor at which P %, default 99, of the pixels fit into the wall's common
+    /// gamut). Always printed; a scaled image is marked in its top left corner.
+    #[arg(long, default_value = "1")]
+    luminance_scale: LuminanceScale,
+}
+
+/// The frames scaled by `args.luminance_scale` for a wall whose common white is
+/// `profile`'s, the scale printed; returns the label to stamp (none at 1:1).
+fn apply_scale(
+    args: &ApplyArgs,
+    profile: &DisplayProfile,
+    frames: &mut [&mut XyzFrame],
+) -> Result<Option<String>, CliError> {
+    let to_rgb = rgb_to_xyz_matrix(
+        &profile.common_primaries_xy,
+        &profile.target_white_xyz_cd_m2,
+    )
+    .ok()
+    .and_then(|m| mat3::inverse(&m))
+    .ok_or_else(|| {
+        CliError::input(format!(
+            "{}: the common primaries and white give no RGB matrix; commission the wall again",
+            profile.display
+        ))
+    })?;
+    let resolved = {
+        let views: Vec<&XyzFrame> = frames.iter().map(|f| &**f).collect();
+        scale::resolve(args.luminance_scale, &views, &to_rgb)
+            .map_err(|e| CliError::input(format!("--luminance-scale: {e}")))?
+    };
+    println!("{resolved}");
+    if resolved.is_true_scale() {
+        return Ok(None);
+    }
+    for f in frames.iter_mut() {
+        scale::scale_frame(f, resolved.factor);
+    }
+    Ok(Some(resolved.label()))
+}
+
+/// `frame` with `label` (if any) in its corner, in `profile`'s target white.
+fn labelled(mut frame: XyzFrame, label: Option<&str>, profile: &DisplayProfile) -> XyzFrame {
+    if let Some(text) = label {
+        let white = profile.target_white_xyz_cd_m2.map(|v| v as f32);
+        scale::stamp_label(&mut frame, text, white);
+    }
+    frame
 }
 
 /// The post pass engine chosen for this run.
@@ -232,8 +282,10 @@ fn run_single(args: &ApplyArgs, path: &Path, opts: &ApplyOptions) -> Result<(), 
     }
     let profile = DisplayProfile::load(path)?;
     let pp = PreparedProfile::new(&profile, opts)?;
-    let frame = read_frame(&args.input, args, &profile)?;
+    let mut frame = read_frame(&args.input, args, &profile)?;
     check_display_size(&frame, args.display_size, &profile.display).map_err(PostError::from)?;
+    let label = apply_scale(args, &profile, &mut [&mut frame])?;
+    let frame = labelled(frame, label.as_deref(), &profile);
     apply_and_write(&Engine::choose(args.cpu), &pp, &frame, &out)
 }
 
@@ -254,10 +306,14 @@ fn run_wall(args: &ApplyArgs, dir: &Path, opts: &ApplyOptions) -> Result<(), Cli
         // Checked before any frame is read.
         return Err(PostError::from(WallError::MonoWithRightFrame { wall }).into());
     }
-    let main = read_frame(&args.input, args, first)?;
-    let right = match &args.input_right {
+    let mut main = read_frame(&args.input, args, first)?;
+    let mut right = match &args.input_right {
         Some(p) => Some(read_frame(p, args, first)?),
         None => None,
+    };
+    let label = match right.as_mut() {
+        Some(r) => apply_scale(args, first, &mut [&mut main, r])?,
+        None => apply_scale(args, first, &mut [&mut main])?,
     };
     let frames = EyeFrames::new(&tiling, main, right).map_err(PostError::from)?;
     let engine = Engine::choose(args.cpu);
@@ -265,7 +321,8 @@ fn run_wall(args: &ApplyArgs, dir: &Path, opts: &ApplyOptions) -> Result<(), Cli
         let job = job?;
         let pp = PreparedProfile::new(job.profile, opts)?;
         let out = out_dir.join(format!("{}.png", job.profile.display.file_stem()));
-        apply_and_write(&engine, &pp, &job.tile, &out)?;
+        let tile = labelled(job.tile, label.as_deref(), job.profile);
+        apply_and_write(&engine, &pp, &tile, &out)?;
     }
     Ok(())
 }

@@ -707,3 +707,107 @@ fn bench_subcommands_have_help_and_reject_unknown_ones() {
         .code(2)
         .stderr(contains("unrecognized subcommand"));
 }
+
+/// The Cornell box at 20 % error into `dir`, returning its EXR.
+fn cornell_frame(dir: &Path) -> PathBuf {
+    let exr = dir.join("cornell.exr");
+    lumiwall()
+        .args(["render", "--error", "20%", "--out"])
+        .arg(&exr)
+        .arg(fixture("scenes/cornell/cornell.toml"))
+        .assert()
+        .success();
+    exr
+}
+
+/// `lumiwall apply` of `frame` to display 0 of `profiles` at `scale`: its stdout and
+/// the output image.
+fn apply_scaled(profiles: &Path, frame: &Path, scale: &str) -> (String, image::RgbImage) {
+    let out = frame.with_file_name(format!("scaled-{scale}.png"));
+    let run = lumiwall()
+        .args([
+            "apply",
+            "--cpu",
+            "--bit-depth",
+            "8",
+            "--luminance-scale",
+            scale,
+        ])
+        .arg("--profile")
+        .arg(profiles.join("d000-c0r0-mono.json"))
+        .arg("--in")
+        .arg(frame)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    let stdout = String::from_utf8_lossy(&run.get_output().stdout).into_owned();
+    (stdout, image::open(&out).unwrap().to_rgb8())
+}
+
+/// The count after `what ` in apply's summary line.
+fn count_after(stdout: &str, what: &str) -> u64 {
+    let rest = &stdout[stdout
+        .find(what)
+        .unwrap_or_else(|| panic!("{what}: {stdout}"))
+        + what.len()..];
+    rest.trim_start()
+        .split(|c: char| !c.is_ascii_digit())
+        .next()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{what}: {stdout}"))
+}
+
+/// Near-white pixels (every channel above 60 % of the code range) in the 140 × 12
+/// pixel box at the top left where the scale label of a 256-pixel-wide image goes.
+fn white_in_label_box(img: &image::RgbImage) -> usize {
+    (0..12.min(img.height()))
+        .flat_map(|y| (0..img.width().min(140)).map(move |x| (x, y)))
+        .filter(|&(x, y)| img.get_pixel(x, y).0.iter().all(|c| *c > 153))
+        .count()
+}
+
+#[test]
+fn apply_states_the_luminance_scale_and_auto_brings_the_bright_cornell_box_into_range_marked_as_scaled()
+ {
+    let tmp = TempDir::new().unwrap();
+    let profiles = commission_small_wall(tmp.path());
+    let frame = cornell_frame(tmp.path());
+    let (true_scale, img) = apply_scaled(&profiles, &frame, "1");
+    let pixels = u64::from(img.width() * img.height());
+    assert!(true_scale.contains("luminance scale 1:1"), "{true_scale}");
+    let over_true = count_after(&true_scale, "over range");
+    assert!(
+        over_true * 10 > pixels,
+        "the box's walls are brighter than the wall: {true_scale}"
+    );
+    assert!(
+        white_in_label_box(&img) < 20,
+        "a true view carries no label"
+    );
+
+    let (auto, img) = apply_scaled(&profiles, &frame, "auto:95");
+    assert!(
+        auto.contains("auto: 95 % of the pixels within the common gamut"),
+        "{auto}"
+    );
+    assert!(auto.contains("marked `LUMINANCE x0."), "{auto}");
+    let over_auto = count_after(&auto, "over range");
+    assert!(
+        over_auto * 20 <= pixels,
+        "at most 5 % over range: {over_auto} of {pixels}"
+    );
+    assert!(white_in_label_box(&img) > 200, "the label's white glyphs");
+
+    let (given, _) = apply_scaled(&profiles, &frame, "0.25");
+    assert!(
+        given.contains("luminance scale x0.2500 (as given)"),
+        "{given}"
+    );
+    lumiwall()
+        .args(["apply", "--luminance-scale", "0"])
+        .args(["--profile", "x.json", "--in", "x.exr", "--out", "x.png"])
+        .assert()
+        .code(2)
+        .stderr(contains("the factor must be between"));
+}
