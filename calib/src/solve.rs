@@ -505,16 +505,26 @@ pub fn primaries_xy(
             let mut tri = [[0.0; 2]; 3];
             for c in Channel::ALL {
                 let i = c.index();
-                tri[i] = (m.primaries[i] - m.black)
-                    .xy()
-                    .ok_or_else(|| CalibError::NoSignal {
+                tri[i] = above_black(m.primaries[i], m.black).xy().ok_or_else(|| {
+                    CalibError::NoSignal {
                         what: format!("{name}: {} channel", c.name()),
                         full_drive: m.primaries[i].y - m.black.y,
-                    })?;
+                    }
+                })?;
             }
             Ok((name, tri))
         })
         .collect()
+}
+
+/// What a channel adds to black: `reading − black` with each component at least 0. A
+/// light adds no negative tristimulus value; a saturated primary's Z (red) or X
+/// (green, blue) is close to the black's, and a reading's noise or a meter's
+/// correction matrix can leave it just below, which would put the primary's
+/// chromaticity outside the diagram (x + y > 1).
+fn above_black(reading: Xyz, black: Xyz) -> Xyz {
+    let d = reading - black;
+    Xyz::new(d.x.max(0.0), d.y.max(0.0), d.z.max(0.0))
 }
 
 /// Solves the wall: common gamut of the black-subtracted primaries, then

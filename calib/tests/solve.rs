@@ -456,6 +456,24 @@ fn noisy_non_monotone_ramp_gives_a_valid_profile() {
     sol.profiles[1].validate().unwrap();
 }
 
+/// A saturated red whose Z is the black's to within the noise: the reading minus black
+/// comes out with Z just below 0 (here −0.002 cd/m²), as on a single-chip DLP read
+/// through a meter matrix; the solve takes it as 0 and writes valid profiles instead
+/// of failing on a red outside the chromaticity diagram.
+#[test]
+fn a_primary_whose_z_reads_just_below_the_blacks_still_solves() {
+    let models = wall([[Curve::Power(2.2); 3]; 3]);
+    // One display: its gamut is the common one.
+    let mut m = measure_all(&models[..1], 10);
+    let black = m[0].black;
+    m[0].primaries[0].z = black.z - 0.002;
+    let sol = solve_wall(&m, &options(BlackMode::Individual, 1.0)).expect("solve");
+    for [x, y] in sol.common_primaries_xy {
+        assert!(x >= 0.0 && y > 0.0 && x + y <= 1.0, "{x} {y}");
+    }
+    assert_eq!(sol.profiles.len(), 1);
+}
+
 #[test]
 fn nan_and_negative_readings_are_errors() {
     let models = wall([[Curve::Power(2.2); 3]; 3]);
