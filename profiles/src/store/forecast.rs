@@ -26,7 +26,7 @@
 //! them to the plain line. In the logarithm a burn-in that multiplies the light by
 //! `1 + B·exp(−s/τ)` is `B·e − B²e²/2 + …` (e = exp(−s/τ)): the second term keeps a
 //! burn-in of B = 0.3 from biasing the steady slope (the forecast 46 days ahead is 5 days
-//! early with `c` alone, 0.3 days with both; tests/forecast.rs). The burn-in terms are
+//! early with `c` alone, 0.3 days with both; tests/profiles/forecast.rs). The burn-in terms are
 //! fitted only when the segment has at least [`MIN_POINTS_BURN_IN`] points; otherwise
 //! the two-parameter line is used.
 //!

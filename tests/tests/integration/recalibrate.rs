@@ -1,0 +1,361 @@
+//! Nightly recalibration on the virtual wall: nothing is written while the wall holds
+//! its calibration; after lamp ageing the wall is recalibrated from eleven readings per
+//! display and the new profiles meet issue 12's noiseless limits against the
+//! simulator's truth (median ΔE2000 ≤ 0.5, max ≤ 2.0) where the old ones no longer do;
+//! the replaced profiles can be rolled back.
+
+use std::path::Path;
+
+use lumiwall_calib::commission::{CommissionOptions, RUN_DIR, load_measurement};
+use lumiwall_calib::measure::{FullReading, MeasureOptions, MeasuredDisplay};
+use lumiwall_calib::recalibrate::{
+    CheckKind, DriftLimits, FullCheckRotation, PREVIOUS_DIR, RecalibrateError, RecalibrateOptions,
+    Verdict, rollback,
+};
+use lumiwall_calib::station::{MeterChoice, Noise, Station, StationOptions};
+use lumiwall_calib::verify::{Summary, VerifyOptions, chart_targets};
+use lumiwall_profiles::{BlackMode, DisplayProfile, ProfileSet};
+
+fn commission(station: &mut Station, dir: &Path, headroom: f64) -> Vec<DisplayProfile> {
+    let mut opts: CommissionOptions =
+        crate::support::options_8500k(MeasureOptions::default(), BlackMode::Individual, false);
+    opts.solve.headroom = headroom;
+    station
+        .commission(dir, &opts, &mut |_| {})
+        .unwrap()
+        .solution
+        .profiles
+}
+
+fn options() -> RecalibrateOptions {
+    RecalibrateOptions {
+        measure: MeasureOptions::default(),
+        limits: DriftLimits::default(),
+        meter_xy_offset: [0.0; 2],
+        headroom: None,
+        rotation: FullCheckRotation::EVERY_NIGHT,
+    }
+}
+
+/// The 51-patch chart through `profiles`, read by a perfect meter on `station`'s wall.
+fn truth(station: &Station, profiles: &[DisplayProfile]) -> Summary {
+    let mut perfect = Station::with_wall(
+        station.wall.clone(),
+        &StationOptions::new(MeterChoice::Direct, Noise::None),
+    )
+    .unwrap();
+    let targets = chart_targets(profiles).unwrap();
+    let opts = VerifyOptions {
+        patches: targets.len(),
+        ..VerifyOptions::default()
+    };
+    perfect
+        .verify(profiles, &targets, &opts, &mut |_| {})
+        .unwrap()
+        .overall
+}
+
+fn files_of(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut out: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .map(|p| {
+            let bytes = std::fs::read(&p).unwrap();
+            (p.file_name().unwrap().to_string_lossy().into_owned(), bytes)
+        })
+        .collect();
+    out.sort();
+    out
+}
+
+#[test]
+fn a_wall_that_holds_its_calibration_is_left_alone() {
+    let mut station = crate::support::direct_station("mono-2x1.toml", Noise::None);
+    let dir = tempfile::tempdir().unwrap();
+    commission(&mut station, dir.path(), 0.9);
+    let before = files_of(dir.path());
+    station.wall.advance_hours(1.0);
+    let o = station
+        .recalibrate(dir.path(), &options(), &mut |_| {})
+        .unwrap();
+    for c in &o.checks {
+        println!(
+            "{}: ΔY {:?} %, Δxy {:?}, black {:+.4} cd/m², {} readings",
+            c.key, c.luminance_change_pct, c.primary_delta_xy, c.black_change_cd_m2, c.readings
+        );
+        assert!(c.readings <= 17, "{} readings", c.readings);
+        assert!(!c.curves_moved, "{:?}", c.curve_change_pct);
+        assert!(
+            c.curve_change_pct.iter().all(|d| d.abs() < 0.3),
+            "{:?}",
+            c.curve_change_pct
+        );
+    }
+    assert_eq!(o.verdict, Verdict::Unchanged);
+    assert_eq!(files_of(dir.path()), before, "nothing may be written");
+    assert!(!dir.path().join(PREVIOUS_DIR).exists());
+}
+
+#[test]
+fn aged_lamps_are_recalibrated_to_the_truth_and_can_be_rolled_back() {
+    let mut station = crate::support::direct_station("mono-2x1.toml", Noise::None);
+    let dir = tempfile::tempdir().unwrap();
+    let commissioned = commission(&mut station, dir.path(), 0.8);
+    let before = files_of(dir.path());
+    station.wall.advance_hours(2000.0);
+    let stale = truth(&station, &commissioned);
+    let o = station
+        .recalibrate(dir.path(), &options(), &mut |_| {})
+        .unwrap();
+    let new = o.solution.clone().expect("profiles written").profiles;
+    let fresh = truth(&station, &new);
+    println!(
+        "2000 h later: old profiles median ΔE {:.2} max {:.2}; recalibrated median {:.2} max \
+         {:.2} ({:?}, white {:.2} → {:.2} cd/m²)",
+        stale.median_de,
+        stale.max_de,
+        fresh.median_de,
+        fresh.max_de,
+        o.verdict,
+        o.white_before_cd_m2,
+        o.white_after_cd_m2
+    );
+    assert!(o.checks.iter().any(|c| c.drifted));
+    // a 20 % reserve covers 2000 h: the common white is kept, partly used
+    assert_eq!(o.verdict, Verdict::Recalibrated);
+    assert!((o.white_after_cd_m2 / o.white_before_cd_m2 - 1.0).abs() < 1e-3);
+    let least = o
+        .checks
+        .iter()
+        .map(|c| c.reserve_left())
+        .fold(1.0, f64::min);
+    println!("least reserve left {least:.3} (0.2 at commissioning)");
+    assert!(least > 0.0 && least < 0.2);
+    assert!(
+        stale.median_de > 1.0,
+        "ageing should show: {}",
+        stale.median_de
+    );
+    assert!(fresh.median_de <= 0.5 && fresh.max_de <= 2.0, "{fresh:?}");
+    // the report: the new solve's, with a section on the recalibration
+    let html = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
+    assert!(html.contains("<h2>Recalibration of mono-2x1") && html.contains("drifted: refitted"));
+    assert!(html.contains("<table") && html.contains("<svg"));
+    // the flat fields and the folder layout stay; the old files are kept
+    assert_eq!(ProfileSet::load_dir(dir.path()).unwrap().1.len(), 2);
+    assert_eq!(files_of(&dir.path().join(PREVIOUS_DIR)), before);
+    let restored = rollback(dir.path()).unwrap();
+    assert_eq!(restored.len(), 2);
+    assert_eq!(files_of(dir.path()), before);
+    assert!(matches!(
+        rollback(dir.path()),
+        Err(RecalibrateError::NothingToRollBack { .. })
+    ));
+    // a new commissioning into the folder drops a recalibration's previous/: a later
+    // rollback must not bring older profiles back over the new ones
+    station
+        .recalibrate(dir.path(), &options(), &mut |_| {})
+        .unwrap();
+    assert!(dir.path().join(PREVIOUS_DIR).is_dir());
+    commission(&mut station, dir.path(), 0.8);
+    assert!(!dir.path().join(PREVIOUS_DIR).exists());
+    assert!(matches!(
+        rollback(dir.path()),
+        Err(RecalibrateError::NothingToRollBack { .. })
+    ));
+}
+
+/// Each display's anchor in the run folder (display order).
+fn anchors(dir: &Path) -> Vec<Option<FullReading>> {
+    measured(dir).into_iter().map(|m| m.anchor).collect()
+}
+
+/// The run folder's measurements, in display order.
+fn measured(dir: &Path) -> Vec<MeasuredDisplay> {
+    let mut out: Vec<MeasuredDisplay> = std::fs::read_dir(dir.join(RUN_DIR))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.to_string_lossy().ends_with(".measurement.json"))
+        .map(|p| load_measurement(&p).unwrap().unwrap())
+        .collect();
+    out.sort_by_key(|m| m.measurement.key.display);
+    out
+}
+
+/// Display `i`'s full reading as the commissioning left it (kept in `previous/`).
+fn commissioned_reading(dir: &Path, i: usize) -> FullReading {
+    measured(&dir.join(PREVIOUS_DIR))[i].last_full_reading()
+}
+
+/// Display 0 checked by one white reading, display 1 in full (rotation of 2, night 1).
+fn white_check_of_display_0() -> RecalibrateOptions {
+    RecalibrateOptions {
+        rotation: FullCheckRotation {
+            every_nights: 2,
+            night: 1,
+        },
+        ..options()
+    }
+}
+
+#[test]
+fn one_white_reading_recalibrates_an_aged_lamp_as_well_as_a_full_check() {
+    let mut station = crate::support::direct_station("mono-2x1.toml", Noise::None);
+    let dir = tempfile::tempdir().unwrap();
+    let commissioned = commission(&mut station, dir.path(), 0.8);
+    station.wall.advance_hours(2000.0);
+    let stale = truth(&station, &commissioned);
+    let o = station
+        .recalibrate(dir.path(), &white_check_of_display_0(), &mut |_| {})
+        .unwrap();
+    let (white, full) = (&o.checks[0], &o.checks[1]);
+    assert_eq!(white.kind, CheckKind::White);
+    assert_eq!(white.readings, 1);
+    assert_eq!(full.kind, CheckKind::Full);
+    assert!(full.readings >= 8, "{} readings", full.readings);
+    // 2000 h take 10-30 % of a channel: the white reading sees it per channel
+    println!(
+        "display 0 from its white: ΔY {:?} %; display 1 in full: ΔY {:?} %",
+        white.luminance_change_pct, full.luminance_change_pct
+    );
+    assert!(white.drifted);
+    assert!(white.luminance_change_pct.iter().all(|d| *d < -5.0));
+    let new = o.solution.clone().expect("profiles written").profiles;
+    let fresh = truth(&station, &new);
+    println!("truth before {stale:?}\nafter {fresh:?}");
+    assert!(stale.median_de > 1.0, "ageing should show: {stale:?}");
+    assert!(fresh.median_de <= 0.5 && fresh.max_de <= 2.0, "{fresh:?}");
+    // the white-checked display keeps its commissioning's full reading as the anchor
+    // the next white check infers from; the fully checked one has none
+    let anchors = anchors(dir.path());
+    assert_eq!(anchors[0], Some(commissioned_reading(dir.path(), 0)));
+    assert_eq!(anchors[1], None);
+    // the next full check of display 0 finds what its white check inferred
+    let o = station
+        .recalibrate(dir.path(), &options(), &mut |_| {})
+        .unwrap();
+    for c in &o.checks {
+        println!(
+            "{}: ΔY {:?} %, Δxy {:?}",
+            c.key, c.luminance_change_pct, c.primary_delta_xy
+        );
+        assert!(
+            c.luminance_change_pct.iter().all(|d| d.abs() < 0.2),
+            "{c:?}"
+        );
+        assert!(c.primary_delta_xy.iter().all(|d| *d < 5e-4), "{c:?}");
+    }
+}
+
+#[test]
+fn a_white_check_that_sees_a_lamp_brighten_measures_the_display_in_full() {
+    let mut station = crate::support::direct_station("mono-2x1.toml", Noise::None);
+    let dir = tempfile::tempdir().unwrap();
+    commission(&mut station, dir.path(), 0.8);
+    station.wall.advance_hours(1000.0);
+    station
+        .wall
+        .replace_lamp(lumiwall_devices::DisplayId(0))
+        .unwrap();
+    let o = station
+        .recalibrate(dir.path(), &white_check_of_display_0(), &mut |_| {})
+        .unwrap();
+    let c = &o.checks[0];
+    println!("{c:?}");
+    assert_eq!(c.kind, CheckKind::Escalated);
+    assert!(
+        c.readings >= 9,
+        "the white and a full check: {}",
+        c.readings
+    );
+    assert!(c.luminance_change_pct.iter().all(|d| *d > 5.0), "{c:?}");
+    assert!(c.drifted);
+}
+
+#[test]
+fn a_display_that_can_no_longer_reach_the_white_is_reported_and_the_white_lowered() {
+    let mut station = crate::support::direct_station("mono-2x1.toml", Noise::None);
+    let dir = tempfile::tempdir().unwrap();
+    commission(&mut station, dir.path(), 1.0);
+    station.wall.advance_hours(2000.0);
+    let o = station
+        .recalibrate(dir.path(), &options(), &mut |_| {})
+        .unwrap();
+    assert_eq!(o.verdict, Verdict::LeftHeadroom);
+    assert!(o.checks.iter().any(|c| c.cannot_reach_white()));
+    assert!(o.white_after_cd_m2 < o.white_before_cd_m2);
+}
+
+/// Display 0's profile says its green follows d^2.8; the wall's does not (any more):
+/// the mid-drive check sees it, display 0 is measured again in full (its new curve is
+/// the wall's), display 1 is refitted from its few readings.
+#[test]
+fn a_tone_curve_that_moved_is_measured_again_in_full() {
+    let mut station = crate::support::direct_station("mono-2x1.toml", Noise::None);
+    let dir = tempfile::tempdir().unwrap();
+    commission(&mut station, dir.path(), 0.8);
+    let key = &station_keys(&station)[0];
+    let path = dir.path().join(format!("{}.json", key.file_stem()));
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let lut = v["curves"][1]["inverse_lut"].as_array_mut().unwrap();
+    let n = lut.len();
+    for (i, x) in lut.iter_mut().enumerate() {
+        *x = serde_json::json!((i as f64 / (n - 1) as f64).powf(1.0 / 2.8));
+    }
+    std::fs::write(&path, serde_json::to_vec(&v).unwrap()).unwrap();
+    let o = station
+        .recalibrate(dir.path(), &options(), &mut |_| {})
+        .unwrap();
+    for c in &o.checks {
+        println!(
+            "{}: curve change at mid drive {:?} %, {} readings",
+            c.key, c.curve_change_pct, c.readings
+        );
+    }
+    assert!(o.checks[0].curves_moved && o.checks[0].curve_change_pct[1] > 20.0);
+    assert!(!o.checks[1].curves_moved);
+    assert!(o.checks[0].readings > 30 && o.checks[1].readings <= 17);
+    assert_eq!(o.verdict, Verdict::Recalibrated);
+    let new = o.solution.expect("profiles written").profiles;
+    let fresh = truth(&station, &new);
+    println!(
+        "after: median ΔE {:.2} max {:.2}",
+        fresh.median_de, fresh.max_de
+    );
+    assert!(fresh.median_de <= 0.5 && fresh.max_de <= 2.0, "{fresh:?}");
+}
+
+fn station_keys(station: &Station) -> Vec<lumiwall_profiles::DisplayKey> {
+    let wall = station.wall.name();
+    station
+        .displays()
+        .iter()
+        .map(|d| lumiwall_calib::measure::display_key(&wall, d))
+        .collect()
+}
+
+#[test]
+fn a_folder_without_a_commissioning_is_refused_naming_what_is_missing() {
+    let mut station = crate::support::direct_station("mono-2x1.toml", Noise::None);
+    let dir = tempfile::tempdir().unwrap();
+    commission(&mut station, dir.path(), 0.9);
+    std::fs::remove_dir_all(dir.path().join("run")).unwrap();
+    let err = station
+        .recalibrate(dir.path(), &options(), &mut |_| {})
+        .unwrap_err();
+    assert!(
+        matches!(err, RecalibrateError::NotCommissioned { .. }),
+        "{err}"
+    );
+    assert!(err.to_string().contains("lumiwall commission"), "{err}");
+    let other = crate::support::direct_station("infitec-pair.toml", Noise::None);
+    let err = { other }
+        .recalibrate(dir.path(), &options(), &mut |_| {})
+        .unwrap_err();
+    assert!(
+        matches!(err, RecalibrateError::WallMismatch { .. }),
+        "{err}"
+    );
+}

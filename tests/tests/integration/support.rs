@@ -1,0 +1,43 @@
+//! Helpers shared by the station tests: fixture walls opened as a
+//! [`Station`], and the commissioning options they use (white 8500 K).
+use std::path::PathBuf;
+
+use lumiwall_calib::commission::CommissionOptions;
+use lumiwall_calib::measure::MeasureOptions;
+use lumiwall_calib::solve::{SolveOptions, WhiteTarget};
+use lumiwall_calib::station::{MeterChoice, Noise, Station, StationOptions};
+use lumiwall_profiles::BlackMode;
+
+/// A wall file of fixtures/walls.
+pub(crate) fn wall_path(file: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../fixtures/walls")
+        .join(file)
+}
+
+/// The fixture wall `file` with the simulated meter called directly.
+pub(crate) fn direct_station(file: &str, noise: Noise) -> Station {
+    Station::open(
+        &wall_path(file),
+        &StationOptions::new(MeterChoice::Direct, noise),
+    )
+    .unwrap()
+}
+
+/// Commissioning to the 8500 K daylight white with `black_mode`, the meter correction on.
+pub(crate) fn options_8500k(
+    measure: MeasureOptions,
+    black_mode: BlackMode,
+    resume: bool,
+) -> CommissionOptions {
+    CommissionOptions {
+        measure,
+        solve: SolveOptions {
+            white: WhiteTarget::Cct(8500.0),
+            black_mode,
+            ..SolveOptions::default()
+        },
+        resume,
+        meter_correction: false,
+    }
+}

@@ -1,0 +1,245 @@
+//! The wall classes of issue 12 as fixture walls (non-additive Infitec DLPs, a cold
+//! start, an off-axis meter on a gain screen, 8-bit inputs with a very weak channel):
+//! each commissions with the noiseless meter, the solve flags what the matrix model
+//! cannot represent on exactly the walls that have it, and the verification figures
+//! are printed; the noiseless acceptance is asserted on every one. The DLP walls'
+//! white segment is modelled (`DisplayModel::WhiteSegment`).
+
+use lumiwall_calib::measure::MeasureOptions;
+use lumiwall_calib::solve::SolveWarning;
+use lumiwall_calib::station::Noise;
+use lumiwall_calib::verify::{VerifyOptions, VerifyReport, chart_targets};
+use lumiwall_profiles::BlackMode;
+
+/// Commissions `file` noiseless and verifies it with the 51-patch chart: the solve's
+/// warnings and the verification, whose OVERALL row is printed.
+fn commission_and_verify(file: &str) -> (Vec<SolveWarning>, VerifyReport) {
+    commission_and_verify_with(file, MeasureOptions::default())
+}
+
+/// [`commission_and_verify`] with these measuring options.
+fn commission_and_verify_with(
+    file: &str,
+    measure: MeasureOptions,
+) -> (Vec<SolveWarning>, VerifyReport) {
+    let mut station = crate::support::direct_station(file, Noise::None);
+    let out = tempfile::tempdir().expect("tmp");
+    let opts = crate::support::options_8500k(measure, BlackMode::Individual, false);
+    let o = station
+        .commission(out.path(), &opts, &mut |_| {})
+        .expect("commission");
+    let profiles = &o.solution.profiles;
+    let targets = chart_targets(profiles).expect("chart");
+    let report = station
+        .verify(profiles, &targets, &VerifyOptions::default(), &mut |_| {})
+        .expect("verify");
+    let table = report.summary_table();
+    let overall = table
+        .lines()
+        .find(|l| l.starts_with("OVERALL"))
+        .unwrap_or("");
+    eprintln!("{file}: {overall}");
+    (o.solution.warnings, report)
+}
+
+fn additivity_warnings(w: &[SolveWarning]) -> usize {
+    w.iter()
+        .filter(|w| matches!(w, SolveWarning::Additivity { .. }))
+        .count()
+}
+
+/// On an Infitec wall verify pairs every left-eye patch with the right eye's on the
+/// same tile (the stereo colour mismatch a viewer sees); a mono wall has no pairs.
+#[test]
+fn verify_compares_the_eyes_on_infitec_walls_only() {
+    for (file, pairs) in [("dlp-infitec-2x1.toml", 2 * 51), ("cold-start-2x2.toml", 0)] {
+        let (_, report) = commission_and_verify(file);
+        assert_eq!(report.eyes_delta_e2000.len(), pairs, "{file}");
+        assert!(
+            report
+                .eyes_delta_e2000
+                .iter()
+                .all(|d| d.is_finite() && *d >= 0.0)
+        );
+        assert_eq!(
+            report.summary_table().contains("left/right eyes"),
+            pairs > 0,
+            "{file}"
+        );
+    }
+}
+
+fn white_segment_notes(w: &[SolveWarning]) -> usize {
+    w.iter()
+        .filter(|w| matches!(w, SolveWarning::WhiteSegment { .. }))
+        .count()
+}
+
+/// Issue 12 item 1: the single-chip DLPs' white segment is recognised on every display
+/// and inverted by the profile, so the wall verifies inside the issue's noiseless
+/// acceptance (median ΔE2000 ≤ 0.5, max ≤ 2.0; the matrix alone gave 4.09 / 11.2).
+#[test]
+fn the_white_segment_dlp_wall_is_modelled_on_every_display_and_verifies_within_the_noiseless_limits()
+ {
+    let (w, report) = commission_and_verify("dlp-infitec-2x1.toml");
+    assert_eq!(white_segment_notes(&w), 4, "{w:?}");
+    assert_eq!(additivity_warnings(&w), 0, "{w:?}");
+    assert_within_noiseless_limits("dlp-infitec-2x1.toml", &report);
+}
+
+/// Issue 12's noiseless acceptance (median ΔE2000 ≤ 0.5, max ≤ 2.0) and, stricter than
+/// it asks, DisplayCAL's white ≤ 1 and grey balance ≤ 0.5 on the whole wall.
+fn assert_within_noiseless_limits(file: &str, report: &VerifyReport) {
+    let all = &report.overall;
+    let white = all.white_de.unwrap_or(f64::INFINITY);
+    let grey = all.grey_balance.unwrap_or(f64::INFINITY);
+    assert!(
+        all.median_de <= 0.5 && all.max_de <= 2.0 && white <= 1.0 && grey <= 0.5,
+        "{file}: median {:.2} max {:.2} white {white:.2} grey balance {grey:.2}",
+        all.median_de,
+        all.max_de
+    );
+}
+
+/// The additive classes, including 8-bit channels of which the white uses a sixth
+/// (infitec-pair: before verification patches were dithered, 8-bit quantisation alone
+/// put its grey balance at 0.88).
+#[test]
+fn the_additive_wall_classes_commission_without_an_additivity_warning_and_verify_within_the_noiseless_limits()
+ {
+    // The cold wall warms up first, as `commission --warm-up` does; without it the
+    // wall verified later is brighter than the one measured (3 % here).
+    let warm_up = MeasureOptions {
+        warm_up: Some(lumiwall_calib::measure::warm_up::WarmUp::default()),
+        ..MeasureOptions::default()
+    };
+    for (file, measure) in [
+        ("cold-start-2x2.toml", warm_up),
+        ("offaxis-gain-2x1.toml", MeasureOptions::default()),
+        ("weak-channel-3x1.toml", MeasureOptions::default()),
+        ("infitec-pair.toml", MeasureOptions::default()),
+    ] {
+        let (w, report) = commission_and_verify_with(file, measure);
+        assert_eq!(additivity_warnings(&w), 0, "{file}: {w:?}");
+        assert_eq!(white_segment_notes(&w), 0, "{file}: {w:?}");
+        assert_within_noiseless_limits(file, &report);
+    }
+}
+
+#[test]
+fn a_very_weak_blue_limits_the_white_and_says_which_channels_are_barely_used() {
+    let (w, _) = commission_and_verify("weak-channel-3x1.toml");
+    let low = w
+        .iter()
+        .filter(|w| w.to_string().contains("used for the white"))
+        .count();
+    assert!(low >= 3, "{w:?}");
+}
+
+/// The profiles' common white and every display's channel luminances.
+fn calibration_of(file_text: &str, warm_up: bool) -> (f64, Vec<[f64; 3]>) {
+    let dir = tempfile::tempdir().expect("tmp");
+    let path = dir.path().join("wall.toml");
+    std::fs::write(&path, file_text).expect("wall file");
+    let mut station = lumiwall_calib::station::Station::open(
+        &path,
+        &lumiwall_calib::station::StationOptions::new(
+            lumiwall_calib::station::MeterChoice::Direct,
+            Noise::None,
+        ),
+    )
+    .expect("station");
+    let measure = MeasureOptions {
+        warm_up: warm_up.then(lumiwall_calib::measure::warm_up::WarmUp::default),
+        ..MeasureOptions::default()
+    };
+    let opts = crate::support::options_8500k(measure, BlackMode::Individual, false);
+    let o = station
+        .commission(&dir.path().join("out"), &opts, &mut |_| {})
+        .expect("commission");
+    let channels = o
+        .measured
+        .iter()
+        .map(|m| m.measurement.primaries.map(|p| p.y))
+        .collect();
+    (o.solution.white_xyz_cd_m2.y, channels)
+}
+
+/// Largest relative difference between two calibrations (white and channels).
+fn largest_difference(a: &(f64, Vec<[f64; 3]>), b: &(f64, Vec<[f64; 3]>)) -> f64 {
+    let mut d = (a.0 / b.0 - 1.0).abs();
+    for (p, q) in a.1.iter().zip(&b.1) {
+        for c in 0..3 {
+            d = d.max((p[c] / q[c] - 1.0).abs());
+        }
+    }
+    d
+}
+
+/// Started two minutes after switch-on, `--warm-up` waits until the lamps have settled
+/// and the wall gets the calibration it gets when warm (within 0.5 %, the meter's
+/// repeatability); without the wait the first displays are measured several percent
+/// dark.
+#[test]
+fn a_cold_start_with_the_warm_up_wait_gives_the_warm_walls_calibration() {
+    let cold =
+        std::fs::read_to_string(crate::support::wall_path("cold-start-2x2.toml")).expect("fixture");
+    assert!(cold.contains("minutes_since_switch_on = 2.0"));
+    let warm = cold.replace(
+        "minutes_since_switch_on = 2.0",
+        "minutes_since_switch_on = 180.0",
+    );
+    let reference = calibration_of(&warm, false);
+    let waited = calibration_of(&cold, true);
+    let rushed = calibration_of(&cold, false);
+    let (dw, dr) = (
+        largest_difference(&waited, &reference),
+        largest_difference(&rushed, &reference),
+    );
+    eprintln!(
+        "cold start against warm: with the wait {:.2} %, without {:.2} %",
+        100.0 * dw,
+        100.0 * dr
+    );
+    assert!(dw < 0.005 && dr > 0.02, "{dw} {dr}");
+}
+
+/// Issue 12 item 3: after the last display the first one's white is read again, and a
+/// cold wall measured without the warm-up wait shows its drift there (while a warm one
+/// does not), so the report says how far apart the first and last displays' lamp
+/// states were.
+#[test]
+fn the_drift_over_a_cold_run_is_reported_and_a_warm_run_shows_none() {
+    let cold =
+        std::fs::read_to_string(crate::support::wall_path("cold-start-2x2.toml")).expect("wall");
+    let warm = cold.replace(
+        "minutes_since_switch_on = 2.0",
+        "minutes_since_switch_on = 600.0",
+    );
+    assert_ne!(cold, warm, "the fixture starts cold");
+    let mut drift = Vec::new();
+    for text in [&cold, &warm] {
+        let wall = lumiwall_devices::sim::VirtualWall::from_toml_str(text).expect("wall");
+        let mut station = lumiwall_calib::station::Station::with_wall(
+            wall,
+            &lumiwall_calib::station::StationOptions::new(
+                lumiwall_calib::station::MeterChoice::Direct,
+                Noise::None,
+            ),
+        )
+        .expect("station");
+        let out = tempfile::tempdir().expect("tmp");
+        let opts =
+            crate::support::options_8500k(MeasureOptions::default(), BlackMode::Individual, false);
+        let o = station
+            .commission(out.path(), &opts, &mut |_| {})
+            .expect("commission");
+        let d = o.drift.expect("a drift re-read");
+        eprintln!("{}", d.summary());
+        let report = std::fs::read_to_string(out.path().join("report.md")).expect("report");
+        assert!(report.contains("drift over the run"), "{report}");
+        drift.push(d);
+    }
+    assert!(drift[0].is_significant() && drift[0].luminance_change_percent() > 1.0);
+    assert!(!drift[1].is_significant(), "{}", drift[1].summary());
+}
