@@ -142,9 +142,12 @@ fn hierarchical_time_limit_is_kept_and_never_returns_a_worse_solution_than_befor
     };
     let sol = solve_hierarchical_with(&scene, &occ, stop);
     assert_eq!(sol.stop, lumiwall_render::radiosity::StopReason::TimeLimit);
-    // Within one sweep of the limit (a sweep takes milliseconds here).
+    // Within one sweep of the limit. A sweep takes milliseconds alone, but in CI this
+    // runs beside other tests, the ArgyllCMS and the Python ones on two cores (1.91 s
+    // seen): 1 s of slack. A limit checked only between refinements would overshoot by
+    // the several seconds one refinement of this scene takes.
     assert!(
-        sol.stats.time_s < limit_s + 0.4,
+        sol.stats.time_s < limit_s + 1.0,
         "time limit {limit_s} s, solve took {:.2} s",
         sol.stats.time_s
     );
