@@ -486,11 +486,6 @@ impl SimDisplay {
         })
     }
 
-    /// Drive after quantisation to the display's bit depth (code / max code).
-    pub fn quantise(&self, drive: f64) -> f64 {
-        self.depth.quantise(drive)
-    }
-
     /// Relative intensity (black removed, 1 at full drive) of channel `c` for a drive,
     /// as the display shows it: a drive between two codes is shown as the post pass's
     /// ordered dither of the two ([`lumiwall_core::dither`]) and this is the mean over a

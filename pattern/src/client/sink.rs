@@ -3,6 +3,7 @@
 //! through the network, the servers and their presentation while the (simulated) meter
 //! reads the virtual wall.
 
+use lumiwall_core::dither::CELL;
 use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, DriveImage, PatternOutput};
 
 use crate::framebuffer::{Framebuffer, max_code};
@@ -58,9 +59,6 @@ impl<S: PatternOutput> PatternOutput for SimulatorSink<S> {
         self.simulator.show(display, mean)
     }
 }
-
-/// Side of the post pass's ordered-dither cell.
-const CELL: u32 = 16;
 
 /// The mean drive (code / max code) of the frame's top-left 16×16 cell, if the whole
 /// frame repeats that cell.

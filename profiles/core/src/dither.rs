@@ -17,6 +17,10 @@ pub fn quantise(drive: f32, max_code: u32, threshold: f32) -> u16 {
     (v as u32).min(max_code) as u16
 }
 
+/// Side of the ordered-dither cell in pixels: the thresholds repeat every 16 columns
+/// and rows.
+pub const CELL: u32 = 16;
+
 /// Ordered-dither threshold in (0, 1) at pixel `(x, y)`: the 16×16 Bayer matrix
 /// (256 distinct levels, `(index + 0.5) / 256`). Integer-exact, so the GPU computes the
 /// same thresholds.
