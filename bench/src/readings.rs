@@ -198,6 +198,7 @@ fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsR
         solve: bench.solve,
         resume: false,
         meter_correction: false,
+        grey_levels: lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
     };
     let outcome =
         station

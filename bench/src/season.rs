@@ -335,6 +335,7 @@ impl Season<'_> {
             solve: self.bench.solve,
             resume: false,
             meter_correction: false,
+            grey_levels: lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
         };
         let clock = station.wall.elapsed_s();
         let mut readings = 0u64;

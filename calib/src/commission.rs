@@ -32,12 +32,14 @@
 use std::path::{Path, PathBuf};
 
 use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, Xyz};
+use lumiwall_profiles::apply::{ApplyError, ApplyOptions, PreparedProfile};
 use lumiwall_profiles::{BlackMode, DisplayKey, ProfileError, ProfileSet, write_atomic};
 use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
 use crate::colorimetry::cct_to_xy;
 use crate::measure::drift::{DriftCheck, recheck};
+use crate::measure::grey_drives::{GreyTargets, read_grey_drives, readings_needed};
 use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall, fuse_with_white};
 use crate::measure::{
     MeasureError, MeasureOptions, MeasuredDisplay, Progress, RampFocus, Rig, display_key,
@@ -72,6 +74,12 @@ pub struct CommissionOptions {
     /// [`crate::measure::meter_matrix`]). The primaries are fused with the white
     /// reading either way.
     pub meter_correction: bool,
+    /// Grey levels (shares of the target white's luminance): after all displays are
+    /// measured, each display's channels are read alone at the drives its provisional
+    /// profile gives them for these greys, so the tone curves are sampled where the
+    /// white and the greys sit ([`crate::measure::grey_drives`]); the readings come out
+    /// of each display's budget. Empty: no grey-drive pass.
+    pub grey_levels: Vec<f64>,
 }
 
 /// The manifest of a run folder.
@@ -156,6 +164,9 @@ pub enum CommissionError {
     /// Files could not be written or read.
     #[error(transparent)]
     Profile(#[from] ProfileError),
+    /// A provisional profile for the grey pass cannot be applied.
+    #[error("the provisional profile for the grey pass cannot be applied: {0}")]
+    Apply(#[from] ApplyError),
     /// A run folder does not belong to this wall.
     #[error(
         "cannot resume from {}: {reason}. Choose another --out or re-run without --resume to \
@@ -299,9 +310,78 @@ pub fn commission(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<CommissionOutcome, CommissionError> {
     let _lock = FolderLock::acquire(out_dir, &format!("commission of wall {wall}"))?;
-    let (measured, resumed) = measure_wall(wall, displays, rig, out_dir, opts, progress)?;
+    let (mut measured, resumed) = measure_wall(wall, displays, rig, out_dir, opts, progress)?;
+    read_greys(displays, rig, out_dir, opts, &mut measured, progress)?;
     let drift = drift_over_run(displays, rig, &measured, &resumed, opts, progress);
     finish(wall, measured, resumed, out_dir, opts, drift.as_ref())
+}
+
+/// [`CommissionOptions::grey_levels`]: the wall solved once as measured, then every
+/// display's channels read at the drives of its provisional white and greys, added to
+/// its ramps and saved with its measurement (a resumed run does not read them again).
+fn read_greys(
+    displays: &[DisplayInfo],
+    rig: &mut Rig<'_>,
+    out_dir: &Path,
+    opts: &CommissionOptions,
+    measured: &mut [MeasuredDisplay],
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(), CommissionError> {
+    let pending = |m: &MeasuredDisplay| m.log.grey_drive_readings.is_none();
+    if opts.grey_levels.is_empty() || !measured.iter().any(pending) {
+        return Ok(());
+    }
+    let (_, inputs) = solve_inputs(measured, opts);
+    let provisional = solve_wall_at(&inputs, &opts.solve, &now_rfc3339())?;
+    let run_dir = out_dir.join(RUN_DIR);
+    let total = displays.len();
+    for (i, (info, m)) in displays.iter().zip(measured.iter_mut()).enumerate() {
+        let key = &m.measurement.key;
+        let Some(profile) = provisional.profiles.iter().find(|p| p.display == *key) else {
+            continue;
+        };
+        if !pending(m) {
+            continue;
+        }
+        let prepared = PreparedProfile::new(profile, &ApplyOptions::default())?;
+        let mut mopts = opts.measure.clone();
+        mopts.budget = opts.measure.budget.saturating_sub(m.measurement.readings);
+        let targets = GreyTargets {
+            prepared: &prepared,
+            white: Xyz::from_array(profile.target_white_xyz_cd_m2),
+            levels: &opts.grey_levels,
+            bit_depth: m.measurement.bit_depth,
+        };
+        let read =
+            read_grey_drives(rig, key, info.id, &targets, &mopts, progress).map_err(|source| {
+                CommissionError::Interrupted {
+                    source,
+                    saved: i,
+                    total,
+                    run_dir: run_dir.clone(),
+                }
+            })?;
+        let readings = read.readings;
+        for (ramp, new) in m.measurement.ramps.iter_mut().zip(read.ramps) {
+            ramp.extend(new);
+        }
+        m.measurement.readings += readings;
+        m.log.readings += readings;
+        m.log.grey_drive_readings = Some(readings);
+        write_atomic(&measurement_path(&run_dir, &m.measurement.key), &to_json(m))?;
+    }
+    Ok(())
+}
+
+/// The readings each display's ramps leave for the grey-drive pass, unless the budget
+/// is too small for both (then the pass reads only what is left, if anything).
+fn grey_reserve(opts: &CommissionOptions) -> u32 {
+    let n = readings_needed(&opts.grey_levels);
+    if opts.measure.budget.saturating_sub(n) >= MeasureOptions::MIN_BUDGET {
+        n
+    } else {
+        0
+    }
 }
 
 /// The first display measured in this run, read again at full white after the last
@@ -394,6 +474,7 @@ pub fn measure_wall(
         // Focus the ramps on the part of each channel the common white will use; the
         // wall white can be no brighter than what every display measured so far reaches.
         let mut mopts = opts.measure.clone();
+        mopts.budget -= grey_reserve(opts);
         if mopts.focus.is_none() {
             mopts.focus = white_xy.map(|white_xy| ramp_focus(opts, white_xy, &measured));
         }
@@ -492,32 +573,7 @@ pub fn finish(
     drift: Option<&DriftCheck>,
 ) -> Result<CommissionOutcome, CommissionError> {
     let correction_path = out_dir.join(MeterCorrection::FILE);
-    let correction = if opts.meter_correction {
-        let instrument = measured
-            .first()
-            .map(|m| m.measurement.instrument.clone())
-            .unwrap_or_default();
-        let readings: Vec<_> = measured
-            .iter()
-            .map(|m| {
-                let mm = &m.measurement;
-                (mm.black, mm.primaries, mm.white)
-            })
-            .collect();
-        estimate_wall(&instrument, &readings)
-    } else {
-        None
-    };
-    let inputs: Vec<_> = measured
-        .iter()
-        .map(|m| {
-            corrected_measurement(
-                &m.measurement,
-                correction.as_ref().map_or([0.0; 2], |c| c.xy_offset),
-                f64::from(opts.measure.primary_repeats()),
-            )
-        })
-        .collect();
+    let (correction, inputs) = solve_inputs(&measured, opts);
     let solution = solve_wall_at(&inputs, &opts.solve, &now_rfc3339())?;
     match &correction {
         Some(c) => write_atomic(&correction_path, &to_json(c))?,
@@ -553,6 +609,42 @@ pub fn finish(
         meter_correction: correction,
         drift: drift.cloned(),
     })
+}
+
+/// The solve's inputs: each display's measurement with the meter's xy offset
+/// estimated from the wall's additivity removed, when asked for
+/// ([`CommissionOptions::meter_correction`]), and the primaries fused with the white.
+fn solve_inputs(
+    measured: &[MeasuredDisplay],
+    opts: &CommissionOptions,
+) -> (Option<MeterCorrection>, Vec<DisplayMeasurement>) {
+    let correction = if opts.meter_correction {
+        let instrument = measured
+            .first()
+            .map(|m| m.measurement.instrument.clone())
+            .unwrap_or_default();
+        let readings: Vec<_> = measured
+            .iter()
+            .map(|m| {
+                let mm = &m.measurement;
+                (mm.black, mm.primaries, mm.white)
+            })
+            .collect();
+        estimate_wall(&instrument, &readings)
+    } else {
+        None
+    };
+    let inputs: Vec<_> = measured
+        .iter()
+        .map(|m| {
+            corrected_measurement(
+                &m.measurement,
+                correction.as_ref().map_or([0.0; 2], |c| c.xy_offset),
+                f64::from(opts.measure.primary_repeats()),
+            )
+        })
+        .collect();
+    (correction, inputs)
 }
 
 /// Removes a recalibration's `previous/`: it belongs to the profiles this

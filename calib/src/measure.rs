@@ -38,6 +38,7 @@
 
 pub mod ccmx;
 pub mod drift;
+pub mod grey_drives;
 pub mod meter_matrix;
 pub mod meter_offset;
 pub mod warm_up;
@@ -301,6 +302,16 @@ pub enum Progress {
     },
     /// The wall is warm: the wait is over.
     WarmedUp(warm_up::WarmUpReport),
+    /// A display's channels were read at the drives of its provisional white and
+    /// greys ([`grey_drives`]); the readings of that pass are not reported one by one.
+    GreyDrivesRead {
+        /// The display.
+        display: DisplayId,
+        /// Ramp samples added.
+        samples: usize,
+        /// Readings they cost.
+        readings: u32,
+    },
     /// A display's measurement was taken from an earlier, interrupted run.
     Resumed {
         /// The display.
@@ -336,6 +347,10 @@ pub struct MeasureLog {
     pub low_light_limit_cd_m2: f64,
     /// Low-light policy that was applied.
     pub low_light: Option<LowLight>,
+    /// Readings of the grey-drive pass ([`grey_drives`]), once it ran; its samples are
+    /// in `samples` and the ramps.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grey_drive_readings: Option<u32>,
 }
 
 impl MeasureLog {

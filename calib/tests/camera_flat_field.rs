@@ -38,6 +38,7 @@ fn commission_options() -> CommissionOptions {
         },
         resume: false,
         meter_correction: true,
+        grey_levels: lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
     }
 }
 

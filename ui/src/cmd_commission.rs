@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
 use lumiwall_bench::readings::{self, ReadingsBench, ReadingsRow};
-use lumiwall_calib::cli_values::{parse_budget, parse_patches};
+use lumiwall_calib::cli_values::{GreyLevels, parse_budget, parse_grey_levels, parse_patches};
 use lumiwall_calib::colorimetry::cct_to_xy;
 use lumiwall_calib::commission::{CommissionOptions, CommissionOutcome};
 use lumiwall_calib::measure::meter_matrix::{MeterMatrices, PatchXyError};
@@ -205,6 +205,16 @@ pub(crate) struct CommissionArgs {
     /// samples (skip).
     #[arg(long, default_value = "avg:4")]
     low_light: LowLight,
+    /// After every display is measured: each channel read alone at the drive each
+    /// display's provisional profile gives it for these greys (shares of the target
+    /// white's luminance), so the tone curves are sampled where the white and the greys
+    /// sit; then the wall is solved again. Up to three readings per grey out of each
+    /// display's budget, and the meter visits every display a second time. `none` skips
+    /// the pass. Default: `1` (the white) where the meter is aimed by software, `none`
+    /// where a technician aims it (guided aiming, a real meter with `--aim auto`), who
+    /// would have to aim at every display again.
+    #[arg(long, value_parser = parse_grey_levels)]
+    grey_levels: Option<GreyLevels>,
     /// Continue an interrupted run from the measurements saved in OUT/run.
     #[arg(long)]
     resume: bool,
@@ -252,6 +262,20 @@ impl CommissionArgs {
         Ok(Station::open(&self.wall, &opts)?)
     }
 
+    /// `--grey-levels`, or its default for who aims the meter.
+    fn grey_levels(&self) -> Vec<f64> {
+        let technician_aims = match self.meter.aim {
+            AimChoice::Guided => true,
+            AimChoice::Auto => matches!(self.meter.meter, MeterChoice::Serial(_)),
+            AimChoice::Simulated => false,
+        };
+        match &self.grey_levels {
+            Some(levels) => levels.0.clone(),
+            None if technician_aims => Vec::new(),
+            None => lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
+        }
+    }
+
     fn commission_options(&self) -> Result<CommissionOptions, CliError> {
         Ok(CommissionOptions {
             measure: MeasureOptions {
@@ -266,6 +290,7 @@ impl CommissionArgs {
             solve: self.solve.solve_options()?,
             resume: self.resume,
             meter_correction: self.meter_offset_correction && !self.no_meter_correction,
+            grey_levels: self.grey_levels(),
         })
     }
 }
@@ -348,6 +373,17 @@ impl ProgressReport {
                 format!(
                     "warm: after {} readings of the white the luminance changes {:+.3} % per 120 readings (it changed {:+.2} % at first)",
                     r.readings, r.last_change_percent, r.first_change_percent
+                ),
+            ),
+            Progress::GreyDrivesRead {
+                display,
+                samples,
+                readings,
+            } => say(
+                &self.bar,
+                format!(
+                    "{:<28} {samples} ramp samples at the drives of its white and greys ({readings} readings)",
+                    self.name_of(display.0)
                 ),
             ),
             Progress::Resumed { display, readings } => {
@@ -678,7 +714,9 @@ pub(crate) struct MeterMatrixArgs {
     #[arg(long)]
     out: PathBuf,
     /// The reference spectroradiometer: `cs2000` or `specbos` (simulated on the
-    /// virtual wall, read directly), `specbos-emulated` (the simulated specbos served on
+    /// virtual wall, read directly), `ideal` (a simulated perfect one: what the meter
+    /// and the station reach when the reference adds no error of its own),
+    /// `specbos-emulated` (the simulated specbos served on
     /// a pty and read through lumiwall's specbos driver), or `serial:PATH` (a JETI
     /// specbos 1201/1211 beside a real meter).
     #[arg(long, default_value = "cs2000", value_parser = parse_reference)]
@@ -700,6 +738,8 @@ pub(crate) enum ReferenceArg {
     Cs2000,
     /// A simulated JETI specbos 1211, read directly.
     Specbos,
+    /// A simulated perfect spectroradiometer (the simulator's truth), read directly.
+    Ideal,
     /// A simulated JETI specbos 1211 served on a pty and read through the driver.
     SpecbosEmulated,
     /// A JETI specbos on this serial port.
@@ -712,6 +752,7 @@ impl ReferenceArg {
         match self {
             ReferenceArg::Cs2000 => ReferenceChoice::Simulated(SpectroModel::cs2000(seed)),
             ReferenceArg::Specbos => ReferenceChoice::Simulated(SpectroModel::specbos_1211(seed)),
+            ReferenceArg::Ideal => ReferenceChoice::Simulated(SpectroModel::noiseless()),
             ReferenceArg::SpecbosEmulated => ReferenceChoice::Emulated {
                 model: SpectroModel::specbos_1211(seed),
                 time_scale,
@@ -726,12 +767,13 @@ fn parse_reference(s: &str) -> Result<ReferenceArg, String> {
     match s {
         "cs2000" => Ok(ReferenceArg::Cs2000),
         "specbos" => Ok(ReferenceArg::Specbos),
+        "ideal" => Ok(ReferenceArg::Ideal),
         "specbos-emulated" => Ok(ReferenceArg::SpecbosEmulated),
         _ => match s.strip_prefix("serial:") {
             Some(p) if !p.is_empty() => Ok(ReferenceArg::Serial(p.to_string())),
             _ => Err(format!(
                 "`{s}` is no reference spectroradiometer; use cs2000, specbos, \
-                 specbos-emulated or serial:/dev/ttyUSB1 (a JETI specbos 1201/1211)"
+                 ideal, specbos-emulated or serial:/dev/ttyUSB1 (a JETI specbos 1201/1211)"
             )),
         },
     }

@@ -40,7 +40,11 @@ fn options(resume: bool) -> CommissionOptions {
         max_retries: 1,
         ..MeasureOptions::default()
     };
-    crate::support::options_8500k(measure, BlackMode::Individual, resume)
+    // The reading counts below are the measuring pass's: no grey-drive pass.
+    CommissionOptions {
+        grey_levels: Vec::new(),
+        ..crate::support::options_8500k(measure, BlackMode::Individual, resume)
+    }
 }
 
 fn files(dir: &Path) -> Vec<String> {
@@ -199,4 +203,47 @@ fn resume_refuses_a_run_folder_of_another_wall() {
         "{err}"
     );
     assert!(err.to_string().contains("'other'"), "{err}");
+}
+
+/// The meter stops in the grey-drive pass (after both displays' 37 measuring readings
+/// and one grey-drive reading): both measurements are saved, and `--resume` measures
+/// nothing again but reads each display's grey drives, then solves.
+#[test]
+fn a_meter_that_stops_in_the_grey_drive_pass_resumes_with_the_grey_drives_only() {
+    let out = tempfile::tempdir().unwrap();
+    let wall = wall();
+    let with_greys = |resume| CommissionOptions {
+        grey_levels: lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
+        ..options(resume)
+    };
+    let faults = FaultPlan {
+        stop_after_readings: Some(2 * 37 + 1),
+        ..FaultPlan::default()
+    };
+    let err = emulated_station(&wall, faults)
+        .commission(out.path(), &with_greys(false), &mut |_| {})
+        .unwrap_err();
+    assert!(matches!(err, CommissionError::Interrupted { .. }), "{err}");
+
+    let mut station = emulated_station(&wall, FaultPlan::default());
+    let (mut resumed, mut measured, mut greys) = (Vec::new(), Vec::new(), Vec::new());
+    let outcome = station
+        .commission(out.path(), &with_greys(true), &mut |p| match p {
+            Progress::Resumed { display, .. } => resumed.push(display.0),
+            Progress::DisplayDone { display, .. } => measured.push(display.0),
+            Progress::GreyDrivesRead {
+                display, readings, ..
+            } => greys.push((display.0, readings)),
+            _ => {}
+        })
+        .unwrap();
+    assert_eq!(resumed, vec![0, 1]);
+    assert!(measured.is_empty(), "{measured:?}");
+    assert_eq!(greys.iter().map(|g| g.0).collect::<Vec<_>>(), vec![0, 1]);
+    let requested: u32 = greys.iter().map(|g| g.1).sum();
+    assert_eq!(station.emulator().unwrap().readings_requested(), requested);
+    for m in &outcome.measured {
+        assert_eq!(m.log.grey_drive_readings, Some(m.measurement.readings - 37));
+        assert!(m.measurement.readings <= 40);
+    }
 }

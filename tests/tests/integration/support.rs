@@ -39,5 +39,6 @@ pub(crate) fn options_8500k(
         },
         resume,
         meter_correction: false,
+        grey_levels: lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
     }
 }
