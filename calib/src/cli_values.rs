@@ -6,6 +6,7 @@
 
 use std::str::FromStr;
 
+use crate::measure::grey_drives::GreyLevel;
 use crate::measure::{LowLight, MeasureOptions};
 use crate::solve::WhiteTarget;
 
@@ -39,27 +40,24 @@ pub fn parse_budget(s: &str) -> Result<u32, String> {
     }
 }
 
-/// Parses `--grey-levels`: `none`, or comma-separated shares of the target white's
-/// luminance, each in (0, 1] ([`crate::measure::grey_drives`]).
+/// Parses `--grey-levels`: `none`, or comma-separated grey levels, each a share of the
+/// target white's luminance in (0, 1] or a luminance such as `1.5cd`
+/// ([`crate::measure::grey_drives`]).
 pub fn parse_grey_levels(s: &str) -> Result<GreyLevels, String> {
     if s.trim().eq_ignore_ascii_case("none") {
         return Ok(GreyLevels(Vec::new()));
     }
     let levels = s
         .split(',')
-        .map(|v| {
-            v.trim()
-                .parse::<f64>()
-                .map_err(|_| format!("`{v}` is not a grey level; use e.g. 1,0.5 or none"))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+        .map(str::parse)
+        .collect::<Result<Vec<GreyLevel>, _>>()?;
     crate::measure::grey_drives::check_levels(&levels)?;
     Ok(GreyLevels(levels))
 }
 
-/// Grey levels of the grey pass (empty: none).
+/// Grey levels of the grey-drive pass (empty: none).
 #[derive(Debug, Clone, PartialEq)]
-pub struct GreyLevels(pub Vec<f64>);
+pub struct GreyLevels(pub Vec<GreyLevel>);
 
 /// Parses a number of verify patches per display in `1..=`[`MAX_PATCHES`].
 pub fn parse_patches(s: &str) -> Result<usize, String> {

@@ -39,7 +39,7 @@ use serde::{Deserialize, Serialize};
 use crate::CalibError;
 use crate::colorimetry::cct_to_xy;
 use crate::measure::drift::{DriftCheck, recheck};
-use crate::measure::grey_drives::{GreyTargets, read_grey_drives, readings_needed};
+use crate::measure::grey_drives::{GreyLevel, GreyTargets, read_grey_drives, readings_needed};
 use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall, fuse_with_white};
 use crate::measure::{
     MeasureError, MeasureOptions, MeasuredDisplay, Progress, RampFocus, Rig, display_key,
@@ -79,7 +79,7 @@ pub struct CommissionOptions {
     /// profile gives them for these greys, so the tone curves are sampled where the
     /// white and the greys sit ([`crate::measure::grey_drives`]); the readings come out
     /// of each display's budget. Empty: no grey-drive pass.
-    pub grey_levels: Vec<f64>,
+    pub grey_levels: Vec<GreyLevel>,
 }
 
 /// The manifest of a run folder.
@@ -310,6 +310,14 @@ pub fn commission(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<CommissionOutcome, CommissionError> {
     let _lock = FolderLock::acquire(out_dir, &format!("commission of wall {wall}"))?;
+    let limit = opts
+        .measure
+        .low_light_limit_cd_m2
+        .unwrap_or_else(|| rig.meter.info().min_reliable_cd_m2);
+    let opts = &CommissionOptions {
+        grey_levels: usable_grey_levels(&opts.grey_levels, limit),
+        ..opts.clone()
+    };
     let (mut measured, resumed) = measure_wall(wall, displays, rig, out_dir, opts, progress)?;
     read_greys(displays, rig, out_dir, opts, &mut measured, progress)?;
     let drift = drift_over_run(displays, rig, &measured, &resumed, opts, progress);
@@ -371,6 +379,23 @@ fn read_greys(
         write_atomic(&measurement_path(&run_dir, &m.measurement.key), &to_json(m))?;
     }
     Ok(())
+}
+
+/// The grey levels worth reading with a meter reliable down to `limit_cd_m2`: every
+/// share of the white, and a grey of luminance `y` only if `y ≥ 3·limit`. Its channels
+/// alone show about a third of it each (one of them less): below that the meter's
+/// low-light noise in a toe sample costs more than the toe's interpolation error (on
+/// six classes of wall with a CS-100A class meter, a 1 cd/m² level made the grey balance
+/// worse on five).
+fn usable_grey_levels(levels: &[GreyLevel], limit_cd_m2: f64) -> Vec<GreyLevel> {
+    levels
+        .iter()
+        .copied()
+        .filter(|l| match l {
+            GreyLevel::Share(_) => true,
+            GreyLevel::Luminance(y) => *y >= 3.0 * limit_cd_m2,
+        })
+        .collect()
 }
 
 /// The readings each display's ramps leave for the grey-drive pass, unless the budget
@@ -711,5 +736,22 @@ pub fn corrected_measurement(
         white,
         ramps,
         ..m.clone()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_dark_grey_is_read_only_where_the_meter_reads_a_third_of_it_reliably() {
+        let levels = [GreyLevel::Share(1.0), GreyLevel::Luminance(1.0)];
+        assert_eq!(usable_grey_levels(&levels, 0.0), levels.to_vec());
+        assert_eq!(usable_grey_levels(&levels, 0.3), levels.to_vec());
+        // a CS-100A class meter, reliable down to 1 cd/m²
+        assert_eq!(
+            usable_grey_levels(&levels, 1.0),
+            vec![GreyLevel::Share(1.0)]
+        );
     }
 }

@@ -205,14 +205,15 @@ pub(crate) struct CommissionArgs {
     /// samples (skip).
     #[arg(long, default_value = "avg:4")]
     low_light: LowLight,
-    /// After every display is measured: each channel read alone at the drive each
-    /// display's provisional profile gives it for these greys (shares of the target
-    /// white's luminance), so the tone curves are sampled where the white and the greys
-    /// sit; then the wall is solved again. Up to three readings per grey out of each
-    /// display's budget, and the meter visits every display a second time. `none` skips
-    /// the pass. Default: `1` (the white) where the meter is aimed by software, `none`
-    /// where a technician aims it (guided aiming, a real meter with `--aim auto`), who
-    /// would have to aim at every display again.
+    /// After every display is measured: each channel read alone at the code each
+    /// display's provisional profile gives it for these greys (a share of the target
+    /// white's luminance, e.g. `1` or `0.5`, or a luminance, e.g. `1cd`), so the tone
+    /// curves are sampled where the white and the greys sit; then the wall is solved
+    /// again. Up to three readings per grey out of each display's budget, and the meter
+    /// visits every display a second time. A luminance is read only where the meter is
+    /// reliable at a third of it. `none` skips the pass. Default: `1,1cd` where software
+    /// aims the meter, `none` where a technician aims it (guided aiming, a real meter
+    /// with `--aim auto`), who would have to aim at every display again.
     #[arg(long, value_parser = parse_grey_levels)]
     grey_levels: Option<GreyLevels>,
     /// Continue an interrupted run from the measurements saved in OUT/run.
@@ -263,7 +264,7 @@ impl CommissionArgs {
     }
 
     /// `--grey-levels`, or its default for who aims the meter.
-    fn grey_levels(&self) -> Vec<f64> {
+    fn grey_levels(&self) -> Vec<lumiwall_calib::measure::grey_drives::GreyLevel> {
         let technician_aims = match self.meter.aim {
             AimChoice::Guided => true,
             AimChoice::Auto => matches!(self.meter.meter, MeterChoice::Serial(_)),

@@ -25,10 +25,62 @@ use lumiwall_profiles::apply::PreparedProfile;
 use super::{MeasureError, MeasureOptions, Patch, Progress, Rig, Session};
 use crate::verify::drive_for;
 
-/// Default grey levels, as shares of the target white's luminance: the white alone.
-/// Adding a middle grey (0.5) gave no better verification with the realistic meter on
-/// six walls of each of two classes (its three readings came out of the ramps).
-pub const DEFAULT_LEVELS: [f64; 1] = [1.0];
+/// One grey of the pass: a share of the target white's luminance, or a luminance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum GreyLevel {
+    /// This share of the target white's luminance, in (0, 1].
+    Share(f64),
+    /// A grey of this luminance (cd/m², shown in total, black included), e.g. the dark
+    /// greys of 0.5–2 cd/m² whose channels sit in the tone curves' toes.
+    Luminance(f64),
+}
+
+impl GreyLevel {
+    /// The grey's XYZ input for target white `white`; `None` for a luminance above the
+    /// white's.
+    pub fn xyz(self, white: Xyz) -> Option<Xyz> {
+        match self {
+            GreyLevel::Share(s) => Some(white * s),
+            GreyLevel::Luminance(y) => {
+                (white.y > 0.0 && y <= white.y).then(|| white * (y / white.y))
+            }
+        }
+    }
+}
+
+impl std::str::FromStr for GreyLevel {
+    type Err = String;
+
+    /// `0.5` (a share of the white, in (0, 1]) or `1.5cd` (cd/m², greater than 0).
+    fn from_str(s: &str) -> Result<Self, String> {
+        let t = s.trim();
+        let (v, absolute) = match t.strip_suffix("cd") {
+            Some(v) => (v, true),
+            None => (t, false),
+        };
+        let bad = || {
+            format!(
+                "`{s}` is not a grey level: a share of the white's luminance in (0, 1] \
+                 (e.g. 0.5) or a luminance in cd/m² (e.g. 1.5cd)"
+            )
+        };
+        let v: f64 = v.trim().parse().map_err(|_| bad())?;
+        match absolute {
+            true if v.is_finite() && v > 0.0 => Ok(GreyLevel::Luminance(v)),
+            false if v.is_finite() && v > 0.0 && v <= 1.0 => Ok(GreyLevel::Share(v)),
+            _ => Err(bad()),
+        }
+    }
+}
+
+/// Default grey levels: the white, and a dark grey of 1 cd/m² (the middle, in
+/// luminance ratio, of the 0.5–2 cd/m² dark end) where the meter reads its channels
+/// reliably (`commission` drops it otherwise). The white's samples took the noiseless
+/// worst white ΔE2000 from 0.08–0.23 to ≤ 0.01; the dark grey's took infitec-pair's
+/// worst dark-patch Δxy from 0.0053 to 0.0021 (blue's toe at code 5, between the ramp's
+/// 0 and 8). A middle grey (0.5) gave no better verification with the realistic meter
+/// on six walls of each of six classes (its three readings came out of the ramps).
+pub const DEFAULT_LEVELS: [GreyLevel; 2] = [GreyLevel::Share(1.0), GreyLevel::Luminance(1.0)];
 
 /// Largest number of grey levels.
 pub const MAX_LEVELS: usize = 16;
@@ -43,8 +95,8 @@ pub struct GreyTargets<'a> {
     pub prepared: &'a PreparedProfile,
     /// The profile's target white (XYZ input, cd/m²).
     pub white: Xyz,
-    /// Shares of the white's luminance, each in (0, 1].
-    pub levels: &'a [f64],
+    /// The greys.
+    pub levels: &'a [GreyLevel],
     /// Bits per channel of the display input: samples are read at the nearest code.
     pub bit_depth: u32,
 }
@@ -81,8 +133,8 @@ pub fn read_grey_drives(
     let mut out = GreyDrives::default();
     let inside = MIN_DRIVE_GAP..=1.0 - MIN_DRIVE_GAP;
     let max_code = crate::solve::clamped_bit_depth(targets.bit_depth).max_code_f64();
-    for &level in targets.levels {
-        let drive = drive_for(targets.prepared, targets.white * level, opts.spot_uv);
+    for xyz in targets.levels.iter().filter_map(|l| l.xyz(targets.white)) {
+        let drive = drive_for(targets.prepared, xyz, opts.spot_uv);
         for c in Channel::ALL {
             // At a code, as every ramp sample is: shown exactly, with no dither.
             let d = (drive[c.index()] * max_code).round() / max_code;
@@ -106,26 +158,41 @@ pub fn read_grey_drives(
     Ok(out)
 }
 
-/// Checks grey levels: each finite and in (0, 1], at most [`MAX_LEVELS`].
-pub fn check_levels(levels: &[f64]) -> Result<(), String> {
+/// Checks the number of grey levels: at most [`MAX_LEVELS`].
+pub fn check_levels(levels: &[GreyLevel]) -> Result<(), String> {
     if levels.len() > MAX_LEVELS {
         return Err(format!(
             "{} grey levels: at most {MAX_LEVELS}",
             levels.len()
         ));
     }
-    match levels
-        .iter()
-        .find(|l| !(l.is_finite() && **l > 0.0 && **l <= 1.0))
-    {
-        Some(l) => Err(format!(
-            "grey level {l}: a share of the white's luminance in (0, 1]"
-        )),
-        None => Ok(()),
-    }
+    Ok(())
 }
 
 /// Readings the pass needs at most per display: one per channel and level.
-pub fn readings_needed(levels: &[f64]) -> u32 {
+pub fn readings_needed(levels: &[GreyLevel]) -> u32 {
     u32::try_from(levels.len() * 3).unwrap_or(u32::MAX)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grey_levels_parse_as_shares_of_the_white_or_as_luminances() {
+        assert_eq!("0.5".parse(), Ok(GreyLevel::Share(0.5)));
+        assert_eq!(" 1.5cd".parse(), Ok(GreyLevel::Luminance(1.5)));
+        for bad in ["0", "1.2", "-1cd", "0cd", "nan", "cd", "1 cd/m2"] {
+            assert!(bad.parse::<GreyLevel>().is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn a_luminance_above_the_white_gives_no_grey() {
+        let white = Xyz::new(95.0, 100.0, 109.0);
+        assert_eq!(GreyLevel::Luminance(150.0).xyz(white), None);
+        let g = GreyLevel::Luminance(1.0).xyz(white).unwrap();
+        assert!((g.y - 1.0).abs() < 1e-12 && (g.x - 0.95).abs() < 1e-12);
+        assert_eq!(GreyLevel::Share(0.5).xyz(white), Some(white * 0.5));
+    }
 }

@@ -205,19 +205,22 @@ fn resume_refuses_a_run_folder_of_another_wall() {
     assert!(err.to_string().contains("'other'"), "{err}");
 }
 
-/// The meter stops in the grey-drive pass (after both displays' 37 measuring readings
-/// and one grey-drive reading): both measurements are saved, and `--resume` measures
-/// nothing again but reads each display's grey drives, then solves.
+/// The meter stops in the grey-drive pass (after both displays' measuring readings, the
+/// budget less the pass's reserve, and one grey-drive reading): both measurements are
+/// saved, and `--resume` measures nothing again but reads each display's grey drives,
+/// then solves.
 #[test]
 fn a_meter_that_stops_in_the_grey_drive_pass_resumes_with_the_grey_drives_only() {
     let out = tempfile::tempdir().unwrap();
     let wall = wall();
+    use lumiwall_calib::measure::grey_drives::{DEFAULT_LEVELS, readings_needed};
     let with_greys = |resume| CommissionOptions {
-        grey_levels: lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
+        grey_levels: DEFAULT_LEVELS.to_vec(),
         ..options(resume)
     };
+    let measuring = 40 - readings_needed(&DEFAULT_LEVELS);
     let faults = FaultPlan {
-        stop_after_readings: Some(2 * 37 + 1),
+        stop_after_readings: Some(2 * measuring + 1),
         ..FaultPlan::default()
     };
     let err = emulated_station(&wall, faults)
@@ -243,7 +246,10 @@ fn a_meter_that_stops_in_the_grey_drive_pass_resumes_with_the_grey_drives_only()
     let requested: u32 = greys.iter().map(|g| g.1).sum();
     assert_eq!(station.emulator().unwrap().readings_requested(), requested);
     for m in &outcome.measured {
-        assert_eq!(m.log.grey_drive_readings, Some(m.measurement.readings - 37));
+        assert_eq!(
+            m.log.grey_drive_readings,
+            Some(m.measurement.readings - measuring)
+        );
         assert!(m.measurement.readings <= 40);
     }
 }

@@ -57,7 +57,14 @@ fn a_short_season_stays_within_tolerance_and_finds_its_lamp_change() {
     let change = &rows[8];
     assert!(change.lamp_changed.is_some());
     assert_eq!(change.verdict, Some(Verdict::Recalibrated));
-    assert_eq!(change.white_cd_m2, rows[0].white_cd_m2);
+    // (the same white, up to the rounding of solving it again)
+    let kept = (change.white_cd_m2 - rows[0].white_cd_m2).abs() / rows[0].white_cd_m2;
+    assert!(
+        kept < 1e-12,
+        "{} vs {}",
+        change.white_cd_m2,
+        rows[0].white_cd_m2
+    );
     let (key, found) = summary.lamp_change.clone().unwrap();
     assert_eq!(Some(&key), change.lamp_changed.as_ref());
     assert!(

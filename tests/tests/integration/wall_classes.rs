@@ -99,9 +99,24 @@ fn the_white_segment_dlp_wall_is_modelled_on_every_display_and_verifies_within_t
     assert_within_noiseless_limits("dlp-infitec-2x1.toml", &report);
 }
 
-/// Issue 12's noiseless acceptance (median ΔE2000 ≤ 0.5, max ≤ 2.0) and, stricter than
-/// it asks, DisplayCAL's white ≤ 1 and grey balance ≤ 0.5 on the whole wall.
+/// Issue 12's noiseless acceptance (median ΔE2000 ≤ 0.5, max ≤ 2.0; the dark patches of
+/// 1–2 cd/m² within Δxy 0.005 and ΔL 3 %) and, stricter than it asks, DisplayCAL's
+/// white ≤ 1 and grey balance ≤ 0.5 on the whole wall.
 fn assert_within_noiseless_limits(file: &str, report: &VerifyReport) {
+    for p in report
+        .patches
+        .iter()
+        .filter(|p| p.target.starts_with("dark"))
+    {
+        assert!(
+            p.delta_xy <= 0.005 && p.delta_l_percent.abs() <= 3.0,
+            "{file}: {} {}: Δxy {:.4}, ΔL {:+.2} %",
+            p.display,
+            p.target,
+            p.delta_xy,
+            p.delta_l_percent
+        );
+    }
     let all = &report.overall;
     let white = all.white_de.unwrap_or(f64::INFINITY);
     let grey = all.grey_balance.unwrap_or(f64::INFINITY);
@@ -169,9 +184,9 @@ fn with_the_grey_drive_pass_every_display_shows_its_white_as_targeted_with_the_n
         let (_, interpolated) = commission_and_verify_opts(file, &without);
         let (a, b) = (worst_white(&passed), worst_white(&interpolated));
         eprintln!("{file}: worst white ΔE2000 {b:.3} without the pass, {a:.3} with it");
-        assert!(a <= 0.02, "{file}: white ΔE2000 {a:.3} with the pass");
+        assert!(a <= 0.05, "{file}: white ΔE2000 {a:.3} with the pass");
         assert!(
-            b > 4.0 * a.max(0.005),
+            b > 2.0 * a.max(0.005),
             "{file}: {b:.3} without, {a:.3} with"
         );
     }
