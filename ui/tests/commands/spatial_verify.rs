@@ -189,7 +189,7 @@ fn recalibrate_with_the_camera_measures_again_the_flat_field_of_a_display_whose_
     let text = std::fs::read_to_string(small_wall()).expect("wall file");
     std::fs::write(
         &moved,
-        format!("{text}\n[[override]]\ndisplay = 0\nhotspot_shift = [0.25, 0.15]\n"),
+        format!("{text}\n[[override]]\ndisplay = 0\nhotspot_shift = [0.3, 0.2]\n"),
     )
     .expect("write wall");
     let before = grid_max_de(&moved, &out);
