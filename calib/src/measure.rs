@@ -10,7 +10,9 @@
 //! Reading budget: a full calibration of one display costs at most
 //! [`MeasureOptions::budget`] meter readings (default 40). Black, the three primaries
 //! and white take five or more (black is averaged when below the meter's reliable
-//! limit, the primaries are averaged up to 4× for larger budgets); the rest is spent on
+//! limit, the primaries and the white are averaged up to 4× for larger budgets: the
+//! white, fused with the primaries under additivity, fixes the white's colour best);
+//! the rest is spent on
 //! ramp samples, placed one at a time per channel where the current tone-curve
 //! estimate is least certain ([`crate::tone::suggest_next_drive`]), with the intensity
 //! axis rescaled to the part of the channel the wall white is expected to use
@@ -901,7 +903,7 @@ pub fn measure_display(
     let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
     let (black, primaries) = measure_black_and_primaries(&mut s, key, opts, progress)?;
     let white = if opts.measure_white {
-        s.sample(Patch::White, true, progress)?
+        s.repeated(Patch::White, opts.primary_repeats(), progress)?
     } else {
         None
     };

@@ -97,7 +97,8 @@ fn reading_variance(r: Xyz, n: f64, sigma_xy: f64, sigma_y_rel: f64) -> [f64; 3]
 /// the four readings in proportion to their variances (weighted least squares with the
 /// constraint). A very saturated primary (Infitec blue) has a large variance in Z and
 /// takes most of it, so its Z comes from the bright, unsaturated white instead of its
-/// own noisy chromaticity. `repeats` is the number of readings averaged per primary.
+/// own noisy chromaticity. `repeats` is the number of readings averaged per primary
+/// and for the white.
 /// Returns `None` (no change) when the residual is not explained by meter noise
 /// (χ² above `max_chi2`): then the display is not additive and the solve should warn.
 pub fn fuse_with_white(
@@ -116,7 +117,7 @@ pub fn fuse_with_white(
         .iter()
         .map(|p| reading_variance(*p, repeats.max(1.0), sxy, sy))
         .collect();
-    let vw = reading_variance(white, 1.0, sxy, sy);
+    let vw = reading_variance(white, repeats.max(1.0), sxy, sy);
     let total: [f64; 3] = std::array::from_fn(|j| vp[0][j] + vp[1][j] + vp[2][j] + vw[j]);
     // Consistency: is the residual explained by meter noise? (χ² with 3 degrees of
     // freedom; a DLP white segment adds far more.)
