@@ -666,6 +666,8 @@ fn solve_inputs(
                 &m.measurement,
                 correction.as_ref().map_or([0.0; 2], |c| c.xy_offset),
                 f64::from(opts.measure.primary_repeats()),
+                // the commissioning averages the white like the primaries
+                f64::from(opts.measure.primary_repeats()),
             )
         })
         .collect();
@@ -709,19 +711,28 @@ fn write_reports(
 pub const MAX_FUSION_CHI2: f64 = 25.0;
 
 /// A measurement with every reading corrected by the meter's xy offset, the primaries
-/// fused with the white reading ([`fuse_with_white`]), and the ramps keeping their
-/// luminance with the corrected channel colour.
+/// fused with the white reading ([`fuse_with_white`]; `primary_repeats` and
+/// `white_repeats` readings averaged in each), and the ramps keeping their luminance
+/// with the corrected channel colour.
 pub fn corrected_measurement(
     m: &DisplayMeasurement,
     offset: [f64; 2],
     primary_repeats: f64,
+    white_repeats: f64,
 ) -> DisplayMeasurement {
     let black = correct(m.black, offset);
     let mut primaries = m.primaries.map(|p| correct(p, offset));
     let white = m.white.map(|w| correct(w, offset));
-    if let Some(fused) =
-        white.and_then(|w| fuse_with_white(black, &primaries, w, primary_repeats, MAX_FUSION_CHI2))
-    {
+    if let Some(fused) = white.and_then(|w| {
+        fuse_with_white(
+            black,
+            &primaries,
+            w,
+            primary_repeats,
+            white_repeats,
+            MAX_FUSION_CHI2,
+        )
+    }) {
         primaries = fused;
     }
     let mut ramps = m.ramps.clone();

@@ -905,6 +905,8 @@ fn solve_again(
                 &m.measurement,
                 opts.meter_xy_offset,
                 f64::from(opts.measure.primary_repeats()),
+                // a night reads the white once
+                1.0,
             )
         })
         .collect();

@@ -97,8 +97,8 @@ fn reading_variance(r: Xyz, n: f64, sigma_xy: f64, sigma_y_rel: f64) -> [f64; 3]
 /// the four readings in proportion to their variances (weighted least squares with the
 /// constraint). A very saturated primary (Infitec blue) has a large variance in Z and
 /// takes most of it, so its Z comes from the bright, unsaturated white instead of its
-/// own noisy chromaticity. `repeats` is the number of readings averaged per primary
-/// and for the white.
+/// own noisy chromaticity. `repeats` is the number of readings averaged per primary,
+/// `white_repeats` for the white.
 /// Returns `None` (no change) when the residual is not explained by meter noise
 /// (χ² above `max_chi2`): then the display is not additive and the solve should warn.
 pub fn fuse_with_white(
@@ -106,6 +106,7 @@ pub fn fuse_with_white(
     primaries: &[Xyz; 3],
     white: Xyz,
     repeats: f64,
+    white_repeats: f64,
     max_chi2: f64,
 ) -> Option<[Xyz; 3]> {
     // CS-100A class repeatability; only the ratios between readings matter for the
@@ -117,7 +118,7 @@ pub fn fuse_with_white(
         .iter()
         .map(|p| reading_variance(*p, repeats.max(1.0), sxy, sy))
         .collect();
-    let vw = reading_variance(white, repeats.max(1.0), sxy, sy);
+    let vw = reading_variance(white, white_repeats.max(1.0), sxy, sy);
     let total: [f64; 3] = std::array::from_fn(|j| vp[0][j] + vp[1][j] + vp[2][j] + vw[j]);
     // Consistency: is the residual explained by meter noise? (χ² with 3 degrees of
     // freedom; a DLP white segment adds far more.)
@@ -276,12 +277,12 @@ mod tests {
         let (k, p, w) = additive_display();
         let mut noisy = p;
         noisy[2] = Xyz::new(46.0 * 1.05, 6.0, 246.0 * 1.05);
-        let fused = fuse_with_white(k, &noisy, w, 3.0, 1e4).expect("fused");
+        let fused = fuse_with_white(k, &noisy, w, 3.0, 1.0, 1e4).expect("fused");
         // The 12.3 error in Z is mostly (> 90 %) moved back.
         assert!((fused[2].z - 246.0).abs() < 1.0, "{:?}", fused[2]);
         assert!((fused[0].z - 0.8).abs() < 0.05 && (fused[1].x - 8.0).abs() < 0.5);
         // A white far off (non-additive display) is left alone.
-        assert!(fuse_with_white(k, &p, w * 1.3, 3.0, 25.0).is_none());
+        assert!(fuse_with_white(k, &p, w * 1.3, 3.0, 1.0, 25.0).is_none());
     }
 
     /// Readings of an additive display through a meter with a known offset in x and y:
