@@ -608,6 +608,14 @@ fn hint_for(e: &DeviceError) -> String {
     }
 }
 
+/// The XYZ of a mean in xyY. A component a saturated colour does not have (an Infitec
+/// red's Z, where x + y = 1) comes out of `(1 − x − y)·Y/y` as a rounding residue that
+/// may be just below zero; no light has a negative tristimulus value, so it is 0.
+fn xyy_mean(x: f64, y: f64, lum: f64) -> Xyz {
+    let v = Xyz::from_xy_luminance(x, y, lum);
+    Xyz::new(v.x.max(0.0), v.y.max(0.0), v.z.max(0.0))
+}
+
 /// The three devices a measurement talks to.
 pub struct Rig<'a> {
     /// Shows patterns.
@@ -805,7 +813,7 @@ impl<'r, 'a> Session<'r, 'a> {
         }
         let mean = (repeats > 0 && ok > 0).then(|| {
             let k = 1.0 / f64::from(ok);
-            Xyz::from_xy_luminance(sum[0] * k, sum[1] * k, sum[2] * k)
+            xyy_mean(sum[0] * k, sum[1] * k, sum[2] * k)
         });
         self.log.samples.push(ReadingRecord {
             patch,
@@ -846,7 +854,7 @@ impl Session<'_, '_> {
                 n += 1.0;
             }
         }
-        let mean = Xyz::from_xy_luminance(sum[0] / n, sum[1] / n, sum[2] / n);
+        let mean = xyy_mean(sum[0] / n, sum[1] / n, sum[2] / n);
         if let Some(r) = self.log.samples.last_mut() {
             r.xyz = Some(mean);
             r.repeats = n as u32;

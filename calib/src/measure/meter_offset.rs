@@ -18,11 +18,17 @@
 use lumiwall_devices::{Colorimeter, DeviceError, MeterInfo, Xyz};
 use serde::{Deserialize, Serialize};
 
-/// A reading with its chromaticity moved by `-offset` (luminance kept).
+/// A reading with its chromaticity moved by `-offset` (luminance kept); no offset leaves
+/// it exactly as it is (the xyY round trip would turn an Infitec red's Z of 0 into a
+/// rounding residue below 0, which the solve refuses as a negative reading).
 pub fn correct(reading: Xyz, offset: [f64; 2]) -> Xyz {
+    if offset == [0.0; 2] {
+        return reading;
+    }
     match reading.xy() {
         Some([x, y]) if y - offset[1] > 0.0 => {
-            Xyz::from_xy_luminance(x - offset[0], y - offset[1], reading.y)
+            let v = Xyz::from_xy_luminance(x - offset[0], y - offset[1], reading.y);
+            Xyz::new(v.x.max(0.0), v.y, v.z.max(0.0))
         }
         _ => reading,
     }
@@ -130,13 +136,16 @@ pub fn fuse_with_white(
         return None;
     }
     let mut out = *primaries;
+    let k = black.to_array();
     for j in 0..3 {
         if total[j] <= 0.0 {
             continue;
         }
         for c in 0..3 {
             let mut a = out[c].to_array();
-            a[j] += res[j] * vp[c][j] / total[j];
+            // A channel adds no negative light: a saturated primary's small component
+            // (red's Z) takes most of the residual and must not fall below black's.
+            a[j] = (a[j] + res[j] * vp[c][j] / total[j]).max(k[j]);
             out[c] = Xyz::from_array(a);
         }
     }
@@ -283,6 +292,31 @@ mod tests {
         assert!((fused[0].z - 0.8).abs() < 0.05 && (fused[1].x - 8.0).abs() < 0.5);
         // A white far off (non-additive display) is left alone.
         assert!(fuse_with_white(k, &p, w * 1.3, 3.0, 1.0, 25.0).is_none());
+    }
+
+    /// An Infitec red has no Z: without an offset the reading is left exactly as it is
+    /// (the xyY round trip gave Z = −1e-14 and the solve refused the commissioning), and
+    /// an offset gives no negative component.
+    #[test]
+    fn correcting_a_reading_without_z_leaves_no_negative_component() {
+        let red = Xyz::new(20.730_000_000_000_1, 10.67, 0.0);
+        assert_eq!(correct(red, [0.0; 2]), red);
+        let moved = correct(red, [0.001, -0.001]);
+        assert!(moved.z >= 0.0 && moved.x >= 0.0, "{moved:?}");
+    }
+
+    /// A red whose Z reads as black's, and a white whose Z is lower than the readings
+    /// add up to: the residual goes mostly to red's Z, which stays at black's instead
+    /// of falling below it (below 0 it failed the solve's reading check).
+    #[test]
+    fn fusion_leaves_no_primary_component_below_black() {
+        let (k, mut p, _) = additive_display();
+        p[0].z = k.z;
+        let w = p[0] + p[1] + p[2] - k * 2.0 - Xyz::new(0.0, 0.0, 0.02);
+        let fused = fuse_with_white(k, &p, w, 3.0, 3.0, 1e4).expect("fused");
+        for c in fused {
+            assert!(c.x >= k.x && c.y >= k.y && c.z >= k.z, "{c:?} below {k:?}");
+        }
     }
 
     /// Readings of an additive display through a meter with a known offset in x and y:
