@@ -74,11 +74,12 @@ pub struct CommissionOptions {
     /// [`crate::measure::meter_matrix`]). The primaries are fused with the white
     /// reading either way.
     pub meter_correction: bool,
-    /// Grey levels (shares of the target white's luminance): after all displays are
-    /// measured, each display's channels are read alone at the drives its provisional
-    /// profile gives them for these greys, so the tone curves are sampled where the
-    /// white and the greys sit ([`crate::measure::grey_drives`]); the readings come out
-    /// of each display's budget. Empty: no grey-drive pass.
+    /// Grey levels (shares of the target white's luminance, or luminances): after all
+    /// displays are measured, each display's channels are read alone at the drives its
+    /// provisional profile gives them for these greys, so the tone curves are sampled
+    /// where the white and the greys sit ([`crate::measure::grey_drives`]); the readings
+    /// come out of each display's budget. A luminance the meter cannot read reliably is
+    /// left out (see `commission`). Empty: no grey-drive pass.
     pub grey_levels: Vec<GreyLevel>,
 }
 
@@ -343,7 +344,7 @@ fn read_greys(
     let provisional = solve_wall_at(&inputs, &opts.solve, &now_rfc3339())?;
     let run_dir = out_dir.join(RUN_DIR);
     let total = displays.len();
-    for (i, (info, m)) in displays.iter().zip(measured.iter_mut()).enumerate() {
+    for (info, m) in displays.iter().zip(measured.iter_mut()) {
         let key = &m.measurement.key;
         let Some(profile) = provisional.profiles.iter().find(|p| p.display == *key) else {
             continue;
@@ -362,9 +363,11 @@ fn read_greys(
         };
         let read =
             read_grey_drives(rig, key, info.id, &targets, &mopts, progress).map_err(|source| {
+                // Every display's measurement is saved; --resume reads the rest of
+                // the grey drives.
                 CommissionError::Interrupted {
                     source,
-                    saved: i,
+                    saved: total,
                     total,
                     run_dir: run_dir.clone(),
                 }

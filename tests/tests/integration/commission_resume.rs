@@ -227,6 +227,11 @@ fn a_meter_that_stops_in_the_grey_drive_pass_resumes_with_the_grey_drives_only()
         .commission(out.path(), &with_greys(false), &mut |_| {})
         .unwrap_err();
     assert!(matches!(err, CommissionError::Interrupted { .. }), "{err}");
+    let says = err.to_string();
+    assert!(
+        says.contains("2 of 2 displays are measured and saved"),
+        "{says}"
+    );
 
     let mut station = emulated_station(&wall, FaultPlan::default());
     let (mut resumed, mut measured, mut greys) = (Vec::new(), Vec::new(), Vec::new());
