@@ -57,6 +57,10 @@ pub struct HierarchicalOptions {
     pub accelerate: bool,
     /// Receiver representation.
     pub basis: Basis,
+    /// Patch receivers take light from patch senders only at their leaves: no
+    /// sender-side averaging over children whose radiosity differs (the default; see
+    /// `refine` for what it gains and costs).
+    pub leaf_senders: bool,
 }
 
 impl Default for HierarchicalOptions {
@@ -67,6 +71,7 @@ impl Default for HierarchicalOptions {
             max_level: 12,
             accelerate: true,
             basis: Basis::Auto,
+            leaf_senders: true,
         }
     }
 }
@@ -215,6 +220,7 @@ impl<'a, 'c> Solver<'a, 'c> {
             min_area,
             max_level: opts.max_level,
             basis: opts.basis,
+            leaf_senders: opts.leaf_senders,
         };
         let st = State::new(ctx.scene, &h);
         let plinks: Vec<Vec<PLink>> = vec![Vec::new(); h.patches.len()];

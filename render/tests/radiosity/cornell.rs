@@ -47,11 +47,13 @@ fn both_solvers_agree_with_the_dense_reference() {
     // the progressive solve meets its 2 % on the coarser mesh (measured 6.0 % against
     // the reference, the mesh's discretisation error)
     assert!(e_pr < 0.08, "progressive error {e_pr}");
-    // the reported estimate bounds the error and is of its size (measured 2.15 × the
-    // error against this reference, whose own mesh is coarse; 1.28 × against Mitsuba
-    // at 2 %). It counts every bounce's transfer error (1/(1 − q), q the contraction).
+    // the reported estimate bounds the error and is of its size (measured 3.5 × the
+    // error against this reference, whose own mesh is coarse, since patches send only
+    // from their leaves: 2.15 × before, when the error was larger; against Mitsuba
+    // 1.6 × at 10 %, 1.27 × at 2 %, 1.05 × at 1 %). It counts every bounce's transfer
+    // error (1/(1 − q), q the contraction).
     assert!(
-        est_hr >= e_hr && est_hr < 2.5 * e_hr,
+        est_hr >= e_hr && est_hr < 4.0 * e_hr,
         "estimate {est_hr} vs true {e_hr}"
     );
     // occluders exist: some links needed rays, many were classified fully visible

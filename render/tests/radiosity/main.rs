@@ -12,4 +12,5 @@ mod form_factors;
 mod furnace;
 mod lights;
 mod scene;
+mod senders;
 mod visibility;
