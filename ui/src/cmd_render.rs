@@ -89,7 +89,7 @@ pub(crate) struct RenderArgs {
     /// Hierarchical solver: let patches send light from subdivided elements (their
     /// mean radiosity), as before 2026-12-04. By default only leaves send: that
     /// removed a bias of the indirect light (CIE 171 5.8 at ρ = 0.05: 1.5 % → 0.42 %)
-    /// and made the Cornell box at 1 % take 2.0 s instead of 41 s.
+    /// and made the Cornell box at 1 % take 1.8 s instead of 28–41 s.
     #[arg(long)]
     subdivided_senders: bool,
     /// Calculation grid: CSV with columns `name,x_m,y_m,z_m,nx,ny,nz` (metres in the

@@ -14,10 +14,10 @@
 //! factor towards the receiver vary together across it (their covariance), and that
 //! error has one sign over a whole room: with subdivided senders the CIE 171 5.8 cube
 //! at ρ = 0.05 lost 1.5 % of its inter-reflected light at a 1 % target (0.42 % with
-//! leaf senders), and the estimate did not see it. Leaf senders also cost less where
-//! receivers no longer split for their senders' sake: the Cornell box at 1 % took 41 s
-//! and 628 MiB, now 2.0 s and 54 MiB (0.82 % and 0.90 % measured against Mitsuba); the
-//! 100 000-triangle scale scene reached 13.2 % and 13.0 % after 300 s (target 5 %).
+//! leaf senders), and the estimate did not see it. Leaf senders also cost less
+//! (measured): the Cornell box at 1 % took 28–41 s and 628 MiB, now 1.8 s and 34 MiB
+//! (0.82 % and 0.90 % measured against Mitsuba); the 100 000-triangle scale scene
+//! reached 13.2 % and 13.0 % after 300 s (target 5 %).
 //!
 //! Refinement runs in rounds: decide every link in parallel, split the chosen
 //! elements, evaluate the new links in parallel, until nothing changes.
