@@ -77,7 +77,7 @@ fn print_row(r: &CaseRow) {
     let (quantity, unit) = match r.quantity {
         Quantity::PointIlluminance { points } => (format!("E at {points} points"), "lx max"),
         Quantity::ReceivedFlux => ("received flux".to_string(), "lm"),
-        Quantity::MeanIndirect { .. } => ("mean indirect E".to_string(), "lx"),
+        Quantity::MeanIndirect => ("mean indirect E".to_string(), "lx"),
     };
     println!(
         "{:<12} {:<22} {:>9.3} {:<2} {:>10} {:>9.4}% {:>9.4}% {:>8.3}% {:>8} {:>8.2}  {:<6} {}",

@@ -151,6 +151,14 @@ impl Solution {
         self.patches.iter().map(|p| p.area_m2).sum()
     }
 
+    /// Σ A·E_Y over every patch: the luminous flux the surfaces receive (lm).
+    pub fn received_flux_lm(&self) -> f64 {
+        self.patches
+            .iter()
+            .map(|p| p.area_m2 * p.irradiance_xyz[1])
+            .sum()
+    }
+
     /// Area-weighted relative L1 difference in Y between `self` and `reference`,
     /// sampled at the reference's patch centres: Σ A |B − B_ref| / Σ A B_ref, with
     /// `self` evaluated by its representation ([`Patch::exitance_at`]).

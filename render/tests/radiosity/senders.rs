@@ -23,11 +23,7 @@ fn indirect_error(rho: &str, leaf_senders: bool) -> f64 {
         ..HierarchicalOptions::default()
     };
     let sol = solve_hierarchical(&scene, &SceneOccluders::new(&scene), &opts).unwrap();
-    let received: f64 = sol
-        .patches
-        .iter()
-        .map(|p| p.area_m2 * p.irradiance_xyz[1])
-        .sum();
+    let received = sol.received_flux_lm();
     let r: f64 = rho.parse().unwrap();
     let direct = FLUX_LM / AREA_M2;
     let indirect = r * FLUX_LM / (AREA_M2 * (1.0 - r));
