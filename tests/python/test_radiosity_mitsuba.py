@@ -6,7 +6,10 @@ the reference alone).
 
 Figures on 2026-12-02: relative L1 5.17 % before the cluster-intensity refinement fix
 (back wall above the tall block 10 % dark), 1.66 % after; the reference's own noise is
-0.1 % per block.
+0.1 % per block. On 2026-12-04: 0.90 % and mean Y 0.9932 with patches sending only from
+their leaves; 0.74 % and 0.9963 once the floor under the blocks (inside a closed solid)
+stopped dimming the elements that straddle the blocks' feet (issue 13 asks ≤ 1 % at
+``--error 1%`` and the mean within 0.5 %).
 """
 
 import pathlib
@@ -51,7 +54,7 @@ def block_means(a: np.ndarray, surf: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return sums / np.maximum(frac, 1e-9), frac >= 0.9
 
 
-def test_cornell_box_radiosity_is_within_2_5_percent_of_mitsuba_on_block_means(tmp_path, lumiwall_bin):
+def test_cornell_box_radiosity_is_within_1_percent_of_mitsuba_and_its_mean_within_half_a_percent(tmp_path, lumiwall_bin):
     ref = np.load(REFERENCE).astype(np.float64)
     out = tmp_path / "cornell.exr"
     subprocess.run(
@@ -69,5 +72,5 @@ def test_cornell_box_radiosity_is_within_2_5_percent_of_mitsuba_on_block_means(t
     rel_l1 = np.abs(lb[used] - rb[used]).sum() / rb[used].sum()
     ratio = lb[used].sum() / rb[used].sum()
     print(f"relative L1 {100 * rel_l1:.2f} %, mean Y ratio {ratio:.4f}, {used.sum()} blocks")
-    assert rel_l1 < 0.025, f"relative L1 {100 * rel_l1:.2f} %"
-    assert abs(ratio - 1.0) < 0.025, f"mean Y ratio {ratio:.4f}"
+    assert rel_l1 <= 0.01, f"relative L1 {100 * rel_l1:.2f} %"
+    assert abs(ratio - 1.0) <= 0.005, f"mean Y ratio {ratio:.4f}"

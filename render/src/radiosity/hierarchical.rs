@@ -125,7 +125,8 @@ pub fn solve_hierarchical(
             opts.min_area_m2
         )));
     }
-    let hierarchy = Hierarchy::build(scene);
+    let mut hierarchy = Hierarchy::build(scene);
+    hierarchy.mark_enclosed(0, vis);
     let emitters = Emitter::all(scene);
     let (lo, hi) = hierarchy
         .clusters

@@ -16,6 +16,42 @@ pub trait Visibility: Sync {
     /// Whether the open segment from `a` to `b` is blocked by any polygon other than
     /// those listed in `skip`.
     fn occluded(&self, a: &V3, b: &V3, skip: [usize; 2]) -> bool;
+    /// Whether the surface point `x` (front normal `n`) lies inside a closed solid:
+    /// every probe ray leaving its front meets the back of a polygon first (see
+    /// [`probe_directions`]). The floor under a block resting on it is such a point:
+    /// it neither receives nor sends light. `false` unless the implementation looks.
+    fn enclosed(&self, x: &V3, n: &V3) -> bool {
+        let _ = (x, n);
+        false
+    }
+}
+
+/// Angle of the tilted probe rays of [`Visibility::enclosed`] from the normal: low
+/// enough (20° above the surface) that a point under a one-sided table top sees
+/// past its edge.
+const PROBE_TILT_DEG: f64 = 70.0;
+
+/// The probe directions of [`Visibility::enclosed`] at a point with unit normal `n`:
+/// the normal and six around it at 70° from it (20° above the surface).
+pub fn probe_directions(n: &V3) -> [V3; 7] {
+    let helper = if n.x.abs() < 0.9 { V3::x() } else { V3::y() };
+    let t = n.cross(&helper).normalize();
+    let b = n.cross(&t);
+    let (sin_tilt, cos_tilt) = PROBE_TILT_DEG.to_radians().sin_cos();
+    let mut dirs = [*n; 7];
+    for (k, d) in dirs.iter_mut().skip(1).enumerate() {
+        let (s, c) = (k as f64 * std::f64::consts::TAU / 6.0).sin_cos();
+        *d = n * cos_tilt + (t * c + b * s) * sin_tilt;
+    }
+    dirs
+}
+
+/// [`Visibility::enclosed`] from a first-hit query: `hits_back(origin, dir)` says
+/// whether the nearest polygon along the ray shows it its back. The probes start
+/// `offset` in front of `x` so that its own polygon is not met.
+fn enclosed_by(x: &V3, n: &V3, offset: f64, mut hits_back: impl FnMut(&V3, &V3) -> bool) -> bool {
+    let origin = x + n * offset;
+    probe_directions(n).iter().all(|d| hits_back(&origin, d))
 }
 
 /// No occluders at all (the caller asserts it): every pair is fully visible.
@@ -152,6 +188,38 @@ impl Visibility for SceneOccluders {
         }
         false
     }
+
+    fn enclosed(&self, x: &V3, n: &V3) -> bool {
+        enclosed_by(x, n, ENCLOSED_OFFSET * self.eps, |o, d| {
+            self.nearest(o, d).is_some_and(|(_, back)| back)
+        })
+    }
+}
+
+/// Start of an enclosure probe in front of its point, in units of the occluders'
+/// epsilon (1e-9 of the scene size): 1e-6 of the scene size.
+const ENCLOSED_OFFSET: f64 = 1e3;
+
+impl SceneOccluders {
+    /// Nearest polygon along the ray `o + t·d` (t > 0): its distance parameter and
+    /// whether the ray meets its back.
+    fn nearest(&self, o: &V3, d: &V3) -> Option<(f64, bool)> {
+        let mut best: Option<(f64, bool)> = None;
+        for p in &self.polys {
+            let denom = p.normal.dot(d);
+            if denom.abs() < 1e-300 {
+                continue;
+            }
+            let t = p.normal.dot(&(p.verts[0] - o)) / denom;
+            if t <= 0.0 || best.is_some_and(|(tb, _)| t >= tb) {
+                continue;
+            }
+            if point_in_convex(&p.verts, &p.normal, &(o + d * t)) {
+                best = Some((t, denom > 0.0));
+            }
+        }
+        best
+    }
 }
 
 /// Unit normal of an end that is a patch (not a point set, see [`Visibility`]).
@@ -265,5 +333,13 @@ impl Visibility for BvhOccluders {
     /// segment), not by index.
     fn occluded(&self, a: &V3, b: &V3, _skip: [usize; 2]) -> bool {
         self.bvh.occluded([a.x, a.y, a.z], [b.x, b.y, b.z])
+    }
+
+    fn enclosed(&self, x: &V3, n: &V3) -> bool {
+        enclosed_by(x, n, ENCLOSED_OFFSET * self.eps, |o, d| {
+            self.bvh
+                .intersect([o.x, o.y, o.z], [d.x, d.y, d.z], f64::INFINITY)
+                .is_some_and(|hit| !hit.front_face)
+        })
     }
 }

@@ -7,6 +7,7 @@ mod basis;
 mod clusters;
 mod cornell;
 mod daylight;
+mod enclosed;
 mod energy;
 mod form_factors;
 mod furnace;

@@ -5,7 +5,11 @@
 
 use crate::scene::{Scene, V3, polygon_area_m2, polygon_normal};
 
+use rayon::prelude::*;
+
 use super::super::quadrature;
+use super::super::visibility::Visibility;
+use super::sampling::Samples;
 
 /// Luminous reflectance below which a receiver's error is measured as illuminance
 /// (lux) rather than radiosity: black measuring planes must still be resolved.
@@ -109,6 +113,9 @@ pub(super) struct Patch {
     /// First of four children, or `NONE` for a leaf.
     pub first_child: u32,
     pub level: u8,
+    /// Bit i: quadrature point i of the element's [`Samples`] lies inside a closed
+    /// solid (see [`Hierarchy::mark_enclosed`]).
+    pub enclosed: u16,
 }
 
 impl Patch {
@@ -133,6 +140,7 @@ impl Patch {
             cluster,
             first_child: NONE,
             level,
+            enclosed: 0,
         }
     }
 
@@ -149,6 +157,14 @@ impl Patch {
     pub(crate) fn point_at(&self, r0: f64, r1: f64, r2: f64) -> V3 {
         crate::radiosity::quadrature::uniform_point(self.verts(), r0, r1, r2)
     }
+}
+
+/// The enclosed quadrature points of `p` as a bit mask.
+fn enclosed_mask(p: &Patch, vis: &dyn Visibility) -> u16 {
+    let smp = Samples::of(p.verts());
+    (0..smp.n)
+        .filter(|&i| vis.enclosed(&smp.pts[i], &p.normal))
+        .fold(0, |m, i| m | 1 << i)
 }
 
 /// A seed for the rays of the link from `src` to `recv`.
@@ -262,6 +278,20 @@ impl Hierarchy {
                     Kind::Emitter(_) => {}
                 }
             }
+        }
+    }
+
+    /// Marks the quadrature points of the patches from index `first` on that lie
+    /// inside a closed solid ([`Visibility::enclosed`]): the floor under a block
+    /// resting on it. Their light would be zero and pull the element's mean down,
+    /// while the rays to them already keep them from sending.
+    pub(crate) fn mark_enclosed(&mut self, first: usize, vis: &dyn Visibility) {
+        let masks: Vec<u16> = self.patches[first..]
+            .par_iter()
+            .map(|p| enclosed_mask(p, vis))
+            .collect();
+        for (p, m) in self.patches[first..].iter_mut().zip(masks) {
+            p.enclosed = m;
         }
     }
 

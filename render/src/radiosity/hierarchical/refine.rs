@@ -347,7 +347,9 @@ pub(super) fn refine(
         }
         let decisions = dirty.defer_bottom_up(decisions, plinks);
         // 2. split the patches that must be (clusters have their children already)
+        let first_new = h.patches.len();
         split_elements(h, &decisions, plinks, clinks);
+        h.mark_enclosed(first_new, params.ctx.vis);
         changed += decisions.patch.iter().map(|(_, d)| d.len()).sum::<usize>()
             + decisions
                 .cluster

@@ -256,12 +256,14 @@ struct PointValues {
 
 fn finish_plink(
     src: Node,
-    smp: &Samples,
-    pv: &PointValues,
+    recv: &PatchReceiver,
+    mut pv: PointValues,
     extra_max: f64,
     visible: bool,
     grad: V3,
 ) -> Option<PLink> {
+    recv.fill_enclosed(&mut pv);
+    let smp = &recv.samples;
     let mut k = 0.0;
     for i in 0..smp.n {
         k += smp.w[i] * pv.f[i] * pv.v[i];
@@ -313,6 +315,40 @@ impl PatchReceiver<'_> {
             v: [1.0; 9],
         }
     }
+
+    /// Whether quadrature point `i` lies inside a closed solid.
+    fn is_enclosed(&self, i: usize) -> bool {
+        self.patch.enclosed & (1 << i) != 0
+    }
+
+    /// Sets the coefficient of the enclosed points to zero, before any ray is cast
+    /// to or from them.
+    fn clear_enclosed(&self, pv: &mut PointValues) {
+        for i in (0..self.samples.n).filter(|&i| self.is_enclosed(i)) {
+            pv.f[i] = 0.0;
+        }
+    }
+
+    /// Gives the enclosed points the mean of the open ones (weighted by the rule):
+    /// no surface is there, so the element's mean and shape are those of its open
+    /// part. Rays to an enclosed point of a sender are blocked by the solid, so the
+    /// light it would send is not counted twice.
+    fn fill_enclosed(&self, pv: &mut PointValues) {
+        if self.patch.enclosed == 0 {
+            return;
+        }
+        let smp = &self.samples;
+        let (mut sum, mut weight) = (0.0, 0.0);
+        for i in (0..smp.n).filter(|&i| !self.is_enclosed(i)) {
+            sum += smp.w[i] * pv.f[i] * pv.v[i];
+            weight += smp.w[i];
+        }
+        let mean = if weight > 0.0 { sum / weight } else { 0.0 };
+        for i in (0..smp.n).filter(|&i| self.is_enclosed(i)) {
+            pv.f[i] = mean;
+            pv.v[i] = 1.0;
+        }
+    }
 }
 
 /// A link to the patch `r` from `src`; `visible` when the parent link was classified
@@ -330,6 +366,9 @@ pub(super) fn eval_plink(
         patch,
         samples: Samples::of(patch.verts()),
     };
+    if patch.enclosed.count_ones() as usize >= recv.samples.n {
+        return None; // inside a solid: no surface to light
+    }
     match src.kind() {
         Kind::Patch(s) => plink_from_patch(ctx, &recv, &h.patches[s], src, visible),
         Kind::Cluster(c) => plink_from_cluster(ctx, h, &recv, c, src),
@@ -362,6 +401,7 @@ fn plink_from_patch(
         let x = smp.pts[i];
         pv.f[i] = point_to_polygon(&x, &rp.normal, sp.verts(), &sp.normal);
     }
+    recv.clear_enclosed(&mut pv);
     if !visible {
         let skip = [rp.polygon as usize, sp.polygon as usize];
         let targets = patch_targets(sp);
@@ -370,7 +410,7 @@ fn plink_from_patch(
     let extra = ff_max_point(rp, &sp.centre, &sp.normal).map_or(0.0, |x| {
         point_to_polygon(&x, &rp.normal, sp.verts(), &sp.normal)
     });
-    finish_plink(src, smp, &pv, extra, visible, V3::zeros())
+    finish_plink(src, recv, pv, extra, visible, V3::zeros())
 }
 
 /// A cluster-to-patch link: the cluster as a small sphere at its centre, rays to
@@ -413,7 +453,7 @@ fn plink_from_cluster(
         let dl = d2.sqrt();
         let nd = rp.normal.dot(&d);
         let ec = effective_cos(nd / dl, (cl.radius / dl).powi(2));
-        if ec > 0.0 {
+        if ec > 0.0 && !recv.is_enclosed(i) {
             // cos θ / d² = n·d / |d|³ (with the sender's extent at the horizon),
             // and its gradient in the sender position
             pv.f[i] = ec / d2;
@@ -427,7 +467,7 @@ fn plink_from_cluster(
             grad += g * (smp.w[i] * pv.v[i]);
         }
     }
-    finish_plink(src, smp, &pv, 0.0, false, grad)
+    finish_plink(src, recv, pv, 0.0, false, grad)
 }
 
 /// An emitter-to-patch link: the emitter's irradiance at the receiver's points, one
@@ -450,7 +490,7 @@ fn plink_from_emitter(
         );
     let skip = [rp.polygon as usize, usize::MAX];
     let mut pv = PatchReceiver::blank_values();
-    for i in 0..smp.n {
+    for i in (0..smp.n).filter(|&i| !recv.is_enclosed(i)) {
         let x = smp.pts[i];
         pv.f[i] = em.irradiance(ctx.scene, &x, &rp.normal);
         if pv.f[i] > 0.0 && !visible {
@@ -466,7 +506,7 @@ fn plink_from_emitter(
         let foot = closest_on_polygon(rp, &(lp - rp.normal * height));
         em.irradiance(ctx.scene, &foot, &rp.normal)
     });
-    let mut l = finish_plink(src, smp, &pv, extra, visible, V3::zeros())?;
+    let mut l = finish_plink(src, recv, pv, extra, visible, V3::zeros())?;
     if visible {
         // the mean carries the energy: the flux into the patch's solid angle
         l.k = em.mean_irradiance(ctx.scene, rp.verts(), &rp.normal, rp.area) as f32;
