@@ -91,7 +91,7 @@ fn receiver_variation(corners: usize, ks: &[f64; NS], basis: Basis) -> f64 {
 /// (the analytic maximum), and the visibility sampling. The same mean (L1) deviations
 /// the estimate reports.
 fn receiver_error(l: &PLink, corners: usize, scale: f64, strength_max: f64, basis: Basis) -> f64 {
-    let ks: [f64; NS] = l.ks.map(|v| scale * f64::from(v));
+    let ks: [f64; NS] = l.ks().map(|v| scale * v);
     let k = scale * f64::from(l.k);
     // A shadow edge across the receiver (the samples' visibility differs) is no
     // polynomial: the linear basis cannot be trusted to follow it.
@@ -261,8 +261,8 @@ fn links_flat(
     let mut t = [0.0; NS];
     for l in links {
         let (sig, _, _) = st.strength(h, ctx.emitters, l.src, &pa.centre);
-        for (j, v) in t.iter_mut().enumerate() {
-            *v += f64::from(l.ks[j]) * sig[1];
+        for (v, kj) in t.iter_mut().zip(l.ks()) {
+            *v += kj * sig[1];
         }
     }
     w * pa.area * receiver_variation(pa.nv.min(4), &t, basis) <= eps

@@ -333,10 +333,11 @@ impl State {
                 for l in links {
                     let t = me.sender(h, emitters, l.src, &to);
                     let (k, scale) = l.corrected(&t.shift);
+                    let ks = l.ks();
                     for c in 0..3 {
                         irr.avg[c] += k * t.sig[c];
                         for j in 0..NS {
-                            irr.s[j][c] += scale * f64::from(l.ks[j]) * t.sig[c];
+                            irr.s[j][c] += scale * ks[j] * t.sig[c];
                         }
                     }
                     irr.err += k * (t.spread + t.sig[1] * t.rel);

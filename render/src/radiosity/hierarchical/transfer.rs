@@ -38,7 +38,10 @@ pub(super) struct PLink {
     pub src: Node,
     /// Receiver average, with visibility.
     pub k: f32,
-    /// At the shape samples (corners, centre), with visibility.
+    /// At the shape samples (corners, centre), with visibility (read them with
+    /// [`PLink::ks`]). Not quantised further: 16-bit steps of the link's peak, times
+    /// the 1/(1 − ρ) of a stiff room, made every receiver look uneven (the ρ = 0.999
+    /// furnace refined without end).
     pub ks: [f32; NS],
     /// Largest value over the receiver, unoccluded (criterion).
     pub kmax: f32,
@@ -93,6 +96,11 @@ pub(super) enum Overlap {
 }
 
 impl PLink {
+    /// The coefficients at the shape samples (corners, centre), with visibility.
+    pub(crate) fn ks(&self) -> [f64; NS] {
+        self.ks.map(f64::from)
+    }
+
     /// The coefficient for a sender whose light now leaves `shift` away from where
     /// the link was evaluated (first order, clamped at zero), and the factor that
     /// scales the shape samples alike.
@@ -223,6 +231,13 @@ fn closest_on_polygon(recv: &Patch, p: &V3) -> V3 {
     best
 }
 
+/// A patch sender whose radius is below this fraction of its distance from the
+/// receiver is seen by one ray from each receiver point, to its centre: its Gauss
+/// points lie within a few degrees of each other there, and the receiver's nine points
+/// still sample a shadow edge (and their spread still refines it). A third of the
+/// rays on the Cornell box at 1 %, the same measured error against Mitsuba (0.81 %).
+const SMALL_SENDER: f64 = 0.1;
+
 /// Samples for rays on a patch sender: its 2×2 Gauss points.
 fn patch_targets(p: &Patch) -> Vec<V3> {
     let mut buf = Vec::with_capacity(4);
@@ -268,16 +283,17 @@ fn finish_plink(
     for i in 0..smp.n {
         k += smp.w[i] * pv.f[i] * pv.v[i];
     }
-    let mut ks = [0f32; NS];
+    let mut ks = [0.0; NS];
     let mut kmax = extra_max;
     for (j, out) in ks.iter_mut().enumerate() {
         let i = smp.shape[j];
-        *out = (pv.f[i] * pv.v[i]) as f32;
+        *out = pv.f[i] * pv.v[i];
         kmax = kmax.max(pv.f[i]);
     }
     if kmax <= 0.0 || !kmax.is_finite() {
         return None;
     }
+    let ks = ks.map(|v| v as f32);
     let rel_vis = if visible {
         0.0
     } else {
@@ -404,7 +420,11 @@ fn plink_from_patch(
     recv.clear_enclosed(&mut pv);
     if !visible {
         let skip = [rp.polygon as usize, sp.polygon as usize];
-        let targets = patch_targets(sp);
+        let targets = if sp.radius < SMALL_SENDER * (sp.centre - rp.centre).norm() {
+            vec![sp.centre]
+        } else {
+            patch_targets(sp)
+        };
         area_visibility(ctx, smp, &mut pv, (&rp.normal, sp.verts(), &targets), skip);
     }
     let extra = ff_max_point(rp, &sp.centre, &sp.normal).map_or(0.0, |x| {
