@@ -7,6 +7,33 @@ use crate::scene::V3;
 
 use super::quadrature;
 
+/// [`point_to_polygon`] for a polygon small against its distance from `x`: the
+/// kernel cos θ cos θ' / (π r²) at the polygon's quadrature points `pts` (weights
+/// summing to 1) times its area `area_m2`, no arc tangents. `None` where the exact
+/// form must clip (a point behind `x`'s tangent plane, or `x` behind the polygon).
+/// For a polygon whose radius is at most a tenth of its distance the 2×2 Gauss rule
+/// is within 1e-3 of the factor the polygon has head-on (8e-4 the worst of a thousand
+/// random ones, `form_factors` tests).
+pub fn point_to_small_polygon(
+    x: &V3,
+    n: &V3,
+    pts: &[(V3, f64)],
+    area_m2: f64,
+    poly_normal: &V3,
+) -> Option<f64> {
+    let mut sum = 0.0;
+    for (p, w) in pts {
+        let d = p - x;
+        let (cos_r, cos_s) = (n.dot(&d), -poly_normal.dot(&d));
+        if cos_r <= 0.0 || cos_s <= 0.0 {
+            return None;
+        }
+        let r2 = d.norm_squared();
+        sum += w * cos_r * cos_s / (r2 * r2);
+    }
+    Some(sum * area_m2 / std::f64::consts::PI)
+}
+
 /// Differential area at `x` with unit normal `n` to the polygon `poly` (convex, any
 /// number of vertices). One-sided: only the polygon's front (right-hand normal
 /// `poly_normal`) emits; returns 0 when `x` is behind it. Unoccluded.
