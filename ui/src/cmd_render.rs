@@ -255,6 +255,12 @@ fn print_stats(sol: &Solution) {
         s.memory_bytes as f64 / MIB,
         s.time_s
     );
+    if s.enclosed_area_share > 0.0 {
+        println!(
+            "enclosed: {:.2} % of the surface area lies inside closed solids (no light there)",
+            100.0 * s.enclosed_area_share
+        );
+    }
 }
 
 /// The files `render --out OUT` writes: OUT and its siblings.

@@ -137,6 +137,7 @@ pub fn solve_hierarchical(
     }
     let mut hierarchy = Hierarchy::build(scene);
     hierarchy.mark_enclosed(0, vis);
+    warn_if_mostly_enclosed(hierarchy.enclosed_area_share(scene.polygons.len(), false));
     let emitters = Emitter::all(scene);
     let (lo, hi) = hierarchy
         .clusters
@@ -152,6 +153,23 @@ pub fn solve_hierarchical(
     let mut solver = Solver::new(&ctx, hierarchy, opts, clock);
     let stop = solver.run()?;
     Ok(solver.finish(stop))
+}
+
+/// Enclosed area above this share of the scene is more likely surfaces facing away
+/// from the room than furniture standing on a floor.
+const ENCLOSED_WARN_SHARE: f64 = 0.1;
+
+/// Warns when much of the scene lies inside closed solids: a room whose walls face
+/// out encloses its own floor, which then gets no light.
+fn warn_if_mostly_enclosed(share: f64) {
+    if share > ENCLOSED_WARN_SHARE {
+        tracing::warn!(
+            "{:.0} % of the surface area lies inside closed solids (every probe ray from it \
+             meets the back of a polygon) and gets no light; if that is not furniture \
+             standing on it, check that the surfaces face the room",
+            100.0 * share
+        );
+    }
 }
 
 /// The state of a hierarchical solve between sweeps.
@@ -627,6 +645,7 @@ impl<'a, 'c> Solver<'a, 'c> {
             clusters: h.clusters.len(),
             cluster_links: self.clinks.iter().map(Vec::len).sum(),
             linear_patches: self.linear_leaves,
+            enclosed_area_share: h.enclosed_area_share(self.ctx.scene.polygons.len(), true),
         };
         Solution {
             patches,

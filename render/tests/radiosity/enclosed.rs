@@ -259,3 +259,29 @@ fn a_block_resting_on_a_floor_is_lit_as_over_a_floor_with_a_hole_where_it_stands
         assert!(rel <= limit, "{object}: {:.2} % apart", 100.0 * rel);
     }
 }
+
+#[test]
+fn the_enclosed_share_is_the_blocks_foot_in_a_room_and_the_whole_floor_when_the_walls_face_out() {
+    let stop = stop_rule(0.3, 20, usize::MAX);
+    let room_in = room(false, false);
+    let share_in = solve_hierarchical_with(&room_in, &BvhOccluders::new(&room_in), stop)
+        .stats
+        .enclosed_area_share;
+    // no block, and walls, ceiling and lamp facing out: the floor sees only backs
+    let mut room_out = room(false, false);
+    room_out.polygons.retain(|p| !p.object.starts_with("block"));
+    for p in room_out.polygons.iter_mut().filter(|p| p.object != "floor") {
+        p.vertices.reverse();
+    }
+    let share_out = solve_hierarchical_with(&room_out, &BvhOccluders::new(&room_out), stop)
+        .stats
+        .enclosed_area_share;
+    println!("enclosed share: {share_in:.4} facing in, {share_out:.4} facing out");
+    // the block's foot: 1 m² of 85 (to the leaves' quadrature points)
+    assert!(
+        (share_in - 1.0 / 85.0).abs() < 0.005,
+        "facing in: {share_in}"
+    );
+    // the whole floor: 16 m² of 80
+    assert!(share_out > 0.19, "facing out: {share_out}");
+}

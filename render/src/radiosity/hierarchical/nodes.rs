@@ -295,6 +295,30 @@ impl Hierarchy {
         }
     }
 
+    /// Share of the surface area whose quadrature points are enclosed, each point
+    /// standing for its weight: over the input polygons (`leaves == false`, known
+    /// before the solve, coarse) or over the leaves (finer where refined).
+    pub(crate) fn enclosed_area_share(&self, polygons: usize, leaves: bool) -> f64 {
+        let (mut enclosed, mut total) = (0.0, 0.0);
+        let chosen = self
+            .patches
+            .iter()
+            .enumerate()
+            .filter(|(i, p)| if leaves { p.is_leaf() } else { *i < polygons });
+        for (_, p) in chosen {
+            total += p.area;
+            if p.enclosed != 0 {
+                let smp = Samples::of(p.verts());
+                let share: f64 = (0..smp.n)
+                    .filter(|&i| p.enclosed & (1 << i) != 0)
+                    .map(|i| smp.w[i])
+                    .sum();
+                enclosed += p.area * share;
+            }
+        }
+        if total > 0.0 { enclosed / total } else { 0.0 }
+    }
+
     /// Splits leaf patch `p` into four children (no-op for an inner patch). Returns
     /// the index of the first child.
     pub(crate) fn split_patch(&mut self, p: usize) -> u32 {
