@@ -84,7 +84,7 @@ pub(crate) struct RenderArgs {
     min_area_m2: f64,
     /// Hierarchical solver: receiver representation. The estimate counts every
     /// bounce's transfer error; with the default (auto) it bounded the error measured
-    /// against Mitsuba on the Cornell box at 10, 5, 2 and 1 % (6.2, 2.7, 1.5, 0.9 %
+    /// against Mitsuba on the Cornell box at 10, 5, 2 and 1 % (7.0, 2.6, 1.5, 0.8 %
     /// measured), a bound checked on that scene and the CIE 171 cases, not proven.
     #[arg(long, value_enum, default_value = "auto")]
     basis: BasisArg,

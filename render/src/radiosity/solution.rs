@@ -98,8 +98,9 @@ pub struct SolveStats {
     /// Leaves represented with the linear basis.
     pub linear_patches: usize,
     /// Share of the surface area inside closed solids, by the quadrature points of the
-    /// leaves (hierarchical solver; 0 for the others): it receives and sends no light. The floor under furniture; most of the scene when surfaces face
-    /// away from the room.
+    /// leaves (hierarchical solver; 0 for the others): it receives and sends no light.
+    /// The floor under furniture; most of the scene when surfaces face away from the
+    /// room.
     pub enclosed_area_share: f64,
 }
 

@@ -104,31 +104,25 @@ const LAMP: [[f64; 2]; 2] = [[2.0, 3.0], [1.5, 2.5]];
 fn walls_and_ceiling() -> Vec<Polygon> {
     let h = 3.0;
     let [[x0, x1], [y0, y1]] = LAMP;
+    // a wall standing on the floor edge from a to b (x, y)
+    let wall = |a: [f64; 2], b: [f64; 2], facing: V3| {
+        let c = [
+            [a[0], a[1], 0.],
+            [b[0], b[1], 0.],
+            [b[0], b[1], h],
+            [a[0], a[1], h],
+        ];
+        polygon(&c, facing, "wall")
+    };
     vec![
         horizontal([0.0, 4.0], [0.0, y0], h, false, "ceiling"),
         horizontal([0.0, 4.0], [y1, 4.0], h, false, "ceiling"),
         horizontal([0.0, x0], [y0, y1], h, false, "ceiling"),
         horizontal([x1, 4.0], [y0, y1], h, false, "ceiling"),
-        polygon(
-            &[[0., 0., 0.], [0., 4., 0.], [0., 4., h], [0., 0., h]],
-            V3::x(),
-            "wall",
-        ),
-        polygon(
-            &[[4., 0., 0.], [4., 4., 0.], [4., 4., h], [4., 0., h]],
-            -V3::x(),
-            "wall",
-        ),
-        polygon(
-            &[[0., 0., 0.], [4., 0., 0.], [4., 0., h], [0., 0., h]],
-            V3::y(),
-            "wall",
-        ),
-        polygon(
-            &[[0., 4., 0.], [4., 4., 0.], [4., 4., h], [0., 4., h]],
-            -V3::y(),
-            "wall",
-        ),
+        wall([0., 0.], [0., 4.], V3::x()),
+        wall([4., 0.], [4., 4.], -V3::x()),
+        wall([0., 0.], [4., 0.], V3::y()),
+        wall([0., 4.], [4., 4.], -V3::y()),
     ]
 }
 

@@ -153,6 +153,12 @@ impl Patch {
         self.first_child == NONE
     }
 
+    /// Whether quadrature point `i` of the element's [`Samples`] lies inside a closed
+    /// solid.
+    pub(crate) fn is_enclosed(&self, i: usize) -> bool {
+        self.enclosed & (1 << i) != 0
+    }
+
     /// A point of the patch for three uniform numbers in [0, 1) (uniform by area).
     pub(crate) fn point_at(&self, r0: f64, r1: f64, r2: f64) -> V3 {
         crate::radiosity::quadrature::uniform_point(self.verts(), r0, r1, r2)
@@ -310,7 +316,7 @@ impl Hierarchy {
             if p.enclosed != 0 {
                 let smp = Samples::of(p.verts());
                 let share: f64 = (0..smp.n)
-                    .filter(|&i| p.enclosed & (1 << i) != 0)
+                    .filter(|&i| p.is_enclosed(i))
                     .map(|i| smp.w[i])
                     .sum();
                 enclosed += p.area * share;

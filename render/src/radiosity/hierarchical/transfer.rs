@@ -285,17 +285,16 @@ fn finish_plink(
     for i in 0..smp.n {
         k += smp.w[i] * pv.f[i] * pv.v[i];
     }
-    let mut ks = [0.0; NS];
+    let mut ks = [0f32; NS];
     let mut kmax = extra_max;
     for (j, out) in ks.iter_mut().enumerate() {
         let i = smp.shape[j];
-        *out = pv.f[i] * pv.v[i];
+        *out = (pv.f[i] * pv.v[i]) as f32;
         kmax = kmax.max(pv.f[i]);
     }
     if kmax <= 0.0 || !kmax.is_finite() {
         return None;
     }
-    let ks = ks.map(|v| v as f32);
     let rel_vis = if visible {
         0.0
     } else {
@@ -336,15 +335,7 @@ impl PatchReceiver<'_> {
 
     /// Whether quadrature point `i` lies inside a closed solid.
     fn is_enclosed(&self, i: usize) -> bool {
-        self.patch.enclosed & (1 << i) != 0
-    }
-
-    /// Sets the coefficient of the enclosed points to zero, before any ray is cast
-    /// to or from them.
-    fn clear_enclosed(&self, pv: &mut PointValues) {
-        for i in (0..self.samples.n).filter(|&i| self.is_enclosed(i)) {
-            pv.f[i] = 0.0;
-        }
+        self.patch.is_enclosed(i)
     }
 
     /// Gives the enclosed points the mean of the open ones (weighted by the rule):
@@ -421,14 +412,13 @@ fn plink_from_patch(
         pts
     });
     let mut pv = PatchReceiver::blank_values();
-    for i in 0..smp.n {
+    for i in (0..smp.n).filter(|&i| !recv.is_enclosed(i)) {
         let x = smp.pts[i];
         pv.f[i] = gauss
             .as_deref()
             .and_then(|g| point_to_small_polygon(&x, &rp.normal, g, sp.area, &sp.normal))
             .unwrap_or_else(|| point_to_polygon(&x, &rp.normal, sp.verts(), &sp.normal));
     }
-    recv.clear_enclosed(&mut pv);
     if !visible {
         let skip = [rp.polygon as usize, sp.polygon as usize];
         let targets = if small {
