@@ -162,7 +162,8 @@ pub fn run(
 }
 
 /// With the realistic meter, the station's meter matched to the simulated reference
-/// spectroradiometer (a CS-2000, one matrix per eye), as a station commissioning Infitec
+/// spectroradiometer (a CS-2000 whose wavelength scale a Hg-Ar lamp checked, one
+/// matrix per eye), as a station commissioning Infitec
 /// walls with a filter colorimeter would; nothing for the exact meter.
 pub(crate) fn match_meter(
     station: &mut Station,
@@ -173,7 +174,8 @@ pub(crate) fn match_meter(
             let mut reference = station
                 .open_reference(&ReferenceChoice::Simulated(SpectroModel::cs2000(2000)))
                 .map_err(MeterMatrixError::Reference)?;
-            Some(station.meter_matrices(reference.as_mut(), [0.5, 0.5], false)?)
+            reference.check_wavelengths(&lumiwall_devices::LineLamp::hg_ar())?;
+            Some(station.meter_matrices(&mut reference, [0.5, 0.5], false)?)
         }
         Noise::None => None,
     })

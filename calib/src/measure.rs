@@ -44,6 +44,7 @@ pub mod grey_drives;
 pub mod meter_matrix;
 pub mod meter_offset;
 pub mod warm_up;
+pub mod wavelength_check;
 
 use lumiwall_core::{BitDepth, Channel};
 use lumiwall_devices::{

@@ -21,10 +21,12 @@ use lumiwall_devices::serial::{
     SpecbosConfig, SpecbosEmulatorOptions,
 };
 use lumiwall_devices::sim::{MeterModel, SpectroModel, VirtualWall};
-use lumiwall_devices::{BandpassCorrected, Spectroradiometer};
 use lumiwall_devices::{
     Colorimeter, DeviceError, DisplayId, DisplayInfo, DriveImage, GuidedPositioner,
     MeterPositioner, PatternOutput,
+};
+use lumiwall_devices::{
+    CorrectedReference, GuidedLampHolder, LampHolder, LineLamp, Spectroradiometer, WavelengthScale,
 };
 use lumiwall_pattern::client::{NodeOptions, RemotePatternOutput, Route, SimulatorSink};
 use lumiwall_pattern::{OutputAddress, Token};
@@ -32,6 +34,7 @@ use lumiwall_profiles::DisplayProfile;
 
 use crate::commission::{CommissionError, CommissionOptions, CommissionOutcome, commission};
 use crate::measure::meter_matrix::{MeterMatrices, MeterMatrixError, PatchXyError};
+use crate::measure::wavelength_check::{self, WavelengthCheck, WavelengthCheckError};
 use crate::measure::{Progress, Rig};
 use crate::verify::{Target, VerifyError, VerifyOptions, VerifyReport, verify_wall};
 
@@ -139,6 +142,57 @@ pub enum ReferenceChoice {
     },
     /// A JETI specbos 1201/1211 on a serial port.
     Serial(String),
+}
+
+/// A reference spectroradiometer as the station uses it ([`Station::open_reference`]):
+/// the instrument, the holder of its wavelength-check lamp, and what that check found.
+pub struct Reference {
+    instrument: Box<dyn Spectroradiometer + Send>,
+    lamp_holder: Box<dyn LampHolder + Send>,
+    check: Option<WavelengthCheck>,
+    simulated_offset_nm: Option<f64>,
+}
+
+impl Reference {
+    /// Checks the instrument's wavelength scale with `lamp`
+    /// ([`crate::measure::wavelength_check`]); its readings are corrected with the
+    /// scale found from then on.
+    pub fn check_wavelengths(
+        &mut self,
+        lamp: &LineLamp,
+    ) -> Result<&WavelengthCheck, WavelengthCheckError> {
+        let check =
+            wavelength_check::check(self.instrument.as_mut(), self.lamp_holder.as_mut(), lamp)?;
+        Ok(self.check.insert(check))
+    }
+
+    /// The wavelength check, once made.
+    pub fn wavelength_check(&self) -> Option<&WavelengthCheck> {
+        self.check.as_ref()
+    }
+
+    /// The simulated instrument's true wavelength offset (nm; `None` for a real one),
+    /// to judge the check by.
+    pub fn simulated_offset_nm(&self) -> Option<f64> {
+        self.simulated_offset_nm
+    }
+
+    /// The instrument itself, uncorrected.
+    pub fn instrument(&mut self) -> &mut dyn Spectroradiometer {
+        self.instrument.as_mut()
+    }
+
+    /// The instrument read as a colorimeter, corrected for its bandwidth and checked
+    /// wavelength scale.
+    pub fn corrected(&mut self) -> CorrectedReference<'_> {
+        CorrectedReference {
+            scale: self
+                .check
+                .as_ref()
+                .map_or(WavelengthScale::NOMINAL, |c| c.scale),
+            instrument: self.instrument.as_mut(),
+        }
+    }
 }
 
 /// How to open a station's meter.
@@ -445,60 +499,80 @@ impl Station {
         self.emulator.as_ref()
     }
 
-    /// Opens the reference spectroradiometer a meter matrix is made against.
-    pub fn open_reference(
-        &self,
-        choice: &ReferenceChoice,
-    ) -> Result<Box<dyn Spectroradiometer + Send>, DeviceError> {
-        match choice {
+    /// Opens the reference spectroradiometer a meter matrix is made against, with the
+    /// holder of its wavelength-check lamp: the simulated instrument's own, or for a
+    /// real one a technician prompted on stdin/stdout.
+    pub fn open_reference(&self, choice: &ReferenceChoice) -> Result<Reference, DeviceError> {
+        let simulated = |model: &SpectroModel| self.wall.spectroradiometer(model.clone());
+        let (instrument, lamp_holder, simulated_offset_nm): (
+            Box<dyn Spectroradiometer + Send>,
+            Box<dyn LampHolder + Send>,
+            _,
+        ) = match choice {
             ReferenceChoice::Simulated(model) => {
-                Ok(Box::new(self.wall.spectroradiometer(model.clone())?))
+                let sim = simulated(model)?;
+                let (holder, offset) = (sim.lamp_holder(), sim.wavelength_offset_nm());
+                (Box::new(sim), Box::new(holder), Some(offset))
             }
             ReferenceChoice::Emulated { model, time_scale } => {
                 let options = SpecbosEmulatorOptions {
                     time_scale: *time_scale,
                     ..SpecbosEmulatorOptions::default()
                 };
-                let instrument = Box::new(self.wall.spectroradiometer(model.clone())?);
-                Ok(Box::new(EmulatedSpecbos::start(
-                    instrument,
-                    options,
-                    SpecbosConfig::default(),
-                )?))
+                let sim = simulated(model)?;
+                let (holder, offset) = (sim.lamp_holder(), sim.wavelength_offset_nm());
+                let served =
+                    EmulatedSpecbos::start(Box::new(sim), options, SpecbosConfig::default())?;
+                (Box::new(served), Box::new(holder), Some(offset))
             }
             ReferenceChoice::Serial(port) => {
-                Ok(Box::new(JetiSpecbos::open(port, SpecbosConfig::default())?))
+                let holder = GuidedLampHolder::new(
+                    Box::new(std::io::BufReader::new(std::io::stdin())),
+                    Box::new(std::io::stdout()),
+                );
+                let real = JetiSpecbos::open(port, SpecbosConfig::default())?;
+                (Box::new(real), Box::new(holder), None)
             }
-        }
+        };
+        Ok(Reference {
+            instrument,
+            lamp_holder,
+            check: None,
+            simulated_offset_nm,
+        })
     }
 
     /// Matches the station's meter to `reference` on the virtual wall: one correction
     /// matrix per eye ([`crate::measure::meter_matrix`]), and with `per_display` one per
-    /// display. The reference's readings are corrected for its bandwidth
-    /// ([`BandpassCorrected`]).
+    /// display. The reference's readings are corrected for its bandwidth and, once
+    /// [`Reference::check_wavelengths`] ran, its wavelength scale
+    /// ([`CorrectedReference`]); the matrices record that check.
     pub fn meter_matrices(
         &mut self,
-        reference: &mut dyn Spectroradiometer,
+        reference: &mut Reference,
         uv: [f64; 2],
         per_display: bool,
     ) -> Result<MeterMatrices, MeterMatrixError> {
         let displays = self.displays();
-        crate::measure::meter_matrix::make(
+        let mut matrices = crate::measure::meter_matrix::make(
             &mut self.rig(),
-            &mut BandpassCorrected(reference),
+            &mut reference.corrected(),
             &displays,
             uv,
             per_display,
-        )
+        )?;
+        matrices.reference_wavelength_check = reference.check.clone();
+        Ok(matrices)
     }
 
     /// The chromaticity errors of the station's meter against the virtual wall's truth on
     /// every display's primaries and white, without and with `matrices`, and of the
-    /// reference they were matched to ([`crate::measure::meter_matrix::xy_errors`]).
+    /// reference they were matched to, as corrected
+    /// ([`crate::measure::meter_matrix::xy_errors`]).
     pub fn meter_matrix_xy_errors(
         &mut self,
         matrices: &MeterMatrices,
-        reference: &mut dyn Spectroradiometer,
+        reference: &mut Reference,
         uv: [f64; 2],
     ) -> Result<Vec<PatchXyError>, DeviceError> {
         let displays = self.displays();
@@ -506,7 +580,7 @@ impl Station {
         let truth = move |d: &DisplayInfo, drive: [f64; 3]| wall.emitted_xyz(d.id, drive, uv);
         crate::measure::meter_matrix::xy_errors(
             &mut self.rig(),
-            &mut BandpassCorrected(reference),
+            &mut reference.corrected(),
             &displays,
             uv,
             matrices,

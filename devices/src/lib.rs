@@ -6,11 +6,12 @@
 //! projectors, screen and meter, the embedded default so that everything runs and is
 //! tested without hardware. [`xyz`] holds the measured quantity and the CIE 1931
 //! observer used to integrate spectra; [`spectral`] what a spectroradiometer measures
-//! ([`Spectroradiometer`]).
+//! ([`Spectroradiometer`]), and [`line_lamp`] the lamp that checks its wavelengths.
 
 pub mod camera;
 pub mod error;
 mod guided;
+pub mod line_lamp;
 pub mod spectral;
 pub mod traits;
 pub mod xyz;
@@ -25,7 +26,8 @@ pub mod uvc;
 pub use camera::{Camera, CameraInfo, DriveImage, Frame};
 pub use error::DeviceError;
 pub use guided::GuidedPositioner;
-pub use spectral::{BandpassCorrected, SpectralRadiance, Spectroradiometer};
+pub use line_lamp::{EmissionLine, GuidedLampHolder, LampHolder, LineLamp};
+pub use spectral::{CorrectedReference, SpectralRadiance, Spectroradiometer, WavelengthScale};
 pub use traits::{
     AimingAids, Colorimeter, DisplayId, DisplayInfo, Eye, MeterInfo, MeterPositioner, PatternOutput,
 };

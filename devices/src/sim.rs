@@ -25,6 +25,6 @@ pub mod wall_file;
 pub use camera::{CameraPose, CameraSpec, VirtualCamera};
 pub use curve::TransferCurve;
 pub use meter::{MeterModel, SimMeter};
-pub use spectroradiometer::{SimSpectroradiometer, SpectroModel};
+pub use spectroradiometer::{SimLampHolder, SimSpectroradiometer, SpectroModel};
 pub use wall::{SimPatternOutput, SimPositioner, TruePrimaries, VirtualWall};
 pub use wall_file::{NetworkSpec, OutputRoute, WallFile};

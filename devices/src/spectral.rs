@@ -78,6 +78,18 @@ impl SpectralRadiance {
     /// functions are differentiated; compare CIE 214:2014). Without it, a 5 nm slit
     /// moves a narrow-band Infitec green by about 0.0014 in xy.
     pub fn xyz_bandpass_corrected(&self, bandwidth_nm: f64) -> Result<Xyz, DeviceError> {
+        self.xyz_corrected(bandwidth_nm, &WavelengthScale::NOMINAL)
+    }
+
+    /// XYZ corrected for the instrument's bandwidth (as
+    /// [`SpectralRadiance::xyz_bandpass_corrected`]) and for its wavelength scale: the
+    /// sample labelled λ is taken at `scale.true_nm(λ)`, where the CIE functions are
+    /// evaluated, and spans `step·(1 + slope)` nm.
+    pub fn xyz_corrected(
+        &self,
+        bandwidth_nm: f64,
+        scale: &WavelengthScale,
+    ) -> Result<Xyz, DeviceError> {
         let obs = observer()?;
         let half_var = bandwidth_nm * bandwidth_nm / 12.0;
         let weight = |c: &lumiwall_core::observer::Spectrum, wl: f64| {
@@ -86,14 +98,37 @@ impl SpectralRadiance {
         };
         let mut acc = [0.0; 3];
         for (i, l) in self.w_sr_m2_nm.iter().enumerate() {
-            let wl = self.start_nm + self.step_nm * i as f64;
+            let wl = scale.true_nm(self.start_nm + self.step_nm * i as f64);
             acc[0] += l * weight(&obs.x_bar, wl);
             acc[1] += l * weight(&obs.y_bar, wl);
             acc[2] += l * weight(&obs.z_bar, wl);
         }
-        Ok(Xyz::from_array(
-            acc.map(|a| a * K_M_LM_PER_W * self.step_nm),
-        ))
+        let step_nm = self.step_nm * (1.0 + scale.slope);
+        Ok(Xyz::from_array(acc.map(|a| a * K_M_LM_PER_W * step_nm)))
+    }
+}
+
+/// An instrument's wavelength scale as a line lamp measured it
+/// ([`crate::line_lamp`]): the sample labelled λ nm was taken at
+/// `λ + offset_nm + slope·(λ − 580 nm)`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct WavelengthScale {
+    /// Offset at 580 nm (nm).
+    pub offset_nm: f64,
+    /// Relative error of the dispersion (nm per nm).
+    pub slope: f64,
+}
+
+impl WavelengthScale {
+    /// The instrument's own labels (no correction).
+    pub const NOMINAL: WavelengthScale = WavelengthScale {
+        offset_nm: 0.0,
+        slope: 0.0,
+    };
+
+    /// The wavelength the sample labelled `label_nm` was taken at (nm).
+    pub fn true_nm(&self, label_nm: f64) -> f64 {
+        label_nm + self.offset_nm + self.slope * (label_nm - 580.0)
     }
 }
 
@@ -116,18 +151,26 @@ pub trait Spectroradiometer: Colorimeter {
 }
 
 /// A spectroradiometer read as a colorimeter whose XYZ are corrected for the
-/// instrument's bandwidth ([`SpectralRadiance::xyz_bandpass_corrected`]): the
-/// reference a filter colorimeter is matched to on narrow-band primaries.
-pub struct BandpassCorrected<'a>(pub &'a mut dyn Spectroradiometer);
+/// instrument's bandwidth ([`SpectralRadiance::xyz_bandpass_corrected`]) and, where a
+/// line lamp measured it, its wavelength scale ([`SpectralRadiance::xyz_corrected`]):
+/// the reference a filter colorimeter is matched to on narrow-band primaries.
+pub struct CorrectedReference<'a> {
+    /// The instrument.
+    pub instrument: &'a mut dyn Spectroradiometer,
+    /// Its wavelength scale ([`WavelengthScale::NOMINAL`] when unchecked).
+    pub scale: WavelengthScale,
+}
 
-impl Colorimeter for BandpassCorrected<'_> {
+impl Colorimeter for CorrectedReference<'_> {
     fn info(&self) -> crate::MeterInfo {
-        self.0.info()
+        self.instrument.info()
     }
 
     fn measure(&mut self) -> Result<Xyz, DeviceError> {
-        let bandwidth = self.0.bandwidth_nm();
-        self.0.measure_spectrum()?.xyz_bandpass_corrected(bandwidth)
+        let bandwidth = self.instrument.bandwidth_nm();
+        self.instrument
+            .measure_spectrum()?
+            .xyz_corrected(bandwidth, &self.scale)
     }
 }
 
@@ -170,5 +213,41 @@ mod tests {
         s.w_sr_m2_nm[7] = f64::NAN;
         assert!(s.check("t").is_err());
         assert!(flat(380.0, 1.0, 401, 1.0).check("t").is_ok());
+    }
+
+    /// A 10 nm band at 530 nm sampled by an instrument whose scale reads `label` for
+    /// `label + offset + slope·(label − 580)`.
+    fn green_band(offset_nm: f64, slope: f64) -> SpectralRadiance {
+        let scale = WavelengthScale { offset_nm, slope };
+        SpectralRadiance {
+            start_nm: 380.0,
+            step_nm: 1.0,
+            w_sr_m2_nm: (0..401)
+                .map(|i| {
+                    let wl = scale.true_nm(380.0 + f64::from(i));
+                    1e-3 * (-((wl - 530.0) / 6.0).powi(2)).exp()
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn a_known_wavelength_scale_error_is_corrected_on_a_narrow_green_band() {
+        let dxy = |a: Xyz, b: Xyz| {
+            let (a, b) = (a.xy().expect("xy"), b.xy().expect("xy"));
+            (a[0] - b[0]).hypot(a[1] - b[1])
+        };
+        let truth = green_band(0.0, 0.0).xyz().expect("xyz");
+        let scale = WavelengthScale {
+            offset_nm: 0.4,
+            slope: 2e-3,
+        };
+        let read = green_band(scale.offset_nm, scale.slope);
+        let uncorrected = read.xyz().expect("xyz");
+        let corrected = read.xyz_corrected(0.0, &scale).expect("xyz");
+        assert!(dxy(uncorrected, truth) > 0.001, "{uncorrected:?}");
+        // what is left: the CIE tables interpolated between their 1 nm rows
+        assert!(dxy(corrected, truth) < 5e-5, "{corrected:?} vs {truth:?}");
+        assert!((corrected.y / truth.y - 1.0).abs() < 2e-4);
     }
 }

@@ -422,7 +422,9 @@ fn argyll_spotread_applies_lumiwalls_ccmx_and_the_infitec_green_error_shrinks() 
     let (before, after) = (xy_distance(raw, truth), xy_distance(corrected, truth));
     println!("Infitec left green: Δxy {before:.4} without the CCMX, {after:.4} with it");
     assert!(before > 0.008, "the filter mismatch should show: {before}");
-    assert!(after < 0.004 && after < before / 3.0, "{before} → {after}");
+    // the figure: after the spectral correction ≤ 0.002 (the reference's
+    // wavelength scale checked with a Hg-Ar lamp first, `meter-matrix`'s default)
+    assert!(after <= 0.002 && after < before / 3.0, "{before} → {after}");
 }
 
 /// Whether an ArgyllCMS tool is installed (skip, or fail when required).

@@ -70,6 +70,9 @@ pub enum MeterMatrixError {
     /// The reference instrument could not be opened.
     #[error("the reference spectroradiometer: {0}")]
     Reference(#[source] DeviceError),
+    /// The reference's wavelength check failed.
+    #[error(transparent)]
+    WavelengthCheck(#[from] super::wavelength_check::WavelengthCheckError),
     /// A device failed while the patches were read.
     #[error("reading the {eye} display's patches for the meter matrix: {source}")]
     Device {
@@ -127,6 +130,9 @@ pub struct MeterMatrices {
     pub reference: String,
     /// One matrix per eye of the wall.
     pub matrices: Vec<MeterMatrix>,
+    /// The reference's wavelength check, if one was made before the matrices.
+    #[serde(default)]
+    pub reference_wavelength_check: Option<super::wavelength_check::WavelengthCheck>,
 }
 
 impl MeterMatrices {
@@ -310,6 +316,7 @@ pub fn make(
         instrument: instrument_name(rig.meter.info()),
         reference: instrument_name(reference.info()),
         matrices,
+        reference_wavelength_check: None,
     })
 }
 

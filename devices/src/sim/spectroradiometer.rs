@@ -15,10 +15,17 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
+use std::sync::{Arc, Mutex};
+
 use super::observer::Spectrum;
 use super::wall::VirtualWall;
+use crate::line_lamp::{LampHolder, LineLamp};
 use crate::spectral::{K_M_LM_PER_W, SpectralRadiance, Spectroradiometer};
 use crate::{Colorimeter, DeviceError, MeterInfo, Xyz};
+
+/// Radiance of the simulated line lamp's strongest line (W·sr⁻¹·m⁻²): a pen lamp
+/// close before the lens, about 10 cd/m² in its green line.
+const LAMP_STRONGEST_LINE_W_SR_M2: f64 = 0.02;
 
 /// Error model of a spot spectroradiometer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -144,6 +151,26 @@ pub struct SimSpectroradiometer {
     gain: f64,
     tilt: f64,
     rng: ChaCha8Rng,
+    /// The line lamp held before the lens, if any (shared with its [`SimLampHolder`]).
+    lamp: Arc<Mutex<Option<LineLamp>>>,
+}
+
+/// Puts a line lamp before a [`SimSpectroradiometer`] (made by
+/// [`SimSpectroradiometer::lamp_holder`]): while it is there, the instrument measures
+/// the lamp's lines instead of the wall.
+#[derive(Debug, Clone)]
+pub struct SimLampHolder(Arc<Mutex<Option<LineLamp>>>);
+
+impl LampHolder for SimLampHolder {
+    fn place(&mut self, lamp: &LineLamp) -> Result<(), DeviceError> {
+        *self.0.lock().unwrap_or_else(|e| e.into_inner()) = Some(lamp.clone());
+        Ok(())
+    }
+
+    fn remove(&mut self) -> Result<(), DeviceError> {
+        *self.0.lock().unwrap_or_else(|e| e.into_inner()) = None;
+        Ok(())
+    }
 }
 
 impl SimSpectroradiometer {
@@ -171,7 +198,51 @@ impl SimSpectroradiometer {
             gain,
             tilt,
             rng,
+            lamp: Arc::new(Mutex::new(None)),
         })
+    }
+
+    /// The holder that puts a line lamp before this instrument (it keeps working after
+    /// the instrument moved into an emulator thread).
+    pub fn lamp_holder(&self) -> SimLampHolder {
+        SimLampHolder(self.lamp.clone())
+    }
+
+    /// What the instrument reports for `lamp`: each line seen through the slit
+    /// (a triangle of unit area; at least one sample step wide, so an instrument without
+    /// a slit still sees a line between its samples), at its offset wavelengths, times
+    /// its responsivity error, plus noise.
+    fn sample_lamp(&mut self, lamp: &LineLamp) -> SpectralRadiance {
+        let m = &self.model;
+        let fwhm = m.bandwidth_nm.max(m.step_nm);
+        let fluctuation = 1.0 + m.noise_rel * self.rng.sample::<f64, _>(StandardNormal);
+        let strongest = lamp
+            .lines
+            .iter()
+            .map(|l| l.relative_intensity)
+            .fold(0.0, f64::max);
+        let scale = LAMP_STRONGEST_LINE_W_SR_M2 / strongest.max(f64::MIN_POSITIVE);
+        let values = (0..m.samples())
+            .map(|i| {
+                let wl = m.start_nm + m.step_nm * i as f64;
+                let seen: f64 = lamp
+                    .lines
+                    .iter()
+                    .map(|l| {
+                        let d = (wl + self.offset_nm - l.wavelength_nm).abs();
+                        l.relative_intensity * scale * (1.0 - d / fwhm).max(0.0) / fwhm
+                    })
+                    .sum();
+                let responsivity = self.gain * (1.0 + self.tilt * (wl - 580.0) / 200.0);
+                let dark = m.dark_noise_w_sr_m2_nm * self.rng.sample::<f64, _>(StandardNormal);
+                seen * responsivity * fluctuation + dark
+            })
+            .collect();
+        SpectralRadiance {
+            start_nm: m.start_nm,
+            step_nm: m.step_nm,
+            w_sr_m2_nm: values,
+        }
     }
 
     /// The error model.
@@ -290,6 +361,13 @@ impl Colorimeter for SimSpectroradiometer {
 
 impl Spectroradiometer for SimSpectroradiometer {
     fn measure_spectrum(&mut self) -> Result<SpectralRadiance, DeviceError> {
+        let lamp = self.lamp.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        if let Some(lamp) = lamp {
+            let reading = self.sample_lamp(&lamp);
+            let y = reading.xyz()?.y;
+            self.check_range(&reading, y)?;
+            return Ok(reading);
+        }
         let truth = self.wall.read_spot_spectrum()?;
         let true_y = super::observer::cie1931()
             .map_err(|e| DeviceError::Config(e.to_string()))?

@@ -6,9 +6,9 @@
 //! `cargo test -p lumiwall-tests --test integration meter_matrix -- --nocapture` prints the figures.
 
 use lumiwall_calib::measure::meter_matrix;
-use lumiwall_calib::station::{Noise, ReferenceChoice, Station};
+use lumiwall_calib::station::{Noise, Reference, ReferenceChoice, Station};
 use lumiwall_devices::sim::SpectroModel;
-use lumiwall_devices::{DisplayId, Spectroradiometer, Xyz};
+use lumiwall_devices::{DisplayId, LineLamp, Xyz};
 
 /// Colours the matrices were not fitted to: greys, secondaries, a skin tone.
 const CHECK: [[f64; 3]; 6] = [
@@ -33,7 +33,7 @@ fn read(station: &mut Station, id: DisplayId, drive: [f64; 3]) -> Xyz {
 }
 
 /// The simulated CS-2000 reference with serial number `seed`.
-fn cs2000(station: &Station, seed: u64) -> Box<dyn Spectroradiometer + Send> {
+fn cs2000(station: &Station, seed: u64) -> Reference {
     station
         .open_reference(&ReferenceChoice::Simulated(SpectroModel::cs2000(seed)))
         .expect("reference")
@@ -49,7 +49,7 @@ fn a_meter_matrix_per_eye_brings_the_colorimeter_to_the_truth_on_colours_it_was_
     let mut station = crate::support::direct_station("infitec-pair.toml", Noise::Realistic);
     let mut reference = cs2000(&station, 2000);
     let matrices = station
-        .meter_matrices(reference.as_mut(), [0.5, 0.5], false)
+        .meter_matrices(&mut reference, [0.5, 0.5], false)
         .expect("matrices");
     assert_eq!(matrices.matrices.len(), 2, "one per eye");
     let (mut raw_sum, mut corrected_sum, mut n) = (0.0, 0.0, 0.0);
@@ -89,8 +89,9 @@ fn a_meter_matrix_per_eye_brings_the_colorimeter_to_the_truth_on_colours_it_was_
     );
 }
 
-/// On the Infitec primaries the correction brings the colorimeter to its reference's
-/// own accuracy, no further: a spectroradiometer's wavelength-scale error (±0.3 nm
+/// Without a wavelength check of the reference (`--wavelength-check none`), on the
+/// Infitec primaries the correction brings the colorimeter to its reference's own
+/// accuracy, no further: a spectroradiometer's wavelength-scale error (±0.3 nm
 /// for a CS-2000, ±0.5 nm for a specbos 1211) moves the narrow-band green by up to
 /// 0.008 per nm, and what the matrices leave tracks it. Three reference instruments,
 /// one matrix per display (`--per-display`: the Infitec combs differ between
@@ -108,13 +109,66 @@ fn on_infitec_primaries_the_corrected_colorimeter_is_as_close_to_the_truth_as_it
             .open_reference(&ReferenceChoice::Simulated(model.clone()))
             .expect("reference");
         let matrices = station
-            .meter_matrices(reference.as_mut(), [0.5, 0.5], true)
+            .meter_matrices(&mut reference, [0.5, 0.5], true)
             .expect("matrices");
         let errors = station
-            .meter_matrix_xy_errors(&matrices, reference.as_mut(), [0.5, 0.5])
+            .meter_matrix_xy_errors(&matrices, &mut reference, [0.5, 0.5])
             .expect("errors");
         assert_eq!(errors.len(), 4 * station.displays().len());
         check_against_reference(&format!("{} #{}", model.model, model.seed), &errors);
+    }
+}
+
+/// With its wavelength scale checked against a Hg-Ar lamp first, the reference is
+/// within 0.0002 of the truth on every Infitec primary, and the corrected colorimeter
+/// within the 0.002 (the green's 0.018–0.021 of filter mismatch included),
+/// whatever the reference's own offset: three CS-2000 and three specbos 1211 serials.
+/// The check itself finds each instrument's offset within 0.01 nm.
+#[test]
+fn after_a_line_lamp_check_of_the_reference_every_infitec_primary_is_within_0_002() {
+    let references = [
+        SpectroModel::cs2000(1),
+        SpectroModel::cs2000(7),
+        SpectroModel::cs2000(2000),
+        SpectroModel::specbos_1211(3),
+        SpectroModel::specbos_1211(11),
+        SpectroModel::specbos_1211(2000),
+    ];
+    for model in references {
+        let name = format!("{} #{}", model.model, model.seed);
+        let mut station = crate::support::direct_station("dlp-infitec-2x1.toml", Noise::Realistic);
+        let mut reference = station
+            .open_reference(&ReferenceChoice::Simulated(model))
+            .expect("reference");
+        let truth = reference.simulated_offset_nm().expect("simulated");
+        let check = reference
+            .check_wavelengths(&LineLamp::hg_ar())
+            .expect("check")
+            .clone();
+        eprintln!(
+            "{name}: offset {:+.4} nm (true {truth:+.4}), {} lines, {:.4} nm RMS",
+            check.scale.offset_nm,
+            check.lines.len(),
+            check.rms_nm
+        );
+        assert!((check.scale.offset_nm - truth).abs() < 0.01, "{name}");
+        let matrices = station
+            .meter_matrices(&mut reference, [0.5, 0.5], true)
+            .expect("matrices");
+        assert_eq!(matrices.reference_wavelength_check, Some(check));
+        let errors = station
+            .meter_matrix_xy_errors(&matrices, &mut reference, [0.5, 0.5])
+            .expect("errors");
+        for e in errors.iter().filter(|e| e.patch != "white") {
+            eprintln!(
+                "{name}: {} {}: Δxy meter {:.4}, corrected {:.4}, reference {:.4}",
+                e.display, e.patch, e.meter, e.corrected, e.reference
+            );
+            assert!(e.reference <= 0.0002, "{name}: {} {}", e.display, e.patch);
+            assert!(e.corrected <= 0.002, "{name}: {} {}", e.display, e.patch);
+        }
+        let green = errors.iter().filter(|e| e.patch == "green");
+        assert!(green.map(|e| e.meter).fold(0.0, f64::max) > 0.015);
     }
 }
 
@@ -167,7 +221,7 @@ fn matrices_of_another_instrument_and_a_resume_without_them_are_refused() {
     let mut station = crate::support::direct_station("infitec-pair.toml", Noise::Realistic);
     let mut reference = cs2000(&station, 2000);
     let matrices = station
-        .meter_matrices(reference.as_mut(), [0.5, 0.5], false)
+        .meter_matrices(&mut reference, [0.5, 0.5], false)
         .expect("matrices");
     matrices
         .check_instrument(station.meter.as_ref())
@@ -215,7 +269,7 @@ fn a_specbos_read_through_its_driver_and_emulator_gives_the_matrices_of_the_dire
         let mut station = crate::support::direct_station("dlp-infitec-2x1.toml", Noise::Realistic);
         let mut reference = station.open_reference(&choice).expect("reference");
         station
-            .meter_matrices(reference.as_mut(), [0.5, 0.5], false)
+            .meter_matrices(&mut reference, [0.5, 0.5], false)
             .expect("matrices")
     };
     let model = SpectroModel::specbos_1211(2000);
