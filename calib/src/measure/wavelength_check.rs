@@ -143,7 +143,8 @@ pub fn check(
         .map(|&l| line_centroid(&spectrum, l, fwhm_nm, &lamp.name))
         .collect::<Result<Vec<f64>, _>>()?;
     let result = fit_scale(&lamp.name, &wanted, &measured);
-    if result.scale.offset_nm.abs() > MAX_OFFSET_NM || result.rms_nm > MAX_RMS_NM {
+    let within = result.scale.offset_nm.abs() <= MAX_OFFSET_NM && result.rms_nm <= MAX_RMS_NM;
+    if !within {
         return Err(WavelengthCheckError::OutOfSpecification {
             lamp: lamp.name.clone(),
             offset_nm: result.scale.offset_nm,
@@ -217,7 +218,16 @@ fn line_centroid(
             total += v;
         }
     }
-    Ok(moment / total)
+    let centroid = moment / total;
+    if !(total > 0.0 && centroid.is_finite()) {
+        return Err(WavelengthCheckError::LineMissing {
+            lamp: lamp.into(),
+            true_nm,
+            peak: peak_value,
+            background: spread,
+        });
+    }
+    Ok(centroid)
 }
 
 /// The median of `v` (0 for none).
