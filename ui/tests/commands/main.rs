@@ -11,6 +11,7 @@ mod bad_inputs;
 mod cli;
 mod export;
 mod interruptions;
+mod meter_matrix;
 mod network_wall;
 mod sensors;
 mod spatial_verify;
