@@ -526,10 +526,7 @@ impl Station {
                 (Box::new(served), Box::new(holder), Some(offset))
             }
             ReferenceChoice::Serial(port) => {
-                let holder = GuidedLampHolder::new(
-                    Box::new(std::io::BufReader::new(std::io::stdin())),
-                    Box::new(std::io::stdout()),
-                );
+                let holder = GuidedLampHolder::on_terminal();
                 let real = JetiSpecbos::open(port, SpecbosConfig::default())?;
                 (Box::new(real), Box::new(holder), None)
             }

@@ -18,7 +18,8 @@ pub struct EmissionLine {
     /// Wavelength in standard air (nm).
     pub wavelength_nm: f64,
     /// Radiance relative to the lamp's strongest line (approximate: it depends on the
-    /// lamp's current and temperature; only the simulated lamp uses it).
+    /// lamp's current and temperature). It shapes the simulated lamp and decides
+    /// which neighbours count ([`LineLamp::isolated_lines`]).
     pub relative_intensity: f64,
 }
 
@@ -71,12 +72,20 @@ impl LineLamp {
 
     /// The lines an instrument of resolution `fwhm_nm` (slit full width at half
     /// maximum) sampled every `step_nm` sees apart from every other line of at least
-    /// 1 % of its intensity, within `range_nm`: no neighbour closer than
-    /// `2·fwhm + step`, so that a window of ±(fwhm + step/2) around the line's peak
-    /// pixel holds all of its light and none of a neighbour's.
-    pub fn isolated_lines(&self, fwhm_nm: f64, step_nm: f64, range_nm: [f64; 2]) -> Vec<f64> {
-        let reach = 2.0 * fwhm_nm + step_nm;
-        let margin = fwhm_nm + step_nm;
+    /// 1 % of its intensity, within `range_nm`, when each line is looked for within
+    /// ±`search_nm` of its wavelength: no neighbour closer than `2·fwhm + step` (a
+    /// window of ±(fwhm + step/2) around the line's peak pixel holds none of the
+    /// neighbour's light inside its FWHM) nor closer than `fwhm + 2·search` (the
+    /// search cannot land on the neighbour's flank).
+    pub fn isolated_lines(
+        &self,
+        fwhm_nm: f64,
+        step_nm: f64,
+        search_nm: f64,
+        range_nm: [f64; 2],
+    ) -> Vec<f64> {
+        let reach = (2.0 * fwhm_nm + step_nm).max(fwhm_nm + 2.0 * search_nm);
+        let margin = fwhm_nm + step_nm + search_nm;
         self.lines
             .iter()
             .filter(|l| {
@@ -103,17 +112,38 @@ pub trait LampHolder {
     fn remove(&mut self) -> Result<(), DeviceError>;
 }
 
+/// One answer line from the technician (`None`: the input ended).
+type ReadLine = Box<dyn FnMut() -> std::io::Result<Option<String>> + Send>;
+
 /// A technician holds the lamp: prompted on `output`, answering on `input` (Enter =
 /// done, `q` = stop).
 pub struct GuidedLampHolder {
-    input: Box<dyn BufRead + Send>,
+    input: ReadLine,
     output: Box<dyn Write + Send>,
 }
 
 impl GuidedLampHolder {
     /// Prompts on `output` and reads answers from `input`.
-    pub fn new(input: Box<dyn BufRead + Send>, output: Box<dyn Write + Send>) -> Self {
+    pub fn new(mut input: Box<dyn BufRead + Send>, output: Box<dyn Write + Send>) -> Self {
+        let input = Box::new(move || {
+            let mut line = String::new();
+            Ok((input.read_line(&mut line)? > 0).then_some(line))
+        });
         GuidedLampHolder { input, output }
+    }
+
+    /// Prompts on stdout and reads the process's stdin one line at a time, through its
+    /// shared buffer, so that whatever reads stdin next (a guided meter positioner)
+    /// still gets the lines after the answers.
+    pub fn on_terminal() -> Self {
+        let input = Box::new(|| {
+            let mut line = String::new();
+            Ok((std::io::stdin().read_line(&mut line)? > 0).then_some(line))
+        });
+        GuidedLampHolder {
+            input,
+            output: Box::new(std::io::stdout()),
+        }
     }
 
     /// Prints `prompt` and waits for Enter; `q` or the end of the input stops.
@@ -124,14 +154,12 @@ impl GuidedLampHolder {
         };
         writeln!(self.output, "{prompt}; Enter = done, q = stop").map_err(io)?;
         self.output.flush().map_err(io)?;
-        let mut line = String::new();
-        let n = self.input.read_line(&mut line).map_err(io)?;
-        if n == 0 || line.trim().eq_ignore_ascii_case("q") {
-            return Err(DeviceError::AimStopped(
+        match (self.input)().map_err(io)? {
+            Some(line) if !line.trim().eq_ignore_ascii_case("q") => Ok(()),
+            _ => Err(DeviceError::AimStopped(
                 "the wavelength check's lamp".into(),
-            ));
+            )),
         }
-        Ok(())
     }
 }
 
@@ -155,16 +183,25 @@ mod tests {
 
     #[test]
     fn a_5_nm_instrument_sees_four_clean_hg_ar_lines_and_no_blend() {
-        let lines = LineLamp::hg_ar().isolated_lines(5.0, 1.0, [380.0, 780.0]);
+        let lines = LineLamp::hg_ar().isolated_lines(5.0, 1.0, 2.0, [380.0, 780.0]);
         assert_eq!(lines, vec![435.8328, 546.0735, 727.2936, 738.3980]);
-        let sharper = LineLamp::hg_ar().isolated_lines(4.5, 1.0, [380.0, 780.0]);
+        let sharper = LineLamp::hg_ar().isolated_lines(4.5, 1.0, 2.0, [380.0, 780.0]);
         assert_eq!(
             sharper,
             vec![435.8328, 546.0735, 696.5431, 727.2936, 738.3980]
         );
-        // a 1 nm instrument resolves the 404.7/407.8 pair but not 772.38/772.42
-        let fine = LineLamp::hg_ar().isolated_lines(1.0, 1.0, [380.0, 780.0]);
-        assert!(fine.contains(&404.6563) && !fine.contains(&772.3761));
+        // a 1 nm instrument searching ±2 nm: the 404.7/407.8 pair (3.1 nm apart) is
+        // too close for the search; 576.96/579.07, 750.39/751.47 and 772.38/772.42 too
+        let fine = LineLamp::hg_ar().isolated_lines(1.0, 1.0, 2.0, [380.0, 780.0]);
+        assert!(
+            fine.contains(&435.8328) && fine.contains(&763.5106),
+            "{fine:?}"
+        );
+        assert!(
+            ![404.6563, 576.9598, 750.3869, 772.3761]
+                .iter()
+                .any(|l| fine.contains(l))
+        );
     }
 
     #[test]

@@ -838,7 +838,12 @@ fn check_reference_wavelengths(
     let truth = reference.simulated_offset_nm();
     let check = reference
         .check_wavelengths(&lumiwall_devices::LineLamp::hg_ar())
-        .map_err(|e| CliError::failure(e.to_string()))?;
+        .map_err(|e| {
+            CliError::failure(format!(
+                "{e}; without a line lamp, run with --wavelength-check none (the reference's \
+                 scale as it is)"
+            ))
+        })?;
     let lines: Vec<String> = check
         .lines
         .iter()

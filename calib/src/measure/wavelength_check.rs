@@ -7,9 +7,10 @@
 //! instrument's spectrum is averaged over a few readings; for each line that stands
 //! clear of its neighbours at the instrument's bandwidth
 //! ([`LineLamp::isolated_lines`]) the peak pixel is found near the line's wavelength
-//! and the line's centroid taken over ±(FWHM + step/2) around it (the slit function
-//! is symmetric, so the centroid is where the instrument puts the line, whatever its
-//! shape). The offset (and, where the lines span 150 nm or more, the dispersion's
+//! and the line's centroid taken over ±(FWHM + step/2) around it, re-centred on the
+//! centroid (the slit function is symmetric, so the centroid is where the instrument
+//! puts the line; a slit with wings beyond its FWHM loses a little of them to the
+//! window, symmetrically once the window is centred). The offset (and, where the lines span 150 nm or more, the dispersion's
 //! slope) that maps the measured centroids onto the true wavelengths is fitted by least
 //! squares: the [`WavelengthScale`] the reference's readings are then corrected with
 //! ([`lumiwall_devices::CorrectedReference`]).
@@ -17,6 +18,9 @@
 use lumiwall_devices::WavelengthScale;
 use lumiwall_devices::{DeviceError, LampHolder, LineLamp, SpectralRadiance, Spectroradiometer};
 use serde::{Deserialize, Serialize};
+
+/// Times a line's window is re-centred on its centroid.
+const RECENTRE_STEPS: usize = 3;
 
 /// Spectra averaged for the check.
 pub const READINGS: u32 = 4;
@@ -28,6 +32,9 @@ pub const SEARCH_NM: f64 = 2.0;
 /// Largest offset accepted (nm): beyond it the instrument is out of its specification
 /// and goes back to its maker.
 pub const MAX_OFFSET_NM: f64 = 2.0;
+
+/// Largest dispersion error accepted (relative): 1 % is 4 nm across 380–780 nm.
+pub const MAX_SLOPE: f64 = 0.01;
 
 /// Largest RMS disagreement between the lines and the fitted scale accepted (nm).
 pub const MAX_RMS_NM: f64 = 0.1;
@@ -84,32 +91,34 @@ pub enum WavelengthCheckError {
     },
     /// A line is not in the spectrum.
     #[error(
-        "wavelength check: no line near {true_nm:.2} nm (peak {peak:.3e} against a \
-         background of {background:.3e}): is the {lamp} lit, warmed up and before the \
-         lens?"
+        "wavelength check: no line near {true_nm:.2} nm (peak {peak:.3e} above the \
+         background, whose spread is {spread:.3e}): is the {lamp} lit, warmed up and \
+         before the lens?"
     )]
     LineMissing {
         /// The lamp.
         lamp: String,
         /// The line looked for.
         true_nm: f64,
-        /// The largest value near it.
+        /// The largest value near it, above the background (the median sample).
         peak: f64,
-        /// The spectrum's typical level away from lines.
-        background: f64,
+        /// The background's spread (median absolute deviation of the samples).
+        spread: f64,
     },
     /// The lines disagree or the offset is out of specification.
     #[error(
-        "wavelength check: the scale fitted to the {lamp}'s lines is {offset_nm:+.3} nm \
-         with {rms_nm:.3} nm RMS between the lines (accepted: within ±{MAX_OFFSET_NM} nm, \
-         {MAX_RMS_NM} nm RMS); a different lamp, stray light, or an instrument due for \
-         service"
+        "wavelength check: the scale fitted to the {lamp}'s lines is {offset_nm:+.3} nm, \
+         slope {slope:+.2e}, with {rms_nm:.3} nm RMS between the lines (accepted: within \
+         ±{MAX_OFFSET_NM} nm, slope ±{MAX_SLOPE}, {MAX_RMS_NM} nm RMS); a different lamp, \
+         stray light, or an instrument due for service"
     )]
     OutOfSpecification {
         /// The lamp.
         lamp: String,
         /// The fitted offset.
         offset_nm: f64,
+        /// The fitted slope.
+        slope: f64,
         /// The lines' RMS disagreement.
         rms_nm: f64,
     },
@@ -126,10 +135,11 @@ pub fn check(
     let range = instrument.wavelength_range_nm();
     holder.place(lamp)?;
     let spectrum = average_spectrum(instrument, READINGS);
-    holder.remove()?;
+    let removed = holder.remove();
     let spectrum = spectrum?;
+    removed?;
     let fwhm_nm = fwhm_nm.max(spectrum.step_nm);
-    let wanted = lamp.isolated_lines(fwhm_nm, spectrum.step_nm, range);
+    let wanted = lamp.isolated_lines(fwhm_nm, spectrum.step_nm, SEARCH_NM, range);
     if wanted.len() < 2 {
         return Err(WavelengthCheckError::TooFewLines {
             lamp: lamp.name.clone(),
@@ -143,11 +153,14 @@ pub fn check(
         .map(|&l| line_centroid(&spectrum, l, fwhm_nm, &lamp.name))
         .collect::<Result<Vec<f64>, _>>()?;
     let result = fit_scale(&lamp.name, &wanted, &measured);
-    let within = result.scale.offset_nm.abs() <= MAX_OFFSET_NM && result.rms_nm <= MAX_RMS_NM;
+    let within = result.scale.offset_nm.abs() <= MAX_OFFSET_NM
+        && result.scale.slope.abs() <= MAX_SLOPE
+        && result.rms_nm <= MAX_RMS_NM;
     if !within {
         return Err(WavelengthCheckError::OutOfSpecification {
             lamp: lamp.name.clone(),
             offset_nm: result.scale.offset_nm,
+            slope: result.scale.slope,
             rms_nm: result.rms_nm,
         });
     }
@@ -162,7 +175,10 @@ fn average_spectrum(
     let mut sum = instrument.measure_spectrum()?;
     for _ in 1..n {
         let next = instrument.measure_spectrum()?;
-        if next.w_sr_m2_nm.len() != sum.w_sr_m2_nm.len() || next.start_nm != sum.start_nm {
+        let same_grid = next.w_sr_m2_nm.len() == sum.w_sr_m2_nm.len()
+            && next.start_nm == sum.start_nm
+            && next.step_nm == sum.step_nm;
+        if !same_grid {
             return Err(DeviceError::Garbled {
                 device: instrument.info().model,
                 command: "spectrum".into(),
@@ -181,7 +197,8 @@ fn average_spectrum(
 
 /// Where the instrument put the line whose true wavelength is `true_nm` (in its own
 /// labels): the centroid over ±(FWHM + step/2) around the largest sample within
-/// ±[`SEARCH_NM`] of it, after the background (the median sample) is taken off.
+/// ±[`SEARCH_NM`] of it, after the background (the median sample) is taken off, the
+/// window then re-centred on the centroid.
 fn line_centroid(
     s: &SpectralRadiance,
     true_nm: f64,
@@ -206,26 +223,33 @@ fn line_centroid(
             lamp: lamp.into(),
             true_nm,
             peak: peak_value,
-            background: spread,
+            spread,
         });
     };
-    let centre = label(peak);
-    let (mut moment, mut total) = (0.0, 0.0);
-    for i in 0..s.w_sr_m2_nm.len() {
-        if (label(i) - centre).abs() <= fwhm_nm + 0.5 * s.step_nm + 1e-9 {
-            let v = s.w_sr_m2_nm[i] - background;
-            moment += v * label(i);
-            total += v;
+    let missing = || WavelengthCheckError::LineMissing {
+        lamp: lamp.into(),
+        true_nm,
+        peak: peak_value,
+        spread,
+    };
+    // The window starts at the peak pixel and is re-centred on the centroid: a slit
+    // with wings would pull an off-centre window's centroid toward its middle.
+    let mut centre = label(peak);
+    let mut centroid = f64::NAN;
+    for _ in 0..RECENTRE_STEPS {
+        let (mut moment, mut total) = (0.0, 0.0);
+        for i in 0..s.w_sr_m2_nm.len() {
+            if (label(i) - centre).abs() <= fwhm_nm + 0.5 * s.step_nm + 1e-9 {
+                let v = s.w_sr_m2_nm[i] - background;
+                moment += v * label(i);
+                total += v;
+            }
         }
-    }
-    let centroid = moment / total;
-    if !(total > 0.0 && centroid.is_finite()) {
-        return Err(WavelengthCheckError::LineMissing {
-            lamp: lamp.into(),
-            true_nm,
-            peak: peak_value,
-            background: spread,
-        });
+        centroid = moment / total;
+        if !(total > 0.0 && centroid.is_finite() && (centroid - true_nm).abs() <= SEARCH_NM) {
+            return Err(missing());
+        }
+        centre = centroid;
     }
     Ok(centroid)
 }
@@ -349,6 +373,32 @@ mod tests {
                 "{y} vs {white_cd_m2}"
             );
         }
+    }
+
+    /// A 1 nm instrument resolves more lines; with its scale off by up to 0.5 nm, a
+    /// ±2 nm search near a weak line must not land on a strong neighbour's flank
+    /// (404.66 nm beside 407.78 nm).
+    #[test]
+    fn a_sharp_instrument_with_a_large_offset_is_checked_on_its_clean_lines() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../fixtures/walls/infitec-pair.toml");
+        let wall = VirtualWall::from_toml_file(&path).expect("wall");
+        let sharp = |seed| SpectroModel {
+            bandwidth_nm: 1.0,
+            ..SpectroModel::specbos_1211(seed)
+        };
+        let mut s = (1..200)
+            .map(|seed| SimSpectroradiometer::new(wall.clone(), sharp(seed)).expect("model"))
+            .find(|s| s.wavelength_offset_nm() < -0.4)
+            .expect("an instrument with a large negative offset");
+        let mut holder = s.lamp_holder();
+        let c = check(&mut s, &mut holder, &LineLamp::hg_ar()).expect("check");
+        assert!(c.lines.len() >= 6, "{c:?}");
+        assert!(
+            (c.scale.offset_nm - s.wavelength_offset_nm()).abs() < 0.01,
+            "{c:?} vs {}",
+            s.wavelength_offset_nm()
+        );
     }
 
     #[test]
