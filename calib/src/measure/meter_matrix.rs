@@ -28,8 +28,17 @@ use serde::{Deserialize, Serialize};
 use super::Rig;
 
 /// Readings averaged per patch and instrument (a filter colorimeter's xy noise is a
-/// large relative error in Z on an Infitec blue of y ≈ 0.03).
+/// large relative error in Z on an Infitec blue of y ≈ 0.03); a colour patch whose mean
+/// chromaticity is still less certain than [`XY_STANDARD_ERROR`] gets more, up to
+/// [`MAX_REPEATS`].
 pub const REPEATS: u32 = 8;
+
+/// Most readings per colour patch and instrument.
+pub const MAX_REPEATS: u32 = 32;
+
+/// The standard error of a colour patch's mean x and y (from its readings' scatter)
+/// that ends its repeats: a tenth of the 0.002 a corrected Infitec primary may be off.
+pub const XY_STANDARD_ERROR: f64 = 0.0002;
 
 /// Version of the matrices file.
 pub const FORMAT_VERSION: u32 = 1;
@@ -243,17 +252,44 @@ const PATCHES: [[f64; 3]; 5] = [
     [1.0; 3],
 ];
 
-/// Mean of `n` readings; a patch too dark for the instrument reads as zero light.
-fn averaged(meter: &mut dyn Colorimeter, n: u32) -> Result<Xyz, DeviceError> {
+/// Mean of at least [`REPEATS`] readings (of `most` if that is fewer), more while
+/// the mean's x or y standard error exceeds [`XY_STANDARD_ERROR`], at most `most`; a
+/// patch too dark for the instrument reads as zero light.
+fn averaged(meter: &mut dyn Colorimeter, most: u32) -> Result<Xyz, DeviceError> {
     let mut sum = Xyz::default();
-    for _ in 0..n {
+    let mut xy: Vec<[f64; 2]> = Vec::new();
+    let mut n = 0;
+    while n < most.max(1) {
         match meter.measure() {
-            Ok(v) => sum = sum + v,
+            Ok(v) => {
+                sum = sum + v;
+                xy.extend(v.xy());
+            }
             Err(DeviceError::TooDark { .. }) => {}
             Err(e) => return Err(e),
         }
+        n += 1;
+        if n >= REPEATS.min(most) && xy_standard_error(&xy) <= XY_STANDARD_ERROR {
+            break;
+        }
     }
-    Ok(sum * (1.0 / f64::from(n.max(1))))
+    Ok(sum * (1.0 / f64::from(n)))
+}
+
+/// The larger standard error of the mean of the x and of the y of `xy` (infinite
+/// below two readings).
+fn xy_standard_error(xy: &[[f64; 2]]) -> f64 {
+    let n = xy.len() as f64;
+    if xy.len() < 2 {
+        return f64::INFINITY;
+    }
+    (0..2)
+        .map(|k| {
+            let mean = xy.iter().map(|p| p[k]).sum::<f64>() / n;
+            let var = xy.iter().map(|p| (p[k] - mean).powi(2)).sum::<f64>() / (n - 1.0);
+            (var / n).sqrt()
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Black, R, G, B and W of `display` at `uv`, read with the station's meter (through
@@ -269,8 +305,9 @@ pub fn measure_pairs(
     let mut refr = [Xyz::default(); 5];
     for (i, drive) in PATCHES.iter().enumerate() {
         rig.pattern.show(display.id, *drive)?;
-        meter[i] = averaged(rig.meter, REPEATS)?;
-        refr[i] = averaged(reference, REPEATS)?;
+        let most = if i == 0 { REPEATS } else { MAX_REPEATS };
+        meter[i] = averaged(rig.meter, most)?;
+        refr[i] = averaged(reference, most)?;
     }
     Ok(PatchPairs {
         meter,
@@ -418,6 +455,49 @@ mod tests {
 
     fn xyz(v: [f64; 3]) -> Xyz {
         Xyz::new(v[0], v[1], v[2])
+    }
+
+    /// A meter whose x alternates by ±`spread` around a white, counting its readings.
+    struct Scatter {
+        spread: f64,
+        readings: u32,
+    }
+
+    impl Colorimeter for Scatter {
+        fn info(&self) -> lumiwall_devices::MeterInfo {
+            lumiwall_devices::MeterInfo {
+                model: "scatter".into(),
+                serial: "0".into(),
+                min_reliable_cd_m2: 0.0,
+                max_cd_m2: f64::INFINITY,
+                xy_repeatability: None,
+            }
+        }
+        fn measure(&mut self) -> Result<Xyz, DeviceError> {
+            self.readings += 1;
+            let sign = if self.readings % 2 == 0 { 1.0 } else { -1.0 };
+            Ok(Xyz::new(95.0 + sign * self.spread, 100.0, 108.9))
+        }
+    }
+
+    #[test]
+    fn a_steady_patch_is_read_8_times_and_a_scattered_one_until_its_mean_is_certain() {
+        let count = |spread| {
+            let mut m = Scatter {
+                spread,
+                readings: 0,
+            };
+            averaged(&mut m, MAX_REPEATS).expect("reading");
+            m.readings
+        };
+        // near this white x moves 0.00226 per unit of X
+        // x scatter ±0.0002 (X ±0.09): standard error 0.00008 after 8
+        assert_eq!(count(0.09), REPEATS);
+        // ±0.0020 (X ±0.9): would need (0.0020/0.0002)² = 100 readings
+        assert_eq!(count(0.9), MAX_REPEATS);
+        // ±0.00081 (X ±0.36): (0.00081/0.0002)² = 16.6, 18 with the sample variance
+        let mid = count(0.36);
+        assert!((17..=19).contains(&mid), "{mid}");
     }
 
     /// An instrument whose readings are `A · truth` plus a black: the fit recovers `A⁻¹`

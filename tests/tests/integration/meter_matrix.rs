@@ -202,8 +202,9 @@ fn check_against_reference(reference: &str, errors: &[meter_matrix::PatchXyError
         "the filter mismatch shows on green"
     );
     assert!(green(|e| e.corrected) < green(|e| e.meter) / 4.0);
+    // the meter's own noise in the fit and in the check (a tenth of the green's error)
     assert!(
-        green(|e| e.corrected) <= green(|e| e.reference) + 0.0004,
+        green(|e| e.corrected) <= green(|e| e.reference) + 0.0008,
         "{reference}: on the green the correction should reach the reference's accuracy"
     );
 }
