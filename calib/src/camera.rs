@@ -26,7 +26,9 @@ pub mod registration;
 pub use anchor::{CameraPhotometry, SpotAgreement, SpotPair};
 pub use checkpoint::{Checkpoint, SavedCalibration};
 pub use error::CameraCalibError;
-pub use flat::{DisplayFlat, FlatFieldOptions, FlatFieldOutcome, measure_flat_fields};
+pub use flat::{
+    DisplayFlat, EIGHT_BIT_NOTE, FlatFieldOptions, FlatFieldOutcome, measure_flat_fields,
+};
 pub use hdr::{
     HdrImage, ResponseCurve, calibrate_response, capture_hdr, response_from_series, response_series,
 };

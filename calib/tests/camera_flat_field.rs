@@ -127,14 +127,31 @@ fn lambertian_infitec_pair(extra: &str) -> VirtualWall {
 }
 
 /// A station on `w` with the direct meter (`noise`) and the wall commissioned with
-/// [`commission_options`] into a temporary folder: the station and its profiles.
+/// [`commission_options`] into a temporary folder: the station and its profiles. A
+/// noisy meter is matched first to a CS-2000 whose wavelengths a Hg-Ar lamp checked,
+/// one matrix per display (`lumiwall meter-matrix --per-display`), as an Infitec
+/// station would.
 fn commissioned(w: &VirtualWall, noise: Noise) -> (Station, Vec<DisplayProfile>) {
     let mut station =
         Station::with_wall(w.clone(), &StationOptions::new(MeterChoice::Direct, noise))
             .expect("station");
+    let mut opts = commission_options();
+    if noise == Noise::Realistic {
+        let model = lumiwall_devices::sim::SpectroModel::cs2000(2000);
+        let mut reference = station
+            .open_reference(&lumiwall_calib::station::ReferenceChoice::Simulated(model))
+            .expect("reference");
+        reference
+            .check_wavelengths(&lumiwall_devices::LineLamp::hg_ar())
+            .expect("wavelength check");
+        let matrices = station
+            .meter_matrices(&mut reference, [0.5, 0.5], true)
+            .expect("meter matrices");
+        opts.measure.meter_matrix = Some(matrices);
+    }
     let dir = tempfile::tempdir().expect("tmp");
     let outcome = station
-        .commission(dir.path(), &commission_options(), &mut |_| {})
+        .commission(dir.path(), &opts, &mut |_| {})
         .expect("commission");
     (station, outcome.solution.profiles)
 }
@@ -442,6 +459,11 @@ fn a_one_tile_wall_gets_more_meter_spots_and_a_sound_vignetting_fit() {
         lines.iter().any(|l| l.contains("read at 13 spots")),
         "{lines:#?}"
     );
+    // the fixture's camera is the default 8-bit one: the stage says what that costs
+    assert_eq!(
+        lines.first().map(String::as_str),
+        Some(lumiwall_calib::camera::EIGHT_BIT_NOTE)
+    );
     let v = &flats.photometry;
     // The virtual camera's lens keeps 1/(1 + 0.12ρ²)² of the light; the display
     // reaches ρ ≈ 0.9 (the far spots), where the correction is 20 %.
@@ -472,7 +494,16 @@ fn a_one_tile_wall_gets_more_meter_spots_and_a_sound_vignetting_fit() {
 #[test]
 #[ignore = "10 minutes: the 48-display camera stage"]
 fn heyewall_flat_field_figures() {
-    let f = run("heyewall-48", "", Noise::None, false);
+    // LUMIWALL_PROBE_TOML adds to the wall file (e.g. "[camera]\nbits = 12");
+    // LUMIWALL_PROBE_REALISTIC=1 takes the realistic camera and meter.
+    let extra = std::env::var("LUMIWALL_PROBE_TOML").unwrap_or_default();
+    let realistic = std::env::var_os("LUMIWALL_PROBE_REALISTIC").is_some();
+    let noise = if realistic {
+        Noise::Realistic
+    } else {
+        Noise::None
+    };
+    let f = run("heyewall-48", &extra, noise, realistic);
     eprintln!(
         "dense ΔY {:.2} % Δxy {:.4}; iterations {}; camera vs meter {:?}; grid {:?} seams {:.2}",
         f.dense_dy, f.dense_dxy, f.iterations, f.camera_vs_meter, f.grid_after, f.seams_after

@@ -142,6 +142,11 @@ impl Camera for Counting<'_> {
     }
 }
 
+/// What an 8-bit camera costs, said before the camera stage starts.
+pub const EIGHT_BIT_NOTE: &str = "camera: 8-bit frames (JPEG or a UVC webcam) leave the flat \
+    field 0.1-0.4 % uneven between captures, up to ΔE2000 2-3 across seams on a large \
+    Infitec wall; a camera with 12-bit raw output reaches 0.03 %";
+
 /// The camera stage for every display: response curve, registration, anchor, flat
 /// fields; `profiles` (matched by display index and eye) give the tone curves the loop
 /// drives through. `progress` gets one line per step.
@@ -157,6 +162,9 @@ pub fn measure_flat_fields(
     let first = displays
         .get(displays.len() / 2)
         .ok_or_else(|| CameraCalibError::Fit("the wall has no displays".into()))?;
+    if cam.info().bit_depth <= 8 {
+        progress(EIGHT_BIT_NOTE);
+    }
     let (calib, open) = match resumable(cam, rig.pattern, first, profiles, opts, progress)? {
         Some(saved) => (saved, None),
         None => {
@@ -836,13 +844,14 @@ impl Context<'_> {
         let size = self.opts.texture;
         let margin = self.edge_margin(run.info);
         let mut history = Vec::new();
+        let dither = cam.info().bit_depth <= 8;
         // the nightly check captures at least once
         let most = self
             .opts
             .max_iterations
             .max(u32::from(keep_below.is_some()));
         for _ in 0..most {
-            let img = loop_pattern(run.profile, c, &g, size, level)?;
+            let img = loop_pattern(run.profile, c, &g, size, level, dither)?;
             let shot = self.capture(
                 cam,
                 pattern,
@@ -999,19 +1008,26 @@ fn rms_residual(r: &[f64]) -> f64 {
     (r.iter().map(|v| (v - 1.0).powi(2)).sum::<f64>() / r.len().max(1) as f64).sqrt()
 }
 
-/// The loop's pattern for channel `c`: relative intensity `L / gain(uv)` through the
-/// profile's inverse tone curve; `L` is the level the wall white will ask of this
-/// channel at the spot (so the tone curve is exercised where it will be used), at most
-/// the smallest gain so no pixel clips.
 /// The 4×4 Bayer ordered-dither matrix.
 const BAYER4: [u8; 16] = [0, 8, 2, 10, 12, 4, 14, 6, 3, 11, 1, 9, 15, 7, 13, 5];
 
+/// The loop's pattern for channel `c`: relative intensity `L / gain(uv)` through the
+/// profile's inverse tone curve; `L` is the level the wall white will ask of this
+/// channel at the spot (so the tone curve is exercised where it will be used), at most
+/// the smallest gain so no pixel clips. Drives between codes are shown by the pattern
+/// output as the post pass's dither at the display's own pixels. With `dither` the
+/// pattern is ordered-dithered to codes itself, at 8 pixels per texel: an 8-bit camera
+/// needs that pattern's variation to break up its own quantisation of a smooth field
+/// (without it the Lambertian infitec-pair's loop floors at 0.2–0.4 % and mono-2x1's
+/// seams grow); a 12-bit camera sees it only as aliasing (a 0.1–0.3 % floor against
+/// 0.03 % without it; `camera_flat_field`'s probes).
 fn loop_pattern(
     profile: &DisplayProfile,
     c: usize,
     g: &[f64],
     size: [u32; 2],
     level: f64,
+    dither: bool,
 ) -> Result<DriveImage, CameraCalibError> {
     let level = level
         .min(g.iter().copied().fold(f64::INFINITY, f64::min))
@@ -1028,12 +1044,14 @@ fn loop_pattern(
         let gain = f64::from(flat.gain_at([u as f32, v as f32])[0]).max(1e-3);
         let lin = (level / gain).clamp(0.0, 1.0);
         let drive = f64::from(curve.drive_for(lin as f32)).clamp(0.0, 1.0);
-        // Ordered dither to the display's codes: the mean over a few pixels is the
-        // continuous drive, so the camera measures the flat field, not the code steps.
-        let (x, y) = ((u * f64::from(pw)) as usize, (v * f64::from(ph)) as usize);
-        let t = (f64::from(BAYER4[(y % 4) * 4 + x % 4]) + 0.5) / 16.0;
         let mut d = [0.0; 3];
-        d[c] = ((drive * max + t).floor() / max).clamp(0.0, 1.0);
+        d[c] = if dither {
+            let (x, y) = ((u * f64::from(pw)) as usize, (v * f64::from(ph)) as usize);
+            let t = (f64::from(BAYER4[(y % 4) * 4 + x % 4]) + 0.5) / 16.0;
+            ((drive * max + t).floor() / max).clamp(0.0, 1.0)
+        } else {
+            drive
+        };
         d
     })
     .map_err(CameraCalibError::device("building the flat-field pattern"))

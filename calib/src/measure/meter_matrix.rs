@@ -475,7 +475,11 @@ mod tests {
         }
         fn measure(&mut self) -> Result<Xyz, DeviceError> {
             self.readings += 1;
-            let sign = if self.readings.is_multiple_of(2) { 1.0 } else { -1.0 };
+            let sign = if self.readings.is_multiple_of(2) {
+                1.0
+            } else {
+                -1.0
+            };
             Ok(Xyz::new(95.0 + sign * self.spread, 100.0, 108.9))
         }
     }
