@@ -82,8 +82,17 @@ fn log_has(h: &Harness<'static, StationApp>, text: &str) -> bool {
 
 /// Compares a screenshot with the checked-in one, or says why it cannot.
 fn screenshot(h: &mut Harness<'static, StationApp>, name: &str) {
+    screenshot_within(h, name, 0);
+}
+
+/// [`screenshot`], allowing `max_failed_pixels` pixels to differ.
+fn screenshot_within(h: &mut Harness<'static, StationApp>, name: &str, max_failed_pixels: usize) {
     match h.render() {
-        Ok(image) => egui_kittest::image_snapshot(&image, name),
+        Ok(image) => egui_kittest::image_snapshot_options(
+            &image,
+            name,
+            &egui_kittest::SnapshotOptions::default().max_failed_pixels(max_failed_pixels),
+        ),
         Err(e) if std::env::var("LUMIWALL_REQUIRE_GPU").as_deref() != Ok("1") => {
             eprintln!(
                 "skipping screenshot {name}: no wgpu adapter ({e}); LUMIWALL_REQUIRE_GPU=1 requires one"
@@ -186,7 +195,11 @@ fn a_stopped_commissioning_says_so_and_resume_finishes_it() {
     click(&mut h, "Verify");
     wait_for_run(&mut h);
     click(&mut h, "Wall");
-    screenshot(&mut h, "station_heyewall");
+    // Where the stop lands depends on the machine's load (a few readings may be taken
+    // first, and the virtual wall's warm-up clock moves on), so a verification value
+    // may differ in its last digit (one glyph, 6 pixels, in a CI run): 40 pixels, less
+    // than a word, may differ.
+    screenshot_within(&mut h, "station_heyewall", 40);
 }
 
 #[test]
