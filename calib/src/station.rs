@@ -166,20 +166,10 @@ impl Reference {
         Ok(self.check.insert(check))
     }
 
-    /// The wavelength check, once made.
-    pub fn wavelength_check(&self) -> Option<&WavelengthCheck> {
-        self.check.as_ref()
-    }
-
     /// The simulated instrument's true wavelength offset (nm; `None` for a real one),
     /// to judge the check by.
     pub fn simulated_offset_nm(&self) -> Option<f64> {
         self.simulated_offset_nm
-    }
-
-    /// The instrument itself, uncorrected.
-    pub fn instrument(&mut self) -> &mut dyn Spectroradiometer {
-        self.instrument.as_mut()
     }
 
     /// The instrument read as a colorimeter, corrected for its bandwidth and checked
