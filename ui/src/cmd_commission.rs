@@ -111,12 +111,28 @@ const MAX_TIME_SCALE: f64 = 10.0;
 pub(crate) const METER_MATRIX_FILE: &str = "meter-matrix.json";
 
 impl MeterArgs {
-    /// The matrices of `--meter-matrix`, if given.
+    /// The matrices of `--meter-matrix`, if given; refused for the exact simulated
+    /// meter ([`MeterArgs::reads_truth`]), which a correction fitted to another
+    /// meter's errors would only move off the truth.
     pub(crate) fn meter_matrices(&self) -> Result<Option<MeterMatrices>, CliError> {
+        if self.meter_matrix.is_some() && self.reads_truth() {
+            return Err(CliError::input(
+                "--meter-matrix corrects a real meter or the realistic simulated one; with \
+                 --noise none the simulated meter reads the simulator's truth, which no \
+                 correction may change: leave out --meter-matrix",
+            ));
+        }
         self.meter_matrix
             .as_ref()
             .map(|p| MeterMatrices::load(p).map_err(|e| CliError::input(e.to_string())))
             .transpose()
+    }
+
+    /// True for the simulated meter without errors (`--noise none` on the emulated or
+    /// direct meter): its readings are the simulator's truth, so the corrections kept
+    /// from a commissioning with a real or realistic meter do not apply to it.
+    pub(crate) fn reads_truth(&self) -> bool {
+        self.noise == NoiseArg::None && !matches!(self.meter, MeterChoice::Serial(_))
     }
 
     /// The station's meter as these options name it.

@@ -298,6 +298,7 @@ fn options(args: &RecalibrateArgs, station: &Station) -> Result<RecalibrateOptio
             white_de2000: args.max_white_de,
         },
         meter_xy_offset: crate::cmd_verify::load_meter_correction(
+            &args.meter,
             &args.profiles,
             station.meter.as_ref(),
         )?

@@ -96,12 +96,18 @@ fn parse_grid(s: &str) -> Result<[u32; 2], String> {
     }
 }
 
-/// The xy correction saved by `lumiwall commission` for this instrument, if any.
+/// The xy correction saved by `lumiwall commission` for this instrument, if any (none
+/// for the exact simulated meter, which reads the truth).
 pub(crate) fn load_meter_correction(
+    meter_args: &MeterArgs,
     dir: &Path,
     meter: &dyn Colorimeter,
 ) -> Result<Option<[f64; 2]>, CliError> {
     let path = dir.join(MeterCorrection::FILE);
+    if meter_args.reads_truth() {
+        note_truth_not_corrected(&path);
+        return Ok(None);
+    }
     let text = match std::fs::read_to_string(&path) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
@@ -147,6 +153,10 @@ pub(crate) fn meter_matrices(
     if !path.exists() {
         return Ok(None);
     }
+    if meter_args.reads_truth() {
+        note_truth_not_corrected(&path);
+        return Ok(None);
+    }
     let m = MeterMatrices::load(&path).map_err(|e| CliError::input(e.to_string()))?;
     if let Err(e) = m.check_instrument(meter) {
         eprintln!("lumiwall: note: {} not applied: {e}", path.display());
@@ -157,6 +167,18 @@ pub(crate) fn meter_matrices(
         path.display()
     );
     Ok(Some(m))
+}
+
+/// Says that a correction kept in the profile folder is left out because the exact
+/// simulated meter reads the truth (silent when there is none).
+fn note_truth_not_corrected(path: &Path) {
+    if path.exists() {
+        eprintln!(
+            "lumiwall: note: {} not applied: with --noise none the simulated meter reads the \
+             truth, which the commissioning meter's correction would move",
+            path.display()
+        );
+    }
 }
 
 /// Runs `lumiwall verify`.
@@ -247,7 +269,11 @@ pub(crate) fn verify_with(
     };
     let opts = VerifyOptions {
         patches: targets.len(),
-        meter_xy_offset: load_meter_correction(&args.profiles, station.meter.as_ref())?,
+        meter_xy_offset: load_meter_correction(
+            &args.meter,
+            &args.profiles,
+            station.meter.as_ref(),
+        )?,
         measure: MeasureOptions {
             meter_matrix: meter_matrices(&args.meter, &args.profiles, station.meter.as_ref())?,
             ..MeasureOptions::default()
@@ -350,7 +376,7 @@ fn run_grid(
         cells,
         ..GridOptions::default()
     };
-    let offset = load_meter_correction(&args.profiles, station.meter.as_ref())?;
+    let offset = load_meter_correction(&args.meter, &args.profiles, station.meter.as_ref())?;
     let mut corrected = CorrectedMeter {
         inner: station.meter.as_mut(),
         xy_offset: offset.unwrap_or([0.0; 2]),

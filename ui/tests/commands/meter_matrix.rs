@@ -73,3 +73,88 @@ fn meter_matrix_checks_the_references_wavelengths_first_and_brings_every_infitec
         "{after} vs {before}\n{checked}"
     );
 }
+
+/// The truth is not corrected: after a commissioning with the realistic meter and its
+/// meter matrices, `verify --noise none` leaves the matrices kept in the profile folder
+/// out (and says so), and an explicit `--meter-matrix` with `--noise none` is refused.
+/// Applying them moved the exact readings of dlp-infitec-2x1's right eye by ΔE2000 3.
+#[test]
+fn verify_against_the_truth_leaves_the_commissioning_meters_matrices_out() {
+    let tmp = TempDir::new().unwrap();
+    let wall = fixture("walls/dlp-infitec-2x1.toml");
+    let mm = tmp.path().join("mm.json");
+    let profiles = tmp.path().join("profiles");
+    let run = |args: &[&std::ffi::OsStr]| lumiwall().args(args).output().unwrap();
+    let os = |s: &'static str| std::ffi::OsStr::new(s);
+    let out = run(&[
+        os("meter-matrix"),
+        os("--wall"),
+        wall.as_os_str(),
+        os("--meter"),
+        os("direct"),
+        os("--out"),
+        mm.as_os_str(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = run(&[
+        os("commission"),
+        os("--wall"),
+        wall.as_os_str(),
+        os("--meter"),
+        os("direct"),
+        os("--meter-matrix"),
+        mm.as_os_str(),
+        os("--budget"),
+        os("64"),
+        os("--out"),
+        profiles.as_os_str(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(profiles.join("meter-matrix.json").exists());
+    let verify = |extra: &[&std::ffi::OsStr]| {
+        let mut args = vec![
+            os("verify"),
+            os("--wall"),
+            wall.as_os_str(),
+            os("--meter"),
+            os("direct"),
+            os("--noise"),
+            os("none"),
+            os("--profiles"),
+            profiles.as_os_str(),
+            os("--chart"),
+            os("51"),
+            os("--max-de"),
+            os("3"),
+            os("--median-de"),
+            os("1"),
+            os("--mean-de"),
+            os("1"),
+            os("--white-de"),
+            os("1.5"),
+            os("--grey-balance"),
+            os("1"),
+        ];
+        args.extend_from_slice(extra);
+        run(&args)
+    };
+    let out = verify(&[]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("meter-matrix.json not applied"), "{stderr}");
+    assert!(
+        out.status.success(),
+        "{}\n{stderr}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    let out = verify(&[os("--meter-matrix"), mm.as_os_str()]);
+    assert_eq!(out.status.code(), Some(2), "refused as a bad input");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("leave out --meter-matrix"));
+}
