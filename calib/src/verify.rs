@@ -115,6 +115,19 @@ pub struct PatchResult {
     /// Its chroma term ΔC'/S_C (signed: positive when more chromatic than expected).
     #[serde(default)]
     pub delta_c2000: f64,
+    /// For a grey of at least 1 % of the white's luminance: the chroma term with the
+    /// measured colour taken relative to the display's measured white (the expected
+    /// one relative to the target white), so that it shows how neutral the grey axis is
+    /// against the white the display really shows, as DisplayCAL's "gray balance"
+    /// does; the white's own error is the white ΔE2000. `None` for other patches.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grey_delta_c2000: Option<f64>,
+    /// For the white patch: ΔE2000 of its colour alone, the measured white scaled to
+    /// the target's luminance, as DisplayCAL's "measured vs. assumed target whitepoint"
+    /// (its luminance error is [`PatchResult::delta_l_percent`]). `None` for other
+    /// patches.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub white_colour_de2000: Option<f64>,
 }
 
 impl PatchResult {
@@ -141,11 +154,17 @@ pub struct Summary {
     /// 95th percentile of ΔE2000 (nearest rank).
     #[serde(default)]
     pub p95_de: f64,
-    /// ΔE2000 of the white patch, when the targets have one.
+    /// ΔE2000 of the white patch's colour (luminance normalised,
+    /// [`PatchResult::white_colour_de2000`]), when the targets have one.
     #[serde(default)]
     pub white_de: Option<f64>,
-    /// Grey balance: mean |ΔC'| (CIEDE2000 chroma term) over the neutral patches, when
-    /// there are any.
+    /// Luminance error of the white patch in percent (the largest in magnitude), when
+    /// the targets have one.
+    #[serde(default)]
+    pub white_dl_percent: Option<f64>,
+    /// Grey balance: mean |ΔC'| (CIEDE2000 chroma term) over the greys of at least 1 %
+    /// of the white's luminance, each relative to its display's measured white
+    /// ([`PatchResult::grey_delta_c2000`]), when there are any.
     #[serde(default)]
     pub grey_balance: Option<f64>,
     /// Median |ΔL| in percent.
@@ -165,16 +184,20 @@ impl Summary {
         let mut dl = Vec::new();
         let mut dxy = Vec::new();
         let mut white_de = None;
+        let mut white_dl: Option<f64> = None;
         let mut grey = Vec::new();
         for p in patches {
             de.push(p.delta_e2000);
             dl.push(p.delta_l_percent.abs());
             dxy.push(p.delta_xy);
             if p.target == "white" {
-                white_de = Some(white_de.map_or(p.delta_e2000, |w: f64| w.max(p.delta_e2000)));
+                let de = p.white_colour_de2000.unwrap_or(p.delta_e2000);
+                white_de = Some(white_de.map_or(de, |w: f64| w.max(de)));
+                let dl = p.delta_l_percent;
+                white_dl = Some(white_dl.map_or(dl, |w| if dl.abs() > w.abs() { dl } else { w }));
             }
-            if p.is_neutral() {
-                grey.push(p.delta_c2000.abs());
+            if let Some(c) = p.grey_delta_c2000 {
+                grey.push(c.abs());
             }
         }
         let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
@@ -182,6 +205,7 @@ impl Summary {
             patches: de.len(),
             mean_de: mean(&de),
             white_de,
+            white_dl_percent: white_dl,
             grey_balance: (!grey.is_empty()).then(|| mean(&grey)),
             median_de: median(&mut de),
             p95_de: percentile(&de, 0.95),
@@ -375,12 +399,12 @@ impl VerifyReport {
     /// Summary table (plain text): per display and overall, then the black check.
     pub fn summary_table(&self) -> String {
         let mut s = String::from(
-            "display          patches  median ΔE  max ΔE  median |ΔL| %  max |ΔL| %  median Δxy  max Δxy  mean ΔE  p95 ΔE  white ΔE  grey |ΔC'|\n",
+            "display          patches  median ΔE  max ΔE  median |ΔL| %  max |ΔL| %  median Δxy  max Δxy  mean ΔE  p95 ΔE  white ΔE  white ΔL %  grey |ΔC'|\n",
         );
         let opt = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.3}"));
         let row = |name: &str, m: &Summary| {
             format!(
-                "{:<16} {:>7} {:>10.3} {:>7.3} {:>14.2} {:>11.2} {:>11.4} {:>8.4} {:>8.3} {:>7.3} {:>9} {:>11}\n",
+                "{:<16} {:>7} {:>10.3} {:>7.3} {:>14.2} {:>11.2} {:>11.4} {:>8.4} {:>8.3} {:>7.3} {:>9} {:>11} {:>11}\n",
                 name,
                 m.patches,
                 m.median_de,
@@ -392,6 +416,8 @@ impl VerifyReport {
                 m.mean_de,
                 m.p95_de,
                 opt(m.white_de),
+                m.white_dl_percent
+                    .map_or_else(|| "-".to_string(), |v| format!("{v:+.2}")),
                 opt(m.grey_balance)
             )
         };
@@ -696,6 +722,8 @@ impl DisplayUnderTest<'_> {
             delta_xy: delta_xy(expected, measured),
             delta_e2000: delta_e2000_xyz(expected, measured, self.reference_white),
             delta_c2000: delta_c2000_xyz(expected, measured, self.reference_white),
+            grey_delta_c2000: None,
+            white_colour_de2000: None,
         })
     }
 
@@ -777,6 +805,7 @@ pub fn verify_wall(
             black.push(display.read_black(&mut s, opts.black_repeats, progress)?);
         }
         readings += s.log.readings;
+        judge_against_the_white(&mut patches[start..], display.reference_white);
         per_display.push((key.clone(), Summary::of(&patches[start..])));
         progress(Progress::DisplayDone {
             display: info.id,
@@ -794,6 +823,35 @@ pub fn verify_wall(
         readings,
         eyes_delta_e2000,
     })
+}
+
+/// DisplayCAL's judgement of one display's white and greys: on the white patch
+/// [`PatchResult::white_colour_de2000`] (the measured white scaled to the target's
+/// luminance), and on the greys of at least 1 % of `reference_white` (the target white
+/// as shown) [`PatchResult::grey_delta_c2000`]: the expected grey in CIELAB of
+/// `reference_white`, the measured one in CIELAB of the display's measured white.
+/// Without a white patch (or a usable reading of it) neither is set.
+fn judge_against_the_white(patches: &mut [PatchResult], reference_white: Xyz) {
+    let Some(white) = patches
+        .iter()
+        .find(|p| p.target == "white")
+        .map(|p| p.measured)
+        .filter(|w| w.y > 0.0 && w.is_finite())
+    else {
+        return;
+    };
+    for p in patches.iter_mut().filter(|p| p.target == "white") {
+        let scaled = p.measured * (p.expected.y / white.y);
+        p.white_colour_de2000 = Some(delta_e2000_xyz(p.expected, scaled, reference_white));
+    }
+    for p in patches.iter_mut() {
+        let grey = p.is_neutral() && p.target != "white";
+        if grey && p.expected.y >= 0.01 * reference_white.y {
+            let target = lumiwall_core::lab::xyz_to_lab(p.expected, reference_white);
+            let measured = lumiwall_core::lab::xyz_to_lab(p.measured, white);
+            p.grey_delta_c2000 = Some(lumiwall_core::lab::delta_c2000(target, measured));
+        }
+    }
 }
 
 /// ΔE2000 between each left-eye patch and the right-eye patch of the same target on the
@@ -821,4 +879,98 @@ fn eye_differences(patches: &[PatchResult], whites: &[(DisplayKey, Xyz)]) -> Vec
             Some(delta_e2000_xyz(l.measured, r.measured, white))
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lumiwall_core::{Eye, Xy};
+
+    fn patch(target: &str, expected: Xyz, measured: Xyz, white: Xyz) -> PatchResult {
+        PatchResult {
+            display: DisplayKey {
+                wall: "w".into(),
+                display: 0,
+                tile_col: 0,
+                tile_row: 0,
+                eye: Eye::Left,
+            },
+            target: target.into(),
+            drive: [0.0; 3],
+            expected,
+            measured,
+            delta_l_percent: delta_l_percent(expected, measured),
+            delta_xy: delta_xy(expected, measured),
+            delta_e2000: delta_e2000_xyz(expected, measured, white),
+            delta_c2000: delta_c2000_xyz(expected, measured, white),
+            grey_delta_c2000: None,
+            white_colour_de2000: None,
+        }
+    }
+
+    /// A display whose white and greys are all off by the same chromaticity has a
+    /// white error but a neutral grey axis: grey balance ≈ 0. A grey off against its
+    /// own white counts; greys below 1 % of the white do not.
+    #[test]
+    fn grey_balance_is_judged_against_the_displays_measured_white() {
+        let target = Xy::new(0.2850, 0.2930);
+        let shifted = Xy::new(0.2870, 0.2950);
+        let white = target.with_luminance(80.0);
+        let mut patches = vec![patch("white", white, shifted.with_luminance(80.0), white)];
+        for (name, y) in [
+            ("grey 50 %", 40.0),
+            ("grey 10 %", 8.0),
+            ("dark grey 1", 1.0),
+        ] {
+            let expected = target.with_luminance(y);
+            patches.push(patch(name, expected, shifted.with_luminance(y), white));
+        }
+        let below = target.with_luminance(0.5);
+        patches.push(patch(
+            "dark grey 0.5",
+            below,
+            Xy::new(0.30, 0.31).with_luminance(0.5),
+            white,
+        ));
+        judge_against_the_white(&mut patches, white);
+        let s = Summary::of(&patches);
+        assert!(s.white_de.unwrap() > 1.0, "white ΔE2000 {:?}", s.white_de);
+        assert!(
+            s.grey_balance.unwrap() < 0.02,
+            "grey balance {:?}",
+            s.grey_balance
+        );
+        assert_eq!(patches[4].grey_delta_c2000, None, "below 1 % of the white");
+
+        // One grey 0.003 in y off against the white: its chroma counts.
+        patches[2].measured = Xy::new(0.2870, 0.2980).with_luminance(8.0);
+        judge_against_the_white(&mut patches, white);
+        let s = Summary::of(&patches);
+        let off = patches[2].grey_delta_c2000.unwrap().abs();
+        assert!(off > 1.0, "the off grey's ΔC' {off}");
+        assert!((s.grey_balance.unwrap() - off / 3.0).abs() < 0.02);
+    }
+
+    /// DisplayCAL's white ΔE2000 judges the white's colour: a white 2 % too bright in
+    /// the right colour has none (its luminance error is the white ΔL), one 0.002 off
+    /// in y at the right luminance has about one.
+    #[test]
+    fn the_white_de2000_is_its_colour_and_its_luminance_error_is_reported_beside_it() {
+        let target = Xy::new(0.2850, 0.2930);
+        let white = target.with_luminance(80.0);
+        let mut bright = vec![patch("white", white, target.with_luminance(81.6), white)];
+        judge_against_the_white(&mut bright, white);
+        let s = Summary::of(&bright);
+        assert!(s.white_de.unwrap() < 1e-9, "{:?}", s.white_de);
+        assert!((s.white_dl_percent.unwrap() - 2.0).abs() < 1e-9);
+        assert!(
+            bright[0].delta_e2000 > 0.3,
+            "the patch's own ΔE2000 keeps the luminance"
+        );
+        let off = Xy::new(0.2850, 0.2950).with_luminance(80.0);
+        let mut tinted = vec![patch("white", white, off, white)];
+        judge_against_the_white(&mut tinted, white);
+        let de = Summary::of(&tinted).white_de.unwrap();
+        assert!((0.5..2.0).contains(&de), "white ΔE2000 {de}");
+    }
 }
