@@ -22,14 +22,15 @@
 //!
 //! Low light: below the meter's reliable limit (about 1 cd/m² for a CS-100A class
 //! meter) a single reading is noisy. [`LowLight::Average`] repeats such readings and
-//! averages them in xyY (each repeat counts against the budget); [`LowLight::Skip`]
-//! drops ramp samples below the limit (black and the primaries are always averaged,
-//! never skipped). A reading the meter refuses as too dark costs a reading and is left
-//! out of the average. Of every ramp sample only the luminance is used: its
-//! chromaticity is replaced by the channel's full-drive one ([`luminance_only`]),
-//! because a channel's chromaticity above black does not change with drive while a
-//! meter's xy noise grows as 1/Y in the dark and turns into large relative errors in X
-//! and Z for saturated colours. The raw readings stay in the [`MeasureLog`].
+//! averages them in XYZ (each repeat counts against the budget; in the dark the noise
+//! is the sensors' own, Gaussian in X, Y and Z); [`LowLight::Skip`] drops ramp samples
+//! below the limit (black and the primaries are always averaged, never skipped). A
+//! reading the meter refuses as too dark costs a reading and is left out of the
+//! average. A ramp sample is put on its channel's line (a channel's chromaticity above
+//! black does not change with drive) at its least-squares component along it, X, Y and
+//! Z weighted by the meter's stated noise ([`channel_reading`]): the Z of a dim blue,
+//! twenty times its Y, then carries the sample. A meter that states no noise is read
+//! for the luminance alone ([`luminance_only`]). The raw readings stay in the [`MeasureLog`].
 
 // Errors carry the display, the reading and the device error for the technician and
 // occur at most once per run, so their size does not matter.
@@ -49,7 +50,7 @@ pub mod wavelength_check;
 use lumiwall_core::{BitDepth, Channel};
 use lumiwall_devices::{
     AimingAids, Colorimeter, DeviceError, DisplayId, DisplayInfo, MeterPositioner, PatternOutput,
-    Xyz,
+    ReadingNoise, Xyz,
 };
 use lumiwall_profiles::DisplayKey;
 use serde::{Deserialize, Serialize};
@@ -770,6 +771,28 @@ impl<'r, 'a> Session<'r, 'a> {
         always_average: bool,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<Option<Xyz>, MeasureError> {
+        self.sample_until(patch, always_average, None, progress)
+    }
+
+    /// [`Session::sample`] of one channel alone, averaged in the dark only as often as
+    /// its line's stated noise needs ([`ChannelLine::repeats_needed`]), at most as the
+    /// low-light policy says.
+    pub fn sample_channel(
+        &mut self,
+        patch: Patch,
+        line: &ChannelLine,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Option<Xyz>, MeasureError> {
+        self.sample_until(patch, false, Some(line), progress)
+    }
+
+    fn sample_until(
+        &mut self,
+        patch: Patch,
+        always_average: bool,
+        line: Option<&ChannelLine>,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Option<Xyz>, MeasureError> {
         self.rig
             .pattern
             .show(self.id, patch.drive())
@@ -793,13 +816,19 @@ impl<'r, 'a> Session<'r, 'a> {
             (LowLight::Skip, true) => 4,
             (LowLight::Skip, false) => 0,
         };
-        // Average in xyY: a meter's noise is (near) Gaussian in x, y and Y, while X and
-        // Z of a dark, saturated colour have heavy tails (Z ∝ 1/y).
+        let repeats = match (line, first) {
+            (Some(l), Some(x)) if repeats > 0 => repeats.min(l.repeats_needed(x)),
+            _ => repeats,
+        };
+        // Average in XYZ: in the dark a colorimeter's noise is its sensors' zero-light
+        // noise, Gaussian in X, Y and Z (in x and y it has heavy tails: x = X/(X+Y+Z)).
         let mut sum = [0.0f64; 3];
         let mut ok = 0u32;
         let mut n = 1;
         let add = |x: Xyz, sum: &mut [f64; 3]| {
-            add_xyy(sum, x.xy().unwrap_or([1.0 / 3.0, 1.0 / 3.0]), x.y);
+            for (s, v) in sum.iter_mut().zip(x.to_array()) {
+                *s += v;
+            }
         };
         if let Some(x) = first {
             add(x, &mut sum);
@@ -812,10 +841,7 @@ impl<'r, 'a> Session<'r, 'a> {
             }
             n += 1;
         }
-        let mean = (repeats > 0 && ok > 0).then(|| {
-            let k = 1.0 / f64::from(ok);
-            xyy_mean(sum[0] * k, sum[1] * k, sum[2] * k)
-        });
+        let mean = (repeats > 0 && ok > 0).then(|| Xyz::from_array(sum) * (1.0 / f64::from(ok)));
         self.log.samples.push(ReadingRecord {
             patch,
             xyz: mean,
@@ -878,6 +904,83 @@ pub fn luminance_only(reading: Xyz, black: Xyz, full: Xyz) -> Xyz {
     black + (full - black) * k
 }
 
+/// A single-channel reading on the channel's line: black plus the channel's
+/// black-subtracted full-drive XYZ scaled by the reading's weighted least-squares
+/// component along it, each of X, Y and Z weighted by the inverse of its variance under
+/// the meter's stated `noise`. In the dark a filter colorimeter's noise is its sensors'
+/// zero-light noise, the same few mcd/m² in X, Y and Z, so the strongest component of a
+/// dim saturated channel carries it (the Z of a dark blue, whose Y is a few per cent
+/// of it); at high light Y's small relative noise does. Without stated noise, or for a
+/// noiseless meter, only the luminance counts ([`luminance_only`]).
+pub fn channel_reading(reading: Xyz, black: Xyz, full: Xyz, noise: Option<&ReadingNoise>) -> Xyz {
+    let Some(noise) = noise else {
+        return luminance_only(reading, black, full);
+    };
+    let sigma = noise.sigma_xyz(reading);
+    if sigma.iter().any(|s| s.is_nan() || *s <= 0.0) {
+        return luminance_only(reading, black, full);
+    }
+    let p = (full - black).to_array();
+    let m = (reading - black).to_array();
+    let (mut num, mut den) = (0.0, 0.0);
+    for k in 0..3 {
+        let w = 1.0 / (sigma[k] * sigma[k]);
+        num += w * p[k] * m[k];
+        den += w * p[k] * p[k];
+    }
+    if den.is_nan() || den <= 0.0 {
+        return luminance_only(reading, black, full);
+    }
+    black + (full - black) * (num / den).max(0.0)
+}
+
+/// Largest relative standard error of a dark single-channel sample's intensity that
+/// needs no repeat: 1 % of a channel's intensity moves a dark grey by about 0.002 in
+/// xy, a tenth of a ΔE2000 at the lightness of 1 % of the white.
+pub const DARK_SAMPLE_REL_SIGMA: f64 = 0.01;
+
+/// A channel's line in XYZ (its black and full-drive readings) and the meter's stated
+/// noise: what a single-channel sample is judged against.
+#[derive(Debug, Clone, Copy)]
+pub struct ChannelLine {
+    /// The display's black.
+    pub black: Xyz,
+    /// The channel at full drive.
+    pub full: Xyz,
+    /// The meter's stated noise of one reading.
+    pub noise: ReadingNoise,
+}
+
+impl ChannelLine {
+    /// Readings to average for a sample whose first reading is `first`, so that the
+    /// standard error of its weighted intensity ([`channel_reading`]) is at most
+    /// [`DARK_SAMPLE_REL_SIGMA`] of the intensity: from the Fisher information
+    /// Σ pₖ²/σₖ² of one reading along the channel's black-subtracted colour `p`.
+    pub fn repeats_needed(&self, first: Xyz) -> u32 {
+        let sigma = self.noise.sigma_xyz(first);
+        let p = (self.full - self.black).to_array();
+        let info: f64 = (0..3)
+            .filter(|&k| sigma[k] > 0.0)
+            .map(|k| (p[k] / sigma[k]).powi(2))
+            .sum();
+        let r = relative_intensity(
+            channel_reading(first, self.black, self.full, Some(&self.noise)),
+            self.black,
+            self.full,
+        );
+        if info.is_nan() || info <= 0.0 || r.is_nan() || r <= 0.0 {
+            return u32::MAX;
+        }
+        let rel = 1.0 / (info.sqrt() * r);
+        let n = (rel / DARK_SAMPLE_REL_SIGMA).powi(2).ceil();
+        if n >= f64::from(u32::MAX) {
+            u32::MAX
+        } else {
+            (n as u32).max(1)
+        }
+    }
+}
+
 /// Relative intensity of a channel reading: the least-squares component of
 /// `reading − black` along the channel's black-subtracted full-drive XYZ.
 pub fn relative_intensity(reading: Xyz, black: Xyz, full: Xyz) -> f64 {
@@ -916,7 +1019,8 @@ pub fn measure_display(
     } else {
         None
     };
-    let mut ramps = RampPlanner::new(black, primaries, info.bit_depth, opts);
+    let noise = s.rig.meter.info().noise;
+    let mut ramps = RampPlanner::new(black, primaries, info.bit_depth, opts, noise);
     ramps.measure(&mut s, opts, progress)?;
     ramps.check_measurable(key, s.limit_cd_m2)?;
     let readings = s.log.readings;
@@ -994,10 +1098,18 @@ struct RampPlanner {
     ramps: [Vec<(f64, Xyz)>; 3],
     /// `(drive, relative intensity)` per channel, sorted by drive, with (0, 0) and (1, 1).
     rel: [Vec<(f64, f64)>; 3],
+    /// The meter's stated noise, weighting each sample's X, Y and Z.
+    noise: Option<ReadingNoise>,
 }
 
 impl RampPlanner {
-    fn new(black: Xyz, primaries: [Xyz; 3], bit_depth: u32, opts: &MeasureOptions) -> Self {
+    fn new(
+        black: Xyz,
+        primaries: [Xyz; 3],
+        bit_depth: u32,
+        opts: &MeasureOptions,
+        noise: Option<ReadingNoise>,
+    ) -> Self {
         let usage = opts
             .focus
             .and_then(|f| {
@@ -1013,6 +1125,7 @@ impl RampPlanner {
             depth: crate::solve::clamped_bit_depth(bit_depth),
             ramps: Default::default(),
             rel: std::array::from_fn(|_| vec![(0.0, 0.0), (1.0, 1.0)]),
+            noise,
         }
     }
 
@@ -1069,10 +1182,33 @@ impl RampPlanner {
         self.rel[c.index()].iter().any(|(x, _)| (x - d).abs() < lsb)
     }
 
+    /// Reads channel `c` alone at drive `d`: averaged in the dark as its stated noise
+    /// needs, or as the low-light policy says when the meter states none.
+    fn read_sample(
+        &self,
+        s: &mut Session<'_, '_>,
+        c: Channel,
+        d: f64,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Option<Xyz>, MeasureError> {
+        let patch = Patch::Ramp(c, d);
+        match self.noise {
+            Some(noise) => {
+                let line = ChannelLine {
+                    black: self.black,
+                    full: self.primaries[c.index()],
+                    noise,
+                };
+                s.sample_channel(patch, &line, progress)
+            }
+            None => s.sample(patch, false, progress),
+        }
+    }
+
     /// Feeds a ramp reading into the curve estimate.
     fn record(&mut self, c: Channel, d: f64, raw: Xyz) {
         let i = c.index();
-        let xyz = luminance_only(raw, self.black, self.primaries[i]);
+        let xyz = channel_reading(raw, self.black, self.primaries[i], self.noise.as_ref());
         self.ramps[i].push((d, xyz));
         let r = relative_intensity(xyz, self.black, self.primaries[i]);
         insert_sorted(&mut self.rel[i], (d, r));
@@ -1085,7 +1221,7 @@ impl RampPlanner {
         d: f64,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<(), MeasureError> {
-        match s.sample(Patch::Ramp(c, d), false, progress)? {
+        match self.read_sample(s, c, d, progress)? {
             Some(raw) => self.record(c, d, raw),
             None => {
                 // Skipped as too dark: record the drive so it is not proposed again,
@@ -1165,7 +1301,7 @@ impl RampPlanner {
             let d = self.depth.quantise(drive_at(&self.rel[i], target));
             if d > 0.0 && !self.has_sample_near(c, d) {
                 // A skipped toe sample leaves the curve as it is.
-                if let Some(raw) = s.sample(Patch::Ramp(c, d), false, progress)? {
+                if let Some(raw) = self.read_sample(s, c, d, progress)? {
                     self.record(c, d, raw);
                 }
             }

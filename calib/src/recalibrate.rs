@@ -497,7 +497,7 @@ fn check_display(
         let (white, readings) = read_white(rig, info, key, &opts.measure, progress)?;
         spent = readings;
         let anchor = old.last_full_reading();
-        let xy_repeatability = rig.meter.info().xy_repeatability.unwrap_or(0.0);
+        let xy_repeatability = rig.meter.info().noise.map_or(0.0, |n| n.xy);
         let inferred =
             white.and_then(|w| readings_from_white(&anchor, w, xy_repeatability, &opts.limits));
         if let Some((new, kind)) = inferred {

@@ -161,7 +161,7 @@ mod tests {
                 serial: "1".into(),
                 min_reliable_cd_m2: 1.0,
                 max_cd_m2: 1e4,
-                xy_repeatability: None,
+                noise: None,
             }
         }
         fn measure(&mut self) -> Result<Xyz, DeviceError> {

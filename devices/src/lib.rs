@@ -29,6 +29,7 @@ pub use guided::GuidedPositioner;
 pub use line_lamp::{EmissionLine, GuidedLampHolder, LampHolder, LineLamp};
 pub use spectral::{CorrectedReference, SpectralRadiance, Spectroradiometer, WavelengthScale};
 pub use traits::{
-    AimingAids, Colorimeter, DisplayId, DisplayInfo, Eye, MeterInfo, MeterPositioner, PatternOutput,
+    AimingAids, Colorimeter, DisplayId, DisplayInfo, Eye, MeterInfo, MeterPositioner,
+    PatternOutput, ReadingNoise,
 };
 pub use xyz::Xyz;

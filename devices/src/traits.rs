@@ -34,9 +34,46 @@ pub struct MeterInfo {
     pub min_reliable_cd_m2: f64,
     /// Largest luminance it can read (cd/m²).
     pub max_cd_m2: f64,
-    /// 1σ repeatability of x and y of one reading at high luminance, where published
-    /// (the maker's figure; the simulator's error model); `None`: not known.
-    pub xy_repeatability: Option<f64>,
+    /// The noise of one reading, where published (the maker's figures; the
+    /// simulator's error model); `None`: not known.
+    pub noise: Option<ReadingNoise>,
+}
+
+/// The noise of one reading of a filter colorimeter: a relative repeatability at high
+/// luminance (in Y and in x, y) and the zero-light noise of its X, Y and Z sensors,
+/// which dominates in the dark.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ReadingNoise {
+    /// 1σ relative repeatability of Y at high luminance.
+    pub luminance_rel: f64,
+    /// 1σ repeatability of x and y at high luminance.
+    pub xy: f64,
+    /// 1σ zero-light noise of the X, Y and Z sensors (cd/m²).
+    pub dark_xyz_cd_m2: [f64; 3],
+}
+
+impl ReadingNoise {
+    /// 1σ of X, Y and Z of one reading of `xyz`: the dark noise and the high-light
+    /// repeatability carried from Y, x and y to each component (X = x·Y/y,
+    /// Z = (1 − x − y)·Y/y, the three taken as independent).
+    pub fn sigma_xyz(&self, xyz: Xyz) -> [f64; 3] {
+        let s = xyz.x + xyz.y + xyz.z;
+        let [x, y, z] = if s > 0.0 {
+            [xyz.x / s, xyz.y / s, xyz.z / s]
+        } else {
+            [1.0 / 3.0; 3]
+        };
+        // Relative variance of each component from Y's and the chromaticity's noise.
+        let (l2, c2) = (self.luminance_rel.powi(2), self.xy.powi(2));
+        let floor = 1e-3;
+        let rel2 = [
+            l2 + c2 * (1.0 / x.max(floor).powi(2) + 1.0 / y.max(floor).powi(2)),
+            l2,
+            l2 + c2 * (2.0 / z.max(floor).powi(2) + 1.0 / y.max(floor).powi(2)),
+        ];
+        let v = [xyz.x, xyz.y, xyz.z];
+        std::array::from_fn(|k| (self.dark_xyz_cd_m2[k].powi(2) + rel2[k] * v[k] * v[k]).sqrt())
+    }
 }
 
 /// A spot colorimeter: measures the XYZ (Y in cd/m²) of the spot it is aimed at.

@@ -22,7 +22,7 @@ use lumiwall_devices::{DisplayId, Xyz};
 use lumiwall_profiles::DisplayKey;
 use lumiwall_profiles::apply::PreparedProfile;
 
-use super::{MeasureError, MeasureOptions, Patch, Progress, Rig, Session};
+use super::{ChannelLine, MeasureError, MeasureOptions, Patch, Progress, Rig, Session};
 use crate::verify::drive_for;
 
 /// One grey of the pass: a share of the target white's luminance, or a luminance.
@@ -85,8 +85,9 @@ pub const DEFAULT_LEVELS: [GreyLevel; 2] = [GreyLevel::Share(1.0), GreyLevel::Lu
 /// Largest number of grey levels.
 pub const MAX_LEVELS: usize = 16;
 
-/// Drives closer than this to a sample already taken (or to 0 or 1) are not read again.
-pub const MIN_DRIVE_GAP: f64 = 1.0 / 1024.0;
+/// Drives closer than this to a sample already taken (or to 0 or 1) are not read
+/// again: the tone fit pools such samples into one knot ([`crate::tone::NEAR_DRIVE`]).
+pub const MIN_DRIVE_GAP: f64 = crate::tone::NEAR_DRIVE;
 
 /// The greys whose channel drives are read: the provisional profile and the target
 /// white it shows.
@@ -99,6 +100,14 @@ pub struct GreyTargets<'a> {
     pub levels: &'a [GreyLevel],
     /// Bits per channel of the display input: samples are read at the nearest code.
     pub bit_depth: u32,
+    /// The display's measured black and full-drive primaries: each sample is judged
+    /// on its channel's line ([`ChannelLine`]) where the meter states its noise.
+    pub black: Xyz,
+    /// See `black`.
+    pub primaries: [Xyz; 3],
+    /// Drives of each channel's ramp samples so far: a grey's drive within
+    /// [`MIN_DRIVE_GAP`] of one is not read again.
+    pub ramp_drives: [Vec<f64>; 3],
 }
 
 /// What the pass read on one display: each channel's new `(drive, raw XYZ)` ramp
@@ -112,9 +121,11 @@ pub struct GreyDrives {
 }
 
 /// Reads each channel of display `id` alone at the code nearest the drive the
-/// provisional profile gives it for each grey of `targets`, at the calibration spot, skipping drives at 0, 1 or
-/// within [`MIN_DRIVE_GAP`] of one already read. Samples below the meter's reliable
-/// limit follow the low-light policy. At most `opts.budget` readings.
+/// provisional profile gives it for each grey of `targets`, at the calibration spot,
+/// skipping drives at 0, 1 or within [`MIN_DRIVE_GAP`] of one already read (in this
+/// pass or the ramps). Samples below the meter's reliable limit are averaged as their
+/// channel's stated noise needs ([`super::ChannelLine`]), or as the low-light policy
+/// says. At most `opts.budget` readings.
 pub fn read_grey_drives(
     rig: &mut Rig<'_>,
     key: &DisplayKey,
@@ -129,6 +140,7 @@ pub fn read_grey_drives(
             progress(p);
         }
     };
+    let noise = rig.meter.info().noise;
     let mut s = Session::start(rig, key, id, opts.spot_uv, opts)?;
     let mut out = GreyDrives::default();
     let inside = MIN_DRIVE_GAP..=1.0 - MIN_DRIVE_GAP;
@@ -139,12 +151,26 @@ pub fn read_grey_drives(
             // At a code, as every ramp sample is: shown exactly, with no dither.
             let d = (drive[c.index()] * max_code).round() / max_code;
             let taken = &mut out.ramps[c.index()];
-            let new =
-                inside.contains(&d) && taken.iter().all(|(t, _)| (t - d).abs() >= MIN_DRIVE_GAP);
+            let far = |t: &f64| (t - d).abs() >= MIN_DRIVE_GAP;
+            let new = inside.contains(&d)
+                && taken.iter().all(|(t, _)| far(t))
+                && targets.ramp_drives[c.index()].iter().all(far);
             if !new || s.remaining() == 0 {
                 continue;
             }
-            if let Some(xyz) = s.sample(Patch::Ramp(c, d), false, &mut quiet)? {
+            let patch = Patch::Ramp(c, d);
+            let read = match noise {
+                Some(noise) => {
+                    let line = ChannelLine {
+                        black: targets.black,
+                        full: targets.primaries[c.index()],
+                        noise,
+                    };
+                    s.sample_channel(patch, &line, &mut quiet)?
+                }
+                None => s.sample(patch, false, &mut quiet)?,
+            };
+            if let Some(xyz) = read {
                 taken.push((d, xyz));
             }
         }

@@ -470,7 +470,7 @@ mod tests {
                 serial: "0".into(),
                 min_reliable_cd_m2: 0.0,
                 max_cd_m2: f64::INFINITY,
-                xy_repeatability: None,
+                noise: None,
             }
         }
         fn measure(&mut self) -> Result<Xyz, DeviceError> {

@@ -87,7 +87,7 @@ impl Colorimeter for Meter<'_> {
             serial: "1".into(),
             min_reliable_cd_m2: self.0.borrow().min_reliable_cd_m2,
             max_cd_m2: 1e6,
-            xy_repeatability: None,
+            noise: None,
         }
     }
     fn measure(&mut self) -> Result<Xyz, DeviceError> {
@@ -276,4 +276,59 @@ fn patch_channels_are_logged_as_indices() {
     let primary = serde_json::to_string(&Patch::Primary(Channel::Green)).unwrap();
     assert_eq!(primary, r#"{"primary":1}"#);
     assert!(serde_json::from_str::<Patch>(r#"{"primary":3}"#).is_err());
+}
+
+/// A dim blue ramp sample read by the realistic simulated meter (its Y a few per cent of
+/// its Z, just above a 0.05 cd/m² black): weighted by the meter's stated noise
+/// ([`lumiwall_calib::measure::channel_reading`]), the channel's relative intensity
+/// scatters at most half as much as from the luminance alone, and both are unbiased.
+#[test]
+fn a_dim_blue_sample_weighted_by_the_stated_noise_scatters_half_as_much_as_its_luminance() {
+    use lumiwall_calib::measure::{channel_reading, luminance_only};
+    use lumiwall_devices::sim::{MeterModel, VirtualWall};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../fixtures/walls/dlp-infitec-2x1.toml");
+    let wall = VirtualWall::from_toml_file(&path).expect("wall");
+    let (mut out, mut pos) = (wall.pattern_output(), wall.positioner());
+    let mut meter = wall.meter(MeterModel::cs100a(21));
+    let id = DisplayId(0);
+    pos.aim(id, [0.5, 0.5]).expect("aim");
+    let truth = |d: [f64; 3]| wall.emitted_xyz(id, d, [0.5, 0.5]).expect("truth");
+    let (black, full) = (truth([0.0; 3]), truth([0.0, 0.0, 1.0]));
+    let d = 0.12;
+    let want = relative_intensity(truth([0.0, 0.0, d]), black, full);
+    out.show(id, [0.0, 0.0, d]).expect("show");
+    let noise = meter.info().noise.expect("stated noise");
+    let (mut weighted, mut lum) = (Vec::new(), Vec::new());
+    for _ in 0..400 {
+        let raw = meter.measure().expect("reading");
+        let w = channel_reading(raw, black, full, Some(&noise));
+        weighted.push(relative_intensity(w, black, full));
+        lum.push(relative_intensity(
+            luminance_only(raw, black, full),
+            black,
+            full,
+        ));
+    }
+    let stats = |v: &[f64]| {
+        let n = v.len() as f64;
+        let m = v.iter().sum::<f64>() / n;
+        (
+            m,
+            (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt(),
+        )
+    };
+    let ((mw, sw), (ml, sl)) = (stats(&weighted), stats(&lum));
+    println!("truth {want:.5}: weighted {mw:.5} ± {sw:.5}, luminance {ml:.5} ± {sl:.5}");
+    assert!(sw < 0.5 * sl, "weighted σ {sw:.5} vs luminance σ {sl:.5}");
+    // The instrument's filter error shifts both by up to a few per cent; the weighting
+    // must not add a bias of its own beyond that.
+    assert!(
+        (mw / want - 1.0).abs() < 0.05,
+        "weighted mean {mw:.5} vs {want:.5}"
+    );
+    assert!(
+        (ml / want - 1.0).abs() < 0.05,
+        "luminance mean {ml:.5} vs {want:.5}"
+    );
 }

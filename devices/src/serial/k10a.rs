@@ -568,7 +568,7 @@ impl Colorimeter for KleinK10a {
             serial: self.serial.clone(),
             min_reliable_cd_m2: KLEIN_K10A.min_reliable_cd_m2,
             max_cd_m2: KLEIN_K10A.max_cd_m2,
-            xy_repeatability: Some(KLEIN_K10A.repeatability_xy),
+            noise: Some(KLEIN_K10A.reading_noise()),
         }
     }
 

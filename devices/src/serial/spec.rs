@@ -70,6 +70,18 @@ impl InstrumentSpec {
         m
     }
 
+    /// The noise of one reading: the high-light repeatability and the zero-light
+    /// noise of Y, X and Z `xz_noise_factor` times Y's.
+    pub fn reading_noise(&self) -> crate::ReadingNoise {
+        let sy = self.dark_sigma_y_cd_m2();
+        let sxz = sy * self.xz_noise_factor;
+        crate::ReadingNoise {
+            luminance_rel: self.repeatability_lum_rel,
+            xy: self.repeatability_xy,
+            dark_xyz_cd_m2: [sxz, sy, sxz],
+        }
+    }
+
     /// Time to send `bytes` bytes at the line speed with 8N1 framing (10 bits a byte), s.
     pub fn transmit_time_s(&self, bytes: usize) -> f64 {
         bytes as f64 * 10.0 / f64::from(self.baud_rate)

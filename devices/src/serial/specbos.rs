@@ -368,7 +368,7 @@ impl Colorimeter for JetiSpecbos {
             min_reliable_cd_m2: 0.2,
             max_cd_m2: 70_000.0,
             // no published figure at hand (see fixtures/instruments)
-            xy_repeatability: None,
+            noise: None,
         }
     }
 

@@ -7,9 +7,12 @@
 //! does: small on a lamp white, larger on narrow-band (Infitec) primaries, and linear
 //! in the light (it keeps additivity; no reading of R, G, B and white reveals it).
 //! Then, in xyY: a per-instrument absolute luminance gain and (optionally) an xy
-//! offset (drawn once from the instrument seed), per-reading Gaussian noise whose
-//! standard deviation grows as luminance falls below `low_light_cd_m2`, and display
-//! rounding. Limits: over `max_cd_m2` → [`DeviceError::OverRange`]; below
+//! offset (drawn once from the instrument seed) and the per-reading high-light
+//! repeatability; then, in X, Y and Z, each sensor's zero-light noise (Gaussian, a few
+//! mcd/m², independent of the light: it dominates in the dark, and a dim saturated
+//! colour keeps its strongest component far more precise than its weakest, as a real
+//! filter colorimeter's three photodiodes do; [`MeterModel::dark_sigma_xyz_cd_m2`]);
+//! then display rounding. Limits: over `max_cd_m2` → [`DeviceError::OverRange`]; below
 //! `floor_cd_m2` → [`DeviceError::TooDark`]; between the floor and
 //! `min_reliable_cd_m2` the meter still answers, with larger noise.
 
@@ -49,11 +52,14 @@ pub struct MeterModel {
     pub filter_gain_rel: f64,
     /// 1σ relative luminance noise per reading at high luminance.
     pub lum_noise_rel: f64,
-    /// Added 1σ relative luminance noise at `low_light_cd_m2`, growing ∝ 1/Y below.
+    /// Relative luminance noise added by the Y sensor's zero-light noise at
+    /// `low_light_cd_m2` (so σ_Y = this × `low_light_cd_m2` cd/m² at any light).
     pub lum_low_light_rel: f64,
     /// 1σ noise of x and y per reading at high luminance.
     pub xy_noise: f64,
-    /// Added 1σ xy noise at `low_light_cd_m2`, growing ∝ 1/Y below.
+    /// xy noise of a white at `low_light_cd_m2` from the sensors' zero-light noise:
+    /// it sets how much noisier the X and Z sensors are than Y's
+    /// ([`MeterModel::dark_sigma_xyz_cd_m2`]).
     pub xy_low_light: f64,
     /// Luminance where the low-light noise terms are referenced (cd/m²).
     pub low_light_cd_m2: f64,
@@ -118,14 +124,41 @@ impl MeterModel {
         }
     }
 
-    /// 1σ relative luminance noise at `y_cd_m2`.
-    pub fn lum_sigma_rel(&self, y_cd_m2: f64) -> f64 {
-        self.lum_noise_rel + self.lum_low_light_rel * self.low_light_cd_m2 / y_cd_m2.max(1e-9)
+    /// 1σ zero-light noise of the X, Y and Z sensors (cd/m²): σ_Y from the relative
+    /// luminance noise at `low_light_cd_m2`, X and Z `k` times noisier, with `k` such
+    /// that a white (x ≈ y ≈ 1/3) at `low_light_cd_m2` has the xy noise
+    /// `xy_low_light` (σ_x ≈ σ_Y·√(5k²+1)/(9Y)). The CS-100A model gives
+    /// σ_Y 4 mcd/m² and k ≈ 1.96.
+    pub fn dark_sigma_xyz_cd_m2(&self) -> [f64; 3] {
+        let sy = self.lum_low_light_rel * self.low_light_cd_m2;
+        if sy <= 0.0 {
+            return [0.0; 3];
+        }
+        let r = 9.0 * self.xy_low_light * self.low_light_cd_m2 / sy;
+        let k = ((r * r - 1.0) / 5.0).max(0.0).sqrt();
+        [k * sy, sy, k * sy]
     }
 
-    /// 1σ x (and y) noise at `y_cd_m2`.
+    /// The noise of one reading as [`MeterInfo::noise`] states it.
+    pub fn reading_noise(&self) -> crate::ReadingNoise {
+        crate::ReadingNoise {
+            luminance_rel: self.lum_noise_rel,
+            xy: self.xy_noise,
+            dark_xyz_cd_m2: self.dark_sigma_xyz_cd_m2(),
+        }
+    }
+
+    /// 1σ relative luminance noise at `y_cd_m2`: the high-light repeatability and the
+    /// Y sensor's zero-light noise.
+    pub fn lum_sigma_rel(&self, y_cd_m2: f64) -> f64 {
+        self.lum_noise_rel
+            .hypot(self.dark_sigma_xyz_cd_m2()[1] / y_cd_m2.max(1e-9))
+    }
+
+    /// 1σ x (and y) noise of a white (x ≈ y ≈ 1/3) at `y_cd_m2`.
     pub fn xy_sigma(&self, y_cd_m2: f64) -> f64 {
-        self.xy_noise + self.xy_low_light * self.low_light_cd_m2 / y_cd_m2.max(1e-9)
+        self.xy_noise
+            .hypot(self.xy_low_light * self.low_light_cd_m2 / y_cd_m2.max(1e-9))
     }
 }
 
@@ -264,12 +297,17 @@ impl SimMeter {
                 limit_cd_m2: m.floor_cd_m2,
             });
         };
-        let sl = m.lum_sigma_rel(y_true);
-        let sxy = m.xy_sigma(y_true);
+        // High-light repeatability in xyY, then each sensor's zero-light noise.
         let n: [f64; 3] = std::array::from_fn(|_| self.rng.sample::<f64, _>(StandardNormal));
-        let mut lum = y_true * self.systematic_gain * (1.0 + sl * n[0]);
-        let mut xm = x + self.systematic_xy[0] + sxy * n[1];
-        let mut ym = y + self.systematic_xy[1] + sxy * n[2];
+        let lum = y_true * self.systematic_gain * (1.0 + m.lum_noise_rel * n[0]);
+        let xm = x + self.systematic_xy[0] + m.xy_noise * n[1];
+        let ym = y + self.systematic_xy[1] + m.xy_noise * n[2];
+        let lit = Xy::new(xm, ym).with_luminance(lum).to_array();
+        let dark = m.dark_sigma_xyz_cd_m2();
+        let read = Xyz::from_array(std::array::from_fn(|k| {
+            lit[k] + dark[k] * self.rng.sample::<f64, _>(StandardNormal)
+        }));
+        let (mut lum, [mut xm, mut ym]) = (read.y, read.xy().unwrap_or([1.0 / 3.0; 2]));
         if let Some(d) = m.display_digits {
             lum = round_sig(lum, d);
             let k = 10f64.powi(d as i32);
@@ -306,7 +344,7 @@ impl Colorimeter for SimMeter {
             serial: format!("SIM-{}", self.model.seed),
             min_reliable_cd_m2: self.model.min_reliable_cd_m2,
             max_cd_m2: self.model.max_cd_m2,
-            xy_repeatability: Some(self.model.xy_noise),
+            noise: Some(self.model.reading_noise()),
         }
     }
 

@@ -350,7 +350,7 @@ impl Colorimeter for SimSpectroradiometer {
             serial: format!("SIM-{}", self.model.seed),
             min_reliable_cd_m2: self.model.min_reliable_cd_m2,
             max_cd_m2: self.model.max_cd_m2,
-            xy_repeatability: None,
+            noise: None,
         }
     }
 

@@ -323,3 +323,52 @@ fn a_filter_colorimeter_errs_by_spectrum_and_keeps_additivity() {
         assert!(white < 0.006, "seed {seed}: white off by {white}");
     }
 }
+
+/// In the dark the noise is each sensor's own zero-light noise: on a dim blue (Y a few
+/// per cent of Z) Z is read more precisely than Y, and each component's spread is
+/// what the meter states in its [`lumiwall_devices::ReadingNoise`].
+#[test]
+fn a_dim_blue_reads_its_z_more_precisely_than_its_y_as_its_stated_noise_says() {
+    let w = wall("dlp-infitec-2x1.toml");
+    let model = MeterModel::cs100a(5);
+    let mut rig = Rig::on(&w, model.clone());
+    let stated = rig
+        .meter
+        .info()
+        .noise
+        .expect("the simulated meter states its noise");
+    assert_eq!(stated.dark_xyz_cd_m2, model.dark_sigma_xyz_cd_m2());
+    // The blue channel alone at about 0.12 cd/m² (a black of 0.05 included).
+    let d = (1..=1023)
+        .map(|c| c as f64 / 1023.0)
+        .find(|&d| w.emitted_xyz(DisplayId(0), [0.0, 0.0, d], C).unwrap().y > 0.12)
+        .unwrap();
+    let truth = w.emitted_xyz(DisplayId(0), [0.0, 0.0, d], C).unwrap();
+    assert!(truth.z > 5.0 * truth.y, "a saturated blue: {truth:?}");
+    let r: Vec<Xyz> = (0..400)
+        .map(|_| rig.read(DisplayId(0), [0.0, 0.0, d], C).unwrap())
+        .collect();
+    let (my, sy) = mean_std(&r.iter().map(|x| x.y).collect::<Vec<_>>());
+    let (mz, sz) = mean_std(&r.iter().map(|x| x.z).collect::<Vec<_>>());
+    println!(
+        "Y {my:.4} σ {:.2} %, Z {mz:.4} σ {:.2} %",
+        100.0 * sy / my,
+        100.0 * sz / mz
+    );
+    assert!(
+        sz / mz < 0.5 * sy / my,
+        "Z σ {:.4} vs Y σ {:.4} (relative)",
+        sz / mz,
+        sy / my
+    );
+    // The spread of each component is the stated one (sample σ of 400: ±10 %; the
+    // systematic filter error shifts the means, not the spreads).
+    let want = stated.sigma_xyz(Xyz::new(r[0].x, my, mz));
+    for (k, s) in [(1, sy), (2, sz)] {
+        assert!(
+            (s / want[k] - 1.0).abs() < 0.15,
+            "component {k}: σ {s:.5} vs stated {:.5}",
+            want[k]
+        );
+    }
+}

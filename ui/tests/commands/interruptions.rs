@@ -290,7 +290,7 @@ fn a_lamp_too_dim_for_the_meter_is_blamed_on_the_meter_range_not_the_display() {
     for (white, says) in [
         (
             0.05,
-            "full red reads 0.0000 cd/m², below the reliable limit of the meter",
+            "reads 0.0000 cd/m², below the reliable limit of the meter",
         ),
         (
             0.5,
