@@ -37,6 +37,9 @@ pub struct ReadingsBench {
     pub patches: usize,
     /// Scratch folder for the profiles of each run (one sub-folder per run).
     pub out: PathBuf,
+    /// Wait for the wall to warm up before each commissioning (`commission
+    /// --warm-up`), as a station does on a wall just switched on.
+    pub warm_up: bool,
 }
 
 /// One commission-and-verify run.
@@ -195,6 +198,9 @@ fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsR
         measure: MeasureOptions {
             budget,
             meter_matrix,
+            warm_up: bench
+                .warm_up
+                .then(lumiwall_calib::measure::warm_up::WarmUp::default),
             ..MeasureOptions::default()
         },
         solve: bench.solve,

@@ -658,6 +658,10 @@ pub(crate) struct BenchArgs {
     /// Scratch folder for the profiles of each run.
     #[arg(long, default_value = "out/bench-readings")]
     out: PathBuf,
+    /// Before each commissioning, wait until the wall has warmed up (as `commission
+    /// --warm-up`; its readings are not counted in the budget).
+    #[arg(long)]
+    warm_up: bool,
 }
 
 /// Runs `lumiwall bench readings`: for each budget and each meter error model,
@@ -671,6 +675,7 @@ pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
         meter: args.meter,
         patches: args.patches,
         out: args.out,
+        warm_up: args.warm_up,
     };
     println!(
         "accuracy against meter readings per display ({}): the 51-patch chart read by a \

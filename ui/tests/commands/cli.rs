@@ -662,6 +662,39 @@ fn bench_readings_prints_one_row_per_noise_model() {
         .stdout(contains("runs outside the limits"));
 }
 
+/// A wall just switched on drifts while the first displays are measured: without the
+/// warm-up wait even the noiseless meter's calibration misses the limits; with
+/// `--warm-up` both meter models meet them at 40 readings per display.
+#[test]
+fn bench_readings_on_a_cold_wall_meets_the_limits_only_after_the_warm_up_wait() {
+    let tmp = TempDir::new().unwrap();
+    let run = |warm_up: bool| {
+        let mut cmd = lumiwall();
+        cmd.args(["bench", "readings", "--budgets", "40", "--wall"])
+            .arg(fixture("walls/cold-start-2x2.toml"))
+            .arg("--out")
+            .arg(tmp.path().join(format!("warm-{warm_up}")));
+        if warm_up {
+            cmd.arg("--warm-up");
+        }
+        let out = cmd.output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let cold = run(false);
+    assert!(
+        cold.lines()
+            .any(|l| l.starts_with("none ") && l.ends_with("FAIL")),
+        "{cold}"
+    );
+    let warm = run(true);
+    assert!(warm.contains("0 of 2 runs outside the limits"), "{warm}");
+}
+
 #[test]
 fn bench_radiosity_scale_study_prints_a_row_per_size() {
     lumiwall()
