@@ -49,10 +49,14 @@ pub(crate) struct VerifyArgs {
     /// Largest mean ΔE2000 allowed per display (DisplayCAL's recommended value: 1).
     #[arg(long, allow_negative_numbers = true, default_value_t = 1.0, value_parser = values::positive_finite)]
     mean_de: f64,
-    /// Largest ΔE2000 of the white patch (DisplayCAL: 1; with a chart that has one).
+    /// Largest ΔE2000 of the white patch's colour, its luminance normalised to the
+    /// target's as DisplayCAL's "measured vs. assumed target whitepoint" (DisplayCAL: 1;
+    /// with a chart that has one). The white's luminance error is printed beside it.
     #[arg(long, allow_negative_numbers = true, default_value_t = 1.0, value_parser = values::positive_finite)]
     white_de: f64,
-    /// Largest grey balance, mean |ΔC'| (CIEDE2000 chroma term) over the neutral patches.
+    /// Largest grey balance: mean |ΔC'| (CIEDE2000 chroma term) over the greys of at
+    /// least 1 % of the white, each against the display's measured white (DisplayCAL:
+    /// 0.5 recommended).
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.5, value_parser = values::positive_finite)]
     grey_balance: f64,
     /// Largest black luminance difference (%) from the common black (common mode;
