@@ -830,7 +830,8 @@ pub fn verify_wall(
 /// luminance), and on the greys of at least 1 % of `reference_white` (the target white
 /// as shown) [`PatchResult::grey_delta_c2000`]: the expected grey in CIELAB of
 /// `reference_white`, the measured one in CIELAB of the display's measured white.
-/// Without a white patch (or a usable reading of it) neither is set.
+/// Without a white patch (or a usable reading of it, e.g. the default targets) the
+/// greys are judged against the target white instead.
 fn judge_against_the_white(patches: &mut [PatchResult], reference_white: Xyz) {
     let Some(white) = patches
         .iter()
@@ -838,6 +839,11 @@ fn judge_against_the_white(patches: &mut [PatchResult], reference_white: Xyz) {
         .map(|p| p.measured)
         .filter(|w| w.y > 0.0 && w.is_finite())
     else {
+        for p in patches.iter_mut() {
+            if p.is_neutral() && p.expected.y >= 0.01 * reference_white.y {
+                p.grey_delta_c2000 = Some(p.delta_c2000);
+            }
+        }
         return;
     };
     for p in patches.iter_mut().filter(|p| p.target == "white") {
@@ -949,6 +955,13 @@ mod tests {
         let off = patches[2].grey_delta_c2000.unwrap().abs();
         assert!(off > 1.0, "the off grey's ΔC' {off}");
         assert!((s.grey_balance.unwrap() - off / 3.0).abs() < 0.02);
+
+        // Without a white patch (the default targets) greys are judged against the
+        // target white.
+        let mut no_white = patches[1..].to_vec();
+        judge_against_the_white(&mut no_white, white);
+        assert_eq!(no_white[0].grey_delta_c2000, Some(no_white[0].delta_c2000));
+        assert!(Summary::of(&no_white).white_de.is_none());
     }
 
     /// DisplayCAL's white ΔE2000 judges the white's colour: a white 2 % too bright in
