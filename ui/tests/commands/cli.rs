@@ -664,13 +664,13 @@ fn bench_readings_prints_one_row_per_noise_model() {
 
 /// A wall just switched on drifts while the first displays are measured: without the
 /// warm-up wait even the noiseless meter's calibration misses the limits; with
-/// `--warm-up` both meter models meet them at 40 readings per display.
+/// `--warm-up` both meter models meet them at 64 readings per display.
 #[test]
 fn bench_readings_on_a_cold_wall_meets_the_limits_only_after_the_warm_up_wait() {
     let tmp = TempDir::new().unwrap();
     let run = |warm_up: bool| {
         let mut cmd = lumiwall();
-        cmd.args(["bench", "readings", "--budgets", "40", "--wall"])
+        cmd.args(["bench", "readings", "--budgets", "64", "--wall"])
             .arg(fixture("walls/cold-start-2x2.toml"))
             .arg("--out")
             .arg(tmp.path().join(format!("warm-{warm_up}")));
