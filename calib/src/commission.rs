@@ -42,8 +42,8 @@ use crate::measure::drift::{DriftCheck, recheck};
 use crate::measure::grey_drives::{GreyLevel, GreyTargets, read_grey_drives, readings_needed};
 use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall, fuse_with_white};
 use crate::measure::{
-    MeasureError, MeasureOptions, MeasuredDisplay, Progress, RampFocus, Rig, channel_reading,
-    display_key, luminance_only, measure_display, white_capacity,
+    MeasureError, MeasureOptions, MeasuredDisplay, Progress, RampFocus, Rig, display_key,
+    luminance_only, measure_display, white_capacity,
 };
 use crate::report::{self, ReportInputs};
 use crate::solve::{
@@ -362,11 +362,9 @@ fn read_greys(
             bit_depth: m.measurement.bit_depth,
             black: m.measurement.black,
             primaries: m.measurement.primaries,
-            ramp_drives: m
-                .measurement
-                .ramps
-                .clone()
-                .map(|r| r.iter().map(|s| s.0).collect()),
+            ramp_drives: std::array::from_fn(|c| {
+                m.measurement.ramps[c].iter().map(|s| s.0).collect()
+            }),
         };
         let read =
             read_grey_drives(rig, key, info.id, &targets, &mopts, progress).map_err(|source| {
@@ -380,19 +378,8 @@ fn read_greys(
                 }
             })?;
         let readings = read.readings;
-        let noise = rig.meter.info().noise;
-        let (black, primaries) = (m.measurement.black, m.measurement.primaries);
-        for ((ramp, new), full) in m
-            .measurement
-            .ramps
-            .iter_mut()
-            .zip(read.ramps)
-            .zip(primaries)
-        {
-            ramp.extend(
-                new.into_iter()
-                    .map(|(d, raw)| (d, channel_reading(raw, black, full, noise.as_ref()))),
-            );
+        for (ramp, new) in m.measurement.ramps.iter_mut().zip(read.ramps) {
+            ramp.extend(new);
         }
         m.measurement.readings += readings;
         m.log.readings += readings;

@@ -776,7 +776,7 @@ impl<'r, 'a> Session<'r, 'a> {
 
     /// [`Session::sample`] of one channel alone, averaged in the dark only as often as
     /// its line's stated noise needs ([`ChannelLine::repeats_needed`]), at most as the
-    /// low-light policy says.
+    /// low-light policy says (exactly as it says when the meter states no noise).
     pub fn sample_channel(
         &mut self,
         patch: Patch,
@@ -947,27 +947,32 @@ pub struct ChannelLine {
     pub black: Xyz,
     /// The channel at full drive.
     pub full: Xyz,
-    /// The meter's stated noise of one reading.
-    pub noise: ReadingNoise,
+    /// The meter's stated noise of one reading (`None`: not stated).
+    pub noise: Option<ReadingNoise>,
 }
 
 impl ChannelLine {
+    /// A reading of the channel alone put on the line ([`channel_reading`]).
+    pub fn reading(&self, raw: Xyz) -> Xyz {
+        channel_reading(raw, self.black, self.full, self.noise.as_ref())
+    }
+
     /// Readings to average for a sample whose first reading is `first`, so that the
     /// standard error of its weighted intensity ([`channel_reading`]) is at most
     /// [`DARK_SAMPLE_REL_SIGMA`] of the intensity: from the Fisher information
     /// Σ pₖ²/σₖ² of one reading along the channel's black-subtracted colour `p`.
+    /// Without stated noise, `u32::MAX` (the low-light policy decides).
     pub fn repeats_needed(&self, first: Xyz) -> u32 {
-        let sigma = self.noise.sigma_xyz(first);
+        let Some(noise) = self.noise else {
+            return u32::MAX;
+        };
+        let sigma = noise.sigma_xyz(first);
         let p = (self.full - self.black).to_array();
         let info: f64 = (0..3)
             .filter(|&k| sigma[k] > 0.0)
             .map(|k| (p[k] / sigma[k]).powi(2))
             .sum();
-        let r = relative_intensity(
-            channel_reading(first, self.black, self.full, Some(&self.noise)),
-            self.black,
-            self.full,
-        );
+        let r = relative_intensity(self.reading(first), self.black, self.full);
         if info.is_nan() || info <= 0.0 || r.is_nan() || r <= 0.0 {
             return u32::MAX;
         }
@@ -1182,33 +1187,19 @@ impl RampPlanner {
         self.rel[c.index()].iter().any(|(x, _)| (x - d).abs() < lsb)
     }
 
-    /// Reads channel `c` alone at drive `d`: averaged in the dark as its stated noise
-    /// needs, or as the low-light policy says when the meter states none.
-    fn read_sample(
-        &self,
-        s: &mut Session<'_, '_>,
-        c: Channel,
-        d: f64,
-        progress: &mut dyn FnMut(Progress),
-    ) -> Result<Option<Xyz>, MeasureError> {
-        let patch = Patch::Ramp(c, d);
-        match self.noise {
-            Some(noise) => {
-                let line = ChannelLine {
-                    black: self.black,
-                    full: self.primaries[c.index()],
-                    noise,
-                };
-                s.sample_channel(patch, &line, progress)
-            }
-            None => s.sample(patch, false, progress),
+    /// Channel `c`'s line, which its samples are read and judged against.
+    fn line(&self, c: Channel) -> ChannelLine {
+        ChannelLine {
+            black: self.black,
+            full: self.primaries[c.index()],
+            noise: self.noise,
         }
     }
 
     /// Feeds a ramp reading into the curve estimate.
     fn record(&mut self, c: Channel, d: f64, raw: Xyz) {
         let i = c.index();
-        let xyz = channel_reading(raw, self.black, self.primaries[i], self.noise.as_ref());
+        let xyz = self.line(c).reading(raw);
         self.ramps[i].push((d, xyz));
         let r = relative_intensity(xyz, self.black, self.primaries[i]);
         insert_sorted(&mut self.rel[i], (d, r));
@@ -1221,7 +1212,7 @@ impl RampPlanner {
         d: f64,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<(), MeasureError> {
-        match self.read_sample(s, c, d, progress)? {
+        match s.sample_channel(Patch::Ramp(c, d), &self.line(c), progress)? {
             Some(raw) => self.record(c, d, raw),
             None => {
                 // Skipped as too dark: record the drive so it is not proposed again,
@@ -1301,7 +1292,7 @@ impl RampPlanner {
             let d = self.depth.quantise(drive_at(&self.rel[i], target));
             if d > 0.0 && !self.has_sample_near(c, d) {
                 // A skipped toe sample leaves the curve as it is.
-                if let Some(raw) = self.read_sample(s, c, d, progress)? {
+                if let Some(raw) = s.sample_channel(Patch::Ramp(c, d), &self.line(c), progress)? {
                     self.record(c, d, raw);
                 }
             }

@@ -100,8 +100,8 @@ pub struct GreyTargets<'a> {
     pub levels: &'a [GreyLevel],
     /// Bits per channel of the display input: samples are read at the nearest code.
     pub bit_depth: u32,
-    /// The display's measured black and full-drive primaries: each sample is judged
-    /// on its channel's line ([`ChannelLine`]) where the meter states its noise.
+    /// The display's measured black and full-drive primaries: each sample is read and
+    /// judged on its channel's line ([`ChannelLine`]).
     pub black: Xyz,
     /// See `black`.
     pub primaries: [Xyz; 3],
@@ -110,8 +110,9 @@ pub struct GreyTargets<'a> {
     pub ramp_drives: [Vec<f64>; 3],
 }
 
-/// What the pass read on one display: each channel's new `(drive, raw XYZ)` ramp
-/// samples and the readings they cost.
+/// What the pass read on one display: each channel's new `(drive, XYZ)` ramp samples,
+/// each put on its channel's line ([`ChannelLine::reading`]), and the readings they
+/// cost.
 #[derive(Debug, Clone, Default)]
 pub struct GreyDrives {
     /// New ramp samples per channel R, G, B.
@@ -158,20 +159,13 @@ pub fn read_grey_drives(
             if !new || s.remaining() == 0 {
                 continue;
             }
-            let patch = Patch::Ramp(c, d);
-            let read = match noise {
-                Some(noise) => {
-                    let line = ChannelLine {
-                        black: targets.black,
-                        full: targets.primaries[c.index()],
-                        noise,
-                    };
-                    s.sample_channel(patch, &line, &mut quiet)?
-                }
-                None => s.sample(patch, false, &mut quiet)?,
+            let line = ChannelLine {
+                black: targets.black,
+                full: targets.primaries[c.index()],
+                noise,
             };
-            if let Some(xyz) = read {
-                taken.push((d, xyz));
+            if let Some(raw) = s.sample_channel(Patch::Ramp(c, d), &line, &mut quiet)? {
+                taken.push((d, line.reading(raw)));
             }
         }
     }
