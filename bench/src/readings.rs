@@ -16,9 +16,7 @@ use lumiwall_calib::commission::{CommissionError, CommissionOptions};
 use lumiwall_calib::measure::MeasureOptions;
 use lumiwall_calib::measure::meter_matrix::{MeterMatrices, MeterMatrixError};
 use lumiwall_calib::solve::SolveOptions;
-use lumiwall_calib::station::{
-    MeterChoice, Noise, ReferenceChoice, Station, StationError, StationOptions,
-};
+use lumiwall_calib::station::{MeterChoice, Noise, Station, StationError, StationOptions};
 use lumiwall_calib::verify::{Summary, VerifyError, VerifyOptions, chart_targets};
 use lumiwall_devices::sim::SpectroModel;
 
@@ -174,11 +172,7 @@ pub(crate) fn match_meter(
 ) -> Result<Option<MeterMatrices>, MeterMatrixError> {
     Ok(match noise {
         Noise::Realistic => {
-            let mut reference = station
-                .open_reference(&ReferenceChoice::Simulated(SpectroModel::cs2000(2000)))
-                .map_err(MeterMatrixError::Reference)?;
-            reference.check_wavelengths(&lumiwall_devices::LineLamp::hg_ar())?;
-            Some(station.meter_matrices(&mut reference, [0.5, 0.5], false)?)
+            Some(station.meter_matrices_against_simulated(SpectroModel::cs2000(2000), false)?)
         }
         Noise::None => None,
     })

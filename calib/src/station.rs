@@ -552,6 +552,22 @@ impl Station {
         Ok(matrices)
     }
 
+    /// [`Station::meter_matrices`] at the displays' centres against a simulated reference
+    /// `model` whose wavelength scale a Hg-Ar pen lamp checked first: what a station
+    /// matching a filter colorimeter for an Infitec wall does, in one call (the
+    /// readings benchmark and the camera probes).
+    pub fn meter_matrices_against_simulated(
+        &mut self,
+        model: SpectroModel,
+        per_display: bool,
+    ) -> Result<MeterMatrices, MeterMatrixError> {
+        let mut reference = self
+            .open_reference(&ReferenceChoice::Simulated(model))
+            .map_err(MeterMatrixError::Reference)?;
+        reference.check_wavelengths(&LineLamp::hg_ar())?;
+        self.meter_matrices(&mut reference, [0.5, 0.5], per_display)
+    }
+
     /// The chromaticity errors of the station's meter against the virtual wall's truth on
     /// every display's primaries and white, without and with `matrices`, and of the
     /// reference they were matched to, as corrected

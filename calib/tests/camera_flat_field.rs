@@ -138,15 +138,9 @@ fn commissioned(w: &VirtualWall, noise: Noise) -> (Station, Vec<DisplayProfile>)
     let mut opts = commission_options();
     if noise == Noise::Realistic {
         let model = lumiwall_devices::sim::SpectroModel::cs2000(2000);
-        let mut reference = station
-            .open_reference(&lumiwall_calib::station::ReferenceChoice::Simulated(model))
-            .expect("reference");
-        reference
-            .check_wavelengths(&lumiwall_devices::LineLamp::hg_ar())
-            .expect("wavelength check");
         let matrices = station
-            .meter_matrices(&mut reference, [0.5, 0.5], true)
-            .expect("meter matrices");
+            .meter_matrices_against_simulated(model, true)
+            .expect("meter matrices against the lamp-checked reference");
         opts.measure.meter_matrix = Some(matrices);
     }
     let dir = tempfile::tempdir().expect("tmp");
