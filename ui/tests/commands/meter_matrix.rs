@@ -84,67 +84,48 @@ fn verify_against_the_truth_leaves_the_commissioning_meters_matrices_out() {
     let wall = fixture("walls/dlp-infitec-2x1.toml");
     let mm = tmp.path().join("mm.json");
     let profiles = tmp.path().join("profiles");
-    let run = |args: &[&std::ffi::OsStr]| lumiwall().args(args).output().unwrap();
-    let os = |s: &'static str| std::ffi::OsStr::new(s);
-    let out = run(&[
-        os("meter-matrix"),
-        os("--wall"),
-        wall.as_os_str(),
-        os("--meter"),
-        os("direct"),
-        os("--out"),
-        mm.as_os_str(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let succeed = |cmd: &mut assert_cmd::Command| {
+        let out = cmd.output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+    };
+    succeed(
+        lumiwall()
+            .args(["meter-matrix", "--meter", "direct", "--wall"])
+            .arg(&wall)
+            .arg("--out")
+            .arg(&mm),
     );
-    let out = run(&[
-        os("commission"),
-        os("--wall"),
-        wall.as_os_str(),
-        os("--meter"),
-        os("direct"),
-        os("--meter-matrix"),
-        mm.as_os_str(),
-        os("--budget"),
-        os("64"),
-        os("--out"),
-        profiles.as_os_str(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    succeed(
+        lumiwall()
+            .args([
+                "commission",
+                "--meter",
+                "direct",
+                "--budget",
+                "64",
+                "--wall",
+            ])
+            .arg(&wall)
+            .arg("--meter-matrix")
+            .arg(&mm)
+            .arg("--out")
+            .arg(&profiles),
     );
     assert!(profiles.join("meter-matrix.json").exists());
     let verify = |extra: &[&std::ffi::OsStr]| {
-        let mut args = vec![
-            os("verify"),
-            os("--wall"),
-            wall.as_os_str(),
-            os("--meter"),
-            os("direct"),
-            os("--noise"),
-            os("none"),
-            os("--profiles"),
-            profiles.as_os_str(),
-            os("--chart"),
-            os("51"),
-            os("--max-de"),
-            os("3"),
-            os("--median-de"),
-            os("1"),
-            os("--mean-de"),
-            os("1"),
-            os("--white-de"),
-            os("1.5"),
-            os("--grey-balance"),
-            os("1"),
-        ];
-        args.extend_from_slice(extra);
-        run(&args)
+        lumiwall()
+            .args([
+                "verify", "--meter", "direct", "--noise", "none", "--chart", "51",
+            ])
+            .args(["--max-de", "3", "--median-de", "1", "--mean-de", "1"])
+            .args(["--white-de", "1.5", "--grey-balance", "1", "--wall"])
+            .arg(&wall)
+            .arg("--profiles")
+            .arg(&profiles)
+            .args(extra)
+            .output()
+            .unwrap()
     };
     let out = verify(&[]);
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -154,7 +135,7 @@ fn verify_against_the_truth_leaves_the_commissioning_meters_matrices_out() {
         "{}\n{stderr}",
         String::from_utf8_lossy(&out.stdout)
     );
-    let out = verify(&[os("--meter-matrix"), mm.as_os_str()]);
+    let out = verify(&["--meter-matrix".as_ref(), mm.as_os_str()]);
     assert_eq!(out.status.code(), Some(2), "refused as a bad input");
     assert!(String::from_utf8_lossy(&out.stderr).contains("leave out --meter-matrix"));
 }
