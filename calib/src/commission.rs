@@ -31,7 +31,7 @@
 
 use std::path::{Path, PathBuf};
 
-use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, Xyz};
+use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, ReadingNoise, Xyz};
 use lumiwall_profiles::apply::{ApplyError, ApplyOptions, PreparedProfile};
 use lumiwall_profiles::{BlackMode, DisplayKey, ProfileError, ProfileSet, write_atomic};
 use serde::{Deserialize, Serialize};
@@ -42,12 +42,13 @@ use crate::measure::drift::{DriftCheck, recheck};
 use crate::measure::grey_drives::{GreyLevel, GreyTargets, read_grey_drives, readings_needed};
 use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall, fuse_with_white};
 use crate::measure::{
-    MeasureError, MeasureOptions, MeasuredDisplay, Progress, RampFocus, Rig, display_key,
-    luminance_only, measure_display, white_capacity,
+    MeasureError, MeasureOptions, MeasuredDisplay, Progress, RampFocus, Rig, Survey, display_key,
+    luminance_only, measure_display, measure_ramps, survey_display, white_capacity,
 };
 use crate::report::{self, ReportInputs};
 use crate::solve::{
-    DisplayMeasurement, SolveOptions, WallSolution, WhiteTarget, now_rfc3339, solve_wall_at,
+    CompositeReading, DisplayMeasurement, SolveOptions, WallSolution, WhiteTarget, now_rfc3339,
+    solve_wall_at,
 };
 use lumiwall_core::files::FolderLock;
 
@@ -381,6 +382,7 @@ fn read_greys(
         for (ramp, new) in m.measurement.ramps.iter_mut().zip(read.ramps) {
             ramp.extend(new);
         }
+        m.measurement.composites.extend(read.composites);
         m.measurement.readings += readings;
         m.log.readings += readings;
         m.log.grey_drive_readings = Some(readings);
@@ -413,10 +415,11 @@ fn usable_grey_levels(
         .collect()
 }
 
-/// The readings each display's ramps leave for the grey-drive pass, unless the budget
-/// is too small for both (then the pass reads only what is left, if anything).
-fn grey_reserve(opts: &CommissionOptions) -> u32 {
-    let n = readings_needed(&opts.grey_levels);
+/// The readings each display's ramps leave for the grey-drive pass (read with a meter
+/// of stated `noise`), unless the budget is too small for both (then the pass reads
+/// only what is left, if anything).
+fn grey_reserve(opts: &CommissionOptions, noise: Option<&ReadingNoise>) -> u32 {
+    let n = readings_needed(&opts.grey_levels, noise);
     if opts.measure.budget.saturating_sub(n) >= MeasureOptions::MIN_BUDGET {
         n
     } else {
@@ -457,29 +460,192 @@ fn drift_over_run(
     }
 }
 
-/// Where the next display's ramps should concentrate: on the part of each channel the
-/// common white will use, given the displays measured so far.
-fn ramp_focus(
+/// Where the ramps should concentrate: on the part of each channel the common white
+/// will use, given every display's black and primaries (`(black, primaries)`): the
+/// wall white can be no brighter than what the dimmest display reaches.
+fn ramp_focus<'m>(
     opts: &CommissionOptions,
     white_xy: [f64; 2],
-    measured: &[MeasuredDisplay],
+    readings: impl Iterator<Item = (Xyz, &'m [Xyz; 3])> + Clone,
 ) -> RampFocus {
     RampFocus {
         white_xy,
         headroom: opts.solve.headroom,
-        white_y_cd_m2: measured
-            .iter()
-            .filter_map(|m| {
-                let mm = &m.measurement;
-                white_capacity(mm.black, &mm.primaries, white_xy, opts.solve.headroom).map(|c| c.0)
+        white_y_cd_m2: readings
+            .clone()
+            .filter_map(|(black, primaries)| {
+                white_capacity(black, primaries, white_xy, opts.solve.headroom).map(|c| c.0)
             })
             .reduce(f64::min),
         toe_samples: opts.solve.black_mode == BlackMode::Common,
-        common_black: measured
-            .iter()
-            .map(|m| m.measurement.black)
+        common_black: readings
+            .map(|(black, _)| black)
             .reduce(|a, b| Xyz::new(a.x.max(b.x), a.y.max(b.y), a.z.max(b.z))),
     }
+}
+
+/// One display of the wall after the survey.
+enum Slot {
+    /// Measured completely by an earlier run (`--resume`).
+    Saved(Box<MeasuredDisplay>),
+    /// Its black, primaries and white, read in this run; the ramps are still to come.
+    Surveyed(Box<Survey>),
+    /// The technician skipped it at the aim.
+    Skipped,
+}
+
+impl Slot {
+    /// Black and primaries, where read.
+    fn readings(&self) -> Option<(Xyz, &[Xyz; 3])> {
+        match self {
+            Slot::Saved(m) => Some((m.measurement.black, &m.measurement.primaries)),
+            Slot::Surveyed(s) => Some((s.black, &s.primaries)),
+            Slot::Skipped => None,
+        }
+    }
+}
+
+/// The displays of a commissioning and where their measurements are saved.
+struct WallPass<'p> {
+    displays: &'p [DisplayInfo],
+    keys: &'p [DisplayKey],
+    run_dir: &'p Path,
+    opts: &'p CommissionOptions,
+}
+
+/// Every display measured (saved or resumed), those taken from an earlier run, and
+/// the names of those the technician skipped.
+type PassOutcome = (Vec<MeasuredDisplay>, Vec<DisplayId>, Vec<String>);
+
+impl WallPass<'_> {
+    /// The saved measurement of display `k` when resuming (reported as resumed).
+    fn saved(
+        &self,
+        k: usize,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Option<MeasuredDisplay>, CommissionError> {
+        if !self.opts.resume {
+            return Ok(None);
+        }
+        let key = &self.keys[k];
+        let Some(m) = load_measurement(&measurement_path(self.run_dir, key))? else {
+            return Ok(None);
+        };
+        if m.measurement.key != *key {
+            return Ok(None);
+        }
+        progress(Progress::Resumed {
+            display: self.displays[k].id,
+            readings: m.measurement.readings,
+        });
+        Ok(Some(m))
+    }
+
+    fn interrupted(&self, source: MeasureError, saved: usize) -> CommissionError {
+        CommissionError::Interrupted {
+            source,
+            saved,
+            total: self.displays.len(),
+            run_dir: self.run_dir.to_path_buf(),
+        }
+    }
+
+    /// Two visits per display: first every display's black, primaries and white
+    /// ([`survey_display`]), then each display's ramps focused on the wall white that
+    /// all of them allow ([`measure_ramps`]), the first display's too.
+    fn survey_first(
+        &self,
+        rig: &mut Rig<'_>,
+        mut mopts: MeasureOptions,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<PassOutcome, CommissionError> {
+        let mut slots = Vec::with_capacity(self.displays.len());
+        for (k, info) in self.displays.iter().enumerate() {
+            if let Some(m) = self.saved(k, progress)? {
+                slots.push(Slot::Saved(Box::new(m)));
+                continue;
+            }
+            match survey_display(rig, info, &self.keys[k], &mopts, progress) {
+                Ok(s) => slots.push(Slot::Surveyed(Box::new(s))),
+                Err(e) if is_skip(&e) => slots.push(Slot::Skipped),
+                Err(source) => {
+                    let saved = slots.iter().filter(|s| matches!(s, Slot::Saved(_))).count();
+                    return Err(self.interrupted(source, saved));
+                }
+            }
+        }
+        if mopts.focus.is_none() {
+            mopts.focus = target_white_xy(self.opts)
+                .map(|xy| ramp_focus(self.opts, xy, slots.iter().filter_map(Slot::readings)));
+        }
+        let (mut measured, mut resumed, mut skipped) = (Vec::new(), Vec::new(), Vec::new());
+        for ((info, key), slot) in self.displays.iter().zip(self.keys).zip(slots) {
+            let survey = match slot {
+                Slot::Saved(m) => {
+                    resumed.push(info.id);
+                    measured.push(*m);
+                    continue;
+                }
+                Slot::Skipped => {
+                    skipped.push(info.name.clone());
+                    continue;
+                }
+                Slot::Surveyed(survey) => survey,
+            };
+            let m = measure_ramps(rig, info, key, *survey, &mopts, progress)
+                .map_err(|source| self.interrupted(source, measured.len()))?;
+            write_atomic(&measurement_path(self.run_dir, key), &to_json(&m))?;
+            measured.push(m);
+        }
+        Ok((measured, resumed, skipped))
+    }
+
+    /// One visit per display (a technician aims): each display measured whole, its
+    /// ramps focused on the wall white that the displays measured before it allow.
+    fn one_visit_each(
+        &self,
+        rig: &mut Rig<'_>,
+        mopts: MeasureOptions,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<PassOutcome, CommissionError> {
+        let (mut measured, mut resumed, mut skipped) = (Vec::new(), Vec::new(), Vec::new());
+        let white_xy = target_white_xy(self.opts);
+        for (k, info) in self.displays.iter().enumerate() {
+            if let Some(m) = self.saved(k, progress)? {
+                resumed.push(info.id);
+                measured.push(m);
+                continue;
+            }
+            let mut o = mopts.clone();
+            if o.focus.is_none() {
+                let so_far = measured
+                    .iter()
+                    .map(|m: &MeasuredDisplay| (m.measurement.black, &m.measurement.primaries));
+                o.focus = white_xy.map(|xy| ramp_focus(self.opts, xy, so_far));
+            }
+            let key = &self.keys[k];
+            match measure_display(rig, info, key, &o, progress) {
+                Ok(m) => {
+                    write_atomic(&measurement_path(self.run_dir, key), &to_json(&m))?;
+                    measured.push(m);
+                }
+                Err(e) if is_skip(&e) => skipped.push(info.name.clone()),
+                Err(source) => return Err(self.interrupted(source, measured.len())),
+            }
+        }
+        Ok((measured, resumed, skipped))
+    }
+}
+
+/// The technician skipped the display at the aim.
+fn is_skip(e: &MeasureError) -> bool {
+    matches!(
+        e,
+        MeasureError::Aim {
+            source: DeviceError::AimSkipped(_),
+            ..
+        }
+    )
 }
 
 /// The measuring half of [`commission`]: returns every display's measurement and the
@@ -506,52 +672,21 @@ pub fn measure_wall(
     prepare_run_dir(&run_dir, &manifest, opts.resume)?;
 
     warm_up_if_asked(wall, displays, rig, &run_dir, &keys, opts, progress)?;
-    let mut measured: Vec<MeasuredDisplay> = Vec::with_capacity(displays.len());
-    let mut resumed = Vec::new();
-    let mut skipped: Vec<String> = Vec::new();
-    let white_xy = target_white_xy(opts);
-    for (i, (info, key)) in displays.iter().zip(&keys).enumerate() {
-        // Focus the ramps on the part of each channel the common white will use; the
-        // wall white can be no brighter than what every display measured so far reaches.
-        let mut mopts = opts.measure.clone();
-        mopts.budget -= grey_reserve(opts);
-        if mopts.focus.is_none() {
-            mopts.focus = white_xy.map(|white_xy| ramp_focus(opts, white_xy, &measured));
-        }
-        let path = measurement_path(&run_dir, key);
-        if opts.resume
-            && let Some(m) = load_measurement(&path)?
-            && m.measurement.key == *key
-        {
-            progress(Progress::Resumed {
-                display: info.id,
-                readings: m.measurement.readings,
-            });
-            resumed.push(info.id);
-            measured.push(m);
-            continue;
-        }
-        let m = match measure_display(rig, info, key, &mopts, progress) {
-            Ok(m) => m,
-            Err(MeasureError::Aim {
-                source: DeviceError::AimSkipped(_),
-                ..
-            }) => {
-                skipped.push(info.name.clone());
-                continue;
-            }
-            Err(source) => {
-                return Err(CommissionError::Interrupted {
-                    source,
-                    saved: i - skipped.len(),
-                    total: displays.len(),
-                    run_dir: run_dir.clone(),
-                });
-            }
-        };
-        write_atomic(&path, &to_json(&m))?;
-        measured.push(m);
-    }
+    let mopts = MeasureOptions {
+        reserved: grey_reserve(opts, rig.meter.info().noise.as_ref()),
+        ..opts.measure.clone()
+    };
+    let pass = WallPass {
+        displays,
+        keys: &keys,
+        run_dir: &run_dir,
+        opts,
+    };
+    let (measured, resumed, skipped) = if rig.positioner.revisits_cheaply() {
+        pass.survey_first(rig, mopts, progress)?
+    } else {
+        pass.one_visit_each(rig, mopts, progress)?
+    };
     if !skipped.is_empty() {
         return Err(CommissionError::Skipped {
             displays: skipped,
@@ -756,11 +891,20 @@ pub fn corrected_measurement(
             s.1 = luminance_only(s.1, black, primaries[c]);
         }
     }
+    let composites = m
+        .composites
+        .iter()
+        .map(|r| CompositeReading {
+            xyz: correct(r.xyz, offset),
+            ..*r
+        })
+        .collect();
     DisplayMeasurement {
         black,
         primaries,
         white,
         ramps,
+        composites,
         ..m.clone()
     }
 }

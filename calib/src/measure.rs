@@ -108,8 +108,12 @@ pub struct MeasureOptions {
     pub max_retries: u32,
     /// Measure full white (needed for the additivity check).
     pub measure_white: bool,
+    /// Readings of the budget the ramps leave for a later pass (the grey-drive pass of a
+    /// commissioning), unless a channel would otherwise get no ramp sample at all.
+    #[serde(default)]
+    pub reserved: u32,
     /// Readings averaged for each full-drive primary; `None` chooses from the budget
-    /// (1 for budgets below 24, up to 4 for 48 and more). Averaging matters for very
+    /// less what is `reserved` (1 below 24, up to 4 from 48). Averaging matters for very
     /// saturated primaries (an Infitec blue has y ≈ 0.02, so the meter's xy noise
     /// becomes a large relative error in Z).
     pub primary_repeats: Option<u32>,
@@ -157,6 +161,7 @@ impl Default for MeasureOptions {
             low_light_limit_cd_m2: None,
             max_retries: 2,
             measure_white: true,
+            reserved: 0,
             primary_repeats: None,
             focus: None,
             warm_up: None,
@@ -173,7 +178,10 @@ impl MeasureOptions {
     /// Readings per primary for this budget.
     pub fn primary_repeats(&self) -> u32 {
         self.primary_repeats
-            .unwrap_or_else(|| (self.budget.saturating_sub(16) / 8).clamp(1, 4))
+            .unwrap_or_else(|| {
+                let budget = self.budget.saturating_sub(self.reserved);
+                (budget.saturating_sub(16) / 8).clamp(1, 4)
+            })
             .max(1)
     }
 }
@@ -307,13 +315,16 @@ pub enum Progress {
     /// The wall is warm: the wait is over.
     WarmedUp(warm_up::WarmUpReport),
     /// A display's channels were read at the drives of its provisional white and
-    /// greys ([`grey_drives`]); the readings of that pass are not reported one by one.
+    /// greys, and its white read whole ([`grey_drives`]); the readings of that pass are
+    /// not reported one by one.
     GreyDrivesRead {
         /// The display.
         display: DisplayId,
         /// Ramp samples added.
         samples: usize,
-        /// Readings they cost.
+        /// Greys read whole (all channels together).
+        whole: usize,
+        /// Readings the pass cost.
         readings: u32,
     },
     /// A display's measurement was taken from an earlier, interrupted run.
@@ -527,6 +538,24 @@ pub enum MeasureError {
         full_y_cd_m2: f64,
         /// The reliable limit applied.
         limit_cd_m2: f64,
+    },
+    /// The budget was spent before a channel's ramp got a single sample (dark readings
+    /// averaged several times each take it fastest).
+    #[error(
+        "{display}: the {budget} readings of the measuring pass were spent before the \
+         {channel} ramp got a sample ({low_light} of them went to averaging readings below \
+         the reliable limit of the meter); raise --budget, check the lamp (eco/dimming \
+         mode, hours), or use a more sensitive meter"
+    )]
+    RampBudgetSpent {
+        /// Display being measured.
+        display: String,
+        /// Channel name.
+        channel: &'static str,
+        /// Readings the measuring pass had (the budget less the grey-drive pass's).
+        budget: u32,
+        /// Readings that went to averaging samples below the reliable limit.
+        low_light: u32,
     },
     /// A primary is not brighter than black: the display shows nothing, or the meter
     /// looks elsewhere.
@@ -998,8 +1027,9 @@ pub fn relative_intensity(reading: Xyz, black: Xyz, full: Xyz) -> f64 {
     p.iter().zip(m.iter()).map(|(a, b)| a * b).sum::<f64>() / pp
 }
 
-/// Measures one display: black, primaries, white, then adaptive ramps until the budget
-/// is spent or every channel's ramp is good enough.
+/// Measures one display in one visit: black, primaries, white (as
+/// [`survey_display`]), then adaptive ramps until the budget is spent or every
+/// channel's ramp is good enough (as [`measure_ramps`]).
 pub fn measure_display(
     rig: &mut Rig<'_>,
     info: &DisplayInfo,
@@ -1007,27 +1037,113 @@ pub fn measure_display(
     opts: &MeasureOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<MeasuredDisplay, MeasureError> {
+    check_budget(opts)?;
+    let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
+    let survey = survey_in(&mut s, key, opts, progress)?;
+    ramps_in(&mut s, info, key, survey, opts, progress)
+}
+
+/// What [`survey_display`] read: black, the primaries and white at full drive, and the
+/// log of those readings.
+#[derive(Debug, Clone)]
+pub struct Survey {
+    /// Reading at drive (0, 0, 0).
+    pub black: Xyz,
+    /// Readings at full drive of R, G, B alone, black included.
+    pub primaries: [Xyz; 3],
+    /// Reading at full drive W (`None` unless [`MeasureOptions::measure_white`]).
+    pub white: Option<Xyz>,
+    /// The readings so far: the ramps continue it within the same budget.
+    pub log: MeasureLog,
+}
+
+/// The first half of [`measure_display`]: black, the primaries and (if asked) white.
+/// Where the meter can be aimed again at no cost (a mount, the simulator:
+/// [`lumiwall_devices::MeterPositioner::revisits_cheaply`]), a wall's displays are all
+/// surveyed before any ramp is read, so that every display's ramps are focused on the
+/// part of its channels the wall white will use ([`MeasureOptions::focus`]), the first
+/// display's too.
+pub fn survey_display(
+    rig: &mut Rig<'_>,
+    info: &DisplayInfo,
+    key: &DisplayKey,
+    opts: &MeasureOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Survey, MeasureError> {
+    check_budget(opts)?;
+    let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
+    survey_in(&mut s, key, opts, progress)
+}
+
+/// The second half of [`measure_display`]: the adaptive ramps of a surveyed display,
+/// within what the survey left of the budget.
+pub fn measure_ramps(
+    rig: &mut Rig<'_>,
+    info: &DisplayInfo,
+    key: &DisplayKey,
+    survey: Survey,
+    opts: &MeasureOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<MeasuredDisplay, MeasureError> {
+    let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
+    ramps_in(&mut s, info, key, survey, opts, progress)
+}
+
+fn check_budget(opts: &MeasureOptions) -> Result<(), MeasureError> {
     if opts.budget < MeasureOptions::MIN_BUDGET {
         return Err(MeasureError::BudgetTooSmall {
             budget: opts.budget,
             min: MeasureOptions::MIN_BUDGET,
         });
     }
-    let instrument = {
-        let i = rig.meter.info();
-        format!("{} {}", i.model, i.serial)
-    };
-    let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
-    let (black, primaries) = measure_black_and_primaries(&mut s, key, opts, progress)?;
+    Ok(())
+}
+
+/// Black, primaries and white in session `s`; the survey takes the session's log.
+fn survey_in(
+    s: &mut Session<'_, '_>,
+    key: &DisplayKey,
+    opts: &MeasureOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Survey, MeasureError> {
+    let (black, primaries) = measure_black_and_primaries(s, key, opts, progress)?;
     let white = if opts.measure_white {
         s.repeated(Patch::White, opts.primary_repeats(), progress)?
     } else {
         None
     };
+    Ok(Survey {
+        black,
+        primaries,
+        white,
+        log: std::mem::take(&mut s.log),
+    })
+}
+
+/// The ramps of a surveyed display in session `s`, continuing the survey's log.
+fn ramps_in(
+    s: &mut Session<'_, '_>,
+    info: &DisplayInfo,
+    key: &DisplayKey,
+    survey: Survey,
+    opts: &MeasureOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<MeasuredDisplay, MeasureError> {
+    let instrument = {
+        let i = s.rig.meter.info();
+        format!("{} {}", i.model, i.serial)
+    };
+    let Survey {
+        black,
+        primaries,
+        white,
+        log,
+    } = survey;
+    s.log = log;
     let noise = s.rig.meter.info().noise;
     let mut ramps = RampPlanner::new(black, primaries, info.bit_depth, opts, noise);
-    ramps.measure(&mut s, opts, progress)?;
-    ramps.check_measurable(key, s.limit_cd_m2)?;
+    ramps.measure(s, opts, progress)?;
+    ramps.check_measurable(key, s)?;
     let readings = s.log.readings;
     let log = std::mem::take(&mut s.log);
     progress(Progress::DisplayDone {
@@ -1044,6 +1160,7 @@ pub fn measure_display(
             ramps: ramps.ramps,
             readings,
             instrument,
+            composites: Vec::new(),
         },
         log,
         anchor: None,
@@ -1150,28 +1267,45 @@ impl RampPlanner {
             LowLight::Skip => 1,
         };
         let reserve = if toe { 3 * repeats_dark } else { 0 };
-        self.adaptive(s, reserve, progress)?;
+        self.adaptive(s, reserve + opts.reserved, progress)?;
         if toe {
             self.toe(s, opts, progress)?;
-            self.adaptive(s, 0, progress)?;
+            self.adaptive(s, opts.reserved, progress)?;
         }
         Ok(())
     }
 
-    /// Fails for a channel whose every ramp sample was too dark to read: the solve
-    /// would have no curve to fit, and the cause is the meter's range, not the ramp.
-    fn check_measurable(&self, key: &DisplayKey, limit_cd_m2: f64) -> Result<(), MeasureError> {
+    /// Fails for a channel whose every ramp sample was too dark to read (the solve
+    /// would have no curve to fit, and the cause is the meter's range, not the ramp),
+    /// or that got no sample before the budget was spent.
+    fn check_measurable(&self, key: &DisplayKey, s: &Session<'_, '_>) -> Result<(), MeasureError> {
         for c in Channel::ALL {
             let i = c.index();
+            if !self.ramps[i].is_empty() {
+                continue;
+            }
             let tried = self.rel[i].len() > 2;
-            if tried && self.ramps[i].is_empty() {
-                return Err(MeasureError::RampBelowMeterLimit {
+            return Err(if tried {
+                MeasureError::RampBelowMeterLimit {
                     display: key.to_string(),
                     channel: c.name(),
                     full_y_cd_m2: self.primaries[i].y,
-                    limit_cd_m2,
-                });
-            }
+                    limit_cd_m2: s.limit_cd_m2,
+                }
+            } else {
+                MeasureError::RampBudgetSpent {
+                    display: key.to_string(),
+                    channel: c.name(),
+                    budget: s.budget,
+                    low_light: s
+                        .log
+                        .samples
+                        .iter()
+                        .filter(|r| r.low_light)
+                        .map(|r| r.repeats)
+                        .sum(),
+                }
+            });
         }
         Ok(())
     }
@@ -1226,7 +1360,8 @@ impl RampPlanner {
     }
 
     /// One sample per channel in turn until `keep` readings are left or every channel
-    /// is good enough.
+    /// is good enough; a channel that has not been tried yet may still take one of the
+    /// `keep` readings (without a ramp sample it has no curve at all).
     fn adaptive(
         &mut self,
         s: &mut Session<'_, '_>,
@@ -1235,9 +1370,14 @@ impl RampPlanner {
     ) -> Result<(), MeasureError> {
         let mut done = [false; 3];
         let mut k = 0usize;
-        while s.remaining() > keep && !done.iter().all(|d| *d) {
+        loop {
+            let free = s.remaining() > keep;
+            let untried: [bool; 3] = std::array::from_fn(|j| !done[j] && self.rel[j].len() <= 2);
+            if done.iter().all(|d| *d) || s.remaining() == 0 || !(free || untried.contains(&true)) {
+                break;
+            }
             let c = Channel::ALL[k];
-            if !done[k] {
+            if !done[k] && (free || untried[k]) {
                 match next_drive(&self.rel[k], self.usage[k]) {
                     None => done[k] = true,
                     Some(d) => {
@@ -1336,21 +1476,49 @@ fn interpolate(v: &[(f64, f64)], d: f64) -> f64 {
 }
 
 /// Next ramp drive for a channel from the tone module's adaptive placement, with the
-/// intensities rescaled so that the expected `usage` counts as the full range (above
-/// it, segments count by their drive length only).
+/// intensities rescaled so that the expected `usage` counts as the full range. Above
+/// [`USED_MARGIN`] times the usage (drives no colour of the common gamut reaches) the
+/// drive axis is compressed by [`UNUSED_DRIVE_WEIGHT`]: the curve there is still
+/// sampled, but a sample in the used part counts several times as much.
 fn next_drive(samples: &[(f64, f64)], usage: f64) -> Option<f64> {
     if usage >= 1.0 {
         return crate::tone::suggest_next_drive(samples);
     }
+    // Piecewise linear map of [0, 1] onto itself, UNUSED_DRIVE_WEIGHT times flatter
+    // above `edge` than below.
+    let edge = drive_at(samples, (usage * USED_MARGIN).min(1.0)).clamp(0.0, 1.0);
+    let k = 1.0 / (edge + (1.0 - edge) * UNUSED_DRIVE_WEIGHT);
+    let squeeze = |d: f64| {
+        if d <= edge {
+            d * k
+        } else {
+            k * (edge + (d - edge) * UNUSED_DRIVE_WEIGHT)
+        }
+    };
+    let unsqueeze = |d: f64| {
+        if d <= edge * k {
+            d / k
+        } else {
+            edge + (d / k - edge) / UNUSED_DRIVE_WEIGHT
+        }
+    };
     let scaled: Vec<(f64, f64)> = samples
         .iter()
         .map(|&(d, r)| {
             if d >= 1.0 {
                 (d, 1.0)
             } else {
-                (d, (r / usage).min(1.0))
+                (squeeze(d).min(1.0), (r / usage).min(1.0))
             }
         })
         .collect();
-    crate::tone::suggest_next_drive(&scaled)
+    crate::tone::suggest_next_drive(&scaled).map(unsqueeze)
 }
+
+/// Share of a channel's expected usage above which its drives are sampled sparsely
+/// ([`next_drive`]): a colour of the common gamut can ask a channel for somewhat more
+/// than the white does.
+const USED_MARGIN: f64 = 1.5;
+
+/// Weight of a drive step above the used part of a channel in the ramp placement.
+const UNUSED_DRIVE_WEIGHT: f64 = 0.3;

@@ -864,7 +864,9 @@ pub fn usage_for_white(black: Xyz, primaries: [Xyz; 3], profile: &DisplayProfile
 }
 
 /// The last measurement moved onto the new readings: new black, primaries and white;
-/// every ramp reading keeps its relative intensity on the new black and primary.
+/// every ramp reading keeps its relative intensity on the new black and primary. The
+/// greys read whole at commissioning are dropped: the gains they gave corrected the
+/// noise of that night's primaries, not of tonight's.
 fn refit(old: &MeasuredDisplay, new: Readings, readings: u32) -> MeasuredDisplay {
     let o = &old.measurement;
     let mut m = o.clone();
@@ -879,6 +881,7 @@ fn refit(old: &MeasuredDisplay, new: Readings, readings: u32) -> MeasuredDisplay
     m.primaries = new.primaries;
     m.white = new.white;
     m.readings = readings;
+    m.composites.clear();
     MeasuredDisplay {
         measurement: m,
         log: old.log.clone(),
@@ -1211,6 +1214,7 @@ mod tests {
             ramps: Default::default(),
             readings: 0,
             instrument: String::new(),
+            composites: Vec::new(),
         };
         let mut primaries = c.primaries;
         let b = primaries[2] - c.black;

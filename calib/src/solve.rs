@@ -82,6 +82,24 @@ pub struct DisplayMeasurement {
     pub readings: u32,
     /// Instrument that measured (model and serial, or "virtual").
     pub instrument: String,
+    /// Bright greys read whole at the drives a provisional profile gave them (the
+    /// white's above all): each becomes one tone-curve knot per channel, its channel
+    /// intensities split from the reading through the display model, so the final
+    /// profile shows what was read there ([`crate::measure::grey_drives`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub composites: Vec<CompositeReading>,
+}
+
+/// A reading of all three channels together at one drive (a grey as the display
+/// showed it), averaged.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CompositeReading {
+    /// The drive triple shown (each at a code of the display input).
+    pub drive: [f64; 3],
+    /// Mean reading, raw (black included), cd/m².
+    pub xyz: Xyz,
+    /// Readings averaged.
+    pub readings: u32,
 }
 
 /// Target white of the wall.
@@ -436,16 +454,26 @@ fn prepare(m: &DisplayMeasurement, lut_entries: Option<usize>) -> Result<Prepare
     }
     let p = Matrix3::from_columns(&cols);
     let p_inv = p.try_inverse().ok_or_else(degenerate)?;
-    let curves = match lut_entries {
-        Some(entries) => Some(fit_curves(m, &name, &cols, entries)?),
-        None => None,
-    };
     let sum = cols[0] + cols[1] + cols[2] + black;
     let additivity_error = m.white.and_then(|w| {
         let wy = w.y;
         (wy > 0.0).then(|| (w.to_vector() - sum).norm() / wy)
     });
     let model = display_model(m.white, sum, &p_inv);
+    let curves = match lut_entries {
+        Some(entries) => Some(fit_curves(m, &name, &cols, entries)?),
+        None => None,
+    };
+    let gains = curves
+        .as_ref()
+        .and_then(|c| composite_gains(m, &p, &model, c));
+    let (p, p_inv) = match gains {
+        Some(g) => {
+            let scaled = p * Matrix3::from_diagonal(&g);
+            (scaled, scaled.try_inverse().ok_or_else(degenerate)?)
+        }
+        None => (p, p_inv),
+    };
     Ok(Prepared {
         p,
         p_inv,
@@ -457,6 +485,48 @@ fn prepare(m: &DisplayMeasurement, lut_entries: Option<usize>) -> Result<Prepare
 }
 
 /// Tone curves of the three channels from the ramps (step 2 of the module docs).
+/// Largest relative change of a channel's full-drive light that the composite readings
+/// may make ([`composite_gains`]): a few times what a colorimeter's noise leaves on
+/// four averaged primaries; more means the display changed between the readings
+/// (drift, a lamp) or a reading was wrong, and the readings are left as they are.
+pub const MAX_COMPOSITE_GAIN_CHANGE: f64 = 0.03;
+
+/// Channel gains `g` that make the model show the composite readings as read: least
+/// squares over `P·diag(c(d))·g = W_d − K − W_seg·min(c(d))` with `c` the tone curves'
+/// intensities at each reading's drive. Scaling `P`'s columns by `g` moves the white
+/// and every grey together (the greys keep their balance against the white), where
+/// one knot per channel at the white's drive would move the white alone. `None` without
+/// composite readings, or when a gain is not finite or changes a channel by more than
+/// [`MAX_COMPOSITE_GAIN_CHANGE`].
+fn composite_gains(
+    m: &DisplayMeasurement,
+    p: &Matrix3<f64>,
+    model: &DisplayModel,
+    curves: &[ToneCurve; 3],
+) -> Option<Vector3<f64>> {
+    if m.composites.is_empty() {
+        return None;
+    }
+    let segment = match model {
+        DisplayModel::Additive => Vector3::zeros(),
+        DisplayModel::WhiteSegment { white_xyz_cd_m2 } => Vector3::from(*white_xyz_cd_m2),
+    };
+    let mut ata = Matrix3::zeros();
+    let mut atb = Vector3::zeros();
+    for r in &m.composites {
+        let c = Vector3::from_fn(|i, _| curves[i].intensity_for(r.drive[i]));
+        let a = p * Matrix3::from_diagonal(&c);
+        let b = r.xyz.to_vector() - m.black.to_vector() - segment * c.min();
+        ata += a.transpose() * a;
+        atb += a.transpose() * b;
+    }
+    let g = ata.try_inverse()? * atb;
+    let plausible = g
+        .iter()
+        .all(|v| v.is_finite() && (v - 1.0).abs() <= MAX_COMPOSITE_GAIN_CHANGE);
+    plausible.then_some(g)
+}
+
 fn fit_curves(
     m: &DisplayMeasurement,
     name: &str,

@@ -102,6 +102,11 @@ impl MeterPositioner for GuidedPositioner {
         self.inner.aim(display, uv)
     }
 
+    /// Every visit is the technician's walk to the display.
+    fn revisits_cheaply(&self) -> bool {
+        false
+    }
+
     fn confirm(
         &mut self,
         display: DisplayId,

@@ -152,4 +152,11 @@ pub trait MeterPositioner {
         let _ = (display, label, uv, aids);
         Ok(())
     }
+
+    /// Whether aiming at a display again costs nothing (a mount, the simulator: the
+    /// default), so that a run may visit every display twice; `false` where a person
+    /// aims and every visit is a walk to the display.
+    fn revisits_cheaply(&self) -> bool {
+        true
+    }
 }

@@ -395,11 +395,12 @@ impl ProgressReport {
             Progress::GreyDrivesRead {
                 display,
                 samples,
+                whole,
                 readings,
             } => say(
                 &self.bar,
                 format!(
-                    "{:<28} {samples} ramp samples at the drives of its white and greys ({readings} readings)",
+                    "{:<28} {samples} ramp samples at the drives of its white and greys, {whole} read whole ({readings} readings)",
                     self.name_of(display.0)
                 ),
             ),

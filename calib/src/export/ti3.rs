@@ -113,6 +113,7 @@ mod tests {
             ],
             readings: 8,
             instrument: "virtual".into(),
+            composites: Vec::new(),
         }
     }
 

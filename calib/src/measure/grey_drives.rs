@@ -1,28 +1,35 @@
 //! Ramp samples at the drives a display really uses: after a first solve, each channel
 //! is read alone at the drive it gets in the display's white and a few greys, through
 //! the provisional profile; the samples join the ramps and the wall is solved again.
+//! A grey given as a share of the white (the white itself by default) is also read
+//! whole, [`WHOLE_GREY_REPEATS`] times.
 //!
-//! Why: the ramps are spread over each channel's range and the curve is interpolated
-//! between samples. Where the white sits between two samples, the interpolation error
-//! moves the white's colour: on `mono-2x1` with the realistic meter and 40 readings
-//! (some go to repeats of the primaries and to low-light averages), the green ramp had
-//! no sample between drive 0.50 and 0.75; the white's green at 0.65 came out 1.2 % low
-//! and the white's y 0.0036 off (ΔE2000 3.4). A sample at the white's own drive
-//! removes that error where it matters most.
+//! Why the channel samples: the ramps are spread over each channel's range and the
+//! curve is interpolated between samples. Where the white sits between two samples, the
+//! interpolation error moves the white's colour: on `mono-2x1` with the realistic meter
+//! and 40 readings (some go to repeats of the primaries and to low-light averages), the
+//! green ramp had no sample between drive 0.50 and 0.75; the white's green at 0.65 came
+//! out 1.2 % low and the white's y 0.0036 off (ΔE2000 3.4). A sample at the white's own
+//! drive removes that error where it matters most. Each is a channel alone, read on its
+//! channel's line ([`ChannelLine`]), so a meter's xy noise hardly enters.
 //!
-//! Each sample is a channel alone, read for its luminance only like every ramp sample
-//! (its chromaticity is the channel's), so a meter's xy noise does not enter. Reading
-//! the greys themselves and splitting each into three channel intensities through `P⁻¹`
-//! needs a third of the readings, but turns a colorimeter's xy noise (0.0005) into 0.9 %
-//! noise on a red intensity: tried, it made the white worse than the interpolation did
-//! on walls with dim greys.
+//! Why the whole grey: with the curves right at the white's drive, what is left of the
+//! white's error is the primaries' own (their xy noise, four readings each at most):
+//! 0.0004–0.0006 in xy with a CS-100A class meter at any budget, ΔE2000 0.4–0.6. The
+//! grey read whole gives the solve per-channel gains that make the model show it as read
+//! (`solve::composite_gains`); scaling the primaries moves every grey with the white,
+//! so the greys keep their balance. Splitting the grey into three channel knots through
+//! `P⁻¹` instead fixed the white alone and left the greys below it off their balance
+//! (tried: mean grey balance 0.30 → 0.36 on `mono-2x1`, 0.51 → 0.72 on
+//! `weak-channel-3x1`).
 
 use lumiwall_core::Channel;
-use lumiwall_devices::{DisplayId, Xyz};
+use lumiwall_devices::{DisplayId, ReadingNoise, Xyz};
 use lumiwall_profiles::DisplayKey;
 use lumiwall_profiles::apply::PreparedProfile;
 
 use super::{ChannelLine, MeasureError, MeasureOptions, Patch, Progress, Rig, Session};
+use crate::solve::CompositeReading;
 use crate::verify::drive_for;
 
 /// One grey of the pass: a share of the target white's luminance, or a luminance.
@@ -111,14 +118,55 @@ pub struct GreyTargets<'a> {
 }
 
 /// What the pass read on one display: each channel's new `(drive, XYZ)` ramp samples,
-/// each put on its channel's line ([`ChannelLine::reading`]), and the readings they
-/// cost.
+/// each put on its channel's line ([`ChannelLine::reading`]), the bright greys read
+/// whole, and the readings they cost.
 #[derive(Debug, Clone, Default)]
 pub struct GreyDrives {
     /// New ramp samples per channel R, G, B.
     pub ramps: [Vec<(f64, Xyz)>; 3],
+    /// The greys given as a share of the white, each read whole at its drive.
+    pub composites: Vec<CompositeReading>,
     /// Meter readings taken.
     pub readings: u32,
+}
+
+/// Most readings averaged for a grey read whole (a share of the white), and what a
+/// meter that states no noise gets: with a CS-100A class meter's xy noise of 0.0005 per
+/// reading, six put the white's chromaticity within [`WHOLE_GREY_XY_SE`], where the
+/// primaries' readings had left the white computed from them 0.0004–0.0006 off
+/// (ΔE2000 0.4–0.6, whatever the budget). Three at 40 readings gave the ramps three
+/// more samples: the grey balance came out better by as much as the white came out
+/// worse (six classes of wall, five seeds each).
+pub const WHOLE_GREY_REPEATS: u32 = 6;
+
+/// Standard error of a whole grey's mean x and y that its readings aim at.
+pub const WHOLE_GREY_XY_SE: f64 = 0.0002;
+
+/// Readings averaged for a grey read whole with a meter of this stated noise: enough
+/// for [`WHOLE_GREY_XY_SE`] (one for a meter that states none at all, such as the
+/// simulator's exact one), at most [`WHOLE_GREY_REPEATS`]; a meter that states nothing
+/// gets the most.
+pub fn whole_grey_repeats(noise: Option<&ReadingNoise>) -> u32 {
+    match noise {
+        Some(n) => {
+            let needed = (n.xy / WHOLE_GREY_XY_SE).powi(2).ceil();
+            if needed.is_finite() {
+                (needed as u32).clamp(1, WHOLE_GREY_REPEATS)
+            } else {
+                WHOLE_GREY_REPEATS
+            }
+        }
+        None => WHOLE_GREY_REPEATS,
+    }
+}
+
+/// Readings per channel sample of a dark grey level: one for a meter that states it
+/// has no noise, else [`DARK_REPEATS`].
+fn dark_repeats(noise: Option<&ReadingNoise>) -> u32 {
+    let exact = noise.is_some_and(|n| {
+        n.xy == 0.0 && n.luminance_rel == 0.0 && n.dark_xyz_cd_m2.iter().all(|v| *v == 0.0)
+    });
+    if exact { 1 } else { DARK_REPEATS }
 }
 
 /// Reads each channel of display `id` alone at the code nearest the drive the
@@ -146,11 +194,28 @@ pub fn read_grey_drives(
     let mut out = GreyDrives::default();
     let inside = MIN_DRIVE_GAP..=1.0 - MIN_DRIVE_GAP;
     let max_code = crate::solve::clamped_bit_depth(targets.bit_depth).max_code_f64();
-    for xyz in targets.levels.iter().filter_map(|l| l.xyz(targets.white)) {
-        let drive = drive_for(targets.prepared, xyz, opts.spot_uv);
+    for level in targets.levels {
+        let Some(xyz) = level.xyz(targets.white) else {
+            continue;
+        };
+        // At codes, as every ramp sample is: shown exactly, with no dither.
+        let drive = drive_for(targets.prepared, xyz, opts.spot_uv)
+            .map(|d| (d * max_code).round() / max_code);
+        if let GreyLevel::Share(_) = level {
+            let n = whole_grey_repeats(noise.as_ref()).min(s.remaining());
+            if n > 0
+                && let Some(xyz) = s.repeated(Patch::Drive(drive), n, &mut quiet)?
+            {
+                let readings = s.log.samples.last().map_or(n, |r| r.repeats.max(1));
+                out.composites.push(CompositeReading {
+                    drive,
+                    xyz,
+                    readings,
+                });
+            }
+        }
         for c in Channel::ALL {
-            // At a code, as every ramp sample is: shown exactly, with no dither.
-            let d = (drive[c.index()] * max_code).round() / max_code;
+            let d = drive[c.index()];
             let taken = &mut out.ramps[c.index()];
             let far = |t: &f64| (t - d).abs() >= MIN_DRIVE_GAP;
             let new = inside.contains(&d)
@@ -173,6 +238,7 @@ pub fn read_grey_drives(
     progress(Progress::GreyDrivesRead {
         display: id,
         samples: out.ramps.iter().map(Vec::len).sum(),
+        whole: out.composites.len(),
         readings: out.readings,
     });
     Ok(out)
@@ -189,22 +255,24 @@ pub fn check_levels(levels: &[GreyLevel]) -> Result<(), String> {
     Ok(())
 }
 
-/// Readings the pass reserves per display: one per channel of a share of the white,
-/// and [`DARK_REPEATS`] per channel of a dark grey given as a luminance, whose samples
-/// the low-light policy averages (reserving one left heyewall-48's dark greys without
-/// their own samples at 40 readings, realistic meter: 1 cd/m² grey +8–16 % on the
-/// right-eye displays, max ΔE2000 5.1; with two, 3.6).
-pub fn readings_needed(levels: &[GreyLevel]) -> u32 {
+/// Readings the pass reserves per display read with a meter of stated `noise`: for a
+/// share of the white, one per channel at its drive and [`whole_grey_repeats`] for the
+/// grey read whole; [`DARK_REPEATS`] per channel of a dark grey given as a luminance
+/// (one with an exact meter), whose samples the low-light policy averages (reserving
+/// one left heyewall-48's dark greys without their own samples at 40 readings,
+/// realistic meter: 1 cd/m² grey +8–16 % on the right-eye displays, max ΔE2000 5.1;
+/// with two, 3.6). Readings an exact meter does not need stay with the ramps.
+pub fn readings_needed(levels: &[GreyLevel], noise: Option<&ReadingNoise>) -> u32 {
     let per_level = |l: &GreyLevel| match l {
-        GreyLevel::Share(_) => 3,
-        GreyLevel::Luminance(_) => 3 * DARK_REPEATS,
+        GreyLevel::Share(_) => 3 + whole_grey_repeats(noise),
+        GreyLevel::Luminance(_) => 3 * dark_repeats(noise),
     };
-    u32::try_from(levels.iter().map(per_level).sum::<usize>()).unwrap_or(u32::MAX)
+    levels.iter().map(per_level).sum()
 }
 
 /// Readings reserved per channel sample of a dark grey level (the weighted samples of
 /// a CS-100A class meter need one or two).
-const DARK_REPEATS: usize = 2;
+const DARK_REPEATS: u32 = 2;
 
 #[cfg(test)]
 mod tests {

@@ -9,7 +9,8 @@ use crate::common::Lcg;
 use lumiwall_calib::CalibError;
 use lumiwall_calib::colorimetry::{cct_to_xy, delta_e2000_xyz};
 use lumiwall_calib::solve::{
-    DisplayMeasurement, Limiting, SolveOptions, SolveWarning, WallSolution, WhiteTarget, solve_wall,
+    CompositeReading, DisplayMeasurement, Limiting, SolveOptions, SolveWarning, WallSolution,
+    WhiteTarget, solve_wall,
 };
 use lumiwall_calib::tone::suggest_next_drive;
 use lumiwall_core::Channel;
@@ -97,6 +98,7 @@ impl Model {
             ramps,
             readings: (2 + 3 + 3 * ramp_samples) as u32,
             instrument: "analytic model".into(),
+            composites: Vec::new(),
         }
     }
 }
@@ -658,5 +660,54 @@ fn solve_warnings_print_the_report_text() {
     assert_eq!(
         additivity.to_string(),
         "d2: additivity error 10.0 % (|W − (R+G+B−2·black)| / Y_W) exceeds 2.0 %; the matrix model will be off by about that much"
+    );
+}
+
+/// ΔE2000 of the white and of two greys (half and a fifth of it) as display `i` shows
+/// them through its profile, against the targets.
+fn white_and_greys_delta_e(models: &[Model], sol: &WallSolution, i: usize) -> [f64; 3] {
+    let w = sol.white_xyz_cd_m2;
+    [1.0, 0.5, 0.2].map(|s| {
+        let (_, drive) = post_pass(&sol.profiles[i], w * s);
+        delta_e2000_xyz(w * s, models[i].show(drive), w)
+    })
+}
+
+/// A red primary read 0.003 off in x (a colorimeter's noise on a few readings) puts the
+/// white and every grey off; the white read whole at the drive the profile gave it
+/// brings the white and the greys back (the gains scale the primaries, so the greys
+/// move with the white). A whole reading no gain of a few percent explains is left out.
+#[test]
+fn a_white_read_whole_corrects_a_primary_read_off_and_the_greys_move_with_it() {
+    let models = wall(POWER_CURVES);
+    let mut meas = measure_all(&models, 12);
+    let red = meas[0].primaries[0] - meas[0].black;
+    let xy = red.xy().unwrap();
+    meas[0].primaries[0] = meas[0].black + Xyz::from_xy_luminance(xy[0] + 0.003, xy[1], red.y);
+    meas[0].white = None;
+    let opts = options(BlackMode::Individual, 1.0);
+    let before = solve_wall(&meas, &opts).unwrap();
+    let off = white_and_greys_delta_e(&models, &before, 0);
+    let (_, drive) = post_pass(&before.profiles[0], before.white_xyz_cd_m2);
+    let whole = |xyz: Xyz| CompositeReading {
+        drive,
+        xyz,
+        readings: 6,
+    };
+    meas[0].composites = vec![whole(models[0].show(drive))];
+    let after = solve_wall(&meas, &opts).unwrap();
+    let fixed = white_and_greys_delta_e(&models, &after, 0);
+    println!(
+        "white, grey 50 %, grey 20 %: ΔE2000 {off:.3?} without, {fixed:.3?} with the whole white"
+    );
+    assert!(off.iter().all(|d| *d > 0.2), "{off:?}");
+    assert!(fixed.iter().all(|d| *d < 0.05), "{fixed:?}");
+    // X 6 % high: no plausible gain; the profile stays as without the reading.
+    let shown = models[0].show(drive);
+    meas[0].composites = vec![whole(Xyz::new(shown.x * 1.06, shown.y, shown.z))];
+    let ignored = solve_wall(&meas, &opts).unwrap();
+    assert_eq!(
+        ignored.profiles[0].xyz_to_drive,
+        before.profiles[0].xyz_to_drive
     );
 }

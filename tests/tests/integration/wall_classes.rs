@@ -309,3 +309,47 @@ fn the_drift_over_a_cold_run_is_reported_and_a_warm_run_shows_none() {
     assert!(drift[0].is_significant() && drift[0].luminance_change_percent() > 1.0);
     assert!(!drift[1].is_significant(), "{}", drift[1].summary());
 }
+
+/// On `weak-channel-3x1` the weak blue of display 1 sets a wall white that display 0,
+/// measured first, reaches with about a tenth of its red and green. Every display is
+/// surveyed (black, primaries, white) before any ramp is read, so display 0's ramps
+/// already know it: most of its red and green samples lie where the wall uses those
+/// channels, and its greys come out balanced.
+#[test]
+fn the_first_displays_ramps_are_focused_on_the_white_that_a_later_dimmer_display_sets() {
+    let mut station = crate::support::direct_station("weak-channel-3x1.toml", Noise::None);
+    let out = tempfile::tempdir().expect("tmp");
+    let opts =
+        crate::support::options_8500k(MeasureOptions::default(), BlackMode::Individual, false);
+    let o = station
+        .commission(out.path(), &opts, &mut |_| {})
+        .expect("commission");
+    let first = &o.measured[0].measurement;
+    let usage = o.solution.profiles[0].channel_usage;
+    for c in 0..2 {
+        let full = first.primaries[c].y - first.black.y;
+        let rel: Vec<f64> = first.ramps[c]
+            .iter()
+            .map(|(_, xyz)| (xyz.y - first.black.y) / full)
+            .collect();
+        let used = rel.iter().filter(|r| **r <= 1.5 * usage[c]).count();
+        eprintln!(
+            "channel {c}: usage {:.3}, {used} of {} samples within 1.5 × usage",
+            usage[c],
+            rel.len()
+        );
+        assert!(
+            usage[c] < 0.2,
+            "the weak display no longer limits: {usage:?}"
+        );
+        assert!(3 * used >= 2 * rel.len(), "channel {c}: {rel:?}");
+    }
+    let profiles = &o.solution.profiles;
+    let targets = chart_targets(profiles).expect("chart");
+    let report = station
+        .verify(profiles, &targets, &VerifyOptions::default(), &mut |_| {})
+        .expect("verify");
+    let grey = report.per_display[0].1.grey_balance.expect("greys");
+    eprintln!("display 0 grey balance {grey:.3}");
+    assert!(grey < 0.15, "display 0 grey balance {grey}");
+}
