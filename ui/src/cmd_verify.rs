@@ -40,12 +40,14 @@ pub(crate) struct VerifyArgs {
     /// and grey balance.
     #[arg(long, value_parser = parse_chart, conflicts_with = "patches")]
     chart: Option<usize>,
-    /// Largest ΔE2000 allowed on any patch (a finite number greater than 0).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 1.5, value_parser = values::positive_finite)]
-    max_de: f64,
-    /// Largest median ΔE2000 allowed (per display and overall; greater than 0).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.5, value_parser = values::positive_finite)]
-    median_de: f64,
+    /// Largest ΔE2000 allowed on any patch (a finite number greater than 0; default
+    /// 1.5, with `--chart` DisplayCAL's recommended 3).
+    #[arg(long, allow_negative_numbers = true, value_parser = values::positive_finite)]
+    max_de: Option<f64>,
+    /// Largest median ΔE2000 allowed (per display and overall; greater than 0; default
+    /// 0.5, with `--chart` 1, where DisplayCAL's mean of 1 is the measure).
+    #[arg(long, allow_negative_numbers = true, value_parser = values::positive_finite)]
+    median_de: Option<f64>,
     /// Largest mean ΔE2000 allowed per display (DisplayCAL's recommended value: 1).
     #[arg(long, allow_negative_numbers = true, default_value_t = 1.0, value_parser = values::positive_finite)]
     mean_de: f64,
@@ -357,8 +359,8 @@ fn print_truth(report: &VerifyReport, args: &VerifyArgs) {
 /// The tolerances the arguments set.
 fn tolerances(args: &VerifyArgs) -> Tolerances {
     Tolerances {
-        max_de: args.max_de,
-        median_de: args.median_de,
+        max_de: args.max_de(),
+        median_de: args.median_de(),
         mean_de: args.mean_de,
         white_de: args.white_de,
         grey_balance: args.grey_balance,
@@ -426,13 +428,30 @@ fn run_grid(
     let mut sorted = de.clone();
     let median = lumiwall_calib::verify::median(&mut sorted);
     let max = de.iter().copied().fold(0.0, f64::max);
-    if median > args.median_de || max > args.max_de {
+    if median > args.median_de() || max > args.max_de() {
         return Err(CliError::tolerance(format!(
             "spatial verification outside tolerance: median ΔE {median:.2} (limit {}), max ΔE {max:.2} (limit {})",
-            args.median_de, args.max_de
+            args.median_de(),
+            args.max_de()
         )));
     }
     Ok(())
+}
+
+impl VerifyArgs {
+    /// `--max-de`, or its default: 1.5 for target colours, DisplayCAL's recommended 3
+    /// for a chart (issue 12).
+    fn max_de(&self) -> f64 {
+        self.max_de
+            .unwrap_or(if self.chart.is_some() { 3.0 } else { 1.5 })
+    }
+
+    /// `--median-de`, or its default: 0.5 for target colours, 1 for a chart (judged by
+    /// DisplayCAL's mean of 1 besides).
+    fn median_de(&self) -> f64 {
+        self.median_de
+            .unwrap_or(if self.chart.is_some() { 1.0 } else { 0.5 })
+    }
 }
 
 /// `--chart`: the charts there are (51).
