@@ -542,10 +542,10 @@ pub enum MeasureError {
     /// The budget was spent before a channel's ramp got a single sample (dark readings
     /// averaged several times each take it fastest).
     #[error(
-        "{display}: the {budget} readings of the measuring pass were spent before the \
-         {channel} ramp got a sample ({low_light} of them went to averaging readings below \
-         the reliable limit of the meter); raise --budget, check the lamp (eco/dimming \
-         mode, hours), or use a more sensitive meter"
+        "{display}: the {budget} readings of the measuring pass ran out before the \
+         {channel} ramp got a sample ({taken} readings taken, {low_light} of them in \
+         averages of readings below the reliable limit of the meter); raise --budget, \
+         check the lamp (eco/dimming mode, hours), or use a more sensitive meter"
     )]
     RampBudgetSpent {
         /// Display being measured.
@@ -554,6 +554,8 @@ pub enum MeasureError {
         channel: &'static str,
         /// Readings the measuring pass had (the budget less the grey-drive pass's).
         budget: u32,
+        /// Readings taken (the black and the primaries are read even past the budget).
+        taken: u32,
         /// Readings that went to averaging samples below the reliable limit.
         low_light: u32,
     },
@@ -1297,6 +1299,7 @@ impl RampPlanner {
                     display: key.to_string(),
                     channel: c.name(),
                     budget: s.budget,
+                    taken: s.log.readings,
                     low_light: s
                         .log
                         .samples

@@ -332,3 +332,61 @@ fn a_dim_blue_sample_weighted_by_the_stated_noise_scatters_half_as_much_as_its_l
         "luminance mean {ml:.5} vs {want:.5}"
     );
 }
+
+/// Readings kept for a later pass (`reserved`) stay unread, except that a channel
+/// without any ramp sample may still take one: with nearly the whole budget reserved,
+/// every channel still gets its one sample and nothing more is read.
+#[test]
+fn the_ramps_leave_the_reserved_readings_unless_a_channel_has_no_sample_yet() {
+    for reserved in [20, 33] {
+        let opts = MeasureOptions {
+            budget: 40,
+            reserved,
+            ..MeasureOptions::default()
+        };
+        let (m, _) = run(Bench::new(), &opts);
+        let m = m.unwrap();
+        let free = 40 - reserved;
+        let samples: Vec<usize> = m.measurement.ramps.iter().map(Vec::len).collect();
+        assert!(samples.iter().all(|n| *n >= 1), "{reserved}: {samples:?}");
+        assert!(
+            m.measurement.readings <= free.max(5 + 3),
+            "{reserved}: {} readings",
+            m.measurement.readings
+        );
+    }
+}
+
+/// A display so dim that every reading is averaged spends a small budget on black and
+/// the primaries: the channel left without a ramp sample is named in a typed error
+/// that says where the readings went, not in the solve's "0 usable ramp samples".
+#[test]
+fn a_budget_spent_before_a_channel_got_a_ramp_sample_is_a_typed_error_naming_it() {
+    let mut bench = Bench::new();
+    bench.min_reliable_cd_m2 = 1000.0;
+    let opts = MeasureOptions {
+        budget: 16,
+        ..MeasureOptions::default()
+    };
+    let (m, _) = run(bench, &opts);
+    let err = m.unwrap_err();
+    match &err {
+        MeasureError::RampBudgetSpent {
+            channel,
+            budget,
+            taken,
+            low_light,
+            ..
+        } => {
+            assert_eq!(*budget, 16);
+            assert!(*taken >= 16 && *low_light >= 16, "{err}");
+            assert!(["red", "green", "blue"].contains(channel), "{err}");
+        }
+        other => panic!("{other:?}"),
+    }
+    let msg = err.to_string();
+    assert!(
+        msg.contains("--budget") && msg.contains("more sensitive meter"),
+        "{msg}"
+    );
+}
