@@ -39,7 +39,9 @@ use serde::{Deserialize, Serialize};
 use crate::CalibError;
 use crate::colorimetry::cct_to_xy;
 use crate::measure::drift::{DriftCheck, recheck};
-use crate::measure::grey_drives::{GreyLevel, GreyTargets, read_grey_drives, readings_needed};
+use crate::measure::grey_drives::{
+    GreyLevel, GreyTargets, read_grey_drives, readings_needed, whole_grey_repeats,
+};
 use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall, fuse_with_white};
 use crate::measure::{
     MeasureError, MeasureOptions, MeasuredDisplay, Progress, RampFocus, Rig, Survey, display_key,
@@ -345,6 +347,7 @@ fn read_greys(
     let provisional = solve_wall_at(&inputs, &opts.solve, &now_rfc3339())?;
     let run_dir = out_dir.join(RUN_DIR);
     let total = displays.len();
+    let noise = rig.meter.info().noise;
     for (info, m) in displays.iter().zip(measured.iter_mut()) {
         let key = &m.measurement.key;
         let Some(profile) = provisional.profiles.iter().find(|p| p.display == *key) else {
@@ -366,6 +369,7 @@ fn read_greys(
             ramp_drives: std::array::from_fn(|c| {
                 m.measurement.ramps[c].iter().map(|s| s.0).collect()
             }),
+            whole_repeats: whole_grey_repeats(noise.as_ref(), opts.measure.budget),
         };
         let read =
             read_grey_drives(rig, key, info.id, &targets, &mopts, progress).map_err(|source| {
@@ -419,7 +423,7 @@ fn usable_grey_levels(
 /// of stated `noise`), unless the budget is too small for both (then the pass reads
 /// only what is left, if anything).
 fn grey_reserve(opts: &CommissionOptions, noise: Option<&ReadingNoise>) -> u32 {
-    let n = readings_needed(&opts.grey_levels, noise);
+    let n = readings_needed(&opts.grey_levels, noise, opts.measure.budget);
     if opts.measure.budget.saturating_sub(n) >= MeasureOptions::MIN_BUDGET {
         n
     } else {

@@ -223,7 +223,7 @@ fn a_meter_that_stops_in_the_grey_drive_pass_resumes_with_the_grey_drives_only()
         .meter
         .info()
         .noise;
-    let measuring = 40 - readings_needed(&DEFAULT_LEVELS, noise.as_ref());
+    let measuring = 40 - readings_needed(&DEFAULT_LEVELS, noise.as_ref(), 40);
     let faults = FaultPlan {
         stop_after_readings: Some(2 * measuring + 1),
         ..FaultPlan::default()
