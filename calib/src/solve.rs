@@ -82,10 +82,10 @@ pub struct DisplayMeasurement {
     pub readings: u32,
     /// Instrument that measured (model and serial, or "virtual").
     pub instrument: String,
-    /// Bright greys read whole at the drives a provisional profile gave them (the
-    /// white's above all): each becomes one tone-curve knot per channel, its channel
-    /// intensities split from the reading through the display model, so the final
-    /// profile shows what was read there ([`crate::measure::grey_drives`]).
+    /// Greys read whole at the drives a provisional profile gave them (the white, from
+    /// [`crate::measure::grey_drives::WHOLE_GREY_MIN_BUDGET`] readings): the solve
+    /// scales the primaries by per-channel gains so that the model shows them as read
+    /// (`composite_gains`); empty in measurements written before them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub composites: Vec<CompositeReading>,
 }
@@ -486,9 +486,10 @@ fn prepare(m: &DisplayMeasurement, lut_entries: Option<usize>) -> Result<Prepare
 
 /// Tone curves of the three channels from the ramps (step 2 of the module docs).
 /// Largest relative change of a channel's full-drive light that the composite readings
-/// may make ([`composite_gains`]): a few times what a colorimeter's noise leaves on
-/// four averaged primaries; more means the display changed between the readings
-/// (drift, a lamp) or a reading was wrong, and the readings are left as they are.
+/// may make (the solve's `composite_gains`): a few times what a colorimeter's noise
+/// leaves on four averaged primaries; more means the display changed between the
+/// readings (drift, a lamp) or a reading was wrong, and the readings are left as they
+/// are.
 pub const MAX_COMPOSITE_GAIN_CHANGE: f64 = 0.03;
 
 /// Channel gains `g` that make the model show the composite readings as read: least

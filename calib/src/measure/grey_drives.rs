@@ -268,13 +268,13 @@ pub fn check_levels(levels: &[GreyLevel]) -> Result<(), String> {
 }
 
 /// Readings the pass reserves per display of `budget` readings read with a meter of
-/// stated `noise`: for a
-/// share of the white, one per channel at its drive and [`whole_grey_repeats`] for the
-/// grey read whole; [`DARK_REPEATS`] per channel of a dark grey given as a luminance
-/// (one with an exact meter), whose samples the low-light policy averages (reserving
-/// one left heyewall-48's dark greys without their own samples at 40 readings,
-/// realistic meter: 1 cd/m² grey +8–16 % on the right-eye displays, max ΔE2000 5.1;
-/// with two, 3.6). Readings an exact meter does not need stay with the ramps.
+/// stated `noise`: for a share of the white, one per channel at its drive and
+/// [`whole_grey_repeats`] for the grey read whole; two per channel of a dark grey given
+/// as a luminance (one with an exact meter), whose samples the low-light policy
+/// averages (reserving one left heyewall-48's dark greys without their own samples at
+/// 40 readings, realistic meter: 1 cd/m² grey +8–16 % on the right-eye displays, max
+/// ΔE2000 5.1; with two, 3.6). Readings an exact meter does not need stay with the
+/// ramps.
 pub fn readings_needed(levels: &[GreyLevel], noise: Option<&ReadingNoise>, budget: u32) -> u32 {
     let per_level = |l: &GreyLevel| match l {
         GreyLevel::Share(_) => 3 + whole_grey_repeats(noise, budget),
