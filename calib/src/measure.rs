@@ -1039,8 +1039,7 @@ pub fn measure_display(
     opts: &MeasureOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<MeasuredDisplay, MeasureError> {
-    check_budget(opts)?;
-    let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
+    let mut s = start_within_budget(rig, info, key, opts)?;
     let survey = survey_in(&mut s, key, opts, progress)?;
     ramps_in(&mut s, info, key, survey, opts, progress)
 }
@@ -1072,8 +1071,7 @@ pub fn survey_display(
     opts: &MeasureOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Survey, MeasureError> {
-    check_budget(opts)?;
-    let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
+    let mut s = start_within_budget(rig, info, key, opts)?;
     survey_in(&mut s, key, opts, progress)
 }
 
@@ -1091,14 +1089,21 @@ pub fn measure_ramps(
     ramps_in(&mut s, info, key, survey, opts, progress)
 }
 
-fn check_budget(opts: &MeasureOptions) -> Result<(), MeasureError> {
+/// A session on `info` once the budget is known to be workable
+/// ([`MeasureOptions::MIN_BUDGET`]).
+fn start_within_budget<'r, 'a>(
+    rig: &'r mut Rig<'a>,
+    info: &DisplayInfo,
+    key: &DisplayKey,
+    opts: &MeasureOptions,
+) -> Result<Session<'r, 'a>, MeasureError> {
     if opts.budget < MeasureOptions::MIN_BUDGET {
         return Err(MeasureError::BudgetTooSmall {
             budget: opts.budget,
             min: MeasureOptions::MIN_BUDGET,
         });
     }
-    Ok(())
+    Session::start(rig, key, info.id, opts.spot_uv, opts)
 }
 
 /// Black, primaries and white in session `s`; the survey takes the session's log.

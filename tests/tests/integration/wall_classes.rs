@@ -31,6 +31,16 @@ fn commission_and_verify_opts(
     file: &str,
     opts: &lumiwall_calib::commission::CommissionOptions,
 ) -> (Vec<SolveWarning>, VerifyReport) {
+    let (o, report) = commission_and_verify_outcome(file, opts);
+    (o.solution.warnings, report)
+}
+
+/// [`commission_and_verify_opts`] with the whole commissioning outcome (measurements
+/// included).
+fn commission_and_verify_outcome(
+    file: &str,
+    opts: &lumiwall_calib::commission::CommissionOptions,
+) -> (lumiwall_calib::commission::CommissionOutcome, VerifyReport) {
     let mut station = crate::support::direct_station(file, Noise::None);
     let out = tempfile::tempdir().expect("tmp");
     let o = station
@@ -51,7 +61,7 @@ fn commission_and_verify_opts(
         .find(|l| l.starts_with("OVERALL"))
         .unwrap_or("");
     eprintln!("{file}: {overall}");
-    (o.solution.warnings, report)
+    (o, report)
 }
 
 fn additivity_warnings(w: &[SolveWarning]) -> usize {
@@ -317,13 +327,9 @@ fn the_drift_over_a_cold_run_is_reported_and_a_warm_run_shows_none() {
 /// channels, and its greys come out balanced.
 #[test]
 fn the_first_displays_ramps_are_focused_on_the_white_that_a_later_dimmer_display_sets() {
-    let mut station = crate::support::direct_station("weak-channel-3x1.toml", Noise::None);
-    let out = tempfile::tempdir().expect("tmp");
     let opts =
         crate::support::options_8500k(MeasureOptions::default(), BlackMode::Individual, false);
-    let o = station
-        .commission(out.path(), &opts, &mut |_| {})
-        .expect("commission");
+    let (o, report) = commission_and_verify_outcome("weak-channel-3x1.toml", &opts);
     let first = &o.measured[0].measurement;
     let usage = o.solution.profiles[0].channel_usage;
     for c in 0..2 {
@@ -344,11 +350,6 @@ fn the_first_displays_ramps_are_focused_on_the_white_that_a_later_dimmer_display
         );
         assert!(3 * used >= 2 * rel.len(), "channel {c}: {rel:?}");
     }
-    let profiles = &o.solution.profiles;
-    let targets = chart_targets(profiles).expect("chart");
-    let report = station
-        .verify(profiles, &targets, &VerifyOptions::default(), &mut |_| {})
-        .expect("verify");
     let grey = report.per_display[0].1.grey_balance.expect("greys");
     eprintln!("display 0 grey balance {grey:.3}");
     assert!(grey < 0.15, "display 0 grey balance {grey}");
