@@ -31,6 +31,9 @@
 //! Z weighted by the meter's stated noise ([`channel_reading`]): the Z of a dim blue,
 //! twenty times its Y, then carries the sample. A meter that states no noise is read
 //! for the luminance alone ([`luminance_only`]). The raw readings stay in the [`MeasureLog`].
+//! Once the ramps are read, each channel's colour is pooled over its full-drive reading
+//! and its bright ramp samples, which read the same colour as often again
+//! ([`channel_colour`]), and the samples are put on the pooled lines.
 
 // Errors carry the display, the reading and the device error for the technician and
 // occur at most once per run, so their size does not matter.
@@ -40,6 +43,7 @@
 )]
 
 pub mod ccmx;
+pub mod channel_colour;
 pub mod drift;
 pub mod grey_drives;
 pub mod meter_matrix;
@@ -1151,6 +1155,7 @@ fn ramps_in(
     let mut ramps = RampPlanner::new(black, primaries, info.bit_depth, opts, noise);
     ramps.measure(s, opts, progress)?;
     ramps.check_measurable(key, s)?;
+    let (primaries, ramps) = channel_colour::pool(&s.log, black, primaries, noise);
     let readings = s.log.readings;
     let log = std::mem::take(&mut s.log);
     progress(Progress::DisplayDone {
@@ -1164,7 +1169,7 @@ fn ramps_in(
             black,
             primaries,
             white,
-            ramps: ramps.ramps,
+            ramps,
             readings,
             instrument,
             composites: Vec::new(),

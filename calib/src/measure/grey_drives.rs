@@ -130,6 +130,8 @@ pub struct GreyDrives {
     pub composites: Vec<CompositeReading>,
     /// Meter readings taken.
     pub readings: u32,
+    /// The pass's samples as read, for the display's [`super::MeasureLog`].
+    pub samples: Vec<super::ReadingRecord>,
 }
 
 /// Most readings averaged for a grey read whole (a share of the white), and what a
@@ -247,6 +249,7 @@ pub fn read_grey_drives(
         }
     }
     out.readings = s.log.readings;
+    out.samples = std::mem::take(&mut s.log.samples);
     progress(Progress::GreyDrivesRead {
         display: id,
         samples: out.ramps.iter().map(Vec::len).sum(),

@@ -103,7 +103,8 @@ fn reading_variance(r: Xyz, n: f64, sigma_xy: f64, sigma_y_rel: f64) -> [f64; 3]
 /// the four readings in proportion to their variances (weighted least squares with the
 /// constraint). A very saturated primary (Infitec blue) has a large variance in Z and
 /// takes most of it, so its Z comes from the bright, unsaturated white instead of its
-/// own noisy chromaticity. `repeats` is the number of readings averaged per primary,
+/// own noisy chromaticity. `repeats` is the number of readings each primary's colour
+/// stands on,
 /// `white_repeats` for the white.
 /// Returns `None` (no change) when the residual is not explained by meter noise
 /// (χ² above `max_chi2`): then the display is not additive and the solve should warn.
@@ -111,7 +112,7 @@ pub fn fuse_with_white(
     black: Xyz,
     primaries: &[Xyz; 3],
     white: Xyz,
-    repeats: f64,
+    repeats: [f64; 3],
     white_repeats: f64,
     max_chi2: f64,
 ) -> Option<[Xyz; 3]> {
@@ -122,7 +123,8 @@ pub fn fuse_with_white(
     let res = (white - sum).to_array();
     let vp: Vec<[f64; 3]> = primaries
         .iter()
-        .map(|p| reading_variance(*p, repeats.max(1.0), sxy, sy))
+        .zip(repeats)
+        .map(|(p, n)| reading_variance(*p, n.max(1.0), sxy, sy))
         .collect();
     let vw = reading_variance(white, white_repeats.max(1.0), sxy, sy);
     let total: [f64; 3] = std::array::from_fn(|j| vp[0][j] + vp[1][j] + vp[2][j] + vw[j]);
@@ -286,12 +288,12 @@ mod tests {
         let (k, p, w) = additive_display();
         let mut noisy = p;
         noisy[2] = Xyz::new(46.0 * 1.05, 6.0, 246.0 * 1.05);
-        let fused = fuse_with_white(k, &noisy, w, 3.0, 1.0, 1e4).expect("fused");
+        let fused = fuse_with_white(k, &noisy, w, [3.0; 3], 1.0, 1e4).expect("fused");
         // The 12.3 error in Z is mostly (> 90 %) moved back.
         assert!((fused[2].z - 246.0).abs() < 1.0, "{:?}", fused[2]);
         assert!((fused[0].z - 0.8).abs() < 0.05 && (fused[1].x - 8.0).abs() < 0.5);
         // A white far off (non-additive display) is left alone.
-        assert!(fuse_with_white(k, &p, w * 1.3, 3.0, 1.0, 25.0).is_none());
+        assert!(fuse_with_white(k, &p, w * 1.3, [3.0; 3], 1.0, 25.0).is_none());
     }
 
     /// An Infitec red has no Z: without an offset the reading is left exactly as it is
@@ -313,7 +315,7 @@ mod tests {
         let (k, mut p, _) = additive_display();
         p[0].z = k.z;
         let w = p[0] + p[1] + p[2] - k * 2.0 - Xyz::new(0.0, 0.0, 0.02);
-        let fused = fuse_with_white(k, &p, w, 3.0, 3.0, 1e4).expect("fused");
+        let fused = fuse_with_white(k, &p, w, [3.0; 3], 3.0, 1e4).expect("fused");
         for c in fused {
             assert!(c.x >= k.x && c.y >= k.y && c.z >= k.z, "{c:?} below {k:?}");
         }

@@ -390,3 +390,81 @@ fn a_budget_spent_before_a_channel_got_a_ramp_sample_is_a_typed_error_naming_it(
         "{msg}"
     );
 }
+
+/// With a CS-100A class meter's noise (no systematic error, so the truth is the
+/// simulator's light), 40 readings per display read each primary only twice at full
+/// drive; its ramp samples are further readings of the same colour. Over 24 meter
+/// serials on mono-2x1, the pooled primaries' chromaticity is at least a quarter
+/// closer to the truth (RMS Δxy over the three) than the full-drive readings they
+/// started from, and each channel's RMS error is smaller.
+#[test]
+fn a_primarys_colour_pooled_over_its_ramp_is_closer_to_the_truth_than_its_full_drive_reading() {
+    use lumiwall_calib::measure::Patch;
+    use lumiwall_devices::sim::{MeterModel, VirtualWall};
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/walls/mono-2x1.toml");
+    let wall = VirtualWall::from_toml_file(&path).expect("wall");
+    let info = wall.pattern_output().displays()[0].clone();
+    let uv = MeasureOptions::default().spot_uv;
+    let truth = |d: [f64; 3]| wall.emitted_xyz(info.id, d, uv).expect("truth");
+    let black = truth([0.0; 3]);
+    let true_xy: Vec<[f64; 2]> = (0..3)
+        .map(|c| {
+            let mut d = [0.0; 3];
+            d[c] = 1.0;
+            (truth(d) - black).xy().expect("colour")
+        })
+        .collect();
+    let dist = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+    let (mut sq_pooled, mut sq_read) = ([0.0; 3], [0.0; 3]);
+    let serials = 24;
+    for serial in 0..serials {
+        let model = MeterModel {
+            lum_systematic_rel: 0.0,
+            filter_shift_nm: 0.0,
+            filter_gain_rel: 0.0,
+            ..MeterModel::cs100a(100 + serial)
+        };
+        let (mut out, mut meter, mut pos) =
+            (wall.pattern_output(), wall.meter(model), wall.positioner());
+        let mut rig = Rig {
+            pattern: &mut out,
+            meter: &mut meter,
+            positioner: &mut pos,
+        };
+        let opts = MeasureOptions {
+            budget: 40,
+            ..MeasureOptions::default()
+        };
+        let key = display_key("mono-2x1", &info);
+        let m = measure_display(&mut rig, &info, &key, &opts, &mut |_| {}).expect("measured");
+        let mm = &m.measurement;
+        for c in 0..3 {
+            let read = m
+                .log
+                .samples
+                .iter()
+                .rev()
+                .find(|r| r.patch == Patch::Primary(lumiwall_core::Channel::ALL[c]))
+                .and_then(|r| r.xyz)
+                .expect("full-drive reading");
+            let xy = |v: Xyz| (v - mm.black).xy().expect("colour");
+            sq_pooled[c] += dist(xy(mm.primaries[c]), true_xy[c]).powi(2);
+            sq_read[c] += dist(xy(read), true_xy[c]).powi(2);
+        }
+    }
+    let rms = |s: [f64; 3]| s.map(|v| (v / serials as f64).sqrt());
+    let (pooled, read) = (rms(sq_pooled), rms(sq_read));
+    println!("RMS Δxy R, G, B: pooled {pooled:.5?}, full-drive readings {read:.5?}");
+    let total = |v: [f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    assert!(
+        total(pooled) < 0.75 * total(read),
+        "pooled {pooled:.5?} vs read {read:.5?}"
+    );
+    for c in 0..3 {
+        assert!(
+            pooled[c] < read[c],
+            "channel {c}: {pooled:.5?} vs {read:.5?}"
+        );
+    }
+}
