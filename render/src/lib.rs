@@ -3,7 +3,7 @@
 //! [`post`] turns linear XYZ images (Y in cd/m²) into display drive values through a
 //! `DisplayProfile` (CPU reference and wgpu). [`scene`], [`photometry`] and [`mesh`]
 //! describe what is lit and by what; [`radiosity`] computes it in absolute photometric
-//! units.
+//! units; [`view`] shows a solution on a tiled wall, one off-axis frustum per display.
 
 pub mod mesh;
 pub mod photometry;
@@ -11,3 +11,4 @@ pub mod post;
 pub mod radiosity;
 pub mod rng;
 pub mod scene;
+pub mod view;

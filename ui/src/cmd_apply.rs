@@ -106,6 +106,17 @@ fn apply_scale(
     profile: &DisplayProfile,
     frames: &mut [&mut XyzFrame],
 ) -> Result<Option<String>, CliError> {
+    scale_frames(args.luminance_scale, profile, frames)
+}
+
+/// The frames scaled by `scale` for a wall whose common white is `profile`'s (an
+/// automatic scale resolved over all of them together), the scale printed; returns
+/// the label to stamp (none at 1:1).
+pub(crate) fn scale_frames(
+    scale: LuminanceScale,
+    profile: &DisplayProfile,
+    frames: &mut [&mut XyzFrame],
+) -> Result<Option<String>, CliError> {
     let to_rgb = rgb_to_xyz_matrix(
         &profile.common_primaries_xy,
         &profile.target_white_xyz_cd_m2,
@@ -120,7 +131,7 @@ fn apply_scale(
     })?;
     let resolved = {
         let views: Vec<&XyzFrame> = frames.iter().map(|f| &**f).collect();
-        scale::resolve(args.luminance_scale, &views, &to_rgb)
+        scale::resolve(scale, &views, &to_rgb)
             .map_err(|e| CliError::input(format!("--luminance-scale: {e}")))?
     };
     println!("{resolved}");
@@ -134,7 +145,11 @@ fn apply_scale(
 }
 
 /// `frame` with `label` (if any) in its corner, in `profile`'s target white.
-fn labelled(mut frame: XyzFrame, label: Option<&str>, profile: &DisplayProfile) -> XyzFrame {
+pub(crate) fn stamp_scale(
+    mut frame: XyzFrame,
+    label: Option<&str>,
+    profile: &DisplayProfile,
+) -> XyzFrame {
     if let Some(text) = label {
         let white = profile.target_white_xyz_cd_m2.map(|v| v as f32);
         scale::stamp_label(&mut frame, text, white);
@@ -143,14 +158,15 @@ fn labelled(mut frame: XyzFrame, label: Option<&str>, profile: &DisplayProfile) 
 }
 
 /// The post pass engine chosen for this run.
-enum Engine {
+pub(crate) enum Engine {
     Cpu,
     #[cfg(feature = "gpu")]
     Gpu(Box<lumiwall_render::post::GpuPost>),
 }
 
 impl Engine {
-    fn choose(cpu_only: bool) -> Engine {
+    /// The GPU when an adapter exists and `cpu_only` is false, else the CPU reference.
+    pub(crate) fn choose(cpu_only: bool) -> Engine {
         if cpu_only {
             return Engine::Cpu;
         }
@@ -169,7 +185,8 @@ impl Engine {
         Engine::Cpu
     }
 
-    fn name(&self) -> String {
+    /// The engine's name for the summary lines.
+    pub(crate) fn name(&self) -> String {
         match self {
             Engine::Cpu => format!("CPU ({} threads)", rayon::current_num_threads()),
             #[cfg(feature = "gpu")]
@@ -177,7 +194,12 @@ impl Engine {
         }
     }
 
-    fn run(&self, pp: &PreparedProfile, frame: &XyzFrame) -> Result<CodeImage, CliError> {
+    /// Runs the post pass of `pp` over `frame`.
+    pub(crate) fn run(
+        &self,
+        pp: &PreparedProfile,
+        frame: &XyzFrame,
+    ) -> Result<CodeImage, CliError> {
         match self {
             Engine::Cpu => Ok(apply_cpu(pp, frame)),
             #[cfg(feature = "gpu")]
@@ -246,13 +268,22 @@ fn summary(key: &DisplayKey, out: &Path, img: &CodeImage, engine: &str) -> Strin
 }
 
 fn options(args: &ApplyArgs) -> ApplyOptions {
+    post_options(args.out_of_gamut, args.bit_depth, !args.no_dither)
+}
+
+/// Post-pass options from the command line's choices.
+pub(crate) fn post_options(
+    oog: Option<OogArg>,
+    bit_depth: Option<u32>,
+    dither: bool,
+) -> ApplyOptions {
     ApplyOptions {
-        out_of_gamut: args.out_of_gamut.map(|o| match o {
+        out_of_gamut: oog.map(|o| match o {
             OogArg::Clip => OutOfGamut::Clip,
             OogArg::FalseColour => OutOfGamut::FalseColour,
         }),
-        bit_depth: args.bit_depth,
-        dither: !args.no_dither,
+        bit_depth,
+        dither,
     }
 }
 
@@ -285,7 +316,7 @@ fn run_single(args: &ApplyArgs, path: &Path, opts: &ApplyOptions) -> Result<(), 
     let mut frame = read_frame(&args.input, args, &profile)?;
     check_display_size(&frame, args.display_size, &profile.display).map_err(PostError::from)?;
     let label = apply_scale(args, &profile, &mut [&mut frame])?;
-    let frame = labelled(frame, label.as_deref(), &profile);
+    let frame = stamp_scale(frame, label.as_deref(), &profile);
     apply_and_write(&Engine::choose(args.cpu), &pp, &frame, &out)
 }
 
@@ -321,7 +352,7 @@ fn run_wall(args: &ApplyArgs, dir: &Path, opts: &ApplyOptions) -> Result<(), Cli
         let job = job?;
         let pp = PreparedProfile::new(job.profile, opts)?;
         let out = out_dir.join(format!("{}.png", job.profile.display.file_stem()));
-        let tile = labelled(job.tile, label.as_deref(), job.profile);
+        let tile = stamp_scale(job.tile, label.as_deref(), job.profile);
         apply_and_write(&engine, &pp, &tile, &out)?;
     }
     Ok(())

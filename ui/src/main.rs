@@ -25,6 +25,7 @@ mod cmd_render;
 mod cmd_season;
 #[cfg(feature = "station")]
 mod cmd_verify;
+mod cmd_view;
 mod error;
 #[cfg(feature = "station-app")]
 mod station_app;
@@ -74,6 +75,9 @@ enum Command {
     Apply(cmd_apply::ApplyArgs),
     /// Render a scene to an XYZ float image in cd/m².
     Render(cmd_render::RenderArgs),
+    /// Show a rendered solution on a wall, headless: each display and eye renders it
+    /// through its tile from the viewer (off-axis), through its profile, to a PNG.
+    View(cmd_view::ViewArgs),
     /// Inspect the profile store: history and drift.
     Profiles(cmd_profiles::ProfilesArgs),
     /// Serve this render node's outputs to calibration stations (gRPC pattern service).
@@ -141,6 +145,7 @@ fn main() {
         Command::Export(a) => cmd_export::run(a),
         Command::Apply(a) => cmd_apply::run(a),
         Command::Render(a) => cmd_render::run(a),
+        Command::View(a) => cmd_view::run(a),
         Command::Profiles(a) => cmd_profiles::run(a),
         #[cfg(feature = "pattern-server")]
         Command::PatternServer(a) => cmd_pattern_server::run(a),

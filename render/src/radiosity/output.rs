@@ -73,28 +73,26 @@ pub fn vertex_luminance(sol: &Solution) -> Vec<Vec<[f64; 3]>> {
         .collect()
 }
 
-/// Writes an ASCII PLY: one face per patch, vertex properties X, Y, Z luminance in cd/m².
+/// Writes an ASCII PLY: one face per patch, wound counter-clockwise seen from the
+/// patch's lit side ([`crate::view::LitMesh::from_solution`]); vertex properties X, Y,
+/// Z luminance in cd/m².
 pub fn write_ply(sol: &Solution, path: &Path) -> Result<(), RadiosityError> {
-    let lum = vertex_luminance(sol);
-    let nverts: usize = sol.patches.iter().map(|p| p.vertices.len()).sum();
+    let mesh = crate::view::LitMesh::from_solution(sol);
     let mut s = format!(
-        "ply\nformat ascii 1.0\ncomment lumiwall radiosity; X Y Z are luminance in cd/m2 (Y photometric), positions in m\nelement vertex {nverts}\nproperty float x\nproperty float y\nproperty float z\nproperty float lum_X\nproperty float lum_Y\nproperty float lum_Z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
-        sol.patches.len()
+        "ply\nformat ascii 1.0\ncomment lumiwall radiosity; X Y Z are luminance in cd/m2 (Y photometric), positions in m\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty float lum_X\nproperty float lum_Y\nproperty float lum_Z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        mesh.positions.len(),
+        mesh.faces.len()
     );
-    for (p, l) in sol.patches.iter().zip(&lum) {
-        for (v, c) in p.vertices.iter().zip(l) {
-            s.push_str(&format!(
-                "{} {} {} {} {} {}\n",
-                v.x, v.y, v.z, c[0], c[1], c[2]
-            ));
-        }
+    for (v, c) in mesh.positions.iter().zip(&mesh.luminance_xyz) {
+        s.push_str(&format!(
+            "{} {} {} {} {} {}\n",
+            v.x, v.y, v.z, c[0], c[1], c[2]
+        ));
     }
-    let mut k = 0;
-    for p in &sol.patches {
-        s.push_str(&p.vertices.len().to_string());
-        for _ in &p.vertices {
+    for face in &mesh.faces {
+        s.push_str(&face.len().to_string());
+        for k in face {
             s.push_str(&format!(" {k}"));
-            k += 1;
         }
         s.push('\n');
     }
@@ -109,7 +107,7 @@ const MIN_SCREEN_AREA: f64 = 1e-12;
 const EDGE_SLACK: f64 = 1e-9;
 
 /// A projected vertex: pixel x, pixel y, depth along the view axis.
-type Projected = (f64, f64, f64);
+pub(crate) type Projected = (f64, f64, f64);
 
 /// A pinhole camera's projection to pixels.
 struct Pinhole<'a> {
@@ -157,10 +155,10 @@ impl<'a> Pinhole<'a> {
 }
 
 /// An image with a depth buffer.
-struct Raster {
+pub(crate) struct Raster {
     width: usize,
     height: usize,
-    img: Vec<[f32; 3]>,
+    pub(crate) img: Vec<[f32; 3]>,
     zbuf: Vec<f64>,
 }
 
@@ -183,7 +181,7 @@ fn pixel_span(c: [f64; 3], limit: usize) -> std::ops::Range<usize> {
 }
 
 impl Raster {
-    fn new(width: usize, height: usize) -> Self {
+    pub(crate) fn new(width: usize, height: usize) -> Self {
         Self {
             width,
             height,
@@ -193,7 +191,7 @@ impl Raster {
     }
 
     /// Fills a triangle, interpolating `val` perspective-correctly, nearest wins.
-    fn fill_triangle(&mut self, tri: [Projected; 3], val: [[f64; 3]; 3]) {
+    pub(crate) fn fill_triangle(&mut self, tri: [Projected; 3], val: [[f64; 3]; 3]) {
         let xs = pixel_span(tri.map(|v| v.0), self.width);
         let ys = pixel_span(tri.map(|v| v.1), self.height);
         let area = (tri[1].0 - tri[0].0) * (tri[2].1 - tri[0].1)

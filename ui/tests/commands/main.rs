@@ -15,3 +15,4 @@ mod meter_matrix;
 mod network_wall;
 mod sensors;
 mod spatial_verify;
+mod view;

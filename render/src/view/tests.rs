@@ -1,0 +1,138 @@
+use super::*;
+use lumiwall_profiles::Eye;
+
+fn geometry() -> WallGeometry {
+    WallGeometry {
+        cols: 2,
+        rows: 1,
+        tile_width_m: 1.0,
+        tile_height_m: 0.75,
+    }
+}
+
+fn camera() -> Camera {
+    Camera {
+        position: V3::new(0.0, 1.0, 5.0),
+        look_at: V3::new(0.0, 1.0, 0.0),
+        up: V3::new(0.0, 1.0, 0.0),
+        vfov_deg: 40.0,
+        width_px: 64,
+        height_px: 48,
+    }
+}
+
+/// A quad behind the wall, facing the viewer, with luminance varying along x and y.
+fn gradient_quad(z: f64) -> LitMesh {
+    let p = [
+        V3::new(-3.0, -2.0, z),
+        V3::new(3.0, -2.0, z),
+        V3::new(3.0, 4.0, z),
+        V3::new(-3.0, 4.0, z),
+    ];
+    let lum = |v: &V3| {
+        let y = 10.0 + 2.0 * v.x + 3.0 * v.y;
+        [0.95 * y, y, 1.09 * y]
+    };
+    LitMesh {
+        luminance_xyz: p.iter().map(lum).collect(),
+        positions: p.to_vec(),
+        faces: vec![vec![0, 1, 2, 3]],
+    }
+}
+
+#[test]
+fn the_wall_centre_lies_on_the_cameras_axis_at_the_viewers_distance() {
+    let g = geometry();
+    let viewer = g.centred_viewer(2.0);
+    let place = WallPlacement::from_camera(&camera(), viewer).unwrap();
+    let centre = place.to_scene(V3::new(1.0, 0.375, 0.0));
+    assert!((centre - V3::new(0.0, 1.0, 3.0)).norm() < 1e-12, "{centre}");
+    assert!((place.to_scene(viewer) - camera().position).norm() < 1e-12);
+}
+
+#[test]
+fn a_point_on_the_seam_projects_to_the_right_edge_of_one_tile_and_the_left_edge_of_the_next() {
+    let g = geometry();
+    let viewer = g.centred_viewer(2.0) + V3::new(0.3, -0.1, 0.4);
+    let place = WallPlacement::from_camera(&camera(), viewer).unwrap();
+    let eye = eye_position(viewer, Eye::Left, DEFAULT_EYE_SEPARATION_M);
+    let left = place.tile_view(&g, 0, 0, eye, (640, 480));
+    let right = place.tile_view(&g, 1, 0, eye, (640, 480));
+    // A scene point behind the seam's middle, seen through it from the eye.
+    let seam = place.to_scene(V3::new(1.0, 0.3, 0.0));
+    let behind = left.eye + (seam - left.eye) * 1.7;
+    let (a, b) = (
+        left.project(&behind).unwrap(),
+        right.project(&behind).unwrap(),
+    );
+    assert!(
+        (a.0 - 640.0).abs() < 1e-9 && b.0.abs() < 1e-9,
+        "{a:?} {b:?}"
+    );
+    assert!((a.1 - b.1).abs() < 1e-9 && (a.1 - 480.0 * (1.0 - 0.3 / 0.75)).abs() < 1e-9);
+    assert!((a.2 - b.2).abs() < 1e-12);
+}
+
+/// The two tiles of a wall show one continuous picture: a luminance gradient behind
+/// the wall is continued across the seam pixel for pixel (the last column of the left
+/// tile and the first of the right tile differ by one pixel's step of the gradient,
+/// as neighbouring columns inside a tile do).
+#[test]
+fn a_gradient_continues_across_the_seam_as_it_does_between_neighbouring_columns() {
+    let g = geometry();
+    let viewer = g.centred_viewer(2.5);
+    let place = WallPlacement::from_camera(&camera(), viewer).unwrap();
+    let mesh = gradient_quad(-1.0);
+    let size = (200, 150);
+    let left = render_tile(&mesh, &place.tile_view(&g, 0, 0, viewer, size));
+    let right = render_tile(&mesh, &place.tile_view(&g, 1, 0, viewer, size));
+    let y = |img: &[[f32; 3]], x: usize, row: usize| f64::from(img[row * size.0 + x][1]);
+    for row in [10, 75, 140] {
+        let inside = y(&left, size.0 - 1, row) - y(&left, size.0 - 2, row);
+        let across = y(&right, 0, row) - y(&left, size.0 - 1, row);
+        assert!(inside > 0.0, "row {row}: {inside}");
+        assert!(
+            (across - inside).abs() < 1e-3 * inside.abs(),
+            "row {row}: step across the seam {across} vs inside {inside}"
+        );
+    }
+}
+
+#[test]
+fn a_face_turned_away_from_the_eye_is_not_drawn() {
+    let g = geometry();
+    let viewer = g.centred_viewer(2.5);
+    let place = WallPlacement::from_camera(&camera(), viewer).unwrap();
+    let mut mesh = gradient_quad(-1.0);
+    mesh.faces[0].reverse();
+    let img = render_tile(&mesh, &place.tile_view(&g, 0, 0, viewer, (40, 30)));
+    assert!(img.iter().all(|p| *p == [0.0; 3]));
+}
+
+#[test]
+fn a_ply_in_the_format_render_writes_reads_back_as_the_same_mesh_and_a_bad_one_is_a_typed_error() {
+    let mesh = gradient_quad(-1.0);
+    let text = format!(
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n{}\n4 0 1 2 3\n",
+        mesh.positions
+            .iter()
+            .zip(&mesh.luminance_xyz)
+            .map(|(p, l)| format!("{} {} {} {} {} {}", p.x, p.y, p.z, l[0], l[1], l[2]))
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.ply");
+    std::fs::write(&path, text).unwrap();
+    assert_eq!(LitMesh::read_ply(&path).unwrap(), mesh);
+    for bad in [
+        "ply\nformat binary_little_endian 1.0\nend_header\n",
+        "ply\nformat ascii 1.0\nelement vertex 99999999999\nelement face 0\nend_header\n",
+        "ply\nformat ascii 1.0\nelement vertex 3\nelement face 1\nend_header\n0 0 0 1 1 1\n1 0 0 1 1 1\n0 1 0 1 1 1\n3 0 1 7\n",
+        "ply\nformat ascii 1.0\nelement vertex 3\nelement face 1\nend_header\n0 0 0 1 1 1\n1 0 0 1 1 nan\n",
+    ] {
+        std::fs::write(&path, bad).unwrap();
+        let err = LitMesh::read_ply(&path).unwrap_err();
+        assert!(matches!(err, MeshError::Format { .. }), "{err}");
+    }
+}

@@ -1,0 +1,261 @@
+//! `lumiwall view`: a radiosity solution shown on a wall, headless: every display and
+//! eye renders the solution through its own tile from the viewer's eye (off-axis
+//! frustum, [`lumiwall_render::view`]), the luminance scale is applied and printed, and
+//! the display's profile converts the frame to drive values (the post pass), written as
+//! one PNG per display and eye with the frame time.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use lumiwall_core::files::FolderLock;
+use lumiwall_profiles::apply::PreparedProfile;
+use lumiwall_profiles::{DisplayProfile, ProfileSet};
+use lumiwall_render::post::XyzFrame;
+use lumiwall_render::post::io::write_png;
+use lumiwall_render::post::scale::LuminanceScale;
+use lumiwall_render::post::wall::FrameSize;
+use lumiwall_render::scene::{V3, load_scene};
+use lumiwall_render::view::{
+    DEFAULT_EYE_SEPARATION_M, LitMesh, WallGeometry, WallPlacement, eye_position, render_tile,
+};
+
+use crate::CliError;
+use crate::cmd_apply::{Engine, OogArg, post_options, scale_frames, stamp_scale};
+
+/// Arguments of `lumiwall view`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct ViewArgs {
+    /// Scene file (TOML) whose `[camera]` places the wall in the scene: the camera
+    /// stands where the reference viewer stands and looks at the wall's centre.
+    scene: PathBuf,
+    /// The solution `lumiwall render` wrote for the scene (`.ply`: per-vertex
+    /// luminance, view-independent).
+    #[arg(long)]
+    solution: PathBuf,
+    /// Wall description (TOML): its `[tiles]` give the tile size in metres.
+    #[arg(long)]
+    wall: PathBuf,
+    /// The wall's profile folder (`lumiwall commission`).
+    #[arg(long)]
+    profiles: PathBuf,
+    /// Output folder: one `<display>.png` per display and eye.
+    #[arg(long)]
+    out_dir: PathBuf,
+    /// Viewer position in the wall frame, `X,Y,Z` metres (x right and y up from the
+    /// wall's lower-left corner, z towards the viewer); default: before the wall's
+    /// centre at `--viewer-distance`.
+    #[arg(long, value_parser = parse_point)]
+    viewer: Option<[f64; 3]>,
+    /// Distance of the reference viewer from the wall (m): where the scene camera
+    /// stands.
+    #[arg(long, default_value_t = 2.0)]
+    viewer_distance: f64,
+    /// Eye separation for a stereo wall (m).
+    #[arg(long, default_value_t = DEFAULT_EYE_SEPARATION_M)]
+    eye_separation: f64,
+    /// Pixels of each display, `WIDTHxHEIGHT` (default: 1024 wide, the tile's aspect).
+    #[arg(long)]
+    display_size: Option<FrameSize>,
+    /// Scene luminance to wall luminance: `1` (1:1), a factor such as `0.25`, or
+    /// `auto` / `auto:P` (the largest factor at which P %, default 99, of the pixels of
+    /// all displays fit into the wall's common gamut). Always printed; a scaled image
+    /// is marked in its top left corner.
+    #[arg(long, default_value = "1")]
+    luminance_scale: LuminanceScale,
+    /// Out-of-gamut handling (default: the profile's; false colours mark over range).
+    #[arg(long, value_enum)]
+    out_of_gamut: Option<OogArg>,
+    /// Use the CPU reference post pass only.
+    #[arg(long)]
+    cpu: bool,
+}
+
+/// Largest pixel count of one display.
+const MAX_DISPLAY_PIXELS: u64 = 8192 * 8192;
+
+fn parse_point(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|w| {
+            w.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("{w:?} is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) && *z > 0.0 => Ok([*x, *y, *z]),
+        _ => Err(format!(
+            "{s:?}: give X,Y,Z in metres with Z > 0 (in front of the wall)"
+        )),
+    }
+}
+
+/// The wall's name and tile geometry from its file (`name`, `[tiles]` cols, rows,
+/// width_m, height_m).
+fn wall_geometry(path: &Path) -> Result<(String, WallGeometry), CliError> {
+    let err = |m: String| CliError::input(format!("wall file {}: {m}", path.display()));
+    let text = std::fs::read_to_string(path).map_err(|e| err(e.to_string()))?;
+    let t: toml::Table = toml::from_str(&text).map_err(|e| err(e.to_string()))?;
+    let name = t
+        .get("name")
+        .and_then(|v| v.as_str())
+        .ok_or_else(|| err("no name".into()))?
+        .to_string();
+    let tiles = t.get("tiles").and_then(|v| v.as_table());
+    let int = |k: &str| {
+        tiles
+            .and_then(|t| t.get(k))
+            .and_then(|v| v.as_integer())
+            .and_then(|v| u32::try_from(v).ok())
+            .filter(|v| *v >= 1)
+    };
+    let metres = |k: &str| {
+        tiles
+            .and_then(|t| t.get(k))
+            .and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)))
+            .filter(|v| v.is_finite() && *v > 0.0)
+    };
+    match (
+        int("cols"),
+        int("rows"),
+        metres("width_m"),
+        metres("height_m"),
+    ) {
+        (Some(cols), Some(rows), Some(w), Some(h)) => Ok((
+            name,
+            WallGeometry {
+                cols,
+                rows,
+                tile_width_m: w,
+                tile_height_m: h,
+            },
+        )),
+        _ => Err(err(
+            "[tiles] needs cols, rows ≥ 1 and width_m, height_m > 0".into(),
+        )),
+    }
+}
+
+/// Pixels of each display: as given, or 1024 wide at the tile's aspect.
+fn display_size(args: &ViewArgs, g: &WallGeometry) -> Result<(usize, usize), CliError> {
+    let s = args.display_size.unwrap_or_else(|| FrameSize {
+        width: 1024,
+        height: ((1024.0 * g.tile_height_m / g.tile_width_m).round() as u32).max(1),
+    });
+    if s.width == 0
+        || s.height == 0
+        || u64::from(s.width) * u64::from(s.height) > MAX_DISPLAY_PIXELS
+    {
+        return Err(CliError::input(format!(
+            "--display-size {s}: at most {MAX_DISPLAY_PIXELS} pixels and at least one"
+        )));
+    }
+    Ok((s.width as usize, s.height as usize))
+}
+
+/// Every display's frame: the solution through its tile from its eye, with the time
+/// each took.
+fn render_frames(
+    mesh: &LitMesh,
+    place: &WallPlacement,
+    g: &WallGeometry,
+    viewer: V3,
+    args: &ViewArgs,
+    profiles: &[DisplayProfile],
+    size: (usize, usize),
+) -> Result<Vec<(XyzFrame, f64)>, CliError> {
+    profiles
+        .iter()
+        .map(|p| {
+            let key = &p.display;
+            if key.tile_col >= g.cols || key.tile_row >= g.rows {
+                return Err(CliError::input(format!(
+                    "{key}: tile col {} row {} is outside the wall file's {}×{} tiles",
+                    key.tile_col, key.tile_row, g.cols, g.rows
+                )));
+            }
+            let t0 = Instant::now();
+            let eye = eye_position(viewer, key.eye, args.eye_separation);
+            let view = place.tile_view(g, key.tile_col, key.tile_row, eye, size);
+            let pixels = render_tile(mesh, &view);
+            let ms = t0.elapsed().as_secs_f64() * 1e3;
+            let frame = XyzFrame::new(size.0 as u32, size.1 as u32, pixels)
+                .map_err(|e| CliError::input(format!("{key}: {e}")))?;
+            Ok((frame, ms))
+        })
+        .collect()
+}
+
+/// Runs `lumiwall view`.
+pub(crate) fn run(args: ViewArgs) -> Result<(), CliError> {
+    let (wall_name, g) = wall_geometry(&args.wall)?;
+    let (wall, profiles) = ProfileSet::load_dir(&args.profiles)?;
+    if wall != wall_name {
+        return Err(CliError::input(format!(
+            "the profiles in {} are of wall {wall}, the wall file {} is {wall_name}",
+            args.profiles.display(),
+            args.wall.display()
+        )));
+    }
+    let first = profiles.first().ok_or_else(|| {
+        CliError::input(format!(
+            "profile folder {} lists no display",
+            args.profiles.display()
+        ))
+    })?;
+    let size = display_size(&args, &g)?;
+    let (scene, _) = load_scene(&args.scene)?;
+    let camera = scene.camera.ok_or_else(|| {
+        CliError::input(format!(
+            "{}: the scene has no [camera]; it places the wall in the scene",
+            args.scene.display()
+        ))
+    })?;
+    let _lock = FolderLock::acquire(&args.out_dir, &format!("view of wall {wall}"))?;
+    let mesh = LitMesh::read_ply(&args.solution).map_err(|e| CliError::input(e.to_string()))?;
+    let reference = g.centred_viewer(args.viewer_distance);
+    let viewer = args.viewer.map_or(reference, |[x, y, z]| V3::new(x, y, z));
+    let place = WallPlacement::from_camera(&camera, reference).ok_or_else(|| {
+        CliError::input("the scene camera's look_at and up are degenerate".to_string())
+    })?;
+    println!(
+        "viewing {} ({} faces) on {wall}: {} displays of {}×{} px, viewer at {:.3}, {:.3}, {:.3} m",
+        args.solution.display(),
+        mesh.faces.len(),
+        profiles.len(),
+        size.0,
+        size.1,
+        viewer.x,
+        viewer.y,
+        viewer.z
+    );
+    let mut frames = render_frames(&mesh, &place, &g, viewer, &args, &profiles, size)?;
+    let label = {
+        let mut refs: Vec<&mut XyzFrame> = frames.iter_mut().map(|(f, _)| f).collect();
+        scale_frames(args.luminance_scale, first, &mut refs)?
+    };
+    let engine = Engine::choose(args.cpu);
+    let opts = post_options(args.out_of_gamut, None, true);
+    for (profile, (frame, raster_ms)) in profiles.iter().zip(frames) {
+        let t0 = Instant::now();
+        let pp = PreparedProfile::new(profile, &opts)?;
+        let frame = stamp_scale(frame, label.as_deref(), profile);
+        let img = engine.run(&pp, &frame)?;
+        let post_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let out = args
+            .out_dir
+            .join(format!("{}.png", profile.display.file_stem()));
+        write_png(&out, &img)?;
+        let c = img.counts;
+        println!(
+            "{}: wrote {} (raster {raster_ms:.1} ms, post pass {post_ms:.1} ms on {}); \
+             pixels out of gamut {}, over range {}",
+            profile.display,
+            out.display(),
+            engine.name(),
+            c.out_of_gamut,
+            c.over_range
+        );
+    }
+    Ok(())
+}

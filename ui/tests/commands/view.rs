@@ -1,0 +1,98 @@
+//! `lumiwall view`: a rendered solution on the small wall, one image per display.
+
+use std::path::Path;
+
+use predicates::str::contains;
+use tempfile::TempDir;
+
+use crate::common::{cornell, fixture, lumiwall, small_wall};
+
+/// The Cornell box solution, rendered coarsely into `dir`.
+fn cornell_solution(dir: &Path) -> std::path::PathBuf {
+    lumiwall()
+        .args(["render", "--error", "20%", "--out"])
+        .arg(dir.join("cornell.exr"))
+        .arg(cornell())
+        .assert()
+        .success();
+    dir.join("cornell.ply")
+}
+
+/// Lit pixels (any drive above 0) in column `x` of a PNG.
+fn lit_in_column(path: &Path, x: u32) -> usize {
+    let img = image::open(path).unwrap().to_rgb16();
+    (0..img.height())
+        .filter(|&y| img.get_pixel(x, y).0.iter().any(|v| *v > 0))
+        .count()
+}
+
+/// The box stands before the wall's centre, which is the seam of mono-2x1: both
+/// displays show part of it, lit up to the border they share and dark at the far one.
+#[test]
+fn view_writes_each_displays_image_with_its_frame_time_and_the_box_continues_across_the_seam() {
+    let tmp = TempDir::new().unwrap();
+    let profiles = crate::common::commission_small_wall(tmp.path());
+    let solution = cornell_solution(tmp.path());
+    let out = tmp.path().join("view");
+    lumiwall()
+        .arg("view")
+        .arg(cornell())
+        .arg("--solution")
+        .arg(&solution)
+        .arg("--wall")
+        .arg(small_wall())
+        .arg("--profiles")
+        .arg(&profiles)
+        .arg("--out-dir")
+        .arg(&out)
+        .args([
+            "--viewer-distance",
+            "0.8",
+            "--display-size",
+            "160x120",
+            "--cpu",
+        ])
+        .assert()
+        .success()
+        .stdout(contains("luminance scale 1:1"))
+        .stdout(contains("2 displays of 160×120 px"))
+        .stdout(contains("raster").count(2));
+    let left = out.join("d000-c0r0-mono.png");
+    let right = out.join("d001-c1r0-mono.png");
+    assert!(lit_in_column(&left, 159) > 20, "left display at the seam");
+    assert!(lit_in_column(&right, 0) > 20, "right display at the seam");
+    assert_eq!(lit_in_column(&left, 0), 0, "left display's far border");
+    assert_eq!(lit_in_column(&right, 159), 0, "right display's far border");
+}
+
+#[test]
+fn view_refuses_profiles_of_another_wall_and_a_broken_solution_file() {
+    let tmp = TempDir::new().unwrap();
+    let profiles = crate::common::commission_small_wall(tmp.path());
+    let solution = cornell_solution(tmp.path());
+    let view = |wall: &Path, solution: &Path, out: &str| {
+        let mut cmd = lumiwall();
+        cmd.arg("view")
+            .arg(cornell())
+            .arg("--solution")
+            .arg(solution)
+            .arg("--wall")
+            .arg(wall)
+            .arg("--profiles")
+            .arg(&profiles)
+            .arg("--out-dir")
+            .arg(tmp.path().join(out));
+        cmd
+    };
+    view(&fixture("walls/infitec-pair.toml"), &solution, "a")
+        .assert()
+        .failure()
+        .stderr(contains("are of wall mono-2x1"));
+    let broken = tmp.path().join("broken.ply");
+    std::fs::write(&broken, "ply\nformat ascii 1.0\nelement vertex 2\n").unwrap();
+    view(&small_wall(), &broken, "b")
+        .assert()
+        .failure()
+        .stderr(contains("broken.ply"))
+        .stderr(contains("no end_header"));
+}
