@@ -68,6 +68,13 @@ pub(crate) struct ViewArgs {
     /// Use the CPU reference post pass only.
     #[arg(long)]
     cpu: bool,
+    /// The wall is a virtual one: emit every display's image through the simulator and
+    /// compare the luminance on both sides of every border between two tiles of one
+    /// eye (blocks of 16×4 pixels, what the scene changes between the sides taken
+    /// out); fails above a 1 % step. Keeps every image in memory until the end.
+    #[cfg(feature = "station")]
+    #[arg(long)]
+    seams_through_simulator: bool,
 }
 
 /// Largest pixel count of one display.
@@ -236,6 +243,7 @@ pub(crate) fn run(args: ViewArgs) -> Result<(), CliError> {
     };
     let engine = Engine::choose(args.cpu);
     let opts = post_options(args.out_of_gamut, None, true);
+    let mut kept = Vec::new();
     for (profile, (frame, raster_ms)) in profiles.iter().zip(frames) {
         let t0 = Instant::now();
         let pp = PreparedProfile::new(profile, &opts)?;
@@ -256,6 +264,82 @@ pub(crate) fn run(args: ViewArgs) -> Result<(), CliError> {
             c.out_of_gamut,
             c.over_range
         );
+        if keep_images(&args) {
+            kept.push((frame, img));
+        }
     }
+    check_seams(&args, &profiles, &kept)
+}
+
+/// True when the images are needed after they are written.
+fn keep_images(args: &ViewArgs) -> bool {
+    #[cfg(feature = "station")]
+    {
+        args.seams_through_simulator
+    }
+    #[cfg(not(feature = "station"))]
+    {
+        let _ = args;
+        false
+    }
+}
+
+/// `--seams-through-simulator`: the steps across every border, printed; an error above
+/// [`crate::view_seams::MAX_SEAM_STEP`].
+#[cfg(feature = "station")]
+fn check_seams(
+    args: &ViewArgs,
+    profiles: &[DisplayProfile],
+    kept: &[(XyzFrame, lumiwall_render::post::CodeImage)],
+) -> Result<(), CliError> {
+    use crate::view_seams::{MAX_SEAM_STEP, Shown, seam_steps};
+    if !args.seams_through_simulator {
+        return Ok(());
+    }
+    let wall = lumiwall_devices::sim::VirtualWall::from_toml_file(&args.wall)
+        .map_err(|e| CliError::input(e.to_string()))?;
+    let shown: Vec<Shown<'_>> = profiles
+        .iter()
+        .zip(kept)
+        .map(|(profile, (frame, codes))| Shown {
+            profile,
+            frame,
+            codes,
+        })
+        .collect();
+    let steps = seam_steps(&wall, &shown)?;
+    let (median, max) = steps.median_max();
+    let verdict = if max <= MAX_SEAM_STEP { "meet" } else { "FAIL" };
+    println!(
+        "seams through the simulator: {} borders, {} blocks with light on both sides, \
+         luminance step median {:.2} %, max {:.2} % (limit {:.0} %): {verdict}",
+        steps.borders,
+        steps.steps.len(),
+        100.0 * median,
+        100.0 * max,
+        100.0 * MAX_SEAM_STEP
+    );
+    if steps.steps.is_empty() {
+        return Err(CliError::input(
+            "no border has light on both sides: nothing to compare (move the viewer or \
+             use a scene that fills the wall)",
+        ));
+    }
+    if max > MAX_SEAM_STEP {
+        return Err(CliError::tolerance(format!(
+            "a luminance step of {:.2} % across a seam (limit {:.0} %)",
+            100.0 * max,
+            100.0 * MAX_SEAM_STEP
+        )));
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "station"))]
+fn check_seams(
+    _: &ViewArgs,
+    _: &[DisplayProfile],
+    _: &[(XyzFrame, lumiwall_render::post::CodeImage)],
+) -> Result<(), CliError> {
     Ok(())
 }

@@ -30,6 +30,8 @@ mod error;
 #[cfg(feature = "station-app")]
 mod station_app;
 mod values;
+#[cfg(feature = "station")]
+mod view_seams;
 
 use clap::{Parser, Subcommand};
 

@@ -96,3 +96,51 @@ fn view_refuses_profiles_of_another_wall_and_a_broken_solution_file() {
         .stderr(contains("broken.ply"))
         .stderr(contains("no end_header"));
 }
+
+/// Without flat fields each display is calibrated at its centre only, and its
+/// vignetting shows at the seam: the check through the simulator finds a step of
+/// several per cent there and fails, naming it.
+#[test]
+fn the_seam_check_through_the_simulator_fails_on_a_wall_without_flat_fields() {
+    let tmp = TempDir::new().unwrap();
+    let profiles = crate::common::commission_small_wall(tmp.path());
+    let solution = cornell_solution(tmp.path());
+    let out = lumiwall()
+        .arg("view")
+        .arg(cornell())
+        .arg("--solution")
+        .arg(&solution)
+        .arg("--wall")
+        .arg(small_wall())
+        .arg("--profiles")
+        .arg(&profiles)
+        .arg("--out-dir")
+        .arg(tmp.path().join("view"))
+        .args([
+            "--viewer-distance",
+            "3",
+            "--display-size",
+            "320x240",
+            "--cpu",
+        ])
+        .args(["--seams-through-simulator", "--luminance-scale", "auto"])
+        .assert()
+        .failure()
+        .stderr(contains("across a seam (limit 1 %)"))
+        .get_output()
+        .stdout
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("seams through the simulator"))
+        .expect("seam line");
+    let max: f64 = line
+        .split("max ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .expect("max step");
+    assert!(max > 3.0, "{line}");
+    assert!(line.contains("FAIL"), "{line}");
+}
