@@ -18,6 +18,8 @@
 //! pass. Points on a seam project to the same scene point from both tiles, so the
 //! frames continue across it exactly.
 
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod mesh;
 
 pub use mesh::{LitMesh, MeshError};

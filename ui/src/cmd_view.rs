@@ -10,13 +10,14 @@ use std::time::Instant;
 use lumiwall_core::files::FolderLock;
 use lumiwall_profiles::apply::PreparedProfile;
 use lumiwall_profiles::{DisplayProfile, ProfileSet};
-use lumiwall_render::post::XyzFrame;
 use lumiwall_render::post::io::write_png;
 use lumiwall_render::post::scale::LuminanceScale;
 use lumiwall_render::post::wall::FrameSize;
-use lumiwall_render::scene::{V3, load_scene};
+use lumiwall_render::post::{CodeImage, XyzFrame};
+use lumiwall_render::scene::{Camera, V3, load_scene};
 use lumiwall_render::view::{
-    DEFAULT_EYE_SEPARATION_M, LitMesh, WallGeometry, WallPlacement, eye_position, render_tile,
+    DEFAULT_EYE_SEPARATION_M, LitMesh, OffAxis, WallGeometry, WallPlacement, eye_position,
+    render_tile,
 };
 
 use crate::CliError;
@@ -65,7 +66,8 @@ pub(crate) struct ViewArgs {
     /// Out-of-gamut handling (default: the profile's; false colours mark over range).
     #[arg(long, value_enum)]
     out_of_gamut: Option<OogArg>,
-    /// Use the CPU reference post pass only.
+    /// Rasterise and run the post pass on the CPU (the references) even where a GPU
+    /// adapter exists.
     #[arg(long)]
     cpu: bool,
     /// The wall is a virtual one: emit every display's image through the simulator and
@@ -160,17 +162,65 @@ fn display_size(args: &ViewArgs, g: &WallGeometry) -> Result<(usize, usize), Cli
     Ok((s.width as usize, s.height as usize))
 }
 
+/// The rasteriser of this run: wgpu when an adapter exists (and `--cpu` is not given),
+/// else the CPU reference.
+enum Raster {
+    Cpu,
+    #[cfg(feature = "gpu")]
+    Gpu(Box<lumiwall_render::view::gpu::GpuRaster>),
+}
+
+impl Raster {
+    fn choose(mesh: &LitMesh, cpu_only: bool) -> Raster {
+        if cpu_only {
+            return Raster::Cpu;
+        }
+        #[cfg(feature = "gpu")]
+        match lumiwall_render::view::gpu::GpuRaster::new(mesh) {
+            Ok(g) => return Raster::Gpu(Box::new(g)),
+            Err(e) => eprintln!("lumiwall: rasterising on the CPU ({e})"),
+        }
+        #[cfg(not(feature = "gpu"))]
+        let _ = mesh;
+        Raster::Cpu
+    }
+
+    fn name(&self) -> String {
+        match self {
+            Raster::Cpu => format!("CPU ({} threads)", rayon::current_num_threads()),
+            #[cfg(feature = "gpu")]
+            Raster::Gpu(g) => format!("GPU {}", g.adapter_name()),
+        }
+    }
+
+    fn render(&self, mesh: &LitMesh, view: &OffAxis) -> Result<Vec<[f32; 3]>, CliError> {
+        match self {
+            Raster::Cpu => Ok(render_tile(mesh, view)),
+            #[cfg(feature = "gpu")]
+            Raster::Gpu(g) => Ok(g.render(view)?),
+        }
+    }
+}
+
+/// What every display renders: the mesh, where the wall stands in the scene, the
+/// viewer (wall frame) and the displays' size.
+struct ViewSetup<'a> {
+    mesh: &'a LitMesh,
+    raster: &'a Raster,
+    place: WallPlacement,
+    geometry: WallGeometry,
+    viewer: V3,
+    eye_separation_m: f64,
+    size: (usize, usize),
+}
+
 /// Every display's frame: the solution through its tile from its eye, with the time
 /// each took.
 fn render_frames(
-    mesh: &LitMesh,
-    place: &WallPlacement,
-    g: &WallGeometry,
-    viewer: V3,
-    args: &ViewArgs,
+    v: &ViewSetup<'_>,
     profiles: &[DisplayProfile],
-    size: (usize, usize),
 ) -> Result<Vec<(XyzFrame, f64)>, CliError> {
+    let g = &v.geometry;
     profiles
         .iter()
         .map(|p| {
@@ -182,20 +232,22 @@ fn render_frames(
                 )));
             }
             let t0 = Instant::now();
-            let eye = eye_position(viewer, key.eye, args.eye_separation);
-            let view = place.tile_view(g, key.tile_col, key.tile_row, eye, size);
-            let pixels = render_tile(mesh, &view);
+            let eye = eye_position(v.viewer, key.eye, v.eye_separation_m);
+            let view = v
+                .place
+                .tile_view(g, key.tile_col, key.tile_row, eye, v.size);
+            let pixels = v.raster.render(v.mesh, &view)?;
             let ms = t0.elapsed().as_secs_f64() * 1e3;
-            let frame = XyzFrame::new(size.0 as u32, size.1 as u32, pixels)
+            let frame = XyzFrame::new(v.size.0 as u32, v.size.1 as u32, pixels)
                 .map_err(|e| CliError::input(format!("{key}: {e}")))?;
             Ok((frame, ms))
         })
         .collect()
 }
 
-/// Runs `lumiwall view`.
-pub(crate) fn run(args: ViewArgs) -> Result<(), CliError> {
-    let (wall_name, g) = wall_geometry(&args.wall)?;
+/// The profiles of the wall the wall file describes (refused when they belong to
+/// another).
+fn wall_profiles(args: &ViewArgs, wall_name: &str) -> Result<Vec<DisplayProfile>, CliError> {
     let (wall, profiles) = ProfileSet::load_dir(&args.profiles)?;
     if wall != wall_name {
         return Err(CliError::input(format!(
@@ -204,20 +256,78 @@ pub(crate) fn run(args: ViewArgs) -> Result<(), CliError> {
             args.wall.display()
         )));
     }
-    let first = profiles.first().ok_or_else(|| {
-        CliError::input(format!(
+    if profiles.is_empty() {
+        return Err(CliError::input(format!(
             "profile folder {} lists no display",
             args.profiles.display()
-        ))
-    })?;
-    let size = display_size(&args, &g)?;
-    let (scene, _) = load_scene(&args.scene)?;
-    let camera = scene.camera.ok_or_else(|| {
+        )));
+    }
+    Ok(profiles)
+}
+
+/// The scene's camera, which places the wall in the scene.
+fn scene_camera(path: &Path) -> Result<Camera, CliError> {
+    let (scene, _) = load_scene(path)?;
+    scene.camera.ok_or_else(|| {
         CliError::input(format!(
             "{}: the scene has no [camera]; it places the wall in the scene",
-            args.scene.display()
+            path.display()
         ))
-    })?;
+    })
+}
+
+/// A display's frame and the codes the post pass made of it.
+type Shown = (XyzFrame, CodeImage);
+
+/// Raster and post-pass time of one display (ms).
+type FrameTime = (f64, f64);
+
+/// The post pass over every display's frame, each image written and its line printed;
+/// returns the frames and images when `keep` (for the seam check) and the times.
+fn post_and_write(
+    args: &ViewArgs,
+    profiles: &[DisplayProfile],
+    frames: Vec<(XyzFrame, f64)>,
+    label: Option<&str>,
+    engine: &Engine,
+) -> Result<(Vec<Shown>, Vec<FrameTime>), CliError> {
+    let opts = post_options(args.out_of_gamut, None, true);
+    let mut kept = Vec::new();
+    let mut times = Vec::with_capacity(profiles.len());
+    for (profile, (frame, raster_ms)) in profiles.iter().zip(frames) {
+        let t0 = Instant::now();
+        let pp = PreparedProfile::new(profile, &opts)?;
+        let frame = stamp_scale(frame, label, profile);
+        let img = engine.run(&pp, &frame)?;
+        let post_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let out = args
+            .out_dir
+            .join(format!("{}.png", profile.display.file_stem()));
+        write_png(&out, &img)?;
+        let c = img.counts;
+        println!(
+            "{}: wrote {} (raster {raster_ms:.1} ms, post pass {post_ms:.1} ms on {}); \
+             pixels out of gamut {}, over range {}",
+            profile.display,
+            out.display(),
+            engine.name(),
+            c.out_of_gamut,
+            c.over_range
+        );
+        if keep_images(args) {
+            kept.push((frame, img));
+        }
+        times.push((raster_ms, post_ms));
+    }
+    Ok((kept, times))
+}
+
+/// Runs `lumiwall view`.
+pub(crate) fn run(args: ViewArgs) -> Result<(), CliError> {
+    let (wall, g) = wall_geometry(&args.wall)?;
+    let profiles = wall_profiles(&args, &wall)?;
+    let size = display_size(&args, &g)?;
+    let camera = scene_camera(&args.scene)?;
     let _lock = FolderLock::acquire(&args.out_dir, &format!("view of wall {wall}"))?;
     let mesh = LitMesh::read_ply(&args.solution).map_err(|e| CliError::input(e.to_string()))?;
     let reference = g.centred_viewer(args.viewer_distance);
@@ -236,39 +346,47 @@ pub(crate) fn run(args: ViewArgs) -> Result<(), CliError> {
         viewer.y,
         viewer.z
     );
-    let mut frames = render_frames(&mesh, &place, &g, viewer, &args, &profiles, size)?;
+    let raster = Raster::choose(&mesh, args.cpu);
+    println!("rasteriser: {}", raster.name());
+    let setup = ViewSetup {
+        mesh: &mesh,
+        raster: &raster,
+        place,
+        geometry: g,
+        viewer,
+        eye_separation_m: args.eye_separation,
+        size,
+    };
+    let mut frames = render_frames(&setup, &profiles)?;
     let label = {
         let mut refs: Vec<&mut XyzFrame> = frames.iter_mut().map(|(f, _)| f).collect();
-        scale_frames(args.luminance_scale, first, &mut refs)?
+        scale_frames(args.luminance_scale, &profiles[0], &mut refs)?
     };
     let engine = Engine::choose(args.cpu);
-    let opts = post_options(args.out_of_gamut, None, true);
-    let mut kept = Vec::new();
-    for (profile, (frame, raster_ms)) in profiles.iter().zip(frames) {
-        let t0 = Instant::now();
-        let pp = PreparedProfile::new(profile, &opts)?;
-        let frame = stamp_scale(frame, label.as_deref(), profile);
-        let img = engine.run(&pp, &frame)?;
-        let post_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let out = args
-            .out_dir
-            .join(format!("{}.png", profile.display.file_stem()));
-        write_png(&out, &img)?;
-        let c = img.counts;
-        println!(
-            "{}: wrote {} (raster {raster_ms:.1} ms, post pass {post_ms:.1} ms on {}); \
-             pixels out of gamut {}, over range {}",
-            profile.display,
-            out.display(),
-            engine.name(),
-            c.out_of_gamut,
-            c.over_range
-        );
-        if keep_images(&args) {
-            kept.push((frame, img));
-        }
-    }
+    let (kept, times) = post_and_write(&args, &profiles, frames, label.as_deref(), &engine)?;
+    println!("{}", frame_times(&times, &raster.name(), &engine.name()));
     check_seams(&args, &profiles, &kept)
+}
+
+/// The summary of the displays' frame times: median and largest raster and post-pass
+/// time, and the frame rate the slower median allows.
+fn frame_times(times: &[FrameTime], raster: &str, post: &str) -> String {
+    let stats = |k: usize| {
+        let mut v: Vec<f64> = times
+            .iter()
+            .map(|t| if k == 0 { t.0 } else { t.1 })
+            .collect();
+        v.sort_by(f64::total_cmp);
+        let median = v.get(v.len() / 2).copied().unwrap_or(0.0);
+        (median, v.last().copied().unwrap_or(0.0))
+    };
+    let ((rm, rx), (pm, px)) = (stats(0), stats(1));
+    format!(
+        "frame time per display ({} displays): raster median {rm:.1} ms, max {rx:.1} ms ({raster}); \
+         post pass median {pm:.1} ms, max {px:.1} ms ({post}); {:.1} frames/s at the median",
+        times.len(),
+        1e3 / (rm + pm).max(1e-9)
+    )
 }
 
 /// True when the images are needed after they are written.
@@ -290,18 +408,18 @@ fn keep_images(args: &ViewArgs) -> bool {
 fn check_seams(
     args: &ViewArgs,
     profiles: &[DisplayProfile],
-    kept: &[(XyzFrame, lumiwall_render::post::CodeImage)],
+    kept: &[Shown],
 ) -> Result<(), CliError> {
-    use crate::view_seams::{MAX_SEAM_STEP, Shown, seam_steps};
+    use crate::view_seams::{MAX_SEAM_STEP, seam_steps};
     if !args.seams_through_simulator {
         return Ok(());
     }
     let wall = lumiwall_devices::sim::VirtualWall::from_toml_file(&args.wall)
         .map_err(|e| CliError::input(e.to_string()))?;
-    let shown: Vec<Shown<'_>> = profiles
+    let shown: Vec<crate::view_seams::Shown<'_>> = profiles
         .iter()
         .zip(kept)
-        .map(|(profile, (frame, codes))| Shown {
+        .map(|(profile, (frame, codes))| crate::view_seams::Shown {
             profile,
             frame,
             codes,
@@ -336,10 +454,6 @@ fn check_seams(
 }
 
 #[cfg(not(feature = "station"))]
-fn check_seams(
-    _: &ViewArgs,
-    _: &[DisplayProfile],
-    _: &[(XyzFrame, lumiwall_render::post::CodeImage)],
-) -> Result<(), CliError> {
+fn check_seams(_: &ViewArgs, _: &[DisplayProfile], _: &[Shown]) -> Result<(), CliError> {
     Ok(())
 }
