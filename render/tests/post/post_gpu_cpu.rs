@@ -11,7 +11,9 @@
 )]
 
 use crate::post_support::*;
-use lumiwall_profiles::apply::{ApplyOptions, PixelFlags, PreparedProfile};
+#[cfg(feature = "gpu")]
+use lumiwall_profiles::apply::PixelFlags;
+use lumiwall_profiles::apply::{ApplyOptions, PreparedProfile};
 use lumiwall_profiles::{BlackMode, OutOfGamut};
 use lumiwall_render::post::cpu::pixel_centre;
 use lumiwall_render::post::{XyzFrame, apply_cpu};

@@ -57,7 +57,9 @@ fn view_writes_each_displays_image_with_its_frame_time_and_the_box_continues_acr
         .stdout(contains("luminance scale 1:1"))
         .stdout(contains("2 displays of 160×120 px"))
         .stdout(contains("(raster ").count(2))
-        .stdout(contains("frame time per display (2 displays): raster median"));
+        .stdout(contains(
+            "frame time per display (2 displays): raster median",
+        ));
     let left = out.join("d000-c0r0-mono.png");
     let right = out.join("d001-c1r0-mono.png");
     assert!(lit_in_column(&left, 159) > 20, "left display at the seam");
