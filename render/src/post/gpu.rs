@@ -151,26 +151,36 @@ pub struct GpuPost {
     max_groups: u32,
 }
 
+/// Opens the first GPU adapter (hardware preferred, software such as Mesa's lavapipe
+/// accepted) with its full limits: the device, its queue and what it is.
+/// [`PostError::NoAdapter`] when there is none.
+pub(crate) fn open_device(
+    label: &str,
+) -> Result<(wgpu::Device, wgpu::Queue, wgpu::AdapterInfo), PostError> {
+    let instance =
+        wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::HighPerformance,
+        force_fallback_adapter: false,
+        ..Default::default()
+    }))
+    .map_err(|_| PostError::NoAdapter)?;
+    let info = adapter.get_info();
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some(label),
+        required_limits: adapter.limits(),
+        ..Default::default()
+    }))
+    .map_err(|e| PostError::Gpu(format!("cannot open device on {}: {e}", info.name)))?;
+    Ok((device, queue, info))
+}
+
 impl GpuPost {
     /// Opens the first GPU adapter (hardware preferred, software such as Mesa's lavapipe
     /// accepted). [`PostError::NoAdapter`] when there is none.
     pub fn new() -> Result<Self, PostError> {
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            ..Default::default()
-        }))
-        .map_err(|_| PostError::NoAdapter)?;
-        let info = adapter.get_info();
-        let limits = adapter.limits();
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("lumiwall post pass"),
-            required_limits: limits.clone(),
-            ..Default::default()
-        }))
-        .map_err(|e| PostError::Gpu(format!("cannot open device on {}: {e}", info.name)))?;
+        let (device, queue, info) = open_device("lumiwall post pass")?;
+        let limits = device.limits();
         device.on_uncaptured_error(std::sync::Arc::new(|e| {
             tracing::error!("wgpu: {e}");
         }));

@@ -58,21 +58,7 @@ impl GpuRaster {
     /// Opens the first adapter (hardware preferred, lavapipe accepted) and uploads
     /// `mesh`, its faces fanned into triangles.
     pub fn new(mesh: &LitMesh) -> Result<Self, PostError> {
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            ..Default::default()
-        }))
-        .map_err(|_| PostError::NoAdapter)?;
-        let info = adapter.get_info();
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("lumiwall view"),
-            required_limits: adapter.limits(),
-            ..Default::default()
-        }))
-        .map_err(|e| PostError::Gpu(format!("cannot open device on {}: {e}", info.name)))?;
+        let (device, queue, info) = crate::post::gpu::open_device("lumiwall view")?;
         let data = triangles(mesh);
         let bytes = data.len() as u64 * 4;
         if bytes > device.limits().max_buffer_size {

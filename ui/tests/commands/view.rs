@@ -18,6 +18,22 @@ fn cornell_solution(dir: &Path) -> std::path::PathBuf {
     dir.join("cornell.ply")
 }
 
+/// `lumiwall view` of the Cornell box `solution` on `wall` through `profiles` into `out`.
+fn view(wall: &Path, profiles: &Path, solution: &Path, out: &Path) -> assert_cmd::Command {
+    let mut cmd = lumiwall();
+    cmd.arg("view")
+        .arg(cornell())
+        .arg("--solution")
+        .arg(solution)
+        .arg("--wall")
+        .arg(wall)
+        .arg("--profiles")
+        .arg(profiles)
+        .arg("--out-dir")
+        .arg(out);
+    cmd
+}
+
 /// Lit pixels (any drive above 0) in column `x` of a PNG.
 fn lit_in_column(path: &Path, x: u32) -> usize {
     let img = image::open(path).unwrap().to_rgb16();
@@ -34,17 +50,7 @@ fn view_writes_each_displays_image_with_its_frame_time_and_the_box_continues_acr
     let profiles = crate::common::commission_small_wall(tmp.path());
     let solution = cornell_solution(tmp.path());
     let out = tmp.path().join("view");
-    lumiwall()
-        .arg("view")
-        .arg(cornell())
-        .arg("--solution")
-        .arg(&solution)
-        .arg("--wall")
-        .arg(small_wall())
-        .arg("--profiles")
-        .arg(&profiles)
-        .arg("--out-dir")
-        .arg(&out)
+    view(&small_wall(), &profiles, &solution, &out)
         .args([
             "--viewer-distance",
             "0.8",
@@ -73,27 +79,14 @@ fn view_refuses_profiles_of_another_wall_and_a_broken_solution_file() {
     let tmp = TempDir::new().unwrap();
     let profiles = crate::common::commission_small_wall(tmp.path());
     let solution = cornell_solution(tmp.path());
-    let view = |wall: &Path, solution: &Path, out: &str| {
-        let mut cmd = lumiwall();
-        cmd.arg("view")
-            .arg(cornell())
-            .arg("--solution")
-            .arg(solution)
-            .arg("--wall")
-            .arg(wall)
-            .arg("--profiles")
-            .arg(&profiles)
-            .arg("--out-dir")
-            .arg(tmp.path().join(out));
-        cmd
-    };
-    view(&fixture("walls/infitec-pair.toml"), &solution, "a")
+    let infitec = fixture("walls/infitec-pair.toml");
+    view(&infitec, &profiles, &solution, &tmp.path().join("a"))
         .assert()
         .failure()
         .stderr(contains("are of wall mono-2x1"));
     let broken = tmp.path().join("broken.ply");
     std::fs::write(&broken, "ply\nformat ascii 1.0\nelement vertex 2\n").unwrap();
-    view(&small_wall(), &broken, "b")
+    view(&small_wall(), &profiles, &broken, &tmp.path().join("b"))
         .assert()
         .failure()
         .stderr(contains("broken.ply"))
@@ -108,31 +101,26 @@ fn the_seam_check_through_the_simulator_fails_on_a_wall_without_flat_fields() {
     let tmp = TempDir::new().unwrap();
     let profiles = crate::common::commission_small_wall(tmp.path());
     let solution = cornell_solution(tmp.path());
-    let out = lumiwall()
-        .arg("view")
-        .arg(cornell())
-        .arg("--solution")
-        .arg(&solution)
-        .arg("--wall")
-        .arg(small_wall())
-        .arg("--profiles")
-        .arg(&profiles)
-        .arg("--out-dir")
-        .arg(tmp.path().join("view"))
-        .args([
-            "--viewer-distance",
-            "3",
-            "--display-size",
-            "320x240",
-            "--cpu",
-        ])
-        .args(["--seams-through-simulator", "--luminance-scale", "auto"])
-        .assert()
-        .failure()
-        .stderr(contains("across a seam (limit 1 %)"))
-        .get_output()
-        .stdout
-        .clone();
+    let out = view(
+        &small_wall(),
+        &profiles,
+        &solution,
+        &tmp.path().join("view"),
+    )
+    .args([
+        "--viewer-distance",
+        "3",
+        "--display-size",
+        "320x240",
+        "--cpu",
+    ])
+    .args(["--seams-through-simulator", "--luminance-scale", "auto"])
+    .assert()
+    .failure()
+    .stderr(contains("across a seam (limit 1 %)"))
+    .get_output()
+    .stdout
+    .clone();
     let text = String::from_utf8(out).unwrap();
     let line = text
         .lines()
