@@ -49,10 +49,10 @@ pub(crate) struct ViewArgs {
     viewer: Option<[f64; 3]>,
     /// Distance of the reference viewer from the wall (m): where the scene camera
     /// stands.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, value_parser = parse_positive_m)]
     viewer_distance: f64,
     /// Eye separation for a stereo wall (m).
-    #[arg(long, default_value_t = DEFAULT_EYE_SEPARATION_M)]
+    #[arg(long, default_value_t = DEFAULT_EYE_SEPARATION_M, value_parser = parse_separation_m)]
     eye_separation: f64,
     /// Pixels of each display, `WIDTHxHEIGHT` (default: 1024 wide, the tile's aspect).
     #[arg(long)]
@@ -72,7 +72,7 @@ pub(crate) struct ViewArgs {
     cpu: bool,
     /// The wall is a virtual one: emit every display's image through the simulator and
     /// compare the luminance on both sides of every border between two tiles of one
-    /// eye (blocks of 16×4 pixels, what the scene changes between the sides taken
+    /// eye (blocks of 16×16 pixels, what the scene changes between the sides taken
     /// out); fails above a 1 % step. Keeps every image in memory until the end.
     #[cfg(feature = "station")]
     #[arg(long)]
@@ -81,6 +81,20 @@ pub(crate) struct ViewArgs {
 
 /// Largest pixel count of one display.
 const MAX_DISPLAY_PIXELS: u64 = 8192 * 8192;
+
+fn parse_positive_m(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("{s:?}: give a distance in metres greater than 0")),
+    }
+}
+
+fn parse_separation_m(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && (0.0..=1.0).contains(&v) => Ok(v),
+        _ => Err(format!("{s:?}: give the eye separation in metres, 0 to 1")),
+    }
+}
 
 fn parse_point(s: &str) -> Result<[f64; 3], String> {
     let v: Vec<f64> = s

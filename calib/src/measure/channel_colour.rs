@@ -192,7 +192,11 @@ fn pooled_channel(
         }
         // A channel adds no negative light: a saturated channel's near-zero component
         // (an Infitec red's Z) may come out below zero from the black's noise.
-        let pooled: [f64; 3] = std::array::from_fn(|k| (num[k] / den[k]).max(0.0));
+        let pooled: [f64; 3] = std::array::from_fn(|k| num[k] / den[k]);
+        if pooled.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let pooled = pooled.map(|v| v.max(0.0));
         let scale = p0[1] / pooled[1];
         p = pooled.map(|v| v * scale);
     }

@@ -172,6 +172,9 @@ pub(crate) fn open_device(
         ..Default::default()
     }))
     .map_err(|e| PostError::Gpu(format!("cannot open device on {}: {e}", info.name)))?;
+    device.on_uncaptured_error(std::sync::Arc::new(|e| {
+        tracing::error!("wgpu: {e}");
+    }));
     Ok((device, queue, info))
 }
 
@@ -181,9 +184,6 @@ impl GpuPost {
     pub fn new() -> Result<Self, PostError> {
         let (device, queue, info) = open_device("lumiwall post pass")?;
         let limits = device.limits();
-        device.on_uncaptured_error(std::sync::Arc::new(|e| {
-            tracing::error!("wgpu: {e}");
-        }));
         let with_flat = Variant::new(&device, SHADER_FLAT, "post pass (flat field)");
         let without_flat = Variant::new(&device, SHADER_NONE, "post pass (no flat field)");
         // Input is 12 bytes per pixel; keep every binding well under the limits.

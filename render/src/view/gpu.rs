@@ -120,6 +120,11 @@ impl GpuRaster {
         let target = self.texture(w, h, wgpu::TextureFormat::Rgba32Float, true);
         let depth = self.texture(w, h, wgpu::TextureFormat::Depth32Float, false);
         let row_bytes = (w * 16).div_ceil(256) * 256;
+        if u64::from(row_bytes) * u64::from(h) > self.device.limits().max_buffer_size {
+            return Err(PostError::SizeMismatch(format!(
+                "{w}×{h} px of 16 bytes each do not fit this GPU's largest buffer"
+            )));
+        }
         let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("view readback"),
             size: u64::from(row_bytes) * u64::from(h),
@@ -212,6 +217,9 @@ impl GpuRaster {
             }),
             ..Default::default()
         });
+        if self.vertex_count == 0 {
+            return;
+        }
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, bind, &[]);
         pass.set_vertex_buffer(0, self.vertices.slice(..));

@@ -11,6 +11,9 @@ use crate::scene::{V3, polygon_normal};
 /// Most vertices a PLY may declare (a solution of a few million patches).
 pub const MAX_VERTICES: usize = 20_000_000;
 
+/// Largest solution file read (bytes): about 20 million vertices as text.
+pub const MAX_FILE_BYTES: u64 = 4 << 30;
+
 /// Most vertices of one face.
 pub const MAX_FACE_VERTICES: usize = 64;
 
@@ -72,8 +75,21 @@ impl LitMesh {
     }
 
     /// Reads the ASCII PLY `lumiwall render` writes (vertex x y z lum_X lum_Y lum_Z,
-    /// faces as index lists); sizes are checked before anything is allocated.
+    /// faces as index lists); the file's size is checked before it is read
+    /// ([`MAX_FILE_BYTES`]), the counts its header states before anything is reserved.
     pub fn read_ply(path: &Path) -> Result<Self, MeshError> {
+        let io = |source| MeshError::Io {
+            path: path.display().to_string(),
+            source,
+        };
+        let bytes = std::fs::metadata(path).map_err(io)?.len();
+        if bytes > MAX_FILE_BYTES {
+            return Err(MeshError::Format {
+                path: path.display().to_string(),
+                line: 0,
+                message: format!("{bytes} bytes: at most {MAX_FILE_BYTES}"),
+            });
+        }
         let text = std::fs::read_to_string(path).map_err(|source| MeshError::Io {
             path: path.display().to_string(),
             source,
@@ -103,12 +119,16 @@ fn header_counts(
     lines: &mut std::iter::Enumerate<std::str::Lines<'_>>,
 ) -> Result<(usize, usize, usize), ParseError> {
     let (mut vertices, mut faces) = (None, None);
+    let mut vertex_properties: Vec<String> = Vec::new();
     let mut last = 0;
     for (i, line) in lines.by_ref() {
         last = i + 1;
         let words: Vec<&str> = line.split_whitespace().collect();
         match words.as_slice() {
-            ["ply"] | ["comment", ..] | ["property", ..] => {}
+            ["ply"] | ["comment", ..] => {}
+            ["property", "list", ..] => {}
+            ["property", _, name] if faces.is_none() => vertex_properties.push(name.to_string()),
+            ["property", ..] => {}
             ["format", "ascii", "1.0"] => {}
             ["format", other, ..] => {
                 return Err((last, format!("format {other}: only ascii is read")));
@@ -116,13 +136,14 @@ fn header_counts(
             ["element", "vertex", n] => vertices = Some(parse_count(n, last)?),
             ["element", "face", n] => faces = Some(parse_count(n, last)?),
             ["end_header"] => {
+                check_vertex_properties(&vertex_properties, last)?;
                 let v = vertices.ok_or((last, "no vertex element".to_string()))?;
                 let f = faces.ok_or((last, "no face element".to_string()))?;
-                if v > MAX_VERTICES || f > v {
+                if v > MAX_VERTICES || f > v || f == 0 {
                     return Err((
                         last,
                         format!(
-                            "{v} vertices and {f} faces: at most {MAX_VERTICES} vertices, no more faces than vertices"
+                            "{v} vertices and {f} faces: at most {MAX_VERTICES} vertices, at least one face and no more faces than vertices"
                         ),
                     ));
                 }
@@ -132,6 +153,20 @@ fn header_counts(
         }
     }
     Err((last, "no end_header".into()))
+}
+
+/// The vertex properties `write_ply` writes, in its order: another tool's PLY (normals,
+/// colours) must not be read as luminance.
+fn check_vertex_properties(names: &[String], line: usize) -> Result<(), ParseError> {
+    const EXPECTED: [&str; 6] = ["x", "y", "z", "lum_X", "lum_Y", "lum_Z"];
+    if names.iter().map(String::as_str).eq(EXPECTED) {
+        Ok(())
+    } else {
+        Err((
+            line,
+            format!("vertex properties {names:?}: expected {EXPECTED:?} (luminance in cd/m²)"),
+        ))
+    }
 }
 
 fn parse_count(word: &str, line: usize) -> Result<usize, ParseError> {
@@ -156,10 +191,13 @@ fn parse_numbers(line: &str, n: usize, at: usize) -> Result<Vec<f64>, ParseError
 fn parse_ply(text: &str) -> Result<LitMesh, ParseError> {
     let mut lines = text.lines().enumerate();
     let (nv, nf, header_end) = header_counts(&mut lines)?;
+    // Every vertex line holds at least six numbers (12 bytes): a header that promises
+    // more vertices than the file can hold reserves no more than the file's size.
+    let most = text.len() / 12;
     let mut mesh = LitMesh {
-        positions: Vec::with_capacity(nv),
-        luminance_xyz: Vec::with_capacity(nv),
-        faces: Vec::with_capacity(nf),
+        positions: Vec::with_capacity(nv.min(most)),
+        luminance_xyz: Vec::with_capacity(nv.min(most)),
+        faces: Vec::with_capacity(nf.min(most)),
     };
     let mut at = header_end;
     let mut next = |what: &str| match lines.next() {

@@ -109,11 +109,14 @@ fn a_face_turned_away_from_the_eye_is_not_drawn() {
     assert!(img.iter().all(|p| *p == [0.0; 3]));
 }
 
+/// The vertex properties `write_ply` writes.
+const PROPS: &str = "property float x\nproperty float y\nproperty float z\nproperty float lum_X\nproperty float lum_Y\nproperty float lum_Z\n";
+
 #[test]
 fn a_ply_in_the_format_render_writes_reads_back_as_the_same_mesh_and_a_bad_one_is_a_typed_error() {
     let mesh = gradient_quad(-1.0);
     let text = format!(
-        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n{}\n4 0 1 2 3\n",
+        "ply\nformat ascii 1.0\nelement vertex 4\n{PROPS}element face 1\nproperty list uchar int vertex_indices\nend_header\n{}\n4 0 1 2 3\n",
         mesh.positions
             .iter()
             .zip(&mesh.luminance_xyz)
@@ -123,13 +126,20 @@ fn a_ply_in_the_format_render_writes_reads_back_as_the_same_mesh_and_a_bad_one_i
     );
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("s.ply");
+    let header = |v: usize, f: usize| {
+        format!("ply\nformat ascii 1.0\nelement vertex {v}\n{PROPS}element face {f}\nend_header\n")
+    };
     std::fs::write(&path, text).unwrap();
     assert_eq!(LitMesh::read_ply(&path).unwrap(), mesh);
+    let three = "0 0 0 1 1 1\n1 0 0 1 1 1\n0 1 0 1 1 1\n";
     for bad in [
-        "ply\nformat binary_little_endian 1.0\nend_header\n",
-        "ply\nformat ascii 1.0\nelement vertex 99999999999\nelement face 0\nend_header\n",
-        "ply\nformat ascii 1.0\nelement vertex 3\nelement face 1\nend_header\n0 0 0 1 1 1\n1 0 0 1 1 1\n0 1 0 1 1 1\n3 0 1 7\n",
-        "ply\nformat ascii 1.0\nelement vertex 3\nelement face 1\nend_header\n0 0 0 1 1 1\n1 0 0 1 1 nan\n",
+        "ply\nformat binary_little_endian 1.0\nend_header\n".to_string(),
+        header(99_999_999_999, 1),
+        header(3, 0),
+        format!("{}{three}3 0 1 7\n", header(3, 1)),
+        format!("{}0 0 0 1 1 1\n1 0 0 1 1 nan\n", header(3, 1)),
+        // normals where luminance belongs
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\nelement face 1\nend_header\n".to_string(),
     ] {
         std::fs::write(&path, bad).unwrap();
         let err = LitMesh::read_ply(&path).unwrap_err();

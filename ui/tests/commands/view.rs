@@ -75,7 +75,7 @@ fn view_writes_each_displays_image_with_its_frame_time_and_the_box_continues_acr
 }
 
 #[test]
-fn view_refuses_profiles_of_another_wall_and_a_broken_solution_file() {
+fn view_refuses_profiles_of_another_wall_a_broken_solution_file_and_a_viewer_on_the_wall() {
     let tmp = TempDir::new().unwrap();
     let profiles = crate::common::commission_small_wall(tmp.path());
     let solution = cornell_solution(tmp.path());
@@ -91,6 +91,11 @@ fn view_refuses_profiles_of_another_wall_and_a_broken_solution_file() {
         .failure()
         .stderr(contains("broken.ply"))
         .stderr(contains("no end_header"));
+    view(&small_wall(), &profiles, &solution, &tmp.path().join("c"))
+        .args(["--viewer-distance", "0"])
+        .assert()
+        .code(2)
+        .stderr(contains("greater than 0"));
 }
 
 /// Without flat fields each display is calibrated at its centre only, and its
