@@ -38,7 +38,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
 use crate::colorimetry::cct_to_xy;
-use crate::measure::channel_colour::pool;
+use crate::measure::channel_colour::{MIN_POOLED_INTENSITY, pool};
 use crate::measure::drift::{DriftCheck, recheck};
 use crate::measure::grey_drives::{
     GreyLevel, GreyTargets, read_grey_drives, readings_needed, whole_grey_repeats,
@@ -861,10 +861,10 @@ fn write_reports(
 }
 
 /// Readings each primary's colour stands on, for [`fuse_with_white`]: its
-/// `primary_repeats` full-drive readings and its ramp samples of at least
-/// [`BRIGHT_SAMPLE_INTENSITY`] of the channel's light, whose chromaticity a colorimeter
-/// reads as well as the full drive's and which the measurement pooled into the
-/// channel's colour ([`crate::measure::channel_colour`]). Where it did not pool them
+/// `primary_repeats` full-drive readings and the ramp samples the measurement pooled
+/// into the channel's colour (at least
+/// [`crate::measure::channel_colour::MIN_POOLED_INTENSITY`] of the channel's light),
+/// whose chromaticity a colorimeter reads as well as the full drive's. Where it did not pool them
 /// (a meter that states no noise, a colour that changes with drive) the samples lie on
 /// the full-drive reading's line and their number overstates the primary's certainty:
 /// the fusion then moves it a little less towards the white than it could.
@@ -873,16 +873,11 @@ fn primary_readings(m: &DisplayMeasurement, primary_repeats: f64) -> [f64; 3] {
         let span = m.primaries[c].y - m.black.y;
         let bright = m.ramps[c]
             .iter()
-            .filter(|(_, xyz)| span > 0.0 && (xyz.y - m.black.y) / span >= BRIGHT_SAMPLE_INTENSITY)
+            .filter(|(_, xyz)| span > 0.0 && (xyz.y - m.black.y) / span >= MIN_POOLED_INTENSITY)
             .count();
         primary_repeats + bright as f64
     })
 }
-
-/// Share of a channel's light above which a ramp sample's chromaticity counts for the
-/// channel's colour like a full-drive reading (the fusion of the primaries with the white
-/// counts them as readings of the primary).
-pub const BRIGHT_SAMPLE_INTENSITY: f64 = 0.25;
 
 /// Largest additivity residual (χ², 3 degrees of freedom, ≈ 5σ) that
 /// [`fuse_with_white`] attributes to meter noise; above it the display is treated as
