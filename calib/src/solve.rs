@@ -484,7 +484,6 @@ fn prepare(m: &DisplayMeasurement, lut_entries: Option<usize>) -> Result<Prepare
     })
 }
 
-/// Tone curves of the three channels from the ramps (step 2 of the module docs).
 /// Largest relative change of a channel's full-drive light that the composite readings
 /// may make (the solve's `composite_gains`): a few times what a colorimeter's noise
 /// leaves on four averaged primaries; more means the display changed between the
@@ -528,6 +527,7 @@ fn composite_gains(
     plausible.then_some(g)
 }
 
+/// Tone curves of the three channels from the ramps (step 2 of the module docs).
 fn fit_curves(
     m: &DisplayMeasurement,
     name: &str,

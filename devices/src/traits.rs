@@ -53,6 +53,12 @@ pub struct ReadingNoise {
 }
 
 impl ReadingNoise {
+    /// True for an instrument that states it has no noise at all (the simulator's
+    /// exact meter).
+    pub fn is_exact(&self) -> bool {
+        self.xy == 0.0 && self.luminance_rel == 0.0 && self.dark_xyz_cd_m2.iter().all(|v| *v == 0.0)
+    }
+
     /// 1σ of X, Y and Z of one reading of `xyz`: the dark noise and the high-light
     /// repeatability carried from Y, x and y to each component (X = x·Y/y,
     /// Z = (1 − x − y)·Y/y, the three taken as independent).

@@ -71,7 +71,7 @@ pub fn pool(
             readings: 1,
         })
     });
-    let pooled = match noise.filter(|n| !is_exact(n)) {
+    let pooled = match noise.filter(|n| !n.is_exact()) {
         Some(n) => {
             let black = Averaged {
                 drive: 0.0,
@@ -98,11 +98,6 @@ pub fn pool(
             .collect()
     });
     (pooled, ramps)
-}
-
-/// True for a meter that states it has no noise at all.
-fn is_exact(n: &ReadingNoise) -> bool {
-    n.xy == 0.0 && n.luminance_rel == 0.0 && n.dark_xyz_cd_m2.iter().all(|v| *v == 0.0)
 }
 
 /// The last record with a reading of a patch matching `is`.
@@ -190,12 +185,12 @@ fn pooled_channel(
                 den[k] += k_i * k_i / var[k];
             }
         }
-        // A channel adds no negative light: a saturated channel's near-zero component
-        // (an Infitec red's Z) may come out below zero from the black's noise.
         let pooled: [f64; 3] = std::array::from_fn(|k| num[k] / den[k]);
         if pooled.iter().any(|v| !v.is_finite()) {
             return None;
         }
+        // A channel adds no negative light: a saturated channel's near-zero component
+        // (an Infitec red's Z) may come out below zero from the black's noise.
         let pooled = pooled.map(|v| v.max(0.0));
         let scale = p0[1] / pooled[1];
         p = pooled.map(|v| v * scale);

@@ -124,8 +124,10 @@ pub struct GreyTargets<'a> {
 /// whole, and the readings they cost.
 #[derive(Debug, Clone, Default)]
 pub struct GreyDrives {
-    /// New ramp samples per channel R, G, B.
-    pub ramps: [Vec<(f64, Xyz)>; 3],
+    /// Drives of the new ramp samples per channel R, G, B (their readings are in
+    /// `samples`, which the commissioning pools with the display's log:
+    /// [`super::channel_colour::pool`]).
+    pub drives: [Vec<f64>; 3],
     /// The greys given as a share of the white, each read whole at its drive.
     pub composites: Vec<CompositeReading>,
     /// Meter readings taken.
@@ -177,10 +179,11 @@ pub fn whole_grey_repeats(noise: Option<&ReadingNoise>, budget: u32) -> u32 {
 /// Readings per channel sample of a dark grey level: one for a meter that states it
 /// has no noise, else [`DARK_REPEATS`].
 fn dark_repeats(noise: Option<&ReadingNoise>) -> u32 {
-    let exact = noise.is_some_and(|n| {
-        n.xy == 0.0 && n.luminance_rel == 0.0 && n.dark_xyz_cd_m2.iter().all(|v| *v == 0.0)
-    });
-    if exact { 1 } else { DARK_REPEATS }
+    if noise.is_some_and(ReadingNoise::is_exact) {
+        1
+    } else {
+        DARK_REPEATS
+    }
 }
 
 /// Reads each channel of display `id` alone at the code nearest the drive the
@@ -230,10 +233,10 @@ pub fn read_grey_drives(
         }
         for c in Channel::ALL {
             let d = drive[c.index()];
-            let taken = &mut out.ramps[c.index()];
+            let taken = &mut out.drives[c.index()];
             let far = |t: &f64| (t - d).abs() >= MIN_DRIVE_GAP;
             let new = inside.contains(&d)
-                && taken.iter().all(|(t, _)| far(t))
+                && taken.iter().all(far)
                 && targets.ramp_drives[c.index()].iter().all(far);
             if !new || s.remaining() == 0 {
                 continue;
@@ -243,8 +246,10 @@ pub fn read_grey_drives(
                 full: targets.primaries[c.index()],
                 noise,
             };
-            if let Some(raw) = s.sample_channel(Patch::Ramp(c, d), &line, &mut quiet)? {
-                taken.push((d, line.reading(raw)));
+            if s.sample_channel(Patch::Ramp(c, d), &line, &mut quiet)?
+                .is_some()
+            {
+                taken.push(d);
             }
         }
     }
@@ -252,7 +257,7 @@ pub fn read_grey_drives(
     out.samples = std::mem::take(&mut s.log.samples);
     progress(Progress::GreyDrivesRead {
         display: id,
-        samples: out.ramps.iter().map(Vec::len).sum(),
+        samples: out.drives.iter().map(Vec::len).sum(),
         whole: out.composites.len(),
         readings: out.readings,
     });

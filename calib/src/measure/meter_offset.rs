@@ -104,8 +104,7 @@ fn reading_variance(r: Xyz, n: f64, sigma_xy: f64, sigma_y_rel: f64) -> [f64; 3]
 /// constraint). A very saturated primary (Infitec blue) has a large variance in Z and
 /// takes most of it, so its Z comes from the bright, unsaturated white instead of its
 /// own noisy chromaticity. `repeats` is the number of readings each primary's colour
-/// stands on,
-/// `white_repeats` for the white.
+/// stands on, `white_repeats` for the white.
 /// Returns `None` (no change) when the residual is not explained by meter noise
 /// (χ² above `max_chi2`): then the display is not additive and the solve should warn.
 pub fn fuse_with_white(
