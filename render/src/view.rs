@@ -24,7 +24,7 @@ pub mod mesh;
 
 pub use mesh::{LitMesh, MeshError};
 
-use crate::radiosity::output::{Projected, Raster};
+use crate::radiosity::output::{Projected, rasterise};
 use crate::scene::{Camera, V3};
 
 /// Points closer to the eye than this (m, along the screen normal) are not drawn.
@@ -192,25 +192,10 @@ impl OffAxis {
 /// `mesh` seen through `view`: XYZ luminance per pixel (cd/m²), row major from the
 /// top-left, background 0. Faces seen from behind are not drawn (one-sided surfaces,
 /// as `lumiwall render` draws them); a face with a vertex behind the eye is left out.
+/// The rasteriser is `lumiwall render`'s own.
 pub fn render_tile(mesh: &LitMesh, view: &OffAxis) -> Vec<[f32; 3]> {
-    let mut raster = Raster::new(view.width_px, view.height_px);
-    let projected: Vec<Option<Projected>> =
-        mesh.positions.iter().map(|p| view.project(p)).collect();
-    for face in &mesh.faces {
-        if !mesh.faces_eye(face, &view.eye) {
-            continue;
-        }
-        let proj: Option<Vec<Projected>> = face.iter().map(|&i| projected[i as usize]).collect();
-        let Some(proj) = proj else { continue };
-        let lum = |k: usize| mesh.luminance_xyz[face[k] as usize];
-        for t in 1..proj.len() - 1 {
-            raster.fill_triangle(
-                [proj[0], proj[t], proj[t + 1]],
-                [lum(0), lum(t), lum(t + 1)],
-            );
-        }
-    }
-    raster.img
+    let size = (view.width_px, view.height_px);
+    rasterise(mesh, &view.eye, size, |p| view.project(p))
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use crate::scene::{Camera, V3};
+use crate::view::LitMesh;
 
 use super::RadiosityError;
 use super::curve::ErrorCurve;
@@ -155,10 +156,10 @@ impl<'a> Pinhole<'a> {
 }
 
 /// An image with a depth buffer.
-pub(crate) struct Raster {
+struct Raster {
     width: usize,
     height: usize,
-    pub(crate) img: Vec<[f32; 3]>,
+    img: Vec<[f32; 3]>,
     zbuf: Vec<f64>,
 }
 
@@ -181,7 +182,7 @@ fn pixel_span(c: [f64; 3], limit: usize) -> std::ops::Range<usize> {
 }
 
 impl Raster {
-    pub(crate) fn new(width: usize, height: usize) -> Self {
+    fn new(width: usize, height: usize) -> Self {
         Self {
             width,
             height,
@@ -191,7 +192,7 @@ impl Raster {
     }
 
     /// Fills a triangle, interpolating `val` perspective-correctly, nearest wins.
-    pub(crate) fn fill_triangle(&mut self, tri: [Projected; 3], val: [[f64; 3]; 3]) {
+    fn fill_triangle(&mut self, tri: [Projected; 3], val: [[f64; 3]; 3]) {
         let xs = pixel_span(tri.map(|v| v.0), self.width);
         let ys = pixel_span(tri.map(|v| v.1), self.height);
         let area = (tri[1].0 - tri[0].0) * (tri[2].1 - tri[0].1)
@@ -233,17 +234,37 @@ impl Raster {
 /// major from the top-left; background 0.
 pub fn render_image(sol: &Solution, camera: &Camera) -> Vec<[f32; 3]> {
     let pinhole = Pinhole::new(camera);
-    let lum = vertex_luminance(sol);
-    let mut raster = Raster::new(pinhole.width, pinhole.height);
-    for (p, l) in sol.patches.iter().zip(&lum) {
-        // back-facing patches are not seen (one-sided surfaces)
-        if p.normal.dot(&(camera.position - p.vertices[0])) <= 0.0 {
+    let mesh = LitMesh::from_solution(sol);
+    let size = (pinhole.width, pinhole.height);
+    rasterise(&mesh, &camera.position, size, |p| pinhole.project(p))
+}
+
+/// `mesh` seen from `eye` through `project` (a scene point to its pixel and depth,
+/// `None` behind the near plane): XYZ luminance per pixel (cd/m²), `size` = (width,
+/// height), row major from the top-left, background 0, z-buffered with
+/// perspective-correct interpolation. Faces turned away from the eye are not drawn
+/// (one-sided surfaces); a face with a vertex behind the near plane is left out; each
+/// face is fanned into triangles from its first vertex.
+pub(crate) fn rasterise(
+    mesh: &LitMesh,
+    eye: &V3,
+    size: (usize, usize),
+    project: impl Fn(&V3) -> Option<Projected>,
+) -> Vec<[f32; 3]> {
+    let mut raster = Raster::new(size.0, size.1);
+    let projected: Vec<Option<Projected>> = mesh.positions.iter().map(project).collect();
+    for face in &mesh.faces {
+        if !mesh.faces_eye(face, eye) {
             continue;
         }
-        let proj: Option<Vec<Projected>> = p.vertices.iter().map(|v| pinhole.project(v)).collect();
+        let proj: Option<Vec<Projected>> = face.iter().map(|&i| projected[i as usize]).collect();
         let Some(proj) = proj else { continue };
+        let lum = |k: usize| mesh.luminance_xyz[face[k] as usize];
         for t in 1..proj.len() - 1 {
-            raster.fill_triangle([proj[0], proj[t], proj[t + 1]], [l[0], l[t], l[t + 1]]);
+            raster.fill_triangle(
+                [proj[0], proj[t], proj[t + 1]],
+                [lum(0), lum(t), lum(t + 1)],
+            );
         }
     }
     raster.img

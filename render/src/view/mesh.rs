@@ -57,7 +57,8 @@ pub struct LitMesh {
 impl LitMesh {
     /// The solution's patches with their vertices' luminance
     /// ([`vertex_luminance`]); each face wound so that it faces where its patch's
-    /// normal points.
+    /// normal points, from the patch's first vertex (a face turned round keeps it, so
+    /// its fan of triangles is the patch's own).
     pub fn from_solution(sol: &Solution) -> Self {
         let lum = vertex_luminance(sol);
         let mut mesh = LitMesh::default();
@@ -67,7 +68,7 @@ impl LitMesh {
             mesh.luminance_xyz.extend(l.iter().copied());
             let mut face: Vec<u32> = (first..first + p.vertices.len() as u32).collect();
             if polygon_normal(&p.vertices).is_some_and(|n| n.dot(&p.normal) < 0.0) {
-                face.reverse();
+                face[1..].reverse();
             }
             mesh.faces.push(face);
         }
