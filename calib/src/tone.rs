@@ -7,9 +7,9 @@
 //! 2. Weighted isotonic regression (pool-adjacent-violators) with the end points (0, 0)
 //!    and (1, 1) pinned by very large weights, so noisy, non-monotone ramps become
 //!    monotone; each pooled block becomes one knot at its weighted mean drive.
-//! 3. A shape-preserving monotone cubic (Fritsch–Carlson / PCHIP, as SciPy's
-//!    `PchipInterpolator`) through the knots in a perceptual domain
-//!    `u = intensity^(1/γ̂)`, with γ̂ the least-squares log–log slope of the knots. A pure
+//! 3. A monotone cubic through the knots (the not-a-knot cubic spline's slopes limited
+//!    by Hyman's monotonicity filter; PCHIP, as SciPy's `PchipInterpolator`, below four
+//!    knots) in a perceptual domain `u = intensity^(1/γ̂)`, with γ̂ the least-squares log–log slope of the knots. A pure
 //!    power law is then a straight line in `u` and is recovered exactly; S-curves are
 //!    close to straight. The power map is monotone, so the curve stays monotone.
 //! 4. The inverse LUT is built by bisection on that interpolant: entry `i` is the lowest
@@ -49,7 +49,7 @@ pub struct MonotoneCurve {
     drives: Vec<f64>,
     /// Knot values in the perceptual domain `u = intensity^(1/gamma)`, non-decreasing.
     u: Vec<f64>,
-    /// PCHIP slopes du/ddrive at the knots.
+    /// Slopes du/ddrive at the knots ([`monotone_spline_slopes`]).
     slopes: Vec<f64>,
     /// Exponent of the perceptual domain.
     gamma: f64,
@@ -206,6 +206,57 @@ fn pchip_slopes(x: &[f64], y: &[f64]) -> Vec<f64> {
     d
 }
 
+/// Slopes of the not-a-knot cubic spline through strictly increasing `x` (SciPy's
+/// `CubicSpline(bc_type="not-a-knot")`), then Hyman's monotonicity filter (Hyman
+/// 1983, "Accurate monotonicity preserving cubic interpolation"): each slope is
+/// limited to `0..=3·min(adjacent secants)` (0 beside a flat secant), which keeps a
+/// cubic Hermite interpolant of non-decreasing data non-decreasing while leaving the
+/// spline, fourth-order accurate, wherever it is monotone already. PCHIP's
+/// Fritsch–Carlson slopes are only second-order: on the simulator's S-shaped LCD
+/// curves through a 40-reading ramp's knots (0, 1/16 … 3/4, the white's drive, 1),
+/// PCHIP is up to 2.4 % off in luminance between knots above drive 0.4, this 0.3–0.8 %.
+/// Fewer than four knots: PCHIP.
+fn monotone_spline_slopes(x: &[f64], y: &[f64]) -> Vec<f64> {
+    let n = x.len();
+    if n < 4 {
+        return pchip_slopes(x, y);
+    }
+    let h: Vec<f64> = x.windows(2).map(|w| w[1] - w[0]).collect();
+    let delta: Vec<f64> = (0..n - 1).map(|k| (y[k + 1] - y[k]) / h[k]).collect();
+    let mut a = nalgebra::DMatrix::<f64>::zeros(n, n);
+    let mut b = nalgebra::DVector::<f64>::zeros(n);
+    for i in 1..n - 1 {
+        a[(i, i - 1)] = h[i];
+        a[(i, i)] = 2.0 * (h[i - 1] + h[i]);
+        a[(i, i + 1)] = h[i - 1];
+        b[i] = 3.0 * (h[i] * delta[i - 1] + h[i - 1] * delta[i]);
+    }
+    let d0 = x[2] - x[0];
+    a[(0, 0)] = h[1];
+    a[(0, 1)] = d0;
+    b[0] = ((h[0] + 2.0 * d0) * h[1] * delta[0] + h[0] * h[0] * delta[1]) / d0;
+    let dn = x[n - 1] - x[n - 3];
+    a[(n - 1, n - 2)] = dn;
+    a[(n - 1, n - 1)] = h[n - 3];
+    b[n - 1] =
+        (h[n - 2] * h[n - 2] * delta[n - 3] + (2.0 * dn + h[n - 2]) * h[n - 3] * delta[n - 2]) / dn;
+    let Some(m) = a.lu().solve(&b) else {
+        return pchip_slopes(x, y);
+    };
+    (0..n)
+        .map(|i| {
+            let left = if i > 0 { delta[i - 1] } else { delta[0] };
+            let right = if i < n - 1 { delta[i] } else { delta[n - 2] };
+            let limit = 3.0 * left.min(right).max(0.0);
+            if m[i].is_finite() {
+                m[i].clamp(0.0, limit)
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
 /// Fits the monotone curve through `samples` `(drive 0..=1, relative intensity)`; see
 /// the module docs for the method. `what` names the ramp in errors.
 pub fn fit_monotone_named(samples: &[(f64, f64)], what: &str) -> Result<MonotoneCurve, CalibError> {
@@ -243,7 +294,7 @@ pub fn fit_monotone_named(samples: &[(f64, f64)], what: &str) -> Result<Monotone
     // Isotonic output is non-decreasing; clamping keeps it so.
     let gamma = estimate_gamma(&drives, &vals);
     let u: Vec<f64> = vals.iter().map(|v| v.powf(1.0 / gamma)).collect();
-    let slopes = pchip_slopes(&drives, &u);
+    let slopes = monotone_spline_slopes(&drives, &u);
     Ok(MonotoneCurve {
         drives,
         u,
@@ -421,6 +472,74 @@ mod tests {
         ]);
         assert_eq!(out.len(), 3);
         assert!((out[1].1 - 0.5).abs() < 1e-12 && (out[1].0 - 0.55).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_monotone_spline_reproduces_a_monotone_cubic_exactly() {
+        let x = [0.0, 0.1, 0.3, 0.55, 0.8, 1.0];
+        let f = |t: f64| 0.2 * t + 0.5 * t * t + 0.3 * t * t * t;
+        let df = |t: f64| 0.2 + t + 0.9 * t * t;
+        let y = x.map(f);
+        let s = monotone_spline_slopes(&x, &y);
+        for (xi, si) in x.iter().zip(&s) {
+            assert!(
+                (si - df(*xi)).abs() < 1e-12,
+                "slope at {xi}: {si} vs {}",
+                df(*xi)
+            );
+        }
+    }
+
+    #[test]
+    fn the_monotone_spline_stays_monotone_across_a_step() {
+        let x = [0.0, 0.2, 0.4, 0.6, 0.8, 1.0];
+        let y = [0.0, 0.0, 0.0, 1.0, 1.0, 1.0];
+        let s = monotone_spline_slopes(&x, &y);
+        let c = MonotoneCurve {
+            drives: x.to_vec(),
+            u: y.to_vec(),
+            slopes: s,
+            gamma: 1.0,
+        };
+        let mut prev = 0.0;
+        for i in 0..=1000 {
+            let v = c.eval(f64::from(i) / 1000.0);
+            assert!(v >= prev - 1e-15, "falls at {i}: {v} < {prev}");
+            prev = v;
+        }
+    }
+
+    /// The simulator's S-shaped LCD curves (its default red, green and blue; the
+    /// truth, independent of the fit) sampled where a 40-reading commission samples a
+    /// ramp: the fit's largest luminance error above drive 0.4 between the knots.
+    #[test]
+    fn a_tone_curve_through_a_sparse_ramp_is_within_one_percent_of_the_simulators_curve() {
+        use lumiwall_devices::sim::TransferCurve;
+        let curves = [
+            (2.45, 0.30, 0.56, 9.0, 1.3),
+            (2.25, 0.25, 0.50, 10.0, 1.6),
+            (2.05, 0.38, 0.62, 8.0, 1.1),
+        ]
+        .map(
+            |(gamma, s_weight, s_centre, s_steepness, shoulder)| TransferCurve {
+                gamma,
+                s_weight,
+                s_centre,
+                s_steepness,
+                shoulder,
+            },
+        );
+        let drives = [0.0625, 0.102, 0.125, 0.25, 0.375, 0.5, 0.751, 0.82, 1.0];
+        for truth in curves {
+            let samples: Vec<(f64, f64)> =
+                drives.iter().map(|&d| (d, truth.intensity(d))).collect();
+            let fit = fit_monotone_named(&samples, "test").expect("fit");
+            let worst = (400..=1000)
+                .map(|i| f64::from(i) / 1000.0)
+                .map(|d| (fit.eval(d) / truth.intensity(d) - 1.0).abs())
+                .fold(0.0, f64::max);
+            assert!(worst < 0.01, "{truth:?}: {:.3} %", 100.0 * worst);
+        }
     }
 
     #[test]
