@@ -33,7 +33,9 @@ use std::path::{Path, PathBuf};
 
 use lumiwall_devices::{DeviceError, DisplayId, DisplayInfo, ReadingNoise, Xyz};
 use lumiwall_profiles::apply::{ApplyError, ApplyOptions, PreparedProfile};
-use lumiwall_profiles::{BlackMode, DisplayKey, ProfileError, ProfileSet, write_atomic};
+use lumiwall_profiles::{
+    BlackMode, DisplayKey, DisplayProfile, ProfileError, ProfileSet, write_atomic,
+};
 use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
@@ -60,6 +62,8 @@ pub const RUN_FORMAT_VERSION: u32 = 1;
 
 /// Name of the run sub-folder inside the output folder.
 pub const RUN_DIR: &str = "run";
+
+pub mod final_white;
 
 /// How to commission.
 #[derive(Debug, Clone)]
@@ -141,6 +145,18 @@ pub enum CommissionError {
         total: usize,
         /// The run folder.
         run_dir: PathBuf,
+    },
+    /// Reading the channels at the wall's final white failed
+    /// ([`final_white::resample_at_final_white`]); the profiles of the first solve stay.
+    #[error(
+        "{source}\nwhile reading the tone curves at the final white; the profiles written \
+         before it stay (without the camera stage's flat fields). Fix the cause and re-run \
+         with --resume"
+    )]
+    FinalWhite {
+        /// What failed.
+        #[source]
+        source: MeasureError,
     },
     /// The technician skipped displays while aiming; the others are measured and saved.
     #[error(
@@ -357,43 +373,96 @@ fn read_greys(
         if !pending(m) {
             continue;
         }
-        let prepared = PreparedProfile::new(profile, &ApplyOptions::default())?;
-        let mut mopts = opts.measure.clone();
-        mopts.budget = opts.measure.budget.saturating_sub(m.measurement.readings);
-        let targets = GreyTargets {
-            prepared: &prepared,
-            white: Xyz::from_array(profile.target_white_xyz_cd_m2),
+        let pass = GreyPass {
             levels: &opts.grey_levels,
-            bit_depth: m.measurement.bit_depth,
-            black: m.measurement.black,
-            primaries: m.measurement.primaries,
-            ramp_drives: std::array::from_fn(|c| {
-                m.measurement.ramps[c].iter().map(|s| s.0).collect()
-            }),
+            budget: opts.measure.budget.saturating_sub(m.measurement.readings),
             whole_repeats: whole_grey_repeats(noise.as_ref(), opts.measure.budget),
         };
-        let read =
-            read_grey_drives(rig, key, info.id, &targets, &mopts, progress).map_err(|source| {
-                // Every display's measurement is saved; --resume reads the rest of
-                // the grey drives.
-                CommissionError::Interrupted {
-                    source,
-                    saved: total,
-                    total,
-                    run_dir: run_dir.clone(),
-                }
-            })?;
-        let readings = read.readings;
-        m.log.samples.extend(read.samples);
-        let (primaries, ramps) = pool(&m.log, m.measurement.black, m.measurement.primaries, noise);
-        (m.measurement.primaries, m.measurement.ramps) = (primaries, ramps);
-        m.measurement.composites.extend(read.composites);
-        m.measurement.readings += readings;
-        m.log.readings += readings;
+        // Every display's measurement is saved; --resume reads the rest of the grey
+        // drives.
+        let interrupted = |source| CommissionError::Interrupted {
+            source,
+            saved: total,
+            total,
+            run_dir: run_dir.clone(),
+        };
+        let readings = read_greys_of(info, m, profile, rig, &pass, opts, progress)
+            .map_err(|e| e.into_commission(interrupted))?;
         m.log.grey_drive_readings = Some(readings);
         write_atomic(&measurement_path(&run_dir, &m.measurement.key), &to_json(m))?;
     }
     Ok(())
+}
+
+/// What one grey-drive pass over a display reads.
+struct GreyPass<'l> {
+    /// The greys.
+    levels: &'l [GreyLevel],
+    /// Readings it may take.
+    budget: u32,
+    /// Readings averaged for each grey read whole (0: none).
+    whole_repeats: u32,
+}
+
+/// Why a grey-drive pass over one display stopped.
+enum GreyPassError {
+    /// Its profile cannot be applied.
+    Profile(ApplyError),
+    /// A reading failed.
+    Measure(MeasureError),
+}
+
+impl GreyPassError {
+    /// The commissioning error, a failed reading turned into one by `interrupted`.
+    fn into_commission(
+        self,
+        interrupted: impl FnOnce(MeasureError) -> CommissionError,
+    ) -> CommissionError {
+        match self {
+            Self::Profile(e) => e.into(),
+            Self::Measure(e) => interrupted(e),
+        }
+    }
+}
+
+/// One display's channels read at the drives `profile` gives its white and greys at
+/// the meter's spot (flat field included), the readings pooled with its log into its
+/// primaries and ramps ([`pool`]), the greys read whole added to its composites.
+/// Returns the readings taken.
+fn read_greys_of(
+    info: &DisplayInfo,
+    m: &mut MeasuredDisplay,
+    profile: &DisplayProfile,
+    rig: &mut Rig<'_>,
+    pass: &GreyPass<'_>,
+    opts: &CommissionOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<u32, GreyPassError> {
+    let noise = rig.meter.info().noise;
+    let prepared =
+        PreparedProfile::new(profile, &ApplyOptions::default()).map_err(GreyPassError::Profile)?;
+    let mut mopts = opts.measure.clone();
+    mopts.budget = pass.budget;
+    let targets = GreyTargets {
+        prepared: &prepared,
+        white: Xyz::from_array(profile.target_white_xyz_cd_m2),
+        levels: pass.levels,
+        bit_depth: m.measurement.bit_depth,
+        black: m.measurement.black,
+        primaries: m.measurement.primaries,
+        ramp_drives: std::array::from_fn(|c| m.measurement.ramps[c].iter().map(|s| s.0).collect()),
+        whole_repeats: pass.whole_repeats,
+    };
+    let read = read_grey_drives(rig, &m.measurement.key, info.id, &targets, &mopts, progress)
+        .map_err(GreyPassError::Measure)?;
+    let readings = read.readings;
+    m.log.samples.extend(read.samples);
+    let (primaries, ramps) = pool(&m.log, m.measurement.black, m.measurement.primaries, noise);
+    (m.measurement.primaries, m.measurement.ramps) = (primaries, ramps);
+    m.measurement.composites.extend(read.composites);
+    m.measurement.readings += readings;
+    m.log.readings += readings;
+    Ok(readings)
 }
 
 /// The grey levels worth reading with a meter reliable down to `limit_cd_m2`: every

@@ -6,6 +6,7 @@ use std::path::Path;
 
 use lumiwall_calib::camera::{Checkpoint, FlatFieldOptions, FlatFieldOutcome, measure_flat_fields};
 use lumiwall_calib::commission::CommissionOutcome;
+use lumiwall_calib::commission::final_white::resample_at_final_white;
 use lumiwall_calib::spatial::{
     GridOptions, SpatialReport, Truth, Uniformity, UniformityCost, apply_uniformity, verify_grid,
 };
@@ -16,7 +17,7 @@ use lumiwall_devices::sim::VirtualCamera;
 use lumiwall_profiles::{DisplayProfile, ProfileSet};
 
 use crate::CliError;
-use crate::cmd_commission::UniformityArg;
+use crate::cmd_commission::{CommissionArgs, NoiseArg, UniformityArg};
 
 use crate::cmd_commission::CAMERA_FILE;
 
@@ -95,28 +96,28 @@ pub(crate) const CAMERA_RUN_DIR: &str = "camera-run";
 pub(crate) fn run(
     station: &mut Station,
     outcome: &CommissionOutcome,
-    out: &Path,
+    args: &CommissionArgs,
     choice: &str,
-    noiseless: bool,
-    uniformity: UniformityArg,
-    resume: bool,
 ) -> Result<(), CliError> {
+    let out = args.out.as_path();
+    let noiseless = matches!(args.meter.noise, NoiseArg::None);
+    let resume = args.resume;
     let _lock =
         FolderLock::acquire(out, "camera stage").map_err(|e| CliError::input(e.to_string()))?;
     let mut cam = open_camera(station, choice, noiseless)?;
     let displays = station.displays();
-    let mut profiles = outcome.solution.profiles.clone();
+    let profiles = &outcome.solution.profiles;
     let grid = GridOptions::default();
     let virtual_wall = choice == "virtual";
     let before = virtual_wall
-        .then(|| verify_grid(&mut Truth(&station.wall), &displays, &profiles, &grid))
+        .then(|| verify_grid(&mut Truth(&station.wall), &displays, profiles, &grid))
         .transpose()
         .map_err(CliError::failure)?;
     let flats = measure_flat_fields(
         cam.as_mut(),
         &mut station.rig(),
         &displays,
-        &profiles,
+        profiles,
         &FlatFieldOptions {
             checkpoint: Some(Checkpoint::new(out.join(CAMERA_RUN_DIR))),
             resume,
@@ -130,20 +131,11 @@ pub(crate) fn run(
             out.join(CAMERA_RUN_DIR).display()
         ))
     })?;
-    for (p, f) in profiles.iter_mut().zip(&flats.displays) {
-        p.flat_field = Some(f.flat.clone());
-    }
-    let wf = station.wall.wall_file();
-    let mode = match uniformity {
+    let mode = match args.uniformity {
         UniformityArg::Strict => Uniformity::Strict,
         UniformityArg::Perceptual => Uniformity::PERCEPTUAL_DEFAULT,
     };
-    let cost = apply_uniformity(
-        &mut profiles,
-        mode,
-        [wf.tiles.cols, wf.tiles.rows],
-        [wf.tiles.width_m, wf.tiles.height_m],
-    );
+    let (profiles, cost) = final_profiles(station, outcome, args, &flats, mode)?;
     print_stage(&flats, cost, mode);
     let after = virtual_wall
         .then(|| verify_grid(&mut Truth(&station.wall), &displays, &profiles, &grid))
@@ -160,15 +152,73 @@ pub(crate) fn run(
         );
     }
     save(out, &outcome.wall, &profiles, &flats)?;
-    let tiles = [wf.tiles.cols, wf.tiles.rows];
     append_report(
         out,
         &flats,
         cost,
         mode,
         before.as_ref().zip(after.as_ref()),
-        tiles,
+        tile_grid(station),
     )
+}
+
+/// The wall's tile grid (columns, rows).
+fn tile_grid(station: &Station) -> [u32; 2] {
+    let wf = station.wall.wall_file();
+    [wf.tiles.cols, wf.tiles.rows]
+}
+
+/// The profiles the camera stage writes: the flat fields and the uniformity choice
+/// applied, the tone curves read again at the white that leaves
+/// ([`resample_at_final_white`]) and the wall solved again, then the flat fields and
+/// the uniformity applied to the new solution; with what the uniformity cost.
+fn final_profiles(
+    station: &mut Station,
+    outcome: &CommissionOutcome,
+    args: &CommissionArgs,
+    flats: &FlatFieldOutcome,
+    mode: Uniformity,
+) -> Result<(Vec<DisplayProfile>, UniformityCost), CliError> {
+    let tiles = tile_grid(station);
+    let wf = station.wall.wall_file();
+    let tile_m = [wf.tiles.width_m, wf.tiles.height_m];
+    let mut profiles = outcome.solution.profiles.clone();
+    with_flat_fields(&mut profiles, flats, mode, tiles, tile_m);
+    let displays = station.displays();
+    let resampled = resample_at_final_white(
+        &displays,
+        &mut station.rig(),
+        outcome,
+        &profiles,
+        &args.commission_options()?,
+        &mut |_| {},
+    )
+    .map_err(|e| CliError::failure(e.to_string()))?;
+    if resampled.readings > 0 {
+        println!(
+            "tone curves read again at the final white: {} readings over the wall, wall solved \
+             again",
+            resampled.readings
+        );
+    }
+    let mut profiles = resampled.outcome.solution.profiles;
+    let cost = with_flat_fields(&mut profiles, flats, mode, tiles, tile_m);
+    Ok((profiles, cost))
+}
+
+/// Puts each display's flat field into its profile and applies the uniformity choice
+/// (`tiles`: the wall's tile grid, `tile_m` a tile's size in metres).
+fn with_flat_fields(
+    profiles: &mut [DisplayProfile],
+    flats: &FlatFieldOutcome,
+    mode: Uniformity,
+    tiles: [u32; 2],
+    tile_m: [f64; 2],
+) -> UniformityCost {
+    for (p, f) in profiles.iter_mut().zip(&flats.displays) {
+        p.flat_field = Some(f.flat.clone());
+    }
+    apply_uniformity(profiles, mode, tiles, tile_m)
 }
 
 /// Appends the camera stage to `report.md` and writes its pictures beside it: the

@@ -209,7 +209,7 @@ pub(crate) struct CommissionArgs {
     wall: PathBuf,
     /// Output folder: profiles, report and the run folder (for --resume).
     #[arg(long)]
-    out: PathBuf,
+    pub(crate) out: PathBuf,
     #[command(flatten)]
     solve: SolveArgs,
     #[command(flatten)]
@@ -234,7 +234,7 @@ pub(crate) struct CommissionArgs {
     grey_levels: Option<GreyLevels>,
     /// Continue an interrupted run from the measurements saved in OUT/run.
     #[arg(long)]
-    resume: bool,
+    pub(crate) resume: bool,
     /// A cold wall: before measuring, read the first display's white until its
     /// luminance changes by less than 0.05 % over 120 readings (printed as it goes), so
     /// that the first and the last display are measured at the same lamp state.
@@ -293,7 +293,7 @@ impl CommissionArgs {
         }
     }
 
-    fn commission_options(&self) -> Result<CommissionOptions, CliError> {
+    pub(crate) fn commission_options(&self) -> Result<CommissionOptions, CliError> {
         Ok(CommissionOptions {
             measure: MeasureOptions {
                 budget: self.budget,
@@ -531,16 +531,7 @@ fn camera_stage(
     args: &CommissionArgs,
     camera: &str,
 ) -> Result<(), CliError> {
-    let noiseless = matches!(args.meter.noise, NoiseArg::None);
-    crate::cmd_camera::run(
-        station,
-        outcome,
-        &args.out,
-        camera,
-        noiseless,
-        args.uniformity,
-        args.resume,
-    )
+    crate::cmd_camera::run(station, outcome, args, camera)
 }
 
 /// Opens the camera once before the meter starts, so a missing or unusable camera is

@@ -6,6 +6,7 @@ mod support;
 
 mod commission_heyewall;
 mod commission_resume;
+mod final_white;
 mod meter_matrix;
 mod post_roundtrip;
 mod recalibrate;

@@ -53,6 +53,7 @@ fn commission_with_the_virtual_camera_writes_flat_fields_and_passes_a_looser_gri
         .assert()
         .success()
         .stdout(contains("camera stage:"))
+        .stdout(contains("tone curves read again at the final white"))
         .stdout(contains("after the flat field:"));
     assert!(out.join("camera.json").is_file());
     // `--resume` takes the finished camera stage from its checkpoint: no capture for
