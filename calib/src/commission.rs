@@ -331,12 +331,8 @@ pub fn commission(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<CommissionOutcome, CommissionError> {
     let _lock = FolderLock::acquire(out_dir, &format!("commission of wall {wall}"))?;
-    let limit = opts
-        .measure
-        .low_light_limit_cd_m2
-        .unwrap_or_else(|| rig.meter.info().min_reliable_cd_m2);
     let opts = &CommissionOptions {
-        grey_levels: usable_grey_levels(&opts.grey_levels, limit, rig.meter.info().noise.is_some()),
+        grey_levels: grey_levels_for(opts, rig),
         ..opts.clone()
     };
     let (mut measured, resumed) = measure_wall(wall, displays, rig, out_dir, opts, progress)?;
@@ -463,6 +459,17 @@ fn read_greys_of(
     m.measurement.readings += readings;
     m.log.readings += readings;
     Ok(readings)
+}
+
+/// The grey levels of `opts` worth reading with the rig's meter ([`usable_grey_levels`]
+/// at its low-light limit, or the one `opts` sets).
+fn grey_levels_for(opts: &CommissionOptions, rig: &Rig<'_>) -> Vec<GreyLevel> {
+    let info = rig.meter.info();
+    let limit = opts
+        .measure
+        .low_light_limit_cd_m2
+        .unwrap_or(info.min_reliable_cd_m2);
+    usable_grey_levels(&opts.grey_levels, limit, info.noise.is_some())
 }
 
 /// The grey levels worth reading with a meter reliable down to `limit_cd_m2`: every

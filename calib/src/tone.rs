@@ -9,9 +9,9 @@
 //!    monotone; each pooled block becomes one knot at its weighted mean drive.
 //! 3. A monotone cubic through the knots (the not-a-knot cubic spline's slopes limited
 //!    by Hyman's monotonicity filter; PCHIP, as SciPy's `PchipInterpolator`, below four
-//!    knots) in a perceptual domain `u = intensity^(1/γ̂)`, with γ̂ the least-squares log–log slope of the knots. A pure
-//!    power law is then a straight line in `u` and is recovered exactly; S-curves are
-//!    close to straight. The power map is monotone, so the curve stays monotone.
+//!    knots) in a perceptual domain `u = intensity^(1/γ̂)`, with γ̂ the least-squares
+//!    log–log slope of the knots. A pure power law is then a straight line in `u` and
+//!    is recovered exactly; S-curves are close to straight. The power map is monotone, so the curve stays monotone.
 //! 4. The inverse LUT is built by bisection on that interpolant: entry `i` is the lowest
 //!    drive whose intensity reaches `i/(n−1)` (flat regions map to their lowest drive).
 //!

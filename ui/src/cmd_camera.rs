@@ -13,7 +13,7 @@ use lumiwall_calib::spatial::{
 use lumiwall_calib::station::Station;
 use lumiwall_core::files::{FolderLock, write_atomic};
 use lumiwall_devices::Camera;
-use lumiwall_devices::sim::VirtualCamera;
+use lumiwall_devices::sim::{VirtualCamera, WallFile};
 use lumiwall_profiles::{DisplayProfile, ProfileSet};
 
 use crate::CliError;
@@ -179,11 +179,9 @@ fn final_profiles(
     flats: &FlatFieldOutcome,
     mode: Uniformity,
 ) -> Result<(Vec<DisplayProfile>, UniformityCost), CliError> {
-    let tiles = tile_grid(station);
-    let wf = station.wall.wall_file();
-    let tile_m = [wf.tiles.width_m, wf.tiles.height_m];
+    let wall = station.wall.wall_file();
     let mut profiles = outcome.solution.profiles.clone();
-    with_flat_fields(&mut profiles, flats, mode, tiles, tile_m);
+    with_flat_fields(&mut profiles, flats, mode, &wall);
     let displays = station.displays();
     let resampled = resample_at_final_white(
         &displays,
@@ -202,23 +200,23 @@ fn final_profiles(
         );
     }
     let mut profiles = resampled.outcome.solution.profiles;
-    let cost = with_flat_fields(&mut profiles, flats, mode, tiles, tile_m);
+    let cost = with_flat_fields(&mut profiles, flats, mode, &wall);
     Ok((profiles, cost))
 }
 
 /// Puts each display's flat field into its profile and applies the uniformity choice
-/// (`tiles`: the wall's tile grid, `tile_m` a tile's size in metres).
+/// over the tiles of `wall`.
 fn with_flat_fields(
     profiles: &mut [DisplayProfile],
     flats: &FlatFieldOutcome,
     mode: Uniformity,
-    tiles: [u32; 2],
-    tile_m: [f64; 2],
+    wall: &WallFile,
 ) -> UniformityCost {
     for (p, f) in profiles.iter_mut().zip(&flats.displays) {
         p.flat_field = Some(f.flat.clone());
     }
-    apply_uniformity(profiles, mode, tiles, tile_m)
+    let t = &wall.tiles;
+    apply_uniformity(profiles, mode, [t.cols, t.rows], [t.width_m, t.height_m])
 }
 
 /// Appends the camera stage to `report.md` and writes its pictures beside it: the

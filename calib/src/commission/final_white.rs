@@ -16,8 +16,8 @@ use lumiwall_devices::DisplayInfo;
 use lumiwall_profiles::DisplayProfile;
 
 use super::{
-    CommissionError, CommissionOptions, CommissionOutcome, GreyPass, finish, read_greys_of,
-    usable_grey_levels,
+    CommissionError, CommissionOptions, CommissionOutcome, GreyPass, finish, grey_levels_for,
+    read_greys_of,
 };
 use crate::measure::grey_drives::readings_needed;
 use crate::measure::{Progress, Rig};
@@ -46,12 +46,7 @@ pub fn resample_at_final_white(
     opts: &CommissionOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Resampled, CommissionError> {
-    let info = rig.meter.info();
-    let limit = opts
-        .measure
-        .low_light_limit_cd_m2
-        .unwrap_or(info.min_reliable_cd_m2);
-    let levels = usable_grey_levels(&opts.grey_levels, limit, info.noise.is_some());
+    let levels = grey_levels_for(opts, rig);
     if levels.is_empty() {
         return Ok(Resampled {
             outcome: outcome.clone(),
@@ -60,7 +55,11 @@ pub fn resample_at_final_white(
     }
     let pass = GreyPass {
         levels: &levels,
-        budget: readings_needed(&levels, info.noise.as_ref(), opts.measure.budget),
+        budget: readings_needed(
+            &levels,
+            rig.meter.info().noise.as_ref(),
+            opts.measure.budget,
+        ),
         whole_repeats: 0,
     };
     let mut measured = outcome.measured.clone();
