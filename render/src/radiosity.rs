@@ -11,8 +11,8 @@
 //! sky with sun), represents receivers with a constant, linear or automatic basis,
 //! and spends shadow rays only on partially visible links. An independent Monte
 //! Carlo path tracer (`montecarlo`) checks its error estimate.
-//!
-//! Not built: Hahn's simultaneous progressive refinement for animations.
+//! Animations are solved together by Hahn's simultaneous progressive refinement
+//! (`sequence`).
 
 pub mod curve;
 pub mod form_factor;
@@ -23,6 +23,7 @@ pub mod progressive;
 pub mod quadrature;
 pub mod reference;
 pub mod sensors;
+pub mod sequence;
 pub mod shaft;
 pub mod solution;
 pub mod visibility;
@@ -31,9 +32,10 @@ pub use curve::{CurvePoint, ErrorCurve, StopReason, StopRule};
 pub use hierarchical::{HierarchicalOptions, solve_hierarchical};
 pub use progressive::{ProgressiveOptions, solve_progressive};
 pub use reference::solve_dense_reference;
+pub use sequence::{KeySpacing, SequenceSolution, solve_sequence};
 
 pub use solution::{Patch, Solution, SolveStats};
-pub use visibility::{BvhOccluders, NoOccluders, SceneOccluders, Visibility};
+pub use visibility::{Both, BvhOccluders, NoOccluders, SceneOccluders, Visibility, occluders_of};
 
 use std::sync::atomic::AtomicU64;
 use std::time::Instant;

@@ -18,13 +18,15 @@ use lumiwall_render::radiosity::sensors::{
     Sensor, illuminance_at_sensors, read_sensors_csv, write_sensor_readings_csv,
 };
 use lumiwall_render::radiosity::{
-    BvhOccluders, CurvePoint, HierarchicalOptions, ProgressiveOptions, SceneOccluders, Solution,
-    SolveStats, StopRule, Visibility, solve_hierarchical, solve_progressive,
+    BvhOccluders, CurvePoint, HierarchicalOptions, KeySpacing, ProgressiveOptions, Solution,
+    SolveStats, StopRule, Visibility, occluders_of, solve_hierarchical, solve_progressive,
 };
 use lumiwall_render::scene::{Scene, load_scene};
 
 use crate::CliError;
 use crate::values;
+
+mod frames;
 
 /// Radiosity solver choice.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -63,9 +65,26 @@ impl From<BasisArg> for lumiwall_render::radiosity::hierarchical::Basis {
 pub(crate) struct RenderArgs {
     /// Scene file (TOML, see fixtures/scenes/README.md).
     scene: PathBuf,
-    /// Solver.
-    #[arg(long, value_enum, default_value = "radiosity")]
-    method: Method,
+    /// Solver (default: radiosity; with --frames: progressive, the only one that
+    /// solves frames together).
+    #[arg(long, value_enum)]
+    method: Option<Method>,
+    /// Frames of an animated scene to solve together, `A..B` with both ends included
+    /// (e.g. `0..59`), by simultaneous progressive refinement (Hahn 2000): one image
+    /// and PLY per frame, `OUT_STEM_FFFF.exr`.
+    #[arg(long, value_parser = frames::frame_range)]
+    frames: Option<(usize, usize)>,
+    /// With --frames: also solve every frame on its own (same mesh and target) and
+    /// print both side by side: time, estimated error, and how far the two solutions
+    /// lie apart; the frames alone are written as `OUT_STEM_alone_FFFF.exr`.
+    #[arg(long, requires = "frames")]
+    per_frame: bool,
+    /// With --frames: test visibility between moving things at every N-th frame and
+    /// bisect where two tests differ (Hahn 2000, 4.3.4), `1` for every frame (exact),
+    /// or `auto` (default): the most frames over which nothing moves further than
+    /// half an element edge, at most 8.
+    #[arg(long, value_parser = frames::key_spacing, requires = "frames")]
+    visibility_keys: Option<KeySpacing>,
     /// Requested relative error, e.g. `1%` or `0.01` (between 0 and 100 %).
     #[arg(long, allow_negative_numbers = true, default_value = "1%", value_parser = values::fraction)]
     error: f64,
@@ -111,18 +130,9 @@ fn load(path: &Path) -> Result<Scene, CliError> {
     Ok(scene)
 }
 
-/// Shadow rays test every polygon up to this many: a loop over a few polygons beats
-/// the BVH's traversal (the Cornell box, 20 polygons, at 1 %: 1.1 s against 1.45 s),
-/// and a scene of thousands needs the BVH (the brute force costs n per ray).
-const BRUTE_FORCE_MAX_POLYGONS: usize = 64;
-
 /// The visibility queries for `scene`: brute force for a few polygons, else a BVH.
 fn occluders_for(scene: &Scene) -> Box<dyn Visibility> {
-    if scene.polygons.len() <= BRUTE_FORCE_MAX_POLYGONS {
-        Box::new(SceneOccluders::new(scene))
-    } else {
-        Box::new(BvhOccluders::new(scene))
-    }
+    occluders_of(scene, &|_| true)
 }
 
 /// Solves `scene` with the solver and options of `args`.
@@ -134,7 +144,7 @@ fn solve(scene: &Scene, args: &RenderArgs) -> Result<Solution, CliError> {
     };
     let occluders = occluders_for(scene);
     let occluders = occluders.as_ref();
-    let sol = match args.method {
+    let sol = match args.method.unwrap_or(Method::Radiosity) {
         Method::Radiosity => {
             let opts = HierarchicalOptions {
                 stop,
@@ -178,6 +188,9 @@ fn percent_errors(p: &CurvePoint) -> [f64; 3] {
 
 /// Runs `lumiwall render`.
 pub(crate) fn run(args: RenderArgs) -> Result<(), CliError> {
+    if let Some(range) = args.frames {
+        return frames::run(&args, range);
+    }
     check_outputs(&args)?;
     let sensors = args.sensors.as_deref().map(read_sensors_csv).transpose()?;
     let scene = load(&args.scene)?;

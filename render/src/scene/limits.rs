@@ -28,6 +28,10 @@ pub const MAX_UNIT_M: f64 = 1e3;
 /// areas (≤ 1e12 m² per axis pair) and fluxes stay finite in f64 and f32.
 pub const MAX_COORDINATE_M: f64 = 1e6;
 
+/// Most frames an animation may have (about an hour at 30 frames per second); the
+/// sequence solver also checks its memory for the frames asked for before allocating.
+pub const MAX_FRAMES: usize = 100_000;
+
 /// Most pixels a camera may have: 2^26 (e.g. 8192 × 8192). The image and its depth
 /// buffer take 20 bytes a pixel, so this bounds them at about 1.3 GB.
 pub const MAX_CAMERA_PIXELS: u64 = 1 << 26;

@@ -6,6 +6,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
+use super::animation::{Animation, AnimationFile, animation_of};
 use super::check::{CheckReport, check_polygons};
 use super::error::SceneError;
 use super::geom::V3;
@@ -42,6 +43,8 @@ pub struct SceneFile {
     pub camera: Option<CameraFile>,
     /// Daylight: a CIE sky (with sun for the clear sky).
     pub sky: Option<SkyFile>,
+    /// Keyframed rigid-body motion of objects and lights.
+    pub animation: Option<AnimationFile>,
 }
 
 /// The `[sky]` entry: a CIE standard sky, discretised into distant cells.
@@ -701,12 +704,23 @@ fn sky_model(s: &SkyFile) -> Result<crate::photometry::Sky, SceneError> {
     }
 }
 
-/// Parses a scene from TOML text; `base_dir` resolves the OBJ path.
+/// Parses a scene from TOML text; `base_dir` resolves the OBJ path. An `[animation]`
+/// entry is checked and left out: the scene is the base pose (see
+/// [`parse_animated_scene_toml`]).
 pub fn parse_scene_toml(
     text: &str,
     base_dir: &Path,
     source: &Path,
 ) -> Result<(Scene, CheckReport), SceneError> {
+    parse_animated_scene_toml(text, base_dir, source).map(|(s, _, r)| (s, r))
+}
+
+/// Parses a scene and its animation, if it has one, from TOML text.
+pub fn parse_animated_scene_toml(
+    text: &str,
+    base_dir: &Path,
+    source: &Path,
+) -> Result<(Scene, Option<Animation>, CheckReport), SceneError> {
     let file: SceneFile = toml::from_str(text).map_err(|e| SceneError::Toml {
         path: source.to_path_buf(),
         message: e.to_string(),
@@ -746,16 +760,19 @@ pub fn parse_scene_toml(
         .map(|c| camera(c, file.unit_m))
         .transpose()?;
     let sky = file.sky.as_ref().map(daylight).transpose()?;
-    Ok((
-        Scene {
-            polygons,
-            materials: materials.list,
-            lights,
-            camera,
-            sky,
-        },
-        report,
-    ))
+    let scene = Scene {
+        polygons,
+        materials: materials.list,
+        lights,
+        camera,
+        sky,
+    };
+    let animation = file
+        .animation
+        .as_ref()
+        .map(|a| animation_of(a, &scene, file.unit_m))
+        .transpose()?;
+    Ok((scene, animation, report))
 }
 
 /// The scene's materials, in name order, and their indices by name.
@@ -983,12 +1000,19 @@ fn camera_size(c: &CameraFile) -> Result<(), SceneError> {
 
 /// Loads a scene file from disk.
 pub fn load_scene(path: &Path) -> Result<(Scene, CheckReport), SceneError> {
+    load_animated_scene(path).map(|(s, _, r)| (s, r))
+}
+
+/// Loads a scene file with its animation, if it has one.
+pub fn load_animated_scene(
+    path: &Path,
+) -> Result<(Scene, Option<Animation>, CheckReport), SceneError> {
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
         source,
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
-    parse_scene_toml(&text, base, path)
+    parse_animated_scene_toml(&text, base, path)
 }
 
 #[cfg(test)]

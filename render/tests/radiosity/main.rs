@@ -14,4 +14,5 @@ mod furnace;
 mod lights;
 mod scene;
 mod senders;
+mod sequence;
 mod visibility;

@@ -12,9 +12,10 @@ import mitsuba as mi
 mi.set_variant("llvm_ad_mono")
 
 
-def build(toml_path):
+def build(toml_path, move=None):
     """The Mitsuba scene of a lumiwall fixture TOML + OBJ (one shape per OBJ object,
-    written to a temporary folder), and its camera."""
+    written to a temporary folder), and its camera. `move(object, vertex)` places a
+    vertex (file units) where an animation frame has it (animation_table.py)."""
     fix = os.path.dirname(os.path.abspath(toml_path))
     cfg = tomllib.load(open(toml_path, "rb"))
     unit = cfg["unit_m"]
@@ -24,7 +25,7 @@ def build(toml_path):
         t = line.split()
         if not t: continue
         if t[0] == "o": name = t[1]; objs[name] = []
-        elif t[0] == "v": allv.append([float(x) * unit for x in t[1:4]])
+        elif t[0] == "v": allv.append([float(x) for x in t[1:4]])
         elif t[0] == "f": objs[name].append([allv[int(i.split('/')[0]) - 1] for i in t[1:]])
 
     def mat_of(obj):
@@ -38,7 +39,9 @@ def build(toml_path):
         with open(p, "w") as f:
             k = 1
             for face in faces:
-                for v in face: f.write("v %.9g %.9g %.9g\n" % tuple(v))
+                for v in face:
+                    v = move(obj, v) if move else v
+                    f.write("v %.9g %.9g %.9g\n" % tuple(x * unit for x in v))
                 f.write("f " + " ".join(str(k + i) for i in range(len(face))) + "\n"); k += len(face)
         m = cfg["materials"][mat_of(obj)]
         rho = m["reflectance_xyz"][1] if "reflectance_xyz" in m else m["reflectance_y"]

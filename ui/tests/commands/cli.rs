@@ -367,6 +367,78 @@ fn render_writes_the_curve_mesh_and_image_of_the_cornell_box() {
 }
 
 #[test]
+fn render_frames_solves_an_animation_together_and_beside_each_frame_alone() {
+    let tmp = TempDir::new().unwrap();
+    let out = tmp.path().join("anim.exr");
+    let run = lumiwall()
+        .args([
+            "render",
+            "--frames",
+            "10..12",
+            "--per-frame",
+            "--error",
+            "10%",
+        ])
+        .args(["--max-edge-m", "0.1", "--out"])
+        .arg(&out)
+        .arg(fixture("scenes/cornell/cornell_animated.toml"))
+        .assert()
+        .success()
+        .stdout(contains(
+            "animation: frames 10..12 (3 frames at 30 fps), moving: short_block, light",
+        ))
+        .stdout(contains("3 distinct poses"))
+        .stdout(contains("seq_vs_alone"))
+        .stdout(contains("each frame after the first adds"));
+    let stdout = String::from_utf8_lossy(&run.get_output().stdout).into_owned();
+    let rows = stdout
+        .lines()
+        .filter(|l| {
+            l.split_whitespace()
+                .next()
+                .is_some_and(|w| ["10", "11", "12"].contains(&w))
+        })
+        .count();
+    assert_eq!(rows, 3, "one table row per frame:\n{stdout}");
+    for f in ["0010", "0011", "0012"] {
+        for name in [format!("anim_{f}.exr"), format!("anim_alone_{f}.ply")] {
+            assert!(tmp.path().join(&name).is_file(), "{name}");
+        }
+    }
+}
+
+#[test]
+fn render_frames_refuses_a_still_scene_a_range_past_the_end_and_the_hierarchical_solver() {
+    let tmp = TempDir::new().unwrap();
+    let out = tmp.path().join("anim.exr");
+    let animated = fixture("scenes/cornell/cornell_animated.toml");
+    let render = |scene: &Path, extra: &[&str]| {
+        lumiwall()
+            .args(["render", "--out"])
+            .arg(&out)
+            .args(extra)
+            .arg(scene)
+            .assert()
+    };
+    render(
+        &fixture("scenes/cornell/cornell.toml"),
+        &["--frames", "0..1"],
+    )
+    .failure()
+    .stderr(contains("has no [animation] entry"));
+    render(&animated, &["--frames", "50..60"])
+        .failure()
+        .stderr(contains("the animation has frames 0..59"));
+    render(&animated, &["--frames", "0..1", "--method", "radiosity"])
+        .failure()
+        .stderr(contains("leave out --method radiosity"));
+    render(&animated, &["--frames", "5..2"])
+        .code(2)
+        .stderr(contains("must not come after the last"));
+    render(&animated, &["--per-frame"]).code(2);
+}
+
+#[test]
 fn render_rejects_a_missing_scene_and_bad_error_and_time_values() {
     lumiwall()
         .args(["render", "no-such-scene.toml"])
