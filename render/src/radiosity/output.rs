@@ -40,6 +40,26 @@ pub fn write_curve_csv(curve: &ErrorCurve, path: &Path) -> Result<(), RadiosityE
     save(path, curve.to_csv().as_bytes())
 }
 
+/// Writes an animation's exitance in time (`SequenceSolution::exitance_in_time`) as
+/// CSV: `element,frame,x_lm_m2,y_lm_m2,z_lm_m2`, one line per knot, `frame` the
+/// frame number (`frames[knot]`), elements in the order of the frames' patches.
+pub fn write_time_curves_csv(
+    frames: &[usize],
+    curves: &[super::sequence::TimeCurve],
+    path: &Path,
+) -> Result<(), RadiosityError> {
+    let mut csv = String::from("element,frame,x_lm_m2,y_lm_m2,z_lm_m2\n");
+    for (i, c) in curves.iter().enumerate() {
+        for (k, v) in &c.knots {
+            csv += &format!(
+                "{i},{},{:.6e},{:.6e},{:.6e}\n",
+                frames[*k], v[0], v[1], v[2]
+            );
+        }
+    }
+    save(path, csv.as_bytes())
+}
+
 /// Per-vertex luminance: for every patch corner the area-weighted mean luminance
 /// (XYZ, Y in cd/m²) of the patches of the same polygon that share that corner.
 pub fn vertex_luminance(sol: &Solution) -> Vec<Vec<[f64; 3]>> {

@@ -14,6 +14,7 @@
 mod coherence;
 mod frames;
 mod gains;
+pub mod time_curve;
 
 use rayon::prelude::*;
 
@@ -24,6 +25,7 @@ use coherence::{key_spacing, largest_step_m};
 pub use frames::MAX_SEQUENCE_STATE_BYTES;
 use frames::{FramePlan, PoseGeometry, SweptBoxes, check_state_size, moved_elem, swept_per_object};
 use gains::ShotContext;
+pub use time_curve::TimeCurve;
 
 use super::curve::{CurvePoint, ErrorCurve, StopReason, StopRule};
 use super::progressive::{
@@ -55,6 +57,42 @@ pub struct SequenceSolution {
     pub moving_elements: usize,
     /// Poses between two visibility keys (1: every pose tested).
     pub key_spacing: usize,
+}
+
+impl SequenceSolution {
+    /// Every element's exitance over the frames as a piecewise-linear function of
+    /// time (Hahn 2000, 4.4), each frame within `relative_tolerance` of the dimmest
+    /// frame's area-mean luminous exitance (per channel).
+    pub fn exitance_in_time(&self, relative_tolerance: f64) -> Vec<TimeCurve> {
+        let tolerance = relative_tolerance * self.dimmest_mean_exitance();
+        let elements = self.solutions.first().map_or(0, |s| s.patches.len());
+        (0..elements)
+            .map(|i| {
+                let values: Vec<[f64; 3]> = self
+                    .solutions
+                    .iter()
+                    .map(|s| s.patches[i].exitance_xyz)
+                    .collect();
+                time_curve::fit(&values, tolerance)
+            })
+            .collect()
+    }
+
+    /// The smallest over frames of the area-mean luminous exitance (lm/m²).
+    fn dimmest_mean_exitance(&self) -> f64 {
+        self.solutions
+            .iter()
+            .map(|s| {
+                let area: f64 = s.patches.iter().map(|p| p.area_m2).sum();
+                let flux: f64 = s
+                    .patches
+                    .iter()
+                    .map(|p| p.area_m2 * p.exitance_xyz[1])
+                    .sum();
+                flux / area
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
 }
 
 /// Solves frames `frames` of `anim` over `base` together, testing visibility

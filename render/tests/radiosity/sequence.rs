@@ -94,6 +94,7 @@ fn visibility_sampled_at_key_frames_stays_within_the_agreement_of_converged_solv
         "worst frame differs by {:.3} %",
         100.0 * worst
     );
+    time_curves_hold_every_frame(&seq);
 }
 
 /// A floor and a wall lit by a spot that swings and moves, with a panel gliding
@@ -185,4 +186,33 @@ fn frames_that_repeat_a_pose_are_solved_once() {
     }
     let moving = solve_sequence(&scene, &anim, &[3, 4, 5, 6], &opts, KeySpacing::Auto).unwrap();
     assert_eq!(moving.distinct_poses, 3, "frames 3 and 4 share a pose");
+}
+
+/// The piecewise-linear exitance in time reproduces every frame within its tolerance
+/// and needs fewer values than the frames.
+fn time_curves_hold_every_frame(seq: &SequenceSolution) {
+    let relative = 1e-3;
+    let curves = seq.exitance_in_time(relative);
+    let dimmest = seq
+        .solutions
+        .iter()
+        .map(|s| {
+            let a: f64 = s.patches.iter().map(|p| p.area_m2).sum();
+            s.patches
+                .iter()
+                .map(|p| p.area_m2 * p.exitance_xyz[1])
+                .sum::<f64>()
+                / a
+        })
+        .fold(f64::INFINITY, f64::min);
+    for (i, curve) in curves.iter().enumerate() {
+        for (k, sol) in seq.solutions.iter().enumerate() {
+            let (got, want) = (curve.at(k), sol.patches[i].exitance_xyz);
+            for c in 0..3 {
+                assert!((got[c] - want[c]).abs() <= relative * dimmest * (1.0 + 1e-12));
+            }
+        }
+    }
+    let knots: usize = curves.iter().map(|c| c.knots.len()).sum();
+    assert!(knots < curves.len() * seq.frames.len(), "{knots} knots");
 }

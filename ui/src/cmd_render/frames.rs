@@ -6,7 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use lumiwall_render::radiosity::output::{render_image, write_exr, write_ply};
+use lumiwall_render::radiosity::output::{
+    render_image, write_exr, write_ply, write_time_curves_csv,
+};
 use lumiwall_render::radiosity::{
     KeySpacing, ProgressiveOptions, SequenceSolution, Solution, StopRule, solve_progressive,
     solve_sequence,
@@ -64,7 +66,8 @@ pub(crate) fn run(args: &RenderArgs, (first, last): (usize, usize)) -> Result<()
     let (scene, anim) = load(&args.scene)?;
     check_range(&anim, first, last)?;
     let frames: Vec<usize> = (first..=last).collect();
-    let paths = frame_paths(&args.out, &frames, args.per_frame);
+    let mut paths = frame_paths(&args.out, &frames, args.per_frame);
+    paths.push(time_path(&args.out));
     values::check_output_files(
         "--out",
         &paths.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
@@ -90,6 +93,33 @@ pub(crate) fn run(args: &RenderArgs, (first, last): (usize, usize)) -> Result<()
         print_cost_summary(&seq, s);
     }
     write_frames(&scene, &anim, &seq, singles.as_deref(), &args.out)?;
+    write_time_curves(&seq, &time_path(&args.out))?;
+    Ok(())
+}
+
+/// How closely the piecewise-linear curves in time follow every frame: a tenth of a
+/// percent of the dimmest frame's mean exitance.
+const TIME_CURVE_TOLERANCE: f64 = 1e-3;
+
+/// `OUT`'s exitance over time: `STEM.time.csv`.
+fn time_path(out: &Path) -> PathBuf {
+    with_ext(out, ".time.csv")
+}
+
+/// Writes every element's exitance as knots of a piecewise-linear function of time
+/// and says how many knots that took.
+fn write_time_curves(seq: &SequenceSolution, path: &Path) -> Result<(), CliError> {
+    let curves = seq.exitance_in_time(TIME_CURVE_TOLERANCE);
+    write_time_curves_csv(&seq.frames, &curves, path)?;
+    let knots: usize = curves.iter().map(|c| c.knots.len()).sum();
+    let per_element = knots as f64 / curves.len().max(1) as f64;
+    println!(
+        "exitance in time: {per_element:.1} knots per element over {} frames ({:.0} % of one value per frame), each frame within {:.1} % of the dimmest frame's mean; wrote {}",
+        seq.frames.len(),
+        100.0 * per_element / seq.frames.len() as f64,
+        100.0 * TIME_CURVE_TOLERANCE,
+        path.display()
+    );
     Ok(())
 }
 

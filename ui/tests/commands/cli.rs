@@ -389,7 +389,8 @@ fn render_frames_solves_an_animation_together_and_beside_each_frame_alone() {
         ))
         .stdout(contains("3 distinct poses"))
         .stdout(contains("seq_vs_alone"))
-        .stdout(contains("each frame after the first adds"));
+        .stdout(contains("each frame after the first adds"))
+        .stdout(contains("knots per element over 3 frames"));
     let stdout = String::from_utf8_lossy(&run.get_output().stdout).into_owned();
     let rows = stdout
         .lines()
@@ -405,6 +406,12 @@ fn render_frames_solves_an_animation_together_and_beside_each_frame_alone() {
             assert!(tmp.path().join(&name).is_file(), "{name}");
         }
     }
+    let time = std::fs::read_to_string(tmp.path().join("anim.time.csv")).unwrap();
+    assert!(time.starts_with("element,frame,x_lm_m2,y_lm_m2,z_lm_m2\n"));
+    assert!(
+        time.lines().any(|l| l.starts_with("0,12,")),
+        "the last frame is a knot"
+    );
 }
 
 #[test]
