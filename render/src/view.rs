@@ -21,6 +21,7 @@
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod mesh;
+pub mod tracking;
 
 pub use mesh::{LitMesh, MeshError};
 
@@ -135,12 +136,17 @@ impl WallPlacement {
 /// The eye of a display: the viewer itself on a mono wall, half the eye separation to
 /// the left or right along the wall on a stereo one.
 pub fn eye_position(viewer: V3, eye: lumiwall_profiles::Eye, separation_m: f64) -> V3 {
-    let dx = match eye {
+    viewer + V3::new(eye_offset_m(eye, separation_m), 0.0, 0.0)
+}
+
+/// How far an eye sits from the point between the eyes along the head's x axis:
+/// −half the separation for the left eye, +half for the right, 0 for a mono wall.
+pub fn eye_offset_m(eye: lumiwall_profiles::Eye, separation_m: f64) -> f64 {
+    match eye {
         lumiwall_profiles::Eye::Mono => 0.0,
         lumiwall_profiles::Eye::Left => -0.5 * separation_m,
         lumiwall_profiles::Eye::Right => 0.5 * separation_m,
-    };
-    viewer + V3::new(dx, 0.0, 0.0)
+    }
 }
 
 /// An asymmetric frustum from an eye through a rectangle (a tile) in the scene.

@@ -106,17 +106,17 @@ fn apply_scale(
     profile: &DisplayProfile,
     frames: &mut [&mut XyzFrame],
 ) -> Result<Option<String>, CliError> {
-    scale_frames(args.luminance_scale, profile, frames)
+    scale_frames(args.luminance_scale, profile, frames).map(|(label, _)| label)
 }
 
 /// The frames scaled by `scale` for a wall whose common white is `profile`'s (an
 /// automatic scale resolved over all of them together), the scale printed; returns
-/// the label to stamp (none at 1:1).
+/// the label to stamp (none at 1:1) and the factor.
 pub(crate) fn scale_frames(
     scale: LuminanceScale,
     profile: &DisplayProfile,
     frames: &mut [&mut XyzFrame],
-) -> Result<Option<String>, CliError> {
+) -> Result<(Option<String>, f64), CliError> {
     let to_rgb = rgb_to_xyz_matrix(
         &profile.common_primaries_xy,
         &profile.target_white_xyz_cd_m2,
@@ -136,12 +136,12 @@ pub(crate) fn scale_frames(
     };
     println!("{resolved}");
     if resolved.is_true_scale() {
-        return Ok(None);
+        return Ok((None, resolved.factor));
     }
     for f in frames.iter_mut() {
         scale::scale_frame(f, resolved.factor);
     }
-    Ok(Some(resolved.label()))
+    Ok((Some(resolved.label()), resolved.factor))
 }
 
 /// `frame` with `label` (if any) in its corner, in `profile`'s target white.

@@ -72,7 +72,7 @@ pub(crate) struct RenderArgs {
     /// Frames of an animated scene to solve together, `A..B` with both ends included
     /// (e.g. `0..59`), by simultaneous progressive refinement (Hahn 2000): one image
     /// and PLY per frame, `OUT_STEM_FFFF.exr`.
-    #[arg(long, value_parser = frames::frame_range)]
+    #[arg(long, value_parser = frames::frame_range, conflicts_with = "sensors")]
     frames: Option<(usize, usize)>,
     /// With --frames: also solve every frame on its own (same mesh and target) and
     /// print both side by side: time, estimated error, and how far the two solutions

@@ -15,8 +15,9 @@ use lumiwall_render::post::scale::LuminanceScale;
 use lumiwall_render::post::wall::FrameSize;
 use lumiwall_render::post::{CodeImage, XyzFrame};
 use lumiwall_render::scene::{Camera, V3, load_scene};
+use lumiwall_render::view::tracking::{HeadPose, PoseReceiver};
 use lumiwall_render::view::{
-    DEFAULT_EYE_SEPARATION_M, LitMesh, OffAxis, WallGeometry, WallPlacement, eye_position,
+    DEFAULT_EYE_SEPARATION_M, LitMesh, OffAxis, WallGeometry, WallPlacement, eye_offset_m,
     render_tile,
 };
 
@@ -75,9 +76,25 @@ pub(crate) struct ViewArgs {
     /// eye (blocks of 16×16 pixels, what the scene changes between the sides taken
     /// out); fails above a 1 % step. Keeps every image in memory until the end.
     #[cfg(feature = "station")]
-    #[arg(long)]
+    #[arg(long, conflicts_with = "tracking")]
     seams_through_simulator: bool,
+    /// Head tracking: listen for poses on this UDP address (e.g. `0.0.0.0:7000`),
+    /// one datagram `LWPOSE 1 <seq> <x_m> <y_m> <z_m> [<qw> <qx> <qy> <qz>]` per pose
+    /// in the wall frame (render/src/view/tracking.rs), and render every display for
+    /// each pose taken into `OUT_DIR/pose_NNNN/`.
+    #[arg(long, conflicts_with = "viewer")]
+    tracking: Option<String>,
+    /// With --tracking: poses to render before stopping.
+    #[arg(long, default_value_t = 1, requires = "tracking",
+          value_parser = clap::value_parser!(u32).range(1..=MAX_TRACKED_POSES))]
+    poses: u32,
+    /// With --tracking: the longest wait for a pose, e.g. `30s`.
+    #[arg(long, default_value = "30s", requires = "tracking", value_parser = crate::values::duration)]
+    tracking_timeout: std::time::Duration,
 }
+
+/// Most poses one tracked run renders.
+const MAX_TRACKED_POSES: i64 = 1_000_000;
 
 /// Largest pixel count of one display.
 const MAX_DISPLAY_PIXELS: u64 = 8192 * 8192;
@@ -223,7 +240,7 @@ struct ViewSetup<'a> {
     raster: &'a Raster,
     place: WallPlacement,
     geometry: WallGeometry,
-    viewer: V3,
+    head: HeadPose,
     eye_separation_m: f64,
     size: (usize, usize),
 }
@@ -246,7 +263,7 @@ fn render_frames(
                 )));
             }
             let t0 = Instant::now();
-            let eye = eye_position(v.viewer, key.eye, v.eye_separation_m);
+            let eye = v.head.eye_m(eye_offset_m(key.eye, v.eye_separation_m));
             let view = v
                 .place
                 .tile_view(g, key.tile_col, key.tile_row, eye, v.size);
@@ -304,6 +321,7 @@ fn post_and_write(
     frames: Vec<(XyzFrame, f64)>,
     label: Option<&str>,
     engine: &Engine,
+    dir: &Path,
 ) -> Result<(Vec<Shown>, Vec<FrameTime>), CliError> {
     let opts = post_options(args.out_of_gamut, None, true);
     let mut kept = Vec::new();
@@ -314,9 +332,7 @@ fn post_and_write(
         let frame = stamp_scale(frame, label, profile);
         let img = engine.run(&pp, &frame)?;
         let post_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let out = args
-            .out_dir
-            .join(format!("{}.png", profile.display.file_stem()));
+        let out = dir.join(format!("{}.png", profile.display.file_stem()));
         write_png(&out, &img)?;
         let c = img.counts;
         println!(
@@ -362,24 +378,105 @@ pub(crate) fn run(args: ViewArgs) -> Result<(), CliError> {
     );
     let raster = Raster::choose(&mesh, args.cpu);
     println!("rasteriser: {}", raster.name());
-    let setup = ViewSetup {
+    let mut setup = ViewSetup {
         mesh: &mesh,
         raster: &raster,
         place,
         geometry: g,
-        viewer,
+        head: HeadPose {
+            seq: 0,
+            position_m: viewer,
+            orientation: None,
+        },
         eye_separation_m: args.eye_separation,
         size,
     };
-    let mut frames = render_frames(&setup, &profiles)?;
-    let label = {
-        let mut refs: Vec<&mut XyzFrame> = frames.iter_mut().map(|(f, _)| f).collect();
-        scale_frames(args.luminance_scale, &profiles[0], &mut refs)?
-    };
     let engine = Engine::choose(args.cpu);
-    let (kept, times) = post_and_write(&args, &profiles, frames, label.as_deref(), &engine)?;
+    if let Some(addr) = &args.tracking {
+        return run_tracked(&args, &mut setup, &profiles, &engine, addr);
+    }
+    let (frames, label, _) = render_scaled(&setup, &profiles, args.luminance_scale)?;
+    let (kept, times) = post_and_write(
+        &args,
+        &profiles,
+        frames,
+        label.as_deref(),
+        &engine,
+        &args.out_dir,
+    )?;
     println!("{}", frame_times(&times, &raster.name(), &engine.name()));
     check_seams(&args, &profiles, &kept)
+}
+
+/// Every display's frame with its raster time, the label to stamp and the factor.
+type ScaledFrames = (Vec<(XyzFrame, f64)>, Option<String>, f64);
+
+/// Every display's frame from the setup's head, scaled: the frames, the label to stamp
+/// and the factor.
+fn render_scaled(
+    setup: &ViewSetup<'_>,
+    profiles: &[DisplayProfile],
+    scale: LuminanceScale,
+) -> Result<ScaledFrames, CliError> {
+    let mut frames = render_frames(setup, profiles)?;
+    let (label, factor) = {
+        let mut refs: Vec<&mut XyzFrame> = frames.iter_mut().map(|(f, _)| f).collect();
+        scale_frames(scale, &profiles[0], &mut refs)?
+    };
+    Ok((frames, label, factor))
+}
+
+/// `--tracking`: every display rendered for each pose taken from the stream, into
+/// `OUT_DIR/pose_NNNN/`; an automatic luminance scale is resolved at the first pose
+/// and held, so that the wall does not pump as the head moves.
+fn run_tracked(
+    args: &ViewArgs,
+    setup: &mut ViewSetup<'_>,
+    profiles: &[DisplayProfile],
+    engine: &Engine,
+    addr: &str,
+) -> Result<(), CliError> {
+    let mut rx = PoseReceiver::bind(addr).map_err(|e| CliError::input(e.to_string()))?;
+    println!(
+        "tracking: listening on {} for {} poses (LWPOSE 1 <seq> <x> <y> <z> [qw qx qy qz])",
+        rx.local_addr(),
+        args.poses
+    );
+    flush_stdout();
+    let mut scale = args.luminance_scale;
+    for k in 0..args.poses {
+        setup.head = rx
+            .next(args.tracking_timeout)
+            .map_err(|e| CliError::input(e.to_string()))?;
+        let p = setup.head.position_m;
+        println!(
+            "pose {k} (seq {}): head at {:.3}, {:.3}, {:.3} m",
+            setup.head.seq, p.x, p.y, p.z
+        );
+        let (frames, label, factor) = render_scaled(setup, profiles, scale)?;
+        scale = LuminanceScale::Factor(factor);
+        let dir = args.out_dir.join(format!("pose_{k:04}"));
+        std::fs::create_dir_all(&dir)
+            .map_err(|e| CliError::input(format!("{}: {e}", dir.display())))?;
+        let (_, times) = post_and_write(args, profiles, frames, label.as_deref(), engine, &dir)?;
+        println!(
+            "{}",
+            frame_times(&times, &setup.raster.name(), &engine.name())
+        );
+        flush_stdout();
+    }
+    println!(
+        "tracking: {} poses rendered; {} bad and {} stale datagrams skipped",
+        args.poses, rx.bad, rx.stale
+    );
+    Ok(())
+}
+
+/// Lets a process reading the output see a line at once (the tracker bridge waits for
+/// `listening`).
+fn flush_stdout() {
+    use std::io::Write;
+    let _ = std::io::stdout().flush();
 }
 
 /// The summary of the displays' frame times: median and largest raster and post-pass

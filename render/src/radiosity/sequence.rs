@@ -221,12 +221,18 @@ impl Sequence {
         max_edge_m: f64,
         clock: SolveClock,
     ) -> Result<Self, RadiosityError> {
-        let plan = FramePlan::new(base, anim, frames);
+        let plan = FramePlan::new(base, anim, frames)?;
         let base_mesh = uniform_mesh(base, max_edge_m, MAX_UNIFORM_ELEMENTS)?;
-        check_state_size(base_mesh.len(), plan.poses.len())?;
         let moving: Vec<usize> = (0..base_mesh.len())
             .filter(|&i| plan.moving_polygon[base_mesh[i].polygon])
             .collect();
+        check_state_size(
+            base_mesh.len(),
+            moving.len(),
+            base.polygons.len(),
+            plan.poses.len(),
+            frames.len(),
+        )?;
         let mut slot = vec![None; base_mesh.len()];
         for (k, &i) in moving.iter().enumerate() {
             slot[i] = Some(k);
@@ -550,4 +556,79 @@ fn mean_reflectance(mesh: &[MeshElem], materials: &MeshMaterials) -> f64 {
         .map(|(e, r)| e.area * r[1])
         .sum::<f64>()
         / area
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::radiosity::progressive::mesh_ff;
+    use crate::scene::parse_animated_scene_toml;
+
+    /// A floor, a wall and a panel that glides and turns between a moving spot and
+    /// the floor.
+    const SCENE: &str = r#"
+[materials.grey]
+reflectance_y = 0.6
+[[polygons]]
+name = "floor"
+material = "grey"
+vertices = [[0, 0, 0], [2, 0, 0], [2, 2, 0], [0, 2, 0]]
+[[polygons]]
+name = "wall"
+material = "grey"
+vertices = [[0, 2, 0], [2, 2, 0], [2, 2, 2], [0, 2, 2]]
+[[polygons]]
+name = "panel"
+material = "grey"
+vertices = [[0.6, 0.6, 0.8], [1.2, 0.6, 0.8], [1.2, 1.2, 0.8], [0.6, 1.2, 0.8]]
+[[lights]]
+name = "spot"
+type = "point"
+position = [1.0, 0.8, 1.8]
+intensity_cd = 500.0
+[animation]
+frames = 6
+[[animation.tracks]]
+object = "panel"
+axis = [1, 0, 0]
+keys = [{ frame = 0 }, { frame = 5, translate = [0.5, 0.3, 0.2], rotate_deg = 40 }]
+"#;
+
+    /// With visibility tested in every pose, each pose's form factors are those of
+    /// the single-frame solver on that pose's geometry (static polygons and that
+    /// pose's moving ones as occluders), for static and moving senders alike.
+    #[test]
+    fn every_poses_form_factors_are_the_single_frame_solvers_on_that_pose() {
+        let (scene, anim, _) =
+            parse_animated_scene_toml(SCENE, std::path::Path::new("."), std::path::Path::new("t"))
+                .unwrap();
+        let anim = anim.unwrap();
+        let stop = StopRule::default();
+        let clock = SolveClock::start(&scene, &stop).unwrap();
+        let frames: Vec<usize> = (0..6).collect();
+        let mut seq = Sequence::new(&scene, &anim, &frames, 0.25, clock).unwrap();
+        seq.key_spacing = 1;
+        let m = seq.pose_count();
+        let all = vec![true; m];
+        let moving = (0..seq.mesh.len())
+            .find(|&i| seq.slot[i].is_some())
+            .unwrap();
+        for shooter in [0, seq.mesh.len() / 2, moving] {
+            let gains = seq.gains_of(shooter, &all);
+            for r in 0..seq.mesh.len() {
+                for p in 0..m {
+                    let vis = Both(
+                        seq.static_vis.as_ref(),
+                        seq.poses[p].moving_occluders.as_ref(),
+                    );
+                    let want = mesh_ff(&vis, seq.elem(r, p), seq.elem(shooter, p), &seq.counters);
+                    let got = gains[r * m + p];
+                    assert!(
+                        (got - want).abs() <= 1e-12 * want.abs().max(1e-9),
+                        "shooter {shooter}, receiver {r}, pose {p}: {got} against {want}"
+                    );
+                }
+            }
+        }
+    }
 }

@@ -94,7 +94,9 @@ pub fn occluders_of(scene: &Scene, keep: &dyn Fn(usize) -> bool) -> Box<dyn Visi
 }
 
 /// Two occluder sets together (e.g. a scene's static polygons and one frame's moving
-/// ones): a segment is blocked when either blocks it.
+/// ones): a segment is blocked when either blocks it. [`Visibility::enclosed`] is not
+/// passed on (a probe's nearest hit needs both sets at once): the progressive solvers
+/// do not ask for it.
 pub struct Both<'a>(pub &'a dyn Visibility, pub &'a dyn Visibility);
 
 impl Visibility for Both<'_> {

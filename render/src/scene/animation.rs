@@ -8,7 +8,7 @@ use serde::Deserialize;
 
 use super::error::SceneError;
 use super::geom::V3;
-use super::limits::MAX_FRAMES;
+use super::limits::{MAX_COORDINATE_M, MAX_FRAMES};
 use super::types::{LightKind, Scene};
 
 /// The `[animation]` entry as written in the scene file.
@@ -181,6 +181,22 @@ impl Animation {
         self.tracks.iter().map(|t| t.name.as_str()).collect()
     }
 
+    /// The motion of every track at frame `f`, in track order.
+    pub fn track_motions(&self, f: usize) -> Vec<RigidMotion> {
+        self.tracks.iter().map(|t| t.motion(f)).collect()
+    }
+
+    /// The scene polygons each track moves, in track order (none for a light).
+    pub fn track_polygons(&self) -> Vec<&[usize]> {
+        self.tracks
+            .iter()
+            .map(|t| match &t.target {
+                Target::Polygons(p) => p.as_slice(),
+                Target::Light(_) => &[],
+            })
+            .collect()
+    }
+
     /// The motion of every polygon of `base` at frame `f` (identity when it is not
     /// animated).
     pub fn polygon_motions(&self, base: &Scene, f: usize) -> Vec<RigidMotion> {
@@ -306,6 +322,7 @@ fn track(t: &TrackFile, scene: &Scene, unit_m: f64, frames: usize) -> Result<Tra
         (None, false) => Unit::new_unchecked(V3::y()),
         (None, true) => return Err(invalid(&name, "a key rotates; give the rotation `axis`")),
     };
+    check_reach(&name, &target, scene, pivot, &keys)?;
     Ok(Track {
         name,
         target,
@@ -313,6 +330,40 @@ fn track(t: &TrackFile, scene: &Scene, unit_m: f64, frames: usize) -> Result<Tra
         axis,
         keys,
     })
+}
+
+/// Refuses keys that would carry any point of the target beyond
+/// [`MAX_COORDINATE_M`] (a rotation about the pivot keeps each point within its
+/// distance of the pivot).
+fn check_reach(
+    name: &str,
+    target: &Target,
+    scene: &Scene,
+    pivot: V3,
+    keys: &[Key],
+) -> Result<(), SceneError> {
+    let radius = match target {
+        Target::Polygons(polys) => polys
+            .iter()
+            .flat_map(|&p| &scene.polygons[p].vertices)
+            .map(|v| (v - pivot).norm())
+            .fold(0.0, f64::max),
+        Target::Light(l) => (scene.lights[*l].position - pivot).norm(),
+    };
+    let farthest = keys
+        .iter()
+        .map(|k| pivot.norm() + radius + k.translation.norm())
+        .fold(0.0, f64::max);
+    if farthest.is_nan() || farthest > MAX_COORDINATE_M {
+        return Err(invalid(
+            name,
+            format!(
+                "its keys carry it up to {farthest:e} m from the origin, beyond the \
+                 {MAX_COORDINATE_M:e} m a scene may reach"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The track's name, what it moves and the default pivot (bounding-box centre or the
@@ -501,6 +552,14 @@ keys = [{ frame = 2, translate = [0, 0, -500], rotate_deg = 180 }]
             (
                 "frames = 5\n[[animation.tracks]]\nobject = \"box\"\nkeys = [{ frame = 1, rotate_deg = 5 }]\n",
                 "axis",
+            ),
+            (
+                "frames = 5\n[[animation.tracks]]\nobject = \"box\"\nkeys = [{ frame = 1, translate = [1e306, 0, 0] }]\n",
+                "beyond",
+            ),
+            (
+                "frames = 5\n[[animation.tracks]]\nobject = \"box\"\npivot = [1e12, 0, 0]\nkeys = [{ frame = 1 }]\n",
+                "beyond",
             ),
             (
                 "frames = 5\n[[animation.tracks]]\nlight = \"spot\"\nobject = \"box\"\nkeys = [{ frame = 1 }]\n",

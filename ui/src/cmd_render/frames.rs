@@ -66,6 +66,7 @@ pub(crate) fn run(args: &RenderArgs, (first, last): (usize, usize)) -> Result<()
     let (scene, anim) = load(&args.scene)?;
     check_range(&anim, first, last)?;
     let frames: Vec<usize> = (first..=last).collect();
+    check_out(&args.out)?;
     let mut paths = frame_paths(&args.out, &frames, args.per_frame);
     paths.push(time_path(&args.out));
     values::check_output_files(
@@ -120,6 +121,22 @@ fn write_time_curves(seq: &SequenceSolution, path: &Path) -> Result<(), CliError
         100.0 * TIME_CURVE_TOLERANCE,
         path.display()
     );
+    Ok(())
+}
+
+/// `--out` names the frames: a file name (not a folder) whose images do not take the
+/// PLYs' names.
+fn check_out(out: &Path) -> Result<(), CliError> {
+    values::check_output_files("--out", &[out])?;
+    if out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("ply"))
+    {
+        return Err(CliError::input(format!(
+            "--out {}: the frames' PLYs are written beside the images; give an image name such as anim.exr",
+            out.display()
+        )));
+    }
     Ok(())
 }
 
@@ -219,14 +236,23 @@ fn progress(done: usize, total: usize) {
     }
 }
 
-/// Relative L1 difference of two solutions on the same mesh: Σ A·|ΔY| / Σ A·Y.
-fn solution_difference(a: &Solution, b: &Solution) -> f64 {
+/// Relative L1 difference of two solutions on the same mesh: Σ A·|ΔY| / Σ A·Y (None
+/// when the meshes differ: a frame alone is meshed from its own scene).
+fn solution_difference(a: &Solution, b: &Solution) -> Option<f64> {
+    let same_mesh = a.patches.len() == b.patches.len()
+        && a.patches
+            .iter()
+            .zip(&b.patches)
+            .all(|(p, q)| p.polygon == q.polygon);
+    if !same_mesh {
+        return None;
+    }
     let (mut diff, mut total) = (0.0, 0.0);
     for (p, q) in a.patches.iter().zip(&b.patches) {
         diff += p.area_m2 * (p.exitance_xyz[1] - q.exitance_xyz[1]).abs();
         total += q.area_m2 * q.exitance_xyz[1];
     }
-    if total > 0.0 { diff / total } else { 0.0 }
+    Some(if total > 0.0 { diff / total } else { 0.0 })
 }
 
 fn print_frame_table(seq: &SequenceSolution, anim: &Animation, singles: Option<&[SingleRun]>) {
@@ -247,12 +273,13 @@ fn print_frame_table(seq: &SequenceSolution, anim: &Animation, singles: Option<&
         if let Some(runs) = singles {
             let r = &runs[k];
             let est = r.solution.curve.last().map_or(0.0, |p| p.estimated_error);
+            let apart = solution_difference(&seq.solutions[k], &r.solution)
+                .map_or("other mesh".to_string(), |d| format!("{:.3}%", 100.0 * d));
             print!(
-                " {:>9.3}% {:>9.3} {:>7} {:>11.3}%",
+                " {:>9.3}% {:>9.3} {:>7} {apart:>12}",
                 100.0 * est,
                 r.time_s,
                 r.solution.stats.iterations,
-                100.0 * solution_difference(&seq.solutions[k], &r.solution)
             );
         }
         println!();

@@ -443,6 +443,14 @@ fn render_frames_refuses_a_still_scene_a_range_past_the_end_and_the_hierarchical
         .code(2)
         .stderr(contains("must not come after the last"));
     render(&animated, &["--per-frame"]).code(2);
+    lumiwall()
+        .args(["render", "--frames", "0..1", "--out"])
+        .arg(tmp.path().join("anim.ply"))
+        .arg(&animated)
+        .assert()
+        .failure()
+        .stderr(contains("give an image name"));
+    render(&animated, &["--frames", "0..1", "--sensors", "grid.csv"]).code(2);
 }
 
 #[test]

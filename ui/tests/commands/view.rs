@@ -140,3 +140,84 @@ fn the_seam_check_through_the_simulator_fails_on_a_wall_without_flat_fields() {
     assert!(max > 3.0, "{line}");
     assert!(line.contains("FAIL"), "{line}");
 }
+
+/// Reads `child`'s stdout line by line until a line contains `what`; returns it.
+fn line_with(lines: &mut impl Iterator<Item = std::io::Result<String>>, what: &str) -> String {
+    for line in lines.by_ref() {
+        let line = line.expect("stdout");
+        if line.contains(what) {
+            return line;
+        }
+    }
+    panic!("the viewer ended without printing {what:?}");
+}
+
+/// A tracker bridge sends two head poses over UDP (a bad datagram between them):
+/// each pose is rendered into its own folder, and the moved head sees the box at
+/// another place on the wall.
+#[test]
+fn a_tracked_head_moves_the_view_and_every_pose_is_rendered() {
+    use std::io::BufRead;
+    let tmp = TempDir::new().unwrap();
+    let profiles = crate::common::commission_small_wall(tmp.path());
+    let solution = cornell_solution(tmp.path());
+    let out = tmp.path().join("tracked");
+    let mut cmd = std::process::Command::new(assert_cmd::cargo::cargo_bin("lumiwall"));
+    cmd.arg("view")
+        .arg(cornell())
+        .arg("--solution")
+        .arg(&solution)
+        .arg("--wall")
+        .arg(small_wall())
+        .arg("--profiles")
+        .arg(&profiles)
+        .arg("--out-dir")
+        .arg(&out)
+        .args([
+            "--display-size",
+            "160x120",
+            "--cpu",
+            "--viewer-distance",
+            "0.8",
+        ])
+        .args([
+            "--tracking",
+            "127.0.0.1:0",
+            "--poses",
+            "2",
+            "--tracking-timeout",
+            "60s",
+        ])
+        .stdout(std::process::Stdio::piped());
+    let mut child = cmd.spawn().unwrap();
+    let mut lines = std::io::BufReader::new(child.stdout.take().unwrap()).lines();
+    let listening = line_with(&mut lines, "tracking: listening on ");
+    let addr = listening
+        .split("listening on ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .unwrap()
+        .to_string();
+    let tx = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    // the small wall is 2 × 1.6 m wide and 1.2 m high: first the reference viewer
+    // before its centre, then 0.6 m to the left
+    tx.send_to(b"LWPOSE 1 1 1.6 0.6 0.8", &addr).unwrap();
+    line_with(&mut lines, "pose 0 (seq 1)");
+    tx.send_to(b"LWPOSE 1 2 nonsense", &addr).unwrap();
+    tx.send_to(b"LWPOSE 1 3 1.0 0.6 0.8", &addr).unwrap();
+    let summary = line_with(&mut lines, "poses rendered");
+    assert!(child.wait().unwrap().success());
+    assert!(
+        summary.contains("2 poses rendered; 1 bad and 0 stale"),
+        "{summary}"
+    );
+    let first = out.join("pose_0000/d000-c0r0-mono.png");
+    let second = out.join("pose_0001/d000-c0r0-mono.png");
+    let lit = |p: &Path| (0..160).map(|x| lit_in_column(p, x)).sum::<usize>();
+    assert!(lit(&first) > 0 && lit(&second) > 0);
+    assert_ne!(
+        image::open(&first).unwrap().to_rgb16().into_raw(),
+        image::open(&second).unwrap().to_rgb16().into_raw(),
+        "the head moved 0.6 m to the left: the left display shows the room from elsewhere"
+    );
+}

@@ -62,7 +62,7 @@ pub(crate) fn sample_run(
     let mut va = test(a);
     out[a] = va;
     while a < last {
-        let b = (a + spacing).min(last);
+        let b = a.saturating_add(spacing).min(last);
         let vb = test(b);
         fill(a, b, va, vb, test, out);
         (a, va) = (b, vb);
@@ -146,6 +146,14 @@ mod tests {
         );
         sample_run(0, 11, 1, &mut |p| truth(p), &mut out);
         assert!(out[5] && out.iter().filter(|b| **b).count() == 1);
+    }
+
+    #[test]
+    fn a_spacing_beyond_the_run_tests_its_ends_and_bisects_between_them() {
+        let truth = |p: usize| p >= 7;
+        let mut out = vec![false; 12];
+        sample_run(3, 11, usize::MAX, &mut |p| truth(p), &mut out);
+        assert!((3..=11).all(|p| out[p] == truth(p)));
     }
 
     #[test]

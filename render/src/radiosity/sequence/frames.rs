@@ -3,6 +3,8 @@
 //! frame, and a tree of their bounding boxes over frames (Hahn's time intervals) that
 //! names the frames in which a moving object can come between two static elements.
 
+use std::collections::HashMap;
+
 use crate::radiosity::RadiosityError;
 use crate::radiosity::progressive::MeshElem;
 use crate::radiosity::shaft::{Shaft, bounds};
@@ -24,47 +26,69 @@ pub(crate) struct FramePlan {
 }
 
 impl FramePlan {
-    /// Groups `frames` by pose: a frame whose every polygon and light sits where an
-    /// earlier frame's do reuses that frame's solution.
-    pub(crate) fn new(base: &Scene, anim: &Animation, frames: &[usize]) -> Self {
-        let motions: Vec<(Vec<RigidMotion>, Vec<RigidMotion>)> = frames
-            .iter()
-            .map(|&f| (anim.polygon_motions(base, f), anim.light_motions(base, f)))
-            .collect();
-        let mut poses: Vec<usize> = Vec::new();
+    /// Groups `frames` by pose: a frame whose every track sits where an earlier
+    /// frame's do reuses that frame's solution. Refuses more frames than
+    /// [`MAX_SEQUENCE_STATE_BYTES`] of motions before looking at them.
+    pub(crate) fn new(
+        base: &Scene,
+        anim: &Animation,
+        frames: &[usize],
+    ) -> Result<Self, RadiosityError> {
+        check_bytes(
+            "their motions",
+            (frames.len() as u64)
+                .saturating_mul(anim.track_names().len() as u64)
+                .saturating_mul(std::mem::size_of::<RigidMotion>() as u64),
+        )?;
+        let tracks = anim.track_names().len();
+        let first = anim.track_motions(frames[0]);
+        let mut moving_track = vec![false; tracks];
+        let mut index: HashMap<Vec<u64>, usize> = HashMap::new();
+        let mut poses = Vec::new();
         let mut pose_of = Vec::with_capacity(frames.len());
-        for (k, m) in motions.iter().enumerate() {
-            match poses.iter().position(|&p| motions[p] == *m) {
-                Some(p) => pose_of.push(p),
-                None => {
-                    pose_of.push(poses.len());
-                    poses.push(k);
-                }
+        for &f in frames {
+            let motions = anim.track_motions(f);
+            for (t, m) in motions.iter().enumerate() {
+                moving_track[t] |= *m != first[t];
+            }
+            let next = poses.len();
+            let pose = *index.entry(motion_bits(&motions)).or_insert(next);
+            if pose == next {
+                poses.push(f);
+            }
+            pose_of.push(pose);
+        }
+        let mut moving_polygon = vec![false; base.polygons.len()];
+        let mut moving_objects = Vec::new();
+        for (t, polys) in anim.track_polygons().into_iter().enumerate() {
+            if moving_track[t] && !polys.is_empty() {
+                polys.iter().for_each(|&p| moving_polygon[p] = true);
+                moving_objects.push(polys.to_vec());
             }
         }
-        let moving_polygon: Vec<bool> = (0..base.polygons.len())
-            .map(|p| motions.iter().any(|m| m.0[p] != motions[0].0[p]))
-            .collect();
-        let mut moving_objects: Vec<Vec<usize>> = Vec::new();
-        let mut names: Vec<&str> = Vec::new();
-        for p in (0..base.polygons.len()).filter(|&p| moving_polygon[p]) {
-            let name = base.polygons[p].object.as_str();
-            match names.iter().position(|n| *n == name) {
-                Some(k) => moving_objects[k].push(p),
-                None => {
-                    names.push(name);
-                    moving_objects.push(vec![p]);
-                }
-            }
-        }
-        Self {
+        Ok(Self {
             requested: frames.to_vec(),
             pose_of,
-            poses: poses.iter().map(|&k| frames[k]).collect(),
+            poses,
             moving_polygon,
             moving_objects,
-        }
+        })
     }
+}
+
+/// The exact bits of a set of motions (equal poses have equal bits).
+fn motion_bits(motions: &[RigidMotion]) -> Vec<u64> {
+    motions
+        .iter()
+        .flat_map(|m| {
+            let r = m.rotation.matrix();
+            r.iter()
+                .chain(m.pivot.iter())
+                .chain(m.translation.iter())
+                .map(|v| v.to_bits())
+                .collect::<Vec<_>>()
+        })
+        .collect()
 }
 
 /// One distinct pose: the moving elements there and the moving polygons' occluders.
@@ -230,19 +254,50 @@ impl SweptBoxes {
 /// exitance (three XYZ triples) and one gain.
 const BYTES_PER_ELEMENT_POSE: u64 = 3 * 24 + 8;
 
-/// Most memory the per-pose state of a sequence may take (8 GiB).
+/// Bytes a pose keeps per scene polygon (its moved copy of the scene) and per moving
+/// element (a moved element with its quadrature points), about.
+const BYTES_PER_POSE_POLYGON: u64 = 200;
+const BYTES_PER_MOVED_ELEMENT: u64 = 320;
+
+/// Bytes of one frame's patch in the output, about (a quad with its values).
+const BYTES_PER_FRAME_PATCH: u64 = 260;
+
+/// Most memory a sequence may take (8 GiB).
 pub const MAX_SEQUENCE_STATE_BYTES: u64 = 8 << 30;
 
-/// Refuses a sequence whose per-pose state would not fit, before allocating it.
-pub(crate) fn check_state_size(elements: usize, poses: usize) -> Result<(), RadiosityError> {
-    let bytes = (elements as u64)
-        .saturating_mul(poses as u64)
-        .saturating_mul(BYTES_PER_ELEMENT_POSE);
+/// What a sequence of `poses` distinct poses and `frames` frames over a mesh of
+/// `elements` elements (`moving` of them moving) and a scene of `polygons` polygons
+/// needs: refused above [`MAX_SEQUENCE_STATE_BYTES`], before it is allocated.
+pub(crate) fn check_state_size(
+    elements: usize,
+    moving: usize,
+    polygons: usize,
+    poses: usize,
+    frames: usize,
+) -> Result<(), RadiosityError> {
+    let (n, m) = (elements as u64, poses as u64);
+    let per_pose = (polygons as u64)
+        .saturating_mul(BYTES_PER_POSE_POLYGON)
+        .saturating_add((moving as u64).saturating_mul(BYTES_PER_MOVED_ELEMENT));
+    let bytes = n
+        .saturating_mul(m)
+        .saturating_mul(BYTES_PER_ELEMENT_POSE)
+        .saturating_add(m.saturating_mul(per_pose))
+        .saturating_add(
+            n.saturating_mul(frames as u64)
+                .saturating_mul(BYTES_PER_FRAME_PATCH),
+        );
+    check_bytes(
+        &format!("{elements} elements over {poses} distinct poses and {frames} frames"),
+        bytes,
+    )
+}
+
+fn check_bytes(what: &str, bytes: u64) -> Result<(), RadiosityError> {
     if bytes > MAX_SEQUENCE_STATE_BYTES {
         return Err(RadiosityError::BadOption(format!(
-            "{elements} elements over {poses} distinct frames need {:.1} GiB of solver \
-             state, more than the {} GiB allowed; solve fewer frames at once or give a \
-             larger max edge",
+            "{what} need {:.1} GiB, more than the {} GiB allowed; solve fewer frames at \
+             once or give a larger max edge",
             bytes as f64 / (1u64 << 30) as f64,
             MAX_SEQUENCE_STATE_BYTES >> 30
         )));

@@ -68,6 +68,11 @@ impl ShotContext<'_> {
                 continue;
             }
             let front = targets_in_front(x, &r.normal, &targets, &s.verts);
+            if front.is_empty() && !static_candidate {
+                // nothing of s in front of x to aim at: unblocked, as mesh_ff counts it
+                shared += w * fp;
+                continue;
+            }
             let seen: Vec<V3> = if static_candidate {
                 self.count_rays(front.len());
                 front
@@ -233,10 +238,15 @@ where
             return true;
         }
         let (r, s) = ((self.r)(p), (self.s)(p));
+        let (x, y) = (&r.points[j].0, &s.points[t].0);
+        if r.normal.dot(&(y - x)) <= 0.0 {
+            // behind the receiver's plane in this pose: not aimed at here, and a ray
+            // through the receiver's own solid would carry a false shadow to the
+            // poses around it
+            return true;
+        }
         self.ctx.count_rays(1);
-        !self
-            .occluders(p)
-            .occluded(&r.points[j].0, &s.points[t].0, [r.polygon, s.polygon])
+        !self.occluders(p).occluded(x, y, [r.polygon, s.polygon])
     }
 
     /// The form factor in pose `p` from the kernels there and the sampled rays.
