@@ -4,6 +4,7 @@
 //! the address given, with the standard gRPC health service beside it. With feature
 //! `window`, [`window::run_with_windows`] shows the frames in fullscreen windows.
 
+pub mod barrier;
 mod config;
 mod presenter;
 mod run;

@@ -401,3 +401,72 @@ fn tls_nodes_accept_stations_that_trust_their_authority_and_refuse_the_rest() {
         "{err}"
     );
 }
+
+/// The wall viewer's frame: every output of a node gets its own image, presented
+/// together; two images for one output or a wrong-sized one are refused.
+#[test]
+fn a_frame_shows_one_image_per_output_together() {
+    let s = start(&["L=4x2@8", "R=4x2@8", "X=4x2@8"], 0);
+    let rt = Arc::new(tokio::runtime::Runtime::new().unwrap());
+    let node = NodeClient::connect(rt, &s.addr().to_string(), "127.0.0.1", opts("a")).unwrap();
+    let png = |code| Framebuffer::uniform(4, 2, 8, code).to_png().unwrap();
+    node.show_frame(vec![
+        ("L".into(), png([10, 20, 30])),
+        ("R".into(), png([40, 50, 60])),
+    ])
+    .unwrap();
+    let code = |o: &str| node.read_back(o).unwrap().uniform_code();
+    assert_eq!(code("L"), Some([10, 20, 30]));
+    assert_eq!(code("R"), Some([40, 50, 60]));
+    assert_eq!(code("X"), Some([0, 0, 0]), "an output not named is black");
+    let twice = node.show_frame(vec![
+        ("L".into(), png([1, 1, 1])),
+        ("L".into(), png([2, 2, 2])),
+    ]);
+    assert!(node_message(twice.unwrap_err()).contains("two images in one frame"));
+    let small = Framebuffer::uniform(2, 2, 8, [1, 1, 1]).to_png().unwrap();
+    assert!(node.show_frame(vec![("R".into(), small)]).is_err());
+    assert_eq!(
+        code("R"),
+        Some([40, 50, 60]),
+        "a refused frame changes nothing"
+    );
+}
+
+/// Two nodes of a wall meet at the barrier one of them hosts: the first waits until
+/// the second is ready with the same frame, then both go on; a missing node is a
+/// deadline that says how many were missing.
+#[test]
+fn nodes_meet_at_the_swap_barrier_before_presenting() {
+    let host = start(&["0=4x4@8"], 0);
+    let connect = |station: &str| {
+        let rt = Arc::new(tokio::runtime::Runtime::new().unwrap());
+        NodeClient::connect_unleased(rt, &host.addr().to_string(), "127.0.0.1", opts(station))
+            .unwrap()
+    };
+    let (a, b) = (connect("node-a"), connect("node-b"));
+    let early = std::thread::spawn(move || {
+        let t = std::time::Instant::now();
+        let waited = a
+            .swap_barrier("wall", 1, 2, Duration::from_secs(5))
+            .unwrap();
+        (t.elapsed(), waited)
+    });
+    std::thread::sleep(Duration::from_millis(200));
+    let late = b
+        .swap_barrier("wall", 1, 2, Duration::from_secs(5))
+        .unwrap();
+    let (elapsed, waited) = early.join().unwrap();
+    assert!(
+        elapsed >= Duration::from_millis(190),
+        "the first node waited for the second"
+    );
+    assert!(
+        waited >= 190.0 && late < 100.0,
+        "waited {waited} ms and {late} ms"
+    );
+    let e = b
+        .swap_barrier("wall", 2, 2, Duration::from_millis(100))
+        .unwrap_err();
+    assert!(e.to_string().contains("1 of 2 nodes did not arrive"), "{e}");
+}

@@ -123,6 +123,28 @@ impl NodeClient {
         host: &str,
         opts: NodeOptions,
     ) -> Result<NodeClient, DeviceError> {
+        let mut me = Self::connect_unleased(rt, node, host, opts)?;
+        let acquired = me.call(
+            "taking the node",
+            proto::AcquireRequest {
+                station: me.opts.station.clone(),
+                protocol: PROTOCOL.to_string(),
+            },
+            |mut c, r| async move { c.acquire(r).await },
+        )?;
+        me.lease = Some(acquired.lease);
+        Ok(me)
+    }
+
+    /// Connects to `node` and lists its outputs without taking its lease: for the
+    /// calls that need none (another node's swap barrier). Every call, the barrier's
+    /// wait included, must fit the options' deadline.
+    pub fn connect_unleased(
+        rt: Arc<tokio::runtime::Runtime>,
+        node: &str,
+        host: &str,
+        opts: NodeOptions,
+    ) -> Result<NodeClient, DeviceError> {
         let config = |message: String| DeviceError::Node {
             node: node.to_string(),
             message,
@@ -173,15 +195,6 @@ impl NodeClient {
             |mut c, r| async move { c.list_outputs(r).await },
         )?;
         me.outputs = listed.outputs;
-        let acquired = me.call(
-            "taking the node",
-            proto::AcquireRequest {
-                station: me.opts.station.clone(),
-                protocol: PROTOCOL.to_string(),
-            },
-            |mut c, r| async move { c.acquire(r).await },
-        )?;
-        me.lease = Some(acquired.lease);
         Ok(me)
     }
 
@@ -262,6 +275,57 @@ impl NodeClient {
             msg,
             |mut c, r| async move { c.show_image(r).await },
         )
+    }
+
+    /// One image per named output (PNG, the output's size), all presented together;
+    /// outputs not named show black.
+    pub fn show_frame(
+        &self,
+        images: Vec<(String, Vec<u8>)>,
+    ) -> Result<proto::Presented, DeviceError> {
+        let msg = proto::ShowFrameRequest {
+            lease: self.lease(),
+            images: images
+                .into_iter()
+                .map(|(output, png)| proto::OutputImage { output, png })
+                .collect(),
+        };
+        self.call("showing a frame", msg, |mut c, r| async move {
+            c.show_frame(r).await
+        })
+    }
+
+    /// Waits at this node's swap barrier until `parties` nodes are ready with frame
+    /// `frame` of `group` (at most `wait`, which the options' deadline must cover);
+    /// returns how long it waited (ms). Not retried: a repeated arrival would count
+    /// twice.
+    pub fn swap_barrier(
+        &self,
+        group: &str,
+        frame: u64,
+        parties: u32,
+        wait: Duration,
+    ) -> Result<f64, DeviceError> {
+        let msg = proto::SwapBarrierRequest {
+            group: group.to_string(),
+            frame,
+            parties,
+            timeout_ms: u32::try_from(wait.as_millis()).unwrap_or(u32::MAX),
+            node: self.opts.station.clone(),
+        };
+        let mut req = Request::new(msg);
+        req.set_timeout(wait + self.opts.deadline);
+        req.metadata_mut()
+            .insert("authorization", self.auth.clone());
+        let mut client = self.client.clone();
+        self.rt
+            .block_on(async move { client.swap_barrier(req).await })
+            .map(|r| r.into_inner().waited_ms)
+            .map_err(|status| DeviceError::Node {
+                node: self.node.clone(),
+                message: format!("waiting at the swap barrier: {}", status.message()),
+                transient: false,
+            })
     }
 
     /// Black on every output.

@@ -11,6 +11,7 @@ use crate::limits::{LEASE_IDLE_EXPIRY, PROTOCOL, valid_name};
 use crate::proto;
 use crate::proto::pattern_service_server::PatternService;
 
+use super::barrier::SwapBarrier;
 use super::{OutputSpec, Presenter, ServerConfig};
 
 /// A station's hold on the node.
@@ -59,6 +60,7 @@ fn busy(l: &Lease) -> Status {
 pub struct PatternNode {
     config: Arc<ServerConfig>,
     state: Arc<Mutex<NodeState>>,
+    barrier: SwapBarrier,
 }
 
 impl PatternNode {
@@ -72,6 +74,7 @@ impl PatternNode {
                 frames: 0,
                 leases_made: 0,
             })),
+            barrier: SwapBarrier::default(),
         }
     }
 
@@ -161,6 +164,22 @@ impl PatternNode {
             surface_bit_depth,
         }))
     }
+}
+
+/// A PNG for output `o`, checked against its size and bit depth and requantised to
+/// its surface.
+fn output_frame(o: &OutputSpec, png: &[u8]) -> Result<Framebuffer, Status> {
+    let frame = Framebuffer::from_png(png, o.width_px, o.height_px, o.bit_depth)
+        .map_err(|e| Status::invalid_argument(format!("output {}: {e}", o.name)))?;
+    Ok(Framebuffer {
+        codes: frame
+            .codes
+            .iter()
+            .map(|c| c.map(|v| requantise(u32::from(v), o.bit_depth, o.surface_bit_depth)))
+            .collect(),
+        bits: o.surface_bit_depth,
+        ..frame
+    })
 }
 
 /// The time now, RFC 3339 UTC to the second.
@@ -297,17 +316,7 @@ impl PatternService for PatternNode {
         self.authorize(&request)?;
         let req = request.into_inner();
         let (index, o) = self.output(&req.output)?;
-        let frame = Framebuffer::from_png(&req.png, o.width_px, o.height_px, o.bit_depth)
-            .map_err(|e| Status::invalid_argument(format!("output {}: {e}", o.name)))?;
-        let frame = Framebuffer {
-            codes: frame
-                .codes
-                .iter()
-                .map(|c| c.map(|v| requantise(u32::from(v), o.bit_depth, o.surface_bit_depth)))
-                .collect(),
-            bits: o.surface_bit_depth,
-            ..frame
-        };
+        let frame = output_frame(o, &req.png)?;
         let surface = o.surface_bit_depth;
         let frames = self.frames_with(Some((index, frame)));
         self.present(req.lease, frames, surface).await
@@ -328,6 +337,45 @@ impl PatternService for PatternNode {
             .unwrap_or(8);
         let frames = self.frames_with(None);
         self.present(lease, frames, surface).await
+    }
+
+    async fn show_frame(
+        &self,
+        request: Request<proto::ShowFrameRequest>,
+    ) -> Result<Response<proto::Presented>, Status> {
+        self.authorize(&request)?;
+        let req = request.into_inner();
+        let mut frames = self.frames_with(None);
+        let mut named = vec![false; frames.len()];
+        for image in &req.images {
+            let (index, o) = self.output(&image.output)?;
+            if std::mem::replace(&mut named[index], true) {
+                return Err(Status::invalid_argument(format!(
+                    "output {} has two images in one frame",
+                    o.name
+                )));
+            }
+            frames[index] = output_frame(o, &image.png)?;
+        }
+        let surface = frames.iter().map(|f| f.bits).max().unwrap_or(8);
+        self.present(req.lease, frames, surface).await
+    }
+
+    async fn swap_barrier(
+        &self,
+        request: Request<proto::SwapBarrierRequest>,
+    ) -> Result<Response<proto::SwapBarrierResponse>, Status> {
+        self.authorize(&request)?;
+        let req = request.into_inner();
+        let timeout = std::time::Duration::from_millis(u64::from(req.timeout_ms));
+        let waited = self
+            .barrier
+            .arrive(&req.group, req.frame, req.parties, timeout)
+            .await?;
+        Ok(Response::new(proto::SwapBarrierResponse {
+            frame: req.frame,
+            waited_ms: waited.as_secs_f64() * 1e3,
+        }))
     }
 
     async fn read_back(

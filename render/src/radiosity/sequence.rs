@@ -4,8 +4,8 @@
 //! frames together (Hahn's eq. 4.1), so every frame sees the same sequence of steps
 //! and the sequence does not flicker. Pairs of elements that do not move are
 //! evaluated once for all frames, with shadow rays against the moving objects only
-//! in the frames where one can come between them ([`gains`]); frames whose objects
-//! and lights all sit where an earlier frame's do are solved once ([`frames`]).
+//! in the frames where one can come between them (`sequence::gains`); frames whose objects
+//! and lights all sit where an earlier frame's do are solved once (`sequence::frames`).
 //!
 //! The error estimate is the progressive solver's (unshot flux with the geometric
 //! series of the mean reflectance), per frame; the sequence stops when the largest
