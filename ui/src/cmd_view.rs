@@ -21,6 +21,9 @@ use lumiwall_render::view::{
     render_tile,
 };
 
+#[cfg(feature = "pattern-server")]
+mod nodes;
+
 use crate::CliError;
 use crate::cmd_apply::{Engine, OogArg, post_options, scale_frames, stamp_scale};
 
@@ -88,6 +91,19 @@ pub(crate) struct ViewArgs {
     #[arg(long, default_value_t = 1, requires = "tracking",
           value_parser = clap::value_parser!(u32).range(1..=MAX_TRACKED_POSES))]
     poses: u32,
+    /// Show the frames on this render node's outputs instead of writing images:
+    /// `HOST:PORT` of its pattern server as the wall file's `[[output]]` addresses
+    /// name it. Only the displays routed there are rendered, each frame goes to its
+    /// outputs together, and on a wall of several nodes every frame first waits at the
+    /// swap barrier (--barrier). Needs a luminance factor, not `auto`.
+    #[cfg(feature = "pattern-server")]
+    #[arg(long)]
+    show_on: Option<String>,
+    /// With --show-on: the node (`HOST:PORT`) that hosts the swap barrier; default the
+    /// first node of the wall file.
+    #[cfg(feature = "pattern-server")]
+    #[arg(long, requires = "show_on")]
+    barrier: Option<String>,
     /// With --tracking: the longest wait for a pose, e.g. `30s`.
     #[arg(long, default_value = "30s", requires = "tracking", value_parser = crate::values::duration)]
     tracking_timeout: std::time::Duration,
@@ -321,25 +337,24 @@ fn post_and_write(
     frames: Vec<(XyzFrame, f64)>,
     label: Option<&str>,
     engine: &Engine,
-    dir: &Path,
+    sink: &mut Sink<'_>,
 ) -> Result<(Vec<Shown>, Vec<FrameTime>), CliError> {
     let opts = post_options(args.out_of_gamut, None, true);
     let mut kept = Vec::new();
     let mut times = Vec::with_capacity(profiles.len());
+    let mut pngs = Vec::new();
     for (profile, (frame, raster_ms)) in profiles.iter().zip(frames) {
         let t0 = Instant::now();
         let pp = PreparedProfile::new(profile, &opts)?;
         let frame = stamp_scale(frame, label, profile);
         let img = engine.run(&pp, &frame)?;
         let post_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let out = dir.join(format!("{}.png", profile.display.file_stem()));
-        write_png(&out, &img)?;
+        let put = sink.put(profile, &img, &mut pngs)?;
         let c = img.counts;
         println!(
-            "{}: wrote {} (raster {raster_ms:.1} ms, post pass {post_ms:.1} ms on {}); \
+            "{}: {put} (raster {raster_ms:.1} ms, post pass {post_ms:.1} ms on {}); \
              pixels out of gamut {}, over range {}",
             profile.display,
-            out.display(),
             engine.name(),
             c.out_of_gamut,
             c.over_range
@@ -349,13 +364,83 @@ fn post_and_write(
         }
         times.push((raster_ms, post_ms));
     }
+    sink.present(pngs)?;
     Ok((kept, times))
+}
+
+/// Where the displays' images go: PNG files in a folder, or (`--show-on`) this
+/// render node's outputs, one frame for all of them.
+struct Sink<'a> {
+    dir: PathBuf,
+    #[cfg(feature = "pattern-server")]
+    node: Option<&'a mut nodes::NodeShow>,
+    _node: std::marker::PhantomData<&'a ()>,
+}
+
+impl Sink<'_> {
+    /// Writes `img` (or keeps its PNG for the node's frame); says where it went.
+    fn put(
+        &mut self,
+        profile: &DisplayProfile,
+        img: &CodeImage,
+        pngs: &mut Vec<Vec<u8>>,
+    ) -> Result<String, CliError> {
+        #[cfg(feature = "pattern-server")]
+        if self.node.is_some() {
+            let png = lumiwall_render::post::io::encode_png(img)
+                .map_err(|e| CliError::input(format!("{}: {e}", profile.display)))?;
+            pngs.push(png);
+            return Ok("rendered for this node's output".into());
+        }
+        let _ = pngs;
+        let out = self
+            .dir
+            .join(format!("{}.png", profile.display.file_stem()));
+        write_png(&out, img)?;
+        Ok(format!("wrote {}", out.display()))
+    }
+
+    /// Presents the node's frame (nothing for files).
+    fn present(&mut self, pngs: Vec<Vec<u8>>) -> Result<(), CliError> {
+        #[cfg(feature = "pattern-server")]
+        if let Some(node) = self.node.as_deref_mut() {
+            return node.present(pngs);
+        }
+        let _ = pngs;
+        Ok(())
+    }
+
+    /// Pose `k` of a tracked run goes to `out_dir/pose_NNNN/` (files only).
+    fn for_pose(&mut self, out_dir: &Path, k: u32) -> Result<(), CliError> {
+        #[cfg(feature = "pattern-server")]
+        if self.node.is_some() {
+            return Ok(());
+        }
+        self.dir = out_dir.join(format!("pose_{k:04}"));
+        std::fs::create_dir_all(&self.dir)
+            .map_err(|e| CliError::input(format!("{}: {e}", self.dir.display())))
+    }
+
+    fn files<'a>(dir: PathBuf) -> Sink<'a> {
+        Sink {
+            dir,
+            #[cfg(feature = "pattern-server")]
+            node: None,
+            _node: std::marker::PhantomData,
+        }
+    }
 }
 
 /// Runs `lumiwall view`.
 pub(crate) fn run(args: ViewArgs) -> Result<(), CliError> {
     let (wall, g) = wall_geometry(&args.wall)?;
-    let profiles = wall_profiles(&args, &wall)?;
+    #[cfg_attr(
+        not(feature = "pattern-server"),
+        expect(unused_mut, reason = "--show-on")
+    )]
+    let mut profiles = wall_profiles(&args, &wall)?;
+    #[cfg(feature = "pattern-server")]
+    let mut node = show_on_node(&args, &wall, &mut profiles)?;
     let size = display_size(&args, &g)?;
     let camera = scene_camera(&args.scene)?;
     let _lock = FolderLock::acquire(&args.out_dir, &format!("view of wall {wall}"))?;
@@ -392,8 +477,13 @@ pub(crate) fn run(args: ViewArgs) -> Result<(), CliError> {
         size,
     };
     let engine = Engine::choose(args.cpu);
+    let mut sink = Sink::files(args.out_dir.clone());
+    #[cfg(feature = "pattern-server")]
+    {
+        sink.node = node.as_mut();
+    }
     if let Some(addr) = &args.tracking {
-        return run_tracked(&args, &mut setup, &profiles, &engine, addr);
+        return run_tracked(&args, &mut setup, &profiles, &engine, addr, &mut sink);
     }
     let (frames, label, _) = render_scaled(&setup, &profiles, args.luminance_scale)?;
     let (kept, times) = post_and_write(
@@ -402,7 +492,7 @@ pub(crate) fn run(args: ViewArgs) -> Result<(), CliError> {
         frames,
         label.as_deref(),
         &engine,
-        &args.out_dir,
+        &mut sink,
     )?;
     println!("{}", frame_times(&times, &raster.name(), &engine.name()));
     check_seams(&args, &profiles, &kept)
@@ -435,6 +525,7 @@ fn run_tracked(
     profiles: &[DisplayProfile],
     engine: &Engine,
     addr: &str,
+    sink: &mut Sink<'_>,
 ) -> Result<(), CliError> {
     let mut rx = PoseReceiver::bind(addr).map_err(|e| CliError::input(e.to_string()))?;
     println!(
@@ -455,10 +546,8 @@ fn run_tracked(
         );
         let (frames, label, factor) = render_scaled(setup, profiles, scale)?;
         scale = LuminanceScale::Factor(factor);
-        let dir = args.out_dir.join(format!("pose_{k:04}"));
-        std::fs::create_dir_all(&dir)
-            .map_err(|e| CliError::input(format!("{}: {e}", dir.display())))?;
-        let (_, times) = post_and_write(args, profiles, frames, label.as_deref(), engine, &dir)?;
+        sink.for_pose(&args.out_dir, k)?;
+        let (_, times) = post_and_write(args, profiles, frames, label.as_deref(), engine, sink)?;
         println!(
             "{}",
             frame_times(&times, &setup.raster.name(), &engine.name())
@@ -470,6 +559,36 @@ fn run_tracked(
         args.poses, rx.bad, rx.stale
     );
     Ok(())
+}
+
+/// `--show-on`: this node's connection, the profiles narrowed to its displays.
+#[cfg(feature = "pattern-server")]
+fn show_on_node(
+    args: &ViewArgs,
+    wall: &str,
+    profiles: &mut Vec<DisplayProfile>,
+) -> Result<Option<nodes::NodeShow>, CliError> {
+    let Some(node) = &args.show_on else {
+        return Ok(None);
+    };
+    if matches!(args.luminance_scale, LuminanceScale::Auto { .. }) {
+        return Err(CliError::input(
+            "--show-on: an automatic luminance scale would differ between the nodes; give \
+             a factor (--luminance-scale 0.25, or 1)",
+        ));
+    }
+    if keep_images(args) {
+        return Err(CliError::input(
+            "--seams-through-simulator compares written images; leave out --show-on",
+        ));
+    }
+    let show = nodes::NodeShow::connect(&args.wall, wall, node, args.barrier.as_deref(), profiles)?;
+    *profiles = show
+        .displays
+        .iter()
+        .map(|(i, _)| profiles[*i].clone())
+        .collect();
+    Ok(Some(show))
 }
 
 /// Lets a process reading the output see a line at once (the tracker bridge waits for

@@ -221,3 +221,125 @@ fn a_tracked_head_moves_the_view_and_every_pose_is_rendered() {
         "the head moved 0.6 m to the left: the left display shows the room from elsewhere"
     );
 }
+
+/// A headless pattern server with one 160×120 8-bit output `out`; killed on drop.
+struct PatternNode {
+    child: std::process::Child,
+    addr: String,
+}
+
+impl Drop for PatternNode {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn pattern_node(token: &Path) -> PatternNode {
+    use std::io::BufRead;
+    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("lumiwall"))
+        .args([
+            "pattern-server",
+            "--headless",
+            "--listen",
+            "127.0.0.1:0",
+            "--settle",
+            "0s",
+        ])
+        .arg("--token-file")
+        .arg(token)
+        .args(["--output", "out=160x120@8"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let addr = line
+        .split("listening on ")
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next())
+        .unwrap_or_else(|| panic!("no address in {line:?}"))
+        .to_string();
+    PatternNode { child, addr }
+}
+
+/// Each render node of the two-tile wall renders its own tile and shows it on its
+/// output; the node that starts first waits at the swap barrier until the other has
+/// its frame ready, then both present.
+#[test]
+fn two_render_nodes_show_their_own_tiles_after_meeting_at_the_swap_barrier() {
+    let tmp = TempDir::new().unwrap();
+    let profiles = crate::common::commission_small_wall(tmp.path());
+    let solution = cornell_solution(tmp.path());
+    let token = tmp.path().join("wall.token");
+    std::fs::write(&token, "view-token-0123456789\n").unwrap();
+    let (a, b) = (pattern_node(&token), pattern_node(&token));
+    let mut wall = std::fs::read_to_string(small_wall()).unwrap();
+    wall.push_str("\n[network]\ntoken_file = \"wall.token\"\ndeadline_ms = 5000\n");
+    for (col, node) in [(0, &a), (1, &b)] {
+        wall.push_str(&format!(
+            "\n[[output]]\ntile = [{col}, 0]\nto = \"tcp://{}/out\"\n",
+            node.addr
+        ));
+    }
+    let wall_path = tmp.path().join("mono-2x1-net.toml");
+    std::fs::write(&wall_path, wall).unwrap();
+    let show = |node: &PatternNode, out: &str| {
+        let mut cmd = std::process::Command::new(assert_cmd::cargo::cargo_bin("lumiwall"));
+        cmd.arg("view")
+            .arg(cornell())
+            .arg("--solution")
+            .arg(&solution)
+            .arg("--wall")
+            .arg(&wall_path)
+            .arg("--profiles")
+            .arg(&profiles)
+            .arg("--out-dir")
+            .arg(tmp.path().join(out))
+            .args([
+                "--display-size",
+                "160x120",
+                "--cpu",
+                "--viewer-distance",
+                "0.8",
+            ])
+            .args(["--show-on", &node.addr])
+            .stdout(std::process::Stdio::piped());
+        cmd.spawn().unwrap()
+    };
+    let first = show(&a, "a");
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let second = show(&b, "b");
+    let (first, second) = (
+        first.wait_with_output().unwrap(),
+        second.wait_with_output().unwrap(),
+    );
+    let text = |o: &std::process::Output| String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        first.status.success() && second.status.success(),
+        "{}\n{}",
+        text(&first),
+        text(&second)
+    );
+    let waited = |o: &std::process::Output| -> f64 {
+        let t = text(o);
+        let line = t
+            .lines()
+            .find(|l| l.contains("swap barrier wait"))
+            .expect("a frame line");
+        line.split("swap barrier wait ")
+            .nth(1)
+            .and_then(|s| s.split(' ').next())
+            .and_then(|s| s.parse().ok())
+            .unwrap()
+    };
+    assert!(waited(&first) > 500.0, "{}", text(&first));
+    assert!(waited(&second) < waited(&first), "{}", text(&second));
+    for o in [&first, &second] {
+        assert!(text(o).contains("presented on 1 outputs"), "{}", text(o));
+        assert!(text(o).contains("1 displays of 160×120 px"), "{}", text(o));
+    }
+}
