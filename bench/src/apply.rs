@@ -204,7 +204,7 @@ fn bench_profile(
     })?)
 }
 
-fn prepared(
+pub(crate) fn prepared(
     d: &AnalyticDisplay,
     flat: bool,
     bit_depth: u32,

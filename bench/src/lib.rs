@@ -9,3 +9,4 @@ pub mod patterns;
 pub mod radiosity;
 pub mod readings;
 pub mod season;
+pub mod view;

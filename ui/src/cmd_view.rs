@@ -687,3 +687,59 @@ fn check_seams(
 fn check_seams(_: &ViewArgs, _: &[DisplayProfile], _: &[Shown]) -> Result<(), CliError> {
     Ok(())
 }
+
+/// Arguments of `lumiwall bench view`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct BenchArgs {
+    /// Triangles of the generated scene (a vaulted nave; 100 000 is issue 16's target).
+    #[arg(long, default_value_t = 100_000,
+          value_parser = clap::value_parser!(u32).range(1..=MAX_BENCH_TRIANGLES))]
+    triangles: u32,
+    /// Tiles of the wall, `COLSxROWS`.
+    #[arg(long, default_value = "6x4")]
+    tiles: FrameSize,
+    /// Pixels of each display, `WIDTHxHEIGHT`.
+    #[arg(long, default_value = "1024x768")]
+    display_size: FrameSize,
+    /// Timed repetitions per display (the best counts).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    repeats: u32,
+    /// Skip the GPU row.
+    #[arg(long)]
+    no_gpu: bool,
+}
+
+/// Largest generated scene of `bench view`.
+const MAX_BENCH_TRIANGLES: i64 = 10_000_000;
+
+/// Most tiles of `bench view`'s wall.
+const MAX_BENCH_TILES: u32 = 256;
+
+/// Runs `lumiwall bench view`.
+pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
+    let tiles = (args.tiles.width, args.tiles.height);
+    if tiles.0 == 0 || tiles.1 == 0 || tiles.0 * tiles.1 > MAX_BENCH_TILES {
+        return Err(CliError::input(format!(
+            "--tiles {}: 1 to {MAX_BENCH_TILES} tiles",
+            args.tiles
+        )));
+    }
+    let s = args.display_size;
+    if s.width == 0
+        || s.height == 0
+        || u64::from(s.width) * u64::from(s.height) > MAX_DISPLAY_PIXELS
+    {
+        return Err(CliError::input(format!(
+            "--display-size {s}: at most {MAX_DISPLAY_PIXELS} pixels and at least one"
+        )));
+    }
+    let report = lumiwall_bench::view::run(lumiwall_bench::view::ViewBenchOptions {
+        triangles: args.triangles as usize,
+        tiles,
+        size: (s.width, s.height),
+        repeats: args.repeats,
+        gpu: !args.no_gpu,
+    })?;
+    print!("{report}");
+    Ok(())
+}

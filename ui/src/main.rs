@@ -100,6 +100,8 @@ enum BenchCommand {
     Apply(cmd_apply::BenchArgs),
     /// Radiosity solvers: error against time, patches, links, memory.
     Radiosity(cmd_render::BenchArgs),
+    /// Wall viewer: frame time per display (raster and post pass) on a generated scene.
+    View(cmd_view::BenchArgs),
     /// CIE 171:2006 analytical test cases against their closed forms.
     Cie171(cmd_cie171::Cie171Args),
     /// Calibration accuracy against the number of meter readings per display.
@@ -155,6 +157,7 @@ fn main() {
         Command::Station(a) => station_app::run(a),
         Command::Bench(BenchCommand::Apply(a)) => cmd_apply::bench(a),
         Command::Bench(BenchCommand::Radiosity(a)) => cmd_render::bench(a),
+        Command::Bench(BenchCommand::View(a)) => cmd_view::bench(a),
         Command::Bench(BenchCommand::Cie171(a)) => cmd_cie171::bench(a),
         #[cfg(feature = "station")]
         Command::Bench(BenchCommand::Readings(a)) => cmd_commission::bench(a),
