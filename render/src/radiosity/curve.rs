@@ -90,3 +90,54 @@ pub enum StopReason {
     /// converged on it; the estimate stays above the target.
     RefinementExhausted,
 }
+
+/// Smallest interval between two curve points of a shooting solver, in seconds.
+const REPORT_INTERVAL_S: f64 = 0.05;
+/// The first shots are all reported, so that short solves still draw a curve.
+const ALWAYS_REPORTED_SHOTS: usize = 10;
+
+/// The error curve of a shooting solver (progressive, sequence), thinned: every one
+/// of the first shots, then at most one point per [`REPORT_INTERVAL_S`], and the
+/// last.
+#[derive(Debug, Clone)]
+pub(crate) struct ShotCurve {
+    /// The points so far.
+    pub(crate) curve: ErrorCurve,
+    last_report_s: f64,
+}
+
+impl Default for ShotCurve {
+    fn default() -> Self {
+        Self {
+            curve: ErrorCurve::default(),
+            last_report_s: f64::NEG_INFINITY,
+        }
+    }
+}
+
+impl ShotCurve {
+    /// Adds a point for the state after `shots` shots at `now_s` when it is due (or
+    /// `last`): `error` estimated (all of it solve error), `patches` elements and
+    /// `links` form factors evaluated.
+    pub(crate) fn report(
+        &mut self,
+        now_s: f64,
+        shots: usize,
+        error: f64,
+        (patches, links): (usize, usize),
+        last: bool,
+    ) {
+        if last || now_s - self.last_report_s > REPORT_INTERVAL_S || shots < ALWAYS_REPORTED_SHOTS {
+            self.last_report_s = now_s;
+            self.curve.points.push(CurvePoint {
+                time_s: now_s,
+                iteration: shots,
+                estimated_error: error,
+                solve_error: error,
+                discretization_error: 0.0,
+                patches,
+                links,
+            });
+        }
+    }
+}

@@ -11,7 +11,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use crate::scene::{Scene, V3, polygon_area_m2, polygon_normal};
 
 pub(crate) use super::RayCounters;
-use super::curve::{CurvePoint, ErrorCurve, StopReason, StopRule};
+use super::curve::{ShotCurve, StopReason, StopRule};
 use super::form_factor::{point_to_polygon, targets_in_front};
 use super::quadrature;
 use super::solution::{Patch, Solution, SolveStats};
@@ -290,10 +290,6 @@ pub(crate) fn patches_from_mesh(mesh: &[MeshElem], b: &[[f64; 3]], h: &[[f64; 3]
         .collect()
 }
 
-/// Smallest interval between two curve reports of the progressive solver, in seconds.
-const REPORT_INTERVAL_S: f64 = 0.05;
-/// The first shots are all reported, so that short solves still draw a curve.
-const ALWAYS_REPORTED_SHOTS: usize = 10;
 /// Keeps the geometric series 1/(1 − ρ̄) finite for (nearly) white scenes.
 const MIN_ABSORPTION: f64 = 1e-9;
 
@@ -331,10 +327,9 @@ struct Shooter<'a> {
     unshot: Vec<[f64; 3]>,
     /// Area-weighted mean reflectance (Y).
     rho_mean: f64,
-    curve: ErrorCurve,
+    curve: ShotCurve,
     shots: usize,
     form_factor_evals: usize,
-    last_report_s: f64,
 }
 
 /// The unshot flux before a shot.
@@ -382,10 +377,9 @@ impl<'a> Shooter<'a> {
             exitance,
             unshot,
             rho_mean,
-            curve: ErrorCurve::default(),
+            curve: ShotCurve::default(),
             shots: 0,
             form_factor_evals: 0,
-            last_report_s: f64::NEG_INFINITY,
         })
     }
 
@@ -451,21 +445,8 @@ impl<'a> Shooter<'a> {
     /// Adds a curve point for the last shot when it is due (or `last`).
     fn report(&mut self, error: f64, last: bool) {
         let now = self.clock.elapsed_s();
-        if last
-            || now - self.last_report_s > REPORT_INTERVAL_S
-            || self.shots < ALWAYS_REPORTED_SHOTS
-        {
-            self.last_report_s = now;
-            self.curve.points.push(CurvePoint {
-                time_s: now,
-                iteration: self.shots,
-                estimated_error: error,
-                solve_error: error,
-                discretization_error: 0.0,
-                patches: self.mesh.len(),
-                links: self.form_factor_evals,
-            });
-        }
+        let size = (self.mesh.len(), self.form_factor_evals);
+        self.curve.report(now, self.shots, error, size, last);
     }
 
     /// Shoots the unshot exitance of element `shooter` to every element.
@@ -517,7 +498,7 @@ impl<'a> Shooter<'a> {
         Solution {
             patches,
             by_polygon,
-            curve: self.curve,
+            curve: self.curve.curve,
             stop,
             stats,
         }

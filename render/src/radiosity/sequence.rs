@@ -27,7 +27,7 @@ use frames::{FramePlan, PoseGeometry, SweptBoxes, check_state_size, moved_elem, 
 use gains::ShotContext;
 pub use time_curve::TimeCurve;
 
-use super::curve::{CurvePoint, ErrorCurve, StopReason, StopRule};
+use super::curve::{ErrorCurve, ShotCurve, StopReason, StopRule};
 use super::progressive::{
     MAX_UNIFORM_ELEMENTS, MeshElem, MeshMaterials, ProgressiveOptions, direct_light,
     patches_from_mesh, scene_extent, uniform_mesh,
@@ -155,10 +155,9 @@ struct Sequence {
     rho_mean: f64,
     eps: f64,
     key_spacing: usize,
-    curve: ErrorCurve,
+    curve: ShotCurve,
     shots: usize,
     form_factor_evals: usize,
-    last_report_s: f64,
 }
 
 /// The unshot flux over poses before a shot.
@@ -206,10 +205,6 @@ impl PoseSums {
     }
 }
 
-/// Smallest interval between two curve reports, in seconds.
-const REPORT_INTERVAL_S: f64 = 0.05;
-/// The first shots are all reported.
-const ALWAYS_REPORTED_SHOTS: usize = 10;
 /// Keeps the geometric series 1/(1 − ρ̄) finite for (nearly) white scenes.
 const MIN_ABSORPTION: f64 = 1e-9;
 
@@ -265,10 +260,9 @@ impl Sequence {
             rho_mean,
             eps,
             key_spacing: 1,
-            curve: ErrorCurve::default(),
+            curve: ShotCurve::default(),
             shots: 0,
             form_factor_evals: 0,
-            last_report_s: f64::NEG_INFINITY,
         };
         seq.light_directly();
         Ok(seq)
@@ -391,21 +385,8 @@ impl Sequence {
     /// Adds a curve point for the last shot when it is due (or `last`).
     fn report(&mut self, error: f64, last: bool) {
         let now = self.clock.elapsed_s();
-        if last
-            || now - self.last_report_s > REPORT_INTERVAL_S
-            || self.shots < ALWAYS_REPORTED_SHOTS
-        {
-            self.last_report_s = now;
-            self.curve.points.push(CurvePoint {
-                time_s: now,
-                iteration: self.shots,
-                estimated_error: error,
-                solve_error: error,
-                discretization_error: 0.0,
-                patches: self.mesh.len(),
-                links: self.form_factor_evals,
-            });
-        }
+        let size = (self.mesh.len(), self.form_factor_evals);
+        self.curve.report(now, self.shots, error, size, last);
     }
 
     /// Shoots the unshot exitance of element `shooter` in every pose at once.
@@ -483,7 +464,7 @@ impl Sequence {
                 Solution {
                     patches,
                     by_polygon,
-                    curve: self.curve.clone(),
+                    curve: self.curve.curve.clone(),
                     stop,
                     stats: stats.clone(),
                 }
@@ -494,7 +475,7 @@ impl Sequence {
             frames: plan.requested.clone(),
             solutions: plan.pose_of.iter().map(|&p| per_pose[p].clone()).collect(),
             frame_errors: plan.pose_of.iter().map(|&p| errors[p]).collect(),
-            curve: self.curve,
+            curve: self.curve.curve,
             stop,
             stats,
             distinct_poses: m,
