@@ -133,12 +133,6 @@ impl WallPlacement {
     }
 }
 
-/// The eye of a display: the viewer itself on a mono wall, half the eye separation to
-/// the left or right along the wall on a stereo one.
-pub fn eye_position(viewer: V3, eye: lumiwall_profiles::Eye, separation_m: f64) -> V3 {
-    viewer + V3::new(eye_offset_m(eye, separation_m), 0.0, 0.0)
-}
-
 /// How far an eye sits from the point between the eyes along the head's x axis:
 /// −half the separation for the left eye, +half for the right, 0 for a mono wall.
 pub fn eye_offset_m(eye: lumiwall_profiles::Eye, separation_m: f64) -> f64 {

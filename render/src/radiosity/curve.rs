@@ -141,3 +141,42 @@ impl ShotCurve {
         }
     }
 }
+
+/// What a shooting solver does after a step: whether to stop and why, and whether
+/// the curve takes this step as its last point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct ShotVerdict {
+    /// The curve's last point (target met, time out or shots capped).
+    pub(crate) last: bool,
+    /// Why the solve stops here, if it does.
+    pub(crate) stop: Option<StopReason>,
+}
+
+impl StopRule {
+    /// The verdict after `shots` shots with `error` estimated: converged at the target
+    /// or with `nothing_left` to shoot, else at the time limit (`past_deadline`), else
+    /// at the shot cap.
+    pub(crate) fn after_shots(
+        &self,
+        error: f64,
+        nothing_left: bool,
+        shots: usize,
+        past_deadline: bool,
+    ) -> ShotVerdict {
+        let done = error <= self.target_error;
+        let capped = shots >= self.max_iterations;
+        let stop = if done || nothing_left {
+            Some(StopReason::Converged)
+        } else if past_deadline {
+            Some(StopReason::TimeLimit)
+        } else if capped {
+            Some(StopReason::IterationLimit)
+        } else {
+            None
+        };
+        ShotVerdict {
+            last: done || past_deadline || capped,
+            stop,
+        }
+    }
+}

@@ -387,24 +387,18 @@ impl<'a> Shooter<'a> {
     fn run(&mut self, rule: &StopRule) -> Result<StopReason, RadiosityError> {
         loop {
             let unshot = self.unshot_flux();
-            let done = unshot.error <= rule.target_error;
-            let timeout = self.clock.past_deadline();
-            let capped = self.shots >= rule.max_iterations;
-            self.report(unshot.error, done || timeout || capped);
+            let past_deadline = self.clock.past_deadline();
+            let nothing_left = unshot.largest_flux <= 0.0;
+            let verdict = rule.after_shots(unshot.error, nothing_left, self.shots, past_deadline);
+            self.report(unshot.error, verdict.last);
             if !unshot.error.is_finite() {
                 return Err(RadiosityError::Diverged(format!(
                     "unshot flux became {}",
                     unshot.total
                 )));
             }
-            if done || unshot.largest_flux <= 0.0 {
-                return Ok(StopReason::Converged);
-            }
-            if timeout {
-                return Ok(StopReason::TimeLimit);
-            }
-            if capped {
-                return Ok(StopReason::IterationLimit);
+            if let Some(stop) = verdict.stop {
+                return Ok(stop);
             }
             self.shoot(unshot.largest);
         }

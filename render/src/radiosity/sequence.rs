@@ -326,24 +326,22 @@ impl Sequence {
     fn run(&mut self, rule: &StopRule) -> Result<StopReason, RadiosityError> {
         loop {
             let unshot = self.unshot_flux();
-            let error = unshot.errors.iter().copied().fold(0.0, f64::max);
-            let done = error <= rule.target_error;
-            let timeout = self.clock.past_deadline();
-            let capped = self.shots >= rule.max_iterations;
-            self.report(error, done || timeout || capped);
+            // the largest over poses; a NaN in any pose stays NaN (f64::max drops it)
+            let error = unshot
+                .errors
+                .iter()
+                .fold(0.0, |a: f64, &e| if e > a || e.is_nan() { e } else { a });
+            let past_deadline = self.clock.past_deadline();
+            let nothing_left = unshot.largest_flux <= 0.0;
+            let verdict = rule.after_shots(error, nothing_left, self.shots, past_deadline);
+            self.report(error, verdict.last);
             if !error.is_finite() {
                 return Err(RadiosityError::Diverged(format!(
                     "the unshot flux became {error} of the total"
                 )));
             }
-            if done || unshot.largest_flux <= 0.0 {
-                return Ok(StopReason::Converged);
-            }
-            if timeout {
-                return Ok(StopReason::TimeLimit);
-            }
-            if capped {
-                return Ok(StopReason::IterationLimit);
+            if let Some(stop) = verdict.stop {
+                return Ok(stop);
             }
             self.shoot(unshot.largest);
         }

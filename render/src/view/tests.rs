@@ -55,7 +55,7 @@ fn a_point_on_the_seam_projects_to_the_right_edge_of_one_tile_and_the_left_edge_
     let g = geometry();
     let viewer = g.centred_viewer(2.0) + V3::new(0.3, -0.1, 0.4);
     let place = WallPlacement::from_camera(&camera(), viewer).unwrap();
-    let eye = eye_position(viewer, Eye::Left, DEFAULT_EYE_SEPARATION_M);
+    let eye = viewer + V3::new(eye_offset_m(Eye::Left, DEFAULT_EYE_SEPARATION_M), 0.0, 0.0);
     let left = place.tile_view(&g, 0, 0, eye, (640, 480));
     let right = place.tile_view(&g, 1, 0, eye, (640, 480));
     // A scene point behind the seam's middle, seen through it from the eye.
