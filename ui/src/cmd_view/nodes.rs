@@ -32,6 +32,8 @@ struct OutputRoute {
 /// The wall file's `[network]` and `[[output]]` tables.
 struct WallNetwork {
     token_file: String,
+    /// The nodes' certificate authority (PEM file beside the wall file): TLS.
+    ca_file: Option<String>,
     deadline_ms: u64,
     routes: Vec<OutputRoute>,
 }
@@ -49,6 +51,10 @@ fn wall_network(path: &Path) -> Result<WallNetwork, CliError> {
         .and_then(|v| v.as_str())
         .ok_or_else(|| err("[network] has no token_file".into()))?
         .to_string();
+    let ca_file = net
+        .get("ca_file")
+        .and_then(|v| v.as_str())
+        .map(str::to_string);
     let deadline_ms = net
         .get("deadline_ms")
         .and_then(|v| v.as_integer())
@@ -65,6 +71,7 @@ fn wall_network(path: &Path) -> Result<WallNetwork, CliError> {
         .collect::<Result<Vec<_>, _>>()?;
     Ok(WallNetwork {
         token_file,
+        ca_file,
         deadline_ms,
         routes,
     })
@@ -133,13 +140,18 @@ impl NodeShow {
         nodes.dedup();
         nodes.sort();
         nodes.dedup();
-        let token_path = wall
-            .parent()
-            .unwrap_or(Path::new("."))
-            .join(&net.token_file);
-        let token = Token::from_file(&token_path).map_err(|e| CliError::input(e.to_string()))?;
+        let beside = |f: &str| wall.parent().unwrap_or(Path::new(".")).join(f);
+        let token = Token::from_file(&beside(&net.token_file))
+            .map_err(|e| CliError::input(e.to_string()))?;
+        let tls_ca_pem = match &net.ca_file {
+            Some(f) => Some(std::fs::read(beside(f)).map_err(|e| {
+                CliError::input(format!("network.ca_file {}: {e}", beside(f).display()))
+            })?),
+            None => None,
+        };
         let opts = NodeOptions {
             deadline: Duration::from_millis(net.deadline_ms),
+            tls_ca_pem,
             ..NodeOptions::new(token, format!("view@{node}"))
         };
         let rt = Arc::new(
