@@ -38,6 +38,9 @@ pub struct ReadingsBench {
     /// Wait for the wall to warm up before each commissioning (`commission
     /// --warm-up`), as a station does on a wall just switched on.
     pub warm_up: bool,
+    /// Match the realistic meter to the reference on every display (`meter-matrix
+    /// --per-display`) instead of once per eye.
+    pub per_display_matrix: bool,
 }
 
 /// One commission-and-verify run.
@@ -169,11 +172,12 @@ pub fn run(
 pub(crate) fn match_meter(
     station: &mut Station,
     noise: Noise,
+    per_display: bool,
 ) -> Result<Option<MeterMatrices>, MeterMatrixError> {
     Ok(match noise {
-        Noise::Realistic => {
-            Some(station.meter_matrices_against_simulated(SpectroModel::cs2000(2000), false)?)
-        }
+        Noise::Realistic => Some(
+            station.meter_matrices_against_simulated(SpectroModel::cs2000(2000), per_display)?,
+        ),
         Noise::None => None,
     })
 }
@@ -186,7 +190,7 @@ fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsR
         &bench.wall,
         &StationOptions::new(bench.meter.clone(), noise),
     )?;
-    let meter_matrix = match_meter(&mut station, noise)?;
+    let meter_matrix = match_meter(&mut station, noise, bench.per_display_matrix)?;
     let out = bench.out.join(format!("{}-{budget}", noise.name()));
     let opts = CommissionOptions {
         measure: MeasureOptions {

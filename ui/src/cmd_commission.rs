@@ -654,6 +654,10 @@ pub(crate) struct BenchArgs {
     /// --warm-up`; its readings are not counted in the budget).
     #[arg(long)]
     warm_up: bool,
+    /// Match the realistic meter to the reference on every display (as `meter-matrix
+    /// --per-display`), not once per eye.
+    #[arg(long)]
+    per_display_matrix: bool,
 }
 
 /// Runs `lumiwall bench readings`: for each budget and each meter error model,
@@ -668,6 +672,7 @@ pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
         patches: args.patches,
         out: args.out,
         warm_up: args.warm_up,
+        per_display_matrix: args.per_display_matrix,
     };
     println!(
         "accuracy against meter readings per display ({}): the 51-patch chart read by a \
