@@ -12,3 +12,5 @@ pub mod radiosity;
 pub mod rng;
 pub mod scene;
 pub mod view;
+#[cfg(feature = "voxel-gi")]
+pub mod voxel;

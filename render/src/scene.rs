@@ -22,8 +22,8 @@ pub use limits::{
     MAX_INTENSITY_CD, MAX_LUMINANCE_CD_M2, MAX_UNIT_M, MIN_UNIT_M,
 };
 pub use load::{
-    GoniometricLightFile, LightFile, LightKindFile, LightOutputFile, SceneFile,
-    load_animated_scene, load_scene, parse_animated_scene_toml, parse_scene_toml,
+    GoniometricLightFile, LightFile, LightKindFile, LightOutputFile, MethodHint, SceneFile,
+    load_animated_scene, load_scene, parse_animated_scene_toml, parse_scene_toml, scene_method,
 };
 pub use types::{
     Camera, Daylight, DirectionalSource, IntensityFn, Light, LightKind, Material, Polygon, Scene,

@@ -45,6 +45,40 @@ pub struct SceneFile {
     pub sky: Option<SkyFile>,
     /// Keyframed rigid-body motion of objects and lights.
     pub animation: Option<AnimationFile>,
+    /// The lighting method that suits the scene, used when `lumiwall render` is not
+    /// given `--method` ([`scene_method`]).
+    pub method: Option<MethodHint>,
+}
+
+/// The scene file's `method`: how the scene is best lit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MethodHint {
+    /// Hierarchical radiosity (static scenes, error-bounded).
+    Radiosity,
+    /// Progressive refinement (animations solved as one sequence).
+    Progressive,
+    /// Voxel-based GI, direct light and one bounce, every frame from scratch
+    /// (fully dynamic scenes).
+    VoxelGi,
+}
+
+/// The `method` a scene file asks for, if any (read without loading the geometry).
+pub fn scene_method(path: &Path) -> Result<Option<MethodHint>, SceneError> {
+    #[derive(Deserialize)]
+    struct Only {
+        method: Option<MethodHint>,
+    }
+    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    toml::from_str::<Only>(&text)
+        .map(|o| o.method)
+        .map_err(|e| SceneError::Toml {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
 }
 
 /// The `[sky]` entry: a CIE standard sky, discretised into distant cells.

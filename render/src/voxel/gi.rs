@@ -1,0 +1,619 @@
+//! Direct light and one bounce of indirect light over a camera's view, every
+//! visibility decided by the voxel hierarchy (Thiedemann 2010, VPL near-field GI).
+//!
+//! Per frame: the scene is voxelised ([`super::voxelize`]); the camera's primary
+//! rays find the visible surfaces exactly (a G-buffer, [`Surfel`]); the area emitters
+//! are sampled at fixed points ([`LightSample`], shared by all pixels); light paths
+//! leave the emitters and where they first land (exact ray cast: Thiedemann takes
+//! them from a reflective shadow map) a virtual point light ([`Vpl`]) keeps the
+//! reflected flux. Each pixel then sums, with voxel visibility, the emitters'
+//! illuminance and the VPLs' (Thiedemann eq. 6, `E = Φ/π · cosθ·cosθ′ / max(d², d_min²)`)
+//! and shows `L = L_e + ρ/π · E` in cd/m² (XYZ). This is exactly the part of the
+//! light a path tracer with at most two reflections (Mitsuba `max_depth` 3) sees.
+//!
+//! Shadow rays start one voxel diagonal off the surface along its normal and end one
+//! voxel diagonal off the light (Thiedemann l.547–560), so a surface never shadows
+//! itself; the price is a contact shadow missing within that distance of a corner
+//! and light leaking through walls thinner than it, both shrinking with the voxel.
+
+use std::f64::consts::PI;
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::grid::{GridError, VoxelGrid};
+use super::traverse::trace;
+use super::voxelize::{scene_triangles, voxelize};
+use crate::mesh::Bvh;
+use crate::scene::{Camera, Scene, V3, polygon_area_m2, polygon_normal};
+
+/// What a voxel GI frame is computed with.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GiOptions {
+    /// Voxels along the scene's longest axis (a power of two, 8–1024).
+    pub resolution: u32,
+    /// Fixed sample points on the area emitters, shared by every pixel.
+    pub light_samples: u32,
+    /// Light paths that leave VPLs (those that land on a front face do).
+    pub vpl_paths: u32,
+    /// Distance below which a VPL's illuminance stops growing (m); `None`: 5 % of
+    /// the scene's extent.
+    pub vpl_clamp_m: Option<f64>,
+}
+
+impl Default for GiOptions {
+    fn default() -> Self {
+        Self {
+            resolution: 128,
+            light_samples: 256,
+            vpl_paths: 256,
+            vpl_clamp_m: None,
+        }
+    }
+}
+
+/// Why a frame could not be computed.
+#[derive(Debug, thiserror::Error)]
+pub enum GiError {
+    /// The voxel grid could not be made.
+    #[error(transparent)]
+    Grid(#[from] GridError),
+    /// The scene has a point-like light (not yet supported by this method).
+    #[error(
+        "light `{0}` is a point-like light; --method voxel-gi lights scenes by their \
+         area emitters only: model it as an emitting polygon or use --method radiosity"
+    )]
+    PointLight(String),
+    /// The scene is lit by daylight.
+    #[error(
+        "the scene is lit by daylight, which --method voxel-gi does not take; use --method radiosity"
+    )]
+    Daylight,
+    /// Nothing emits.
+    #[error("nothing in the scene emits light: give a material emission_cd_m2")]
+    NoEmitter,
+    /// A count is zero or too large.
+    #[error("{what} is {value}; it must be between 1 and {max}")]
+    Count {
+        /// Which option.
+        what: &'static str,
+        /// Its value.
+        value: u64,
+        /// Largest accepted.
+        max: u64,
+    },
+    /// The camera has no pixels or too many.
+    #[error("camera of {0}×{1} pixels: each side must be 1 to 16384 and the image at most 64 Mpx")]
+    Camera(u32, u32),
+    /// The GPU path failed.
+    #[error("GPU: {0}")]
+    Gpu(String),
+}
+
+/// Most emitter samples or VPL paths.
+pub const MAX_SAMPLES: u32 = 1 << 16;
+
+/// The visible surface at a pixel.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Surfel {
+    /// Position (m).
+    pub p: [f32; 3],
+    /// Front-side unit normal; zero where the pixel sees nothing or a back face.
+    pub n: [f32; 3],
+    /// Reflectance (XYZ).
+    pub rho: [f32; 3],
+    /// Emitted luminance (XYZ, cd/m²).
+    pub le: [f32; 3],
+}
+
+/// A point on an area emitter: illuminance at distance r under cosines cθ, cθ′ is
+/// `w·cθ·cθ′/r²`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LightSample {
+    /// Position (m).
+    pub p: [f32; 3],
+    /// Emitting side's unit normal.
+    pub n: [f32; 3],
+    /// Luminance times the emitter area the sample stands for (XYZ, cd).
+    pub w: [f32; 3],
+}
+
+/// A virtual point light: a Lambertian reflector of flux `flux`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Vpl {
+    /// Position (m).
+    pub p: [f32; 3],
+    /// Unit normal of the reflecting side.
+    pub n: [f32; 3],
+    /// Reflected flux (XYZ, lm).
+    pub flux: [f32; 3],
+}
+
+/// Seconds spent in each part of a frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct GiTimings {
+    /// Voxelisation and hierarchy.
+    pub voxelize_s: f64,
+    /// Primary visibility (G-buffer, exact ray cast on the CPU).
+    pub gbuffer_s: f64,
+    /// Emitter samples and VPLs (exact ray cast on the CPU).
+    pub lights_s: f64,
+    /// Direct and indirect light with voxel visibility.
+    pub shade_s: f64,
+}
+
+/// A frame's light, ready for the CPU or the GPU: the voxel hierarchy, the emitter
+/// samples and the VPLs (what does not depend on the view).
+#[derive(Debug, Clone)]
+pub struct GiLight {
+    /// The voxel hierarchy (empty as [`prepare`] returns it).
+    pub grid: VoxelGrid,
+    /// Emitter samples.
+    pub lights: Vec<LightSample>,
+    /// VPLs.
+    pub vpls: Vec<Vpl>,
+    /// Square of the VPL clamp distance (m²).
+    pub vpl_clamp2_m2: f32,
+    /// Offset of ray ends from their surfaces (m): one voxel diagonal.
+    pub offset_m: f32,
+    /// Time of what was prepared.
+    pub timings: GiTimings,
+}
+
+/// What one view sees: a surfel per pixel.
+#[derive(Debug, Clone)]
+pub struct GiView {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// One surfel per pixel, row major from the top left.
+    pub surfels: Vec<Surfel>,
+}
+
+/// A lit frame.
+#[derive(Debug, Clone)]
+pub struct GiFrame {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// XYZ luminance per pixel (cd/m²), row major from the top left.
+    pub xyz: Vec<[f32; 3]>,
+    /// Time per part.
+    pub timings: GiTimings,
+    /// Set voxels at level 0.
+    pub occupied_voxels: u64,
+    /// VPLs used.
+    pub vpls: usize,
+}
+
+/// A frame prepared: its light (grid still empty), the triangles to voxelise (world
+/// metres) and the exact first hits for views.
+pub struct Prepared {
+    /// The light.
+    pub light: GiLight,
+    /// The scene's triangles.
+    pub tris: Vec<[[f64; 3]; 3]>,
+    /// First hits of view rays.
+    pub hits: SceneHits,
+}
+
+/// Checks the options and the scene and prepares a frame: the emitter samples and
+/// the VPLs, the empty voxel grid and the triangles to voxelise into it.
+pub fn prepare(scene: &Scene, opts: &GiOptions) -> Result<Prepared, GiError> {
+    check(scene, opts)?;
+    let mut timings = GiTimings::default();
+    let (tris, owner) = scene_triangles(scene);
+    let (min, max) = bounds(&tris);
+    let grid = VoxelGrid::empty(min, max, opts.resolution)?;
+    let started = Instant::now();
+    let hits = SceneHits {
+        bvh: Bvh::build(&tris),
+        surfaces: Surfaces::new(scene, owner),
+    };
+    let lights = light_samples(scene, opts.light_samples);
+    let vpls = vpls(scene, &hits, opts.vpl_paths);
+    timings.lights_s = started.elapsed().as_secs_f64();
+    let clamp = opts.vpl_clamp_m.unwrap_or(0.05 * (max - min).max());
+    let light = GiLight {
+        offset_m: (3f64.sqrt() * grid.voxel_m) as f32,
+        grid,
+        lights,
+        vpls,
+        vpl_clamp2_m2: (clamp * clamp) as f32,
+        timings,
+    };
+    Ok(Prepared { light, tris, hits })
+}
+
+/// The whole frame of `camera` on the CPU ([`prepare`], the voxels, the G-buffer,
+/// then [`shade`] for every pixel).
+pub fn render_frame(scene: &Scene, camera: &Camera, opts: &GiOptions) -> Result<GiFrame, GiError> {
+    let Prepared {
+        mut light,
+        tris,
+        hits,
+    } = prepare(scene, opts)?;
+    let started = Instant::now();
+    voxelize(&mut light.grid, &tris);
+    light.timings.voxelize_s = started.elapsed().as_secs_f64();
+    let started = Instant::now();
+    let view = hits.pinhole(camera)?;
+    light.timings.gbuffer_s = started.elapsed().as_secs_f64();
+    let started = Instant::now();
+    let xyz = shade_view(&light, &view);
+    let mut timings = light.timings;
+    timings.shade_s = started.elapsed().as_secs_f64();
+    Ok(GiFrame {
+        width: view.width,
+        height: view.height,
+        xyz,
+        timings,
+        occupied_voxels: light.grid.occupied_count(),
+        vpls: light.vpls.len(),
+    })
+}
+
+/// Every pixel of `view` shaded on the CPU.
+pub fn shade_view(light: &GiLight, view: &GiView) -> Vec<[f32; 3]> {
+    view.surfels.par_iter().map(|s| shade(light, s)).collect()
+}
+
+/// Whether this method can light `scene` with `opts` (area emitters only, counts in
+/// range).
+pub fn check(scene: &Scene, opts: &GiOptions) -> Result<(), GiError> {
+    let n = opts.resolution;
+    if !(super::MIN_RESOLUTION..=super::MAX_RESOLUTION).contains(&n) || !n.is_power_of_two() {
+        return Err(GridError::Resolution(n).into());
+    }
+    if let Some(l) = scene.lights.first() {
+        return Err(GiError::PointLight(l.name.clone()));
+    }
+    if scene.sky.is_some() {
+        return Err(GiError::Daylight);
+    }
+    if !scene
+        .polygons
+        .iter()
+        .any(|p| scene.materials[p.material].is_emitter())
+    {
+        return Err(GiError::NoEmitter);
+    }
+    for (what, value) in [
+        ("--light-samples", opts.light_samples),
+        ("--vpls", opts.vpl_paths),
+    ] {
+        if value == 0 || value > MAX_SAMPLES {
+            return Err(GiError::Count {
+                what,
+                value: value.into(),
+                max: MAX_SAMPLES.into(),
+            });
+        }
+    }
+    Ok(())
+}
+
+fn check_size(w: u32, h: u32) -> Result<(), GiError> {
+    if !(1..=16384).contains(&w)
+        || !(1..=16384).contains(&h)
+        || u64::from(w) * u64::from(h) > 1 << 26
+    {
+        return Err(GiError::Camera(w, h));
+    }
+    Ok(())
+}
+
+fn bounds(tris: &[[[f64; 3]; 3]]) -> (V3, V3) {
+    let mut lo = V3::repeat(f64::INFINITY);
+    let mut hi = V3::repeat(f64::NEG_INFINITY);
+    for p in tris.iter().flatten() {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (lo, hi)
+}
+
+/// Per polygon: unit normal, reflectance and emission (f32), and triangle → polygon.
+struct Surfaces {
+    normal: Vec<[f32; 3]>,
+    rho: Vec<[f32; 3]>,
+    le: Vec<[f32; 3]>,
+    owner: Vec<u32>,
+}
+
+impl Surfaces {
+    fn new(scene: &Scene, owner: Vec<u32>) -> Self {
+        let normal = scene
+            .polygons
+            .iter()
+            .map(|p| polygon_normal(&p.vertices).map_or([0.0; 3], |n| f32v(&n)))
+            .collect();
+        let mat = |p: &crate::scene::Polygon| &scene.materials[p.material];
+        Self {
+            normal,
+            rho: scene
+                .polygons
+                .iter()
+                .map(|p| mat(p).reflectance_xyz.map(|v| v as f32))
+                .collect(),
+            le: scene
+                .polygons
+                .iter()
+                .map(|p| mat(p).emission_cd_m2.map(|v| v as f32))
+                .collect(),
+            owner,
+        }
+    }
+
+    /// The surfel where a ray from `o` along `d` first lands; a back face gives a
+    /// surfel with a zero normal (one-sided surfaces reflect and emit nothing there).
+    fn hit(&self, bvh: &Bvh, o: [f64; 3], d: [f64; 3]) -> Option<(Surfel, usize)> {
+        let h = bvh.intersect(o, d, f64::INFINITY)?;
+        let poly = self.owner[h.triangle as usize] as usize;
+        let p = std::array::from_fn(|a| (o[a] + h.t * d[a]) as f32);
+        if !h.front_face {
+            return Some((
+                Surfel {
+                    p,
+                    ..Surfel::default()
+                },
+                poly,
+            ));
+        }
+        Some((
+            Surfel {
+                p,
+                n: self.normal[poly],
+                rho: self.rho[poly],
+                le: self.le[poly],
+            },
+            poly,
+        ))
+    }
+}
+
+fn f32v(v: &V3) -> [f32; 3] {
+    [v.x as f32, v.y as f32, v.z as f32]
+}
+
+/// The scene's exact first hits: what a view sees, where light paths land.
+pub struct SceneHits {
+    bvh: Bvh,
+    surfaces: Surfaces,
+}
+
+impl SceneHits {
+    /// The surfel seen along each pixel's ray (`ray(x, y)`: origin and direction of
+    /// the ray through pixel column x, row y from the top left).
+    pub fn view(
+        &self,
+        width: u32,
+        height: u32,
+        ray: impl Fn(u32, u32) -> ([f64; 3], [f64; 3]) + Sync,
+    ) -> Result<GiView, GiError> {
+        check_size(width, height)?;
+        let w = width as usize;
+        let surfels = (0..w * height as usize)
+            .into_par_iter()
+            .map(|i| {
+                let (o, d) = ray((i % w) as u32, (i / w) as u32);
+                self.surfaces
+                    .hit(&self.bvh, o, d)
+                    .map_or(Surfel::default(), |s| s.0)
+            })
+            .collect();
+        Ok(GiView {
+            width,
+            height,
+            surfels,
+        })
+    }
+
+    /// The surfel seen through every pixel centre of `camera` (the radiosity
+    /// images' pinhole).
+    pub fn pinhole(&self, camera: &Camera) -> Result<GiView, GiError> {
+        let (w, h) = (f64::from(camera.width_px), f64::from(camera.height_px));
+        let forward = (camera.look_at - camera.position).normalize();
+        let right = forward.cross(&camera.up).normalize();
+        let up = right.cross(&forward);
+        let focal_px = 0.5 * h / (0.5 * camera.vfov_deg.to_radians()).tan();
+        let o = [camera.position.x, camera.position.y, camera.position.z];
+        self.view(camera.width_px, camera.height_px, |x, y| {
+            let (x, y) = (f64::from(x) + 0.5, f64::from(y) + 0.5);
+            let d = forward + right * ((x - 0.5 * w) / focal_px) + up * ((0.5 * h - y) / focal_px);
+            (o, [d.x, d.y, d.z])
+        })
+    }
+}
+
+/// The emitting polygons with their luminous flux (lm), for sampling by flux.
+fn emitters(scene: &Scene) -> (Vec<usize>, Vec<f64>) {
+    let mut idx = Vec::new();
+    let mut flux = Vec::new();
+    for (i, p) in scene.polygons.iter().enumerate() {
+        let m = &scene.materials[p.material];
+        let f = PI * m.emission_cd_m2[1] * polygon_area_m2(&p.vertices);
+        if m.is_emitter() && f > 0.0 && polygon_normal(&p.vertices).is_some() {
+            idx.push(i);
+            flux.push(f);
+        }
+    }
+    (idx, flux)
+}
+
+/// Radical inverse of `i` in base `b` (Halton).
+fn halton(mut i: u32, b: u32) -> f64 {
+    let (mut f, mut r) = (1.0, 0.0);
+    while i > 0 {
+        f /= f64::from(b);
+        r += f * f64::from(i % b);
+        i /= b;
+    }
+    r
+}
+
+/// Picks an index by its weight with `u` in [0, 1) (cumulative search).
+fn pick(weights: &[f64], total: f64, u: f64) -> usize {
+    let mut acc = 0.0;
+    for (k, w) in weights.iter().enumerate() {
+        acc += w;
+        if u * total < acc {
+            return k;
+        }
+    }
+    weights.len() - 1
+}
+
+/// A point of polygon `v` (convex, fanned) from two uniform numbers.
+fn point_on(v: &[V3], u1: f64, u2: f64) -> V3 {
+    let areas: Vec<f64> = (1..v.len() - 1)
+        .map(|k| (v[k] - v[0]).cross(&(v[k + 1] - v[0])).norm())
+        .collect();
+    let total: f64 = areas.iter().sum();
+    let k = pick(&areas, total, u1);
+    // u1 again, rescaled within the chosen triangle
+    let before: f64 = areas[..k].iter().sum();
+    let s = ((u1 * total - before) / areas[k].max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
+    let (a, b) = (s.sqrt(), u2);
+    v[0] * (1.0 - a) + v[k + 1] * (a * (1.0 - b)) + v[k + 2] * (a * b)
+}
+
+/// `count` emitter samples by flux (Halton points over each polygon's area).
+fn light_samples(scene: &Scene, count: u32) -> Vec<LightSample> {
+    let (idx, flux) = emitters(scene);
+    let total: f64 = flux.iter().sum();
+    (0..count)
+        .map(|i| {
+            let k = pick(&flux, total, halton(i + 1, 2));
+            let poly = &scene.polygons[idx[k]];
+            let m = &scene.materials[poly.material];
+            let p = point_on(&poly.vertices, halton(i + 1, 3), halton(i + 1, 5));
+            let n = polygon_normal(&poly.vertices).unwrap_or_default();
+            // each sample stands for total/count of the flux: area share A·(f_k/total)·…
+            let share = polygon_area_m2(&poly.vertices) * total / (flux[k] * f64::from(count));
+            LightSample {
+                p: f32v(&p),
+                n: f32v(&n),
+                w: m.emission_cd_m2.map(|l| (l * share) as f32),
+            }
+        })
+        .collect()
+}
+
+/// Light paths from the emitters (by flux, cosine-distributed); a VPL where each
+/// first lands on a front face, carrying the reflected part of the path's flux.
+fn vpls(scene: &Scene, hits: &SceneHits, paths: u32) -> Vec<Vpl> {
+    let (idx, flux) = emitters(scene);
+    let total: f64 = flux.iter().sum();
+    (0..paths)
+        .into_par_iter()
+        .filter_map(|i| {
+            let k = pick(&flux, total, halton(i + 1, 2));
+            let poly = &scene.polygons[idx[k]];
+            let m = &scene.materials[poly.material];
+            let n = polygon_normal(&poly.vertices)?;
+            let y = point_on(&poly.vertices, halton(i + 1, 3), halton(i + 1, 5));
+            let d = cosine_direction(&n, halton(i + 1, 7), halton(i + 1, 11));
+            let o = y + n * 1e-7;
+            let (s, _) = hits
+                .surfaces
+                .hit(&hits.bvh, [o.x, o.y, o.z], [d.x, d.y, d.z])?;
+            if s.n == [0.0; 3] {
+                return None;
+            }
+            // path flux: π·L·A / p(k) / paths, per XYZ channel
+            let a = polygon_area_m2(&poly.vertices);
+            let f = |c: usize| PI * m.emission_cd_m2[c] * a * total / (flux[k] * f64::from(paths));
+            Some(Vpl {
+                p: s.p,
+                n: s.n,
+                flux: std::array::from_fn(|c| (f(c) * f64::from(s.rho[c])) as f32),
+            })
+        })
+        .collect()
+}
+
+fn cosine_direction(n: &V3, u1: f64, u2: f64) -> V3 {
+    let t = if n.x.abs() < 0.9 { V3::x() } else { V3::y() };
+    let b1 = n.cross(&t).normalize();
+    let b2 = n.cross(&b1);
+    let r = u1.sqrt();
+    let phi = 2.0 * PI * u2;
+    b1 * (r * phi.cos()) + b2 * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt()
+}
+
+fn sub3(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn madd(a: [f32; 3], b: [f32; 3], s: f32) -> [f32; 3] {
+    [a[0] + b[0] * s, a[1] + b[1] * s, a[2] + b[2] * s]
+}
+
+/// True when no set voxel lies on the segment from `a` to `b` (world metres).
+pub fn visible(grid: &VoxelGrid, a: [f32; 3], b: [f32; 3]) -> bool {
+    let inv_h = 1.0 / grid.voxel_m as f32;
+    let o: [f32; 3] = std::array::from_fn(|k| (a[k] - grid.origin[k] as f32) * inv_h);
+    let e: [f32; 3] = std::array::from_fn(|k| (b[k] - grid.origin[k] as f32) * inv_h);
+    trace(grid, o, sub3(e, o), 0.0, 1.0).is_none()
+}
+
+/// The luminance (XYZ, cd/m²) a pixel shows: the same steps as the WGSL `shade`
+/// (its dispatches over chunks of [`SHADE_CHUNK`] samples included).
+pub fn shade(g: &GiLight, s: &Surfel) -> [f32; 3] {
+    if s.n == [0.0; 3] {
+        return [0.0; 3];
+    }
+    let start = madd(s.p, s.n, g.offset_m);
+    let add = |e: &mut [f32; 3], p: [f32; 3], n: [f32; 3], w: [f32; 3], clamp2: f32| {
+        let v = sub3(p, s.p);
+        let r2 = dot3(v, v);
+        let r = r2.sqrt();
+        let c = dot3(s.n, v) / r;
+        let c2 = -dot3(n, v) / r;
+        if !(c > 0.0 && c2 > 0.0) {
+            return;
+        }
+        if visible(&g.grid, start, madd(p, n, g.offset_m)) {
+            let k = c * c2 / r2.max(clamp2);
+            *e = std::array::from_fn(|i| e[i] + w[i] * k);
+        }
+    };
+    let inv_pi = std::f32::consts::FRAC_1_PI;
+    let n_lights = g.lights.len();
+    let total = n_lights + g.vpls.len();
+    let mut out = s.le;
+    for first in (0..total).step_by(SHADE_CHUNK) {
+        let mut e = [0.0f32; 3];
+        for k in first..(first + SHADE_CHUNK).min(total) {
+            match g.lights.get(k) {
+                Some(l) => add(&mut e, l.p, l.n, l.w, 0.0),
+                None => {
+                    let v = &g.vpls[k - n_lights];
+                    add(
+                        &mut e,
+                        v.p,
+                        v.n,
+                        v.flux.map(|f| f * inv_pi),
+                        g.vpl_clamp2_m2,
+                    );
+                }
+            }
+        }
+        out = std::array::from_fn(|i| out[i] + s.rho[i] * inv_pi * e[i]);
+    }
+    out
+}
+
+/// Samples (emitter samples, then VPLs) summed per step of the shading, on the CPU
+/// as on the GPU (one dispatch each: llvmpipe caps the loop iterations of one shader
+/// invocation at 65 535, which a pixel's traversals over thousands of VPLs exceed).
+pub const SHADE_CHUNK: usize = 32;
