@@ -27,6 +27,8 @@ use crate::CliError;
 use crate::values;
 
 mod frames;
+#[cfg(feature = "voxel-gi")]
+pub(crate) mod voxel;
 
 /// Radiosity solver choice.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -37,6 +39,11 @@ pub(crate) enum Method {
     /// light not yet shot, blind to the mesh: it does not bound the error (Cornell
     /// box at `--error 1%`: 6.9 % from Mitsuba, `lumiwall bench radiosity`).
     Progressive,
+    /// Voxel-based GI (Thiedemann 2010) for fully dynamic scenes: every frame
+    /// voxelised and lit from scratch, direct light and one bounce through VPLs, on
+    /// the GPU (`--cpu`: on the CPU); images only, no PLY or error curve.
+    #[cfg(feature = "voxel-gi")]
+    VoxelGi,
 }
 
 /// Receiver representation of the hierarchical solver (Kresse 2.5.3).
@@ -65,10 +72,13 @@ impl From<BasisArg> for lumiwall_render::radiosity::hierarchical::Basis {
 pub(crate) struct RenderArgs {
     /// Scene file (TOML, see fixtures/scenes/README.md).
     scene: PathBuf,
-    /// Solver (default: radiosity; with --frames: progressive, the only one that
-    /// solves frames together).
+    /// Solver (default: the scene file's `method`, else radiosity; with --frames:
+    /// progressive, the only radiosity solver that solves frames together).
     #[arg(long, value_enum)]
     method: Option<Method>,
+    #[cfg(feature = "voxel-gi")]
+    #[command(flatten)]
+    voxel: voxel::VoxelArgs,
     /// Frames of an animated scene to solve together, `A..B` with both ends included
     /// (e.g. `0..59`), by simultaneous progressive refinement (Hahn 2000): one image
     /// and PLY per frame, `OUT_STEM_FFFF.exr`.
@@ -155,6 +165,12 @@ fn solve(scene: &Scene, args: &RenderArgs) -> Result<Solution, CliError> {
             };
             solve_hierarchical(scene, occluders, &opts)?
         }
+        #[cfg(feature = "voxel-gi")]
+        Method::VoxelGi => {
+            return Err(CliError::failure(
+                "--method voxel-gi is not a radiosity solver (dispatched before)",
+            ));
+        }
         Method::Progressive => {
             let opts = ProgressiveOptions {
                 stop,
@@ -187,7 +203,12 @@ fn percent_errors(p: &CurvePoint) -> [f64; 3] {
 }
 
 /// Runs `lumiwall render`.
-pub(crate) fn run(args: RenderArgs) -> Result<(), CliError> {
+pub(crate) fn run(mut args: RenderArgs) -> Result<(), CliError> {
+    args.method = args.method.or(method_of_scene(&args.scene)?);
+    #[cfg(feature = "voxel-gi")]
+    if args.method == Some(Method::VoxelGi) {
+        return voxel::run(&args);
+    }
     if let Some(range) = args.frames {
         return frames::run(&args, range);
     }
@@ -205,6 +226,26 @@ pub(crate) fn run(args: RenderArgs) -> Result<(), CliError> {
         println!("wrote {}", out.display());
     }
     Ok(())
+}
+
+/// The method the scene file asks for (`method = "…"`), if any.
+fn method_of_scene(path: &Path) -> Result<Option<Method>, CliError> {
+    use lumiwall_render::scene::{MethodHint, scene_method};
+    Ok(match scene_method(path)? {
+        None => None,
+        Some(MethodHint::Radiosity) => Some(Method::Radiosity),
+        Some(MethodHint::Progressive) => Some(Method::Progressive),
+        #[cfg(feature = "voxel-gi")]
+        Some(MethodHint::VoxelGi) => Some(Method::VoxelGi),
+        #[cfg(not(feature = "voxel-gi"))]
+        Some(MethodHint::VoxelGi) => {
+            return Err(CliError::input(format!(
+                "{} asks for method voxel-gi, which this lumiwall was built without (cargo \
+                 feature voxel-gi); give --method radiosity or progressive",
+                path.display()
+            )));
+        }
+    })
 }
 
 /// Illuminance at the calculation grid's sensors, written as CSV, with a summary.

@@ -35,8 +35,18 @@ pub(crate) struct ViewArgs {
     scene: PathBuf,
     /// The solution `lumiwall render` wrote for the scene (`.ply`: per-vertex
     /// luminance, view-independent).
-    #[arg(long)]
-    solution: PathBuf,
+    #[cfg_attr(feature = "voxel-gi", arg(long, required_unless_present = "voxel_gi"))]
+    #[cfg_attr(not(feature = "voxel-gi"), arg(long, required = true))]
+    solution: Option<PathBuf>,
+    /// Light the scene itself by voxel-based GI (direct light and one bounce, as
+    /// `render --method voxel-gi`) and show it through every display's own view,
+    /// instead of a solution.
+    #[cfg(feature = "voxel-gi")]
+    #[arg(long, conflicts_with = "solution")]
+    voxel_gi: bool,
+    #[cfg(feature = "voxel-gi")]
+    #[command(flatten)]
+    gi: crate::cmd_render::voxel::GiArgs,
     /// Wall description (TOML): its `[tiles]` give the tile size in metres.
     #[arg(long)]
     wall: PathBuf,
@@ -215,6 +225,9 @@ enum Raster {
     Cpu,
     #[cfg(feature = "gpu")]
     Gpu(Box<lumiwall_render::view::gpu::GpuRaster>),
+    /// Voxel GI: the scene lit per view.
+    #[cfg(feature = "voxel-gi")]
+    VoxelGi(Box<crate::cmd_render::voxel::VoxelView>),
 }
 
 impl Raster {
@@ -237,6 +250,8 @@ impl Raster {
             Raster::Cpu => format!("CPU ({} threads)", rayon::current_num_threads()),
             #[cfg(feature = "gpu")]
             Raster::Gpu(g) => format!("GPU {}", g.adapter_name()),
+            #[cfg(feature = "voxel-gi")]
+            Raster::VoxelGi(v) => v.name(),
         }
     }
 
@@ -245,6 +260,8 @@ impl Raster {
             Raster::Cpu => Ok(render_tile(mesh, view)),
             #[cfg(feature = "gpu")]
             Raster::Gpu(g) => Ok(g.render(view)?),
+            #[cfg(feature = "voxel-gi")]
+            Raster::VoxelGi(v) => v.render(view),
         }
     }
 }
@@ -444,16 +461,14 @@ pub(crate) fn run(args: ViewArgs) -> Result<(), CliError> {
     let size = display_size(&args, &g)?;
     let camera = scene_camera(&args.scene)?;
     let _lock = FolderLock::acquire(&args.out_dir, &format!("view of wall {wall}"))?;
-    let mesh = LitMesh::read_ply(&args.solution).map_err(|e| CliError::input(e.to_string()))?;
+    let (mesh, raster, shown) = what_to_show(&args)?;
     let reference = g.centred_viewer(args.viewer_distance);
     let viewer = args.viewer.map_or(reference, |[x, y, z]| V3::new(x, y, z));
     let place = WallPlacement::from_camera(&camera, reference).ok_or_else(|| {
         CliError::input("the scene camera's look_at and up are degenerate".to_string())
     })?;
     println!(
-        "viewing {} ({} faces) on {wall}: {} displays of {}×{} px, viewer at {:.3}, {:.3}, {:.3} m",
-        args.solution.display(),
-        mesh.faces.len(),
+        "viewing {shown} on {wall}: {} displays of {}×{} px, viewer at {:.3}, {:.3}, {:.3} m",
         profiles.len(),
         size.0,
         size.1,
@@ -461,7 +476,6 @@ pub(crate) fn run(args: ViewArgs) -> Result<(), CliError> {
         viewer.y,
         viewer.z
     );
-    let raster = Raster::choose(&mesh, args.cpu);
     println!("rasteriser: {}", raster.name());
     let mut setup = ViewSetup {
         mesh: &mesh,
@@ -496,6 +510,26 @@ pub(crate) fn run(args: ViewArgs) -> Result<(), CliError> {
     )?;
     println!("{}", frame_times(&times, &raster.name(), &engine.name()));
     check_seams(&args, &profiles, &kept)
+}
+
+/// The solution's mesh and its rasteriser, or (`--voxel-gi`) an empty mesh and the
+/// scene lit by voxel GI; and what is shown, for the first line.
+fn what_to_show(args: &ViewArgs) -> Result<(LitMesh, Raster, String), CliError> {
+    #[cfg(feature = "voxel-gi")]
+    if args.voxel_gi {
+        let v =
+            crate::cmd_render::voxel::VoxelView::new(&args.scene, &args.gi.options(), args.cpu)?;
+        let shown = format!("{} lit by voxel GI ({})", args.scene.display(), v.summary());
+        return Ok((LitMesh::default(), Raster::VoxelGi(Box::new(v)), shown));
+    }
+    let path = args
+        .solution
+        .as_ref()
+        .ok_or_else(|| CliError::input("give --solution (the .ply lumiwall render wrote)"))?;
+    let mesh = LitMesh::read_ply(path).map_err(|e| CliError::input(e.to_string()))?;
+    let raster = Raster::choose(&mesh, args.cpu);
+    let shown = format!("{} ({} faces)", path.display(), mesh.faces.len());
+    Ok((mesh, raster, shown))
 }
 
 /// Every display's frame with its raster time, the label to stamp and the factor.

@@ -142,6 +142,18 @@ impl From<lumiwall_render::radiosity::RadiosityError> for CliError {
     }
 }
 
+#[cfg(feature = "voxel-gi")]
+impl From<lumiwall_render::voxel::GiError> for CliError {
+    /// A scene or option the method refuses is input (exit 2); the GPU failing is a
+    /// failure.
+    fn from(e: lumiwall_render::voxel::GiError) -> Self {
+        match e {
+            lumiwall_render::voxel::GiError::Gpu(_) => Self::failure(e.to_string()),
+            _ => Self::input(e.to_string()),
+        }
+    }
+}
+
 impl From<lumiwall_render::radiosity::sensors::SensorError> for CliError {
     /// A sensor file the user fixes: input (exit 2).
     fn from(e: lumiwall_render::radiosity::sensors::SensorError) -> Self {

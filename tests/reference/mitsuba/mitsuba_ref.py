@@ -12,10 +12,11 @@ import mitsuba as mi
 mi.set_variant("llvm_ad_mono")
 
 
-def build(toml_path, move=None):
+def build(toml_path, move=None, max_depth=64):
     """The Mitsuba scene of a lumiwall fixture TOML + OBJ (one shape per OBJ object,
     written to a temporary folder), and its camera. `move(object, vertex)` places a
-    vertex (file units) where an animation frame has it (animation_table.py)."""
+    vertex (file units) where an animation frame has it (animation_table.py);
+    `max_depth` 3 keeps direct light and one bounce (voxel_gi_table.py)."""
     fix = os.path.dirname(os.path.abspath(toml_path))
     cfg = tomllib.load(open(toml_path, "rb"))
     unit = cfg["unit_m"]
@@ -33,7 +34,7 @@ def build(toml_path, move=None):
 
     tmp = tempfile.mkdtemp(prefix="lumiwall-mitsuba-")
     scene = {"type": "scene",
-             "integrator": {"type": "path", "max_depth": 64, "rr_depth": 64}}
+             "integrator": {"type": "path", "max_depth": max_depth, "rr_depth": 64}}
     for obj, faces in [(o, f) for o, f in objs.items() if f]:
         p = f"{tmp}/{os.path.basename(toml_path)}.{obj}.obj"
         with open(p, "w") as f:

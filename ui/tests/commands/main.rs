@@ -16,3 +16,5 @@ mod network_wall;
 mod sensors;
 mod spatial_verify;
 mod view;
+#[cfg(feature = "voxel-gi")]
+mod voxel_gi;
