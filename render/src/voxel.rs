@@ -30,8 +30,8 @@ mod traverse;
 mod voxelize;
 
 pub use gi::{
-    GiError, GiFrame, GiLight, GiOptions, GiTimings, GiView, Prepared, SceneHits, check, prepare,
-    render_frame, shade_view,
+    GiError, GiFrame, GiLight, GiOptions, GiTimings, GiView, MAX_VIEW_PIXELS, Prepared, SceneHits,
+    check, check_view_size, prepare, render_frame, shade_view,
 };
 pub use grid::{GridError, MAX_RESOLUTION, MIN_RESOLUTION, VoxelGrid};
 pub use traverse::{VoxelHit, step_cap, trace, trace_flat};

@@ -233,7 +233,8 @@ fn method_of_scene(path: &Path) -> Result<Option<Method>, CliError> {
     use lumiwall_render::scene::{MethodHint, scene_method};
     Ok(match scene_method(path)? {
         None => None,
-        Some(MethodHint::Radiosity) => Some(Method::Radiosity),
+        // the default anyway; not forced, so that --frames still takes progressive
+        Some(MethodHint::Radiosity) => None,
         Some(MethodHint::Progressive) => Some(Method::Progressive),
         #[cfg(feature = "voxel-gi")]
         Some(MethodHint::VoxelGi) => Some(Method::VoxelGi),

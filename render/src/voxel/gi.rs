@@ -13,8 +13,10 @@
 //!
 //! Shadow rays start one voxel diagonal off the surface along its normal and end one
 //! voxel diagonal off the light (Thiedemann l.547–560), so a surface never shadows
-//! itself; the price is a contact shadow missing within that distance of a corner
-//! and light leaking through walls thinner than it, both shrinking with the voxel.
+//! itself. The price, shrinking with the voxel: within about that distance of a
+//! concave edge (a wall meeting the floor) the start lies in the other surface's
+//! voxels and the pixel gets no light at all (a dark band along the edge), and light
+//! leaks through walls thinner than it.
 
 use std::f64::consts::PI;
 use std::time::Instant;
@@ -83,7 +85,9 @@ pub enum GiError {
         max: u64,
     },
     /// The camera has no pixels or too many.
-    #[error("camera of {0}×{1} pixels: each side must be 1 to 16384 and the image at most 64 Mpx")]
+    #[error(
+        "a view of {0}×{1} pixels: each side must be 1 to 16384 and the image at most 16 Mpx (4096 × 4096)"
+    )]
     Camera(u32, u32),
     /// The GPU path failed.
     #[error("GPU: {0}")]
@@ -96,7 +100,7 @@ pub const MAX_SAMPLES: u32 = 1 << 16;
 /// The visible surface at a pixel.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Surfel {
-    /// Position (m).
+    /// Position relative to the voxel grid's origin (m).
     pub p: [f32; 3],
     /// Front-side unit normal; zero where the pixel sees nothing or a back face.
     pub n: [f32; 3],
@@ -110,7 +114,7 @@ pub struct Surfel {
 /// `w·cθ·cθ′/r²`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LightSample {
-    /// Position (m).
+    /// Position relative to the voxel grid's origin (m).
     pub p: [f32; 3],
     /// Emitting side's unit normal.
     pub n: [f32; 3],
@@ -121,7 +125,7 @@ pub struct LightSample {
 /// A virtual point light: a Lambertian reflector of flux `flux`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Vpl {
-    /// Position (m).
+    /// Position relative to the voxel grid's origin (m).
     pub p: [f32; 3],
     /// Unit normal of the reflecting side.
     pub n: [f32; 3],
@@ -211,8 +215,9 @@ pub fn prepare(scene: &Scene, opts: &GiOptions) -> Result<Prepared, GiError> {
     let hits = SceneHits {
         bvh: Bvh::build(&tris),
         surfaces: Surfaces::new(scene, owner),
+        origin: grid.origin,
     };
-    let lights = light_samples(scene, opts.light_samples);
+    let lights = light_samples(scene, opts.light_samples, grid.origin);
     let vpls = vpls(scene, &hits, opts.vpl_paths);
     timings.lights_s = started.elapsed().as_secs_f64();
     let clamp = opts.vpl_clamp_m.unwrap_or(0.05 * (max - min).max());
@@ -273,11 +278,7 @@ pub fn check(scene: &Scene, opts: &GiOptions) -> Result<(), GiError> {
     if scene.sky.is_some() {
         return Err(GiError::Daylight);
     }
-    if !scene
-        .polygons
-        .iter()
-        .any(|p| scene.materials[p.material].is_emitter())
-    {
+    if emitters(scene).0.is_empty() {
         return Err(GiError::NoEmitter);
     }
     for (what, value) in [
@@ -295,10 +296,16 @@ pub fn check(scene: &Scene, opts: &GiOptions) -> Result<(), GiError> {
     Ok(())
 }
 
-fn check_size(w: u32, h: u32) -> Result<(), GiError> {
+/// Most pixels of one view: a pixel takes about 130 bytes on its way through the
+/// GPU (surfel, upload, output, readback), 2 GiB at this size (4096 × 4096).
+pub const MAX_VIEW_PIXELS: u64 = 1 << 24;
+
+/// Refuses a view size outside 1–16384 pixels a side or above [`MAX_VIEW_PIXELS`]
+/// (checked before anything is allocated for it).
+pub fn check_view_size(w: u32, h: u32) -> Result<(), GiError> {
     if !(1..=16384).contains(&w)
         || !(1..=16384).contains(&h)
-        || u64::from(w) * u64::from(h) > 1 << 26
+        || u64::from(w) * u64::from(h) > MAX_VIEW_PIXELS
     {
         return Err(GiError::Camera(w, h));
     }
@@ -351,10 +358,16 @@ impl Surfaces {
 
     /// The surfel where a ray from `o` along `d` first lands; a back face gives a
     /// surfel with a zero normal (one-sided surfaces reflect and emit nothing there).
-    fn hit(&self, bvh: &Bvh, o: [f64; 3], d: [f64; 3]) -> Option<(Surfel, usize)> {
+    fn hit(
+        &self,
+        bvh: &Bvh,
+        o: [f64; 3],
+        d: [f64; 3],
+        origin: [f64; 3],
+    ) -> Option<(Surfel, usize)> {
         let h = bvh.intersect(o, d, f64::INFINITY)?;
         let poly = self.owner[h.triangle as usize] as usize;
-        let p = std::array::from_fn(|a| (o[a] + h.t * d[a]) as f32);
+        let p = std::array::from_fn(|a| (o[a] + h.t * d[a] - origin[a]) as f32);
         if !h.front_face {
             return Some((
                 Surfel {
@@ -384,6 +397,9 @@ fn f32v(v: &V3) -> [f32; 3] {
 pub struct SceneHits {
     bvh: Bvh,
     surfaces: Surfaces,
+    /// The voxel grid's origin, which positions are taken relative to (so that they
+    /// keep their precision in f32 far from the world's origin).
+    origin: [f64; 3],
 }
 
 impl SceneHits {
@@ -395,14 +411,14 @@ impl SceneHits {
         height: u32,
         ray: impl Fn(u32, u32) -> ([f64; 3], [f64; 3]) + Sync,
     ) -> Result<GiView, GiError> {
-        check_size(width, height)?;
+        check_view_size(width, height)?;
         let w = width as usize;
         let surfels = (0..w * height as usize)
             .into_par_iter()
             .map(|i| {
                 let (o, d) = ray((i % w) as u32, (i / w) as u32);
                 self.surfaces
-                    .hit(&self.bvh, o, d)
+                    .hit(&self.bvh, o, d, self.origin)
                     .map_or(Surfel::default(), |s| s.0)
             })
             .collect();
@@ -483,7 +499,7 @@ fn point_on(v: &[V3], u1: f64, u2: f64) -> V3 {
 }
 
 /// `count` emitter samples by flux (Halton points over each polygon's area).
-fn light_samples(scene: &Scene, count: u32) -> Vec<LightSample> {
+fn light_samples(scene: &Scene, count: u32, origin: [f64; 3]) -> Vec<LightSample> {
     let (idx, flux) = emitters(scene);
     let total: f64 = flux.iter().sum();
     (0..count)
@@ -496,7 +512,7 @@ fn light_samples(scene: &Scene, count: u32) -> Vec<LightSample> {
             // each sample stands for total/count of the flux: area share A·(f_k/total)·…
             let share = polygon_area_m2(&poly.vertices) * total / (flux[k] * f64::from(count));
             LightSample {
-                p: f32v(&p),
+                p: f32v(&(p - V3::from(origin))),
                 n: f32v(&n),
                 w: m.emission_cd_m2.map(|l| (l * share) as f32),
             }
@@ -519,9 +535,9 @@ fn vpls(scene: &Scene, hits: &SceneHits, paths: u32) -> Vec<Vpl> {
             let y = point_on(&poly.vertices, halton(i + 1, 3), halton(i + 1, 5));
             let d = cosine_direction(&n, halton(i + 1, 7), halton(i + 1, 11));
             let o = y + n * 1e-7;
-            let (s, _) = hits
-                .surfaces
-                .hit(&hits.bvh, [o.x, o.y, o.z], [d.x, d.y, d.z])?;
+            let (s, _) =
+                hits.surfaces
+                    .hit(&hits.bvh, [o.x, o.y, o.z], [d.x, d.y, d.z], hits.origin)?;
             if s.n == [0.0; 3] {
                 return None;
             }
@@ -558,16 +574,17 @@ fn madd(a: [f32; 3], b: [f32; 3], s: f32) -> [f32; 3] {
     [a[0] + b[0] * s, a[1] + b[1] * s, a[2] + b[2] * s]
 }
 
-/// True when no set voxel lies on the segment from `a` to `b` (world metres).
+/// True when no set voxel lies on the segment from `a` to `b` (metres relative to the
+/// grid's origin).
 pub fn visible(grid: &VoxelGrid, a: [f32; 3], b: [f32; 3]) -> bool {
-    let inv_h = 1.0 / grid.voxel_m as f32;
-    let o: [f32; 3] = std::array::from_fn(|k| (a[k] - grid.origin[k] as f32) * inv_h);
-    let e: [f32; 3] = std::array::from_fn(|k| (b[k] - grid.origin[k] as f32) * inv_h);
+    let inv_h = grid.inv_voxel_f32();
+    let o: [f32; 3] = a.map(|v| v * inv_h);
+    let e: [f32; 3] = b.map(|v| v * inv_h);
     trace(grid, o, sub3(e, o), 0.0, 1.0).is_none()
 }
 
 /// The luminance (XYZ, cd/m²) a pixel shows: the same steps as the WGSL `shade`
-/// (its dispatches over chunks of [`SHADE_CHUNK`] samples included).
+/// (its dispatches over chunks of [`shade_chunk`] samples included).
 pub fn shade(g: &GiLight, s: &Surfel) -> [f32; 3] {
     if s.n == [0.0; 3] {
         return [0.0; 3];
@@ -590,10 +607,11 @@ pub fn shade(g: &GiLight, s: &Surfel) -> [f32; 3] {
     let inv_pi = std::f32::consts::FRAC_1_PI;
     let n_lights = g.lights.len();
     let total = n_lights + g.vpls.len();
+    let chunk = shade_chunk(g.grid.n);
     let mut out = s.le;
-    for first in (0..total).step_by(SHADE_CHUNK) {
+    for first in (0..total).step_by(chunk) {
         let mut e = [0.0f32; 3];
-        for k in first..(first + SHADE_CHUNK).min(total) {
+        for k in first..(first + chunk).min(total) {
             match g.lights.get(k) {
                 Some(l) => add(&mut e, l.p, l.n, l.w, 0.0),
                 None => {
@@ -613,7 +631,10 @@ pub fn shade(g: &GiLight, s: &Surfel) -> [f32; 3] {
     out
 }
 
-/// Samples (emitter samples, then VPLs) summed per step of the shading, on the CPU
-/// as on the GPU (one dispatch each: llvmpipe caps the loop iterations of one shader
-/// invocation at 65 535, which a pixel's traversals over thousands of VPLs exceed).
-pub const SHADE_CHUNK: usize = 32;
+/// Samples (emitter samples, then VPLs) summed per step of the shading of a grid of
+/// `n³` voxels, on the CPU as on the GPU (one dispatch each): llvmpipe caps the loop
+/// iterations of one shader invocation at 65 535, so a chunk's traversals may take at
+/// most that many steps together ([`super::step_cap`] each), at most 32 samples.
+pub fn shade_chunk(n: u32) -> usize {
+    (60_000 / (super::step_cap(n) + 2)).clamp(1, 32) as usize
+}

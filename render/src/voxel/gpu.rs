@@ -40,7 +40,7 @@ struct TraceParams {
     first: u32,
     last: u32,
     pad: u32,
-    origin_inv: [f32; 4],
+    inv_voxel: [f32; 4],
     shading: [f32; 4],
     offsets: [[u32; 4]; 3],
 }
@@ -78,8 +78,7 @@ pub struct GpuGrid {
     n: u32,
     levels: u32,
     offsets: [[u32; 4]; 3],
-    origin: [f64; 3],
-    voxel_m: f64,
+    inv_voxel: f32,
 }
 
 fn gpu_err(e: impl std::fmt::Display) -> GiError {
@@ -190,6 +189,23 @@ impl GpuVoxelGi {
         Ok(())
     }
 
+    /// Runs `f` in an error scope: a validation or out-of-memory error of the GPU (a
+    /// buffer past a limit, a device without memory) becomes [`GiError::Gpu`] instead
+    /// of a log line and an empty result.
+    fn scoped<T>(&self, what: &str, f: impl FnOnce() -> Result<T, GiError>) -> Result<T, GiError> {
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let invalid = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let r = f();
+        let errors = [
+            pollster::block_on(invalid.pop()),
+            pollster::block_on(oom.pop()),
+        ];
+        if let Some(e) = errors.into_iter().flatten().next() {
+            return Err(GiError::Gpu(format!("{what}: {e}")));
+        }
+        r
+    }
+
     fn wait(&self) -> Result<(), GiError> {
         self.device
             .poll(wgpu::PollType::Wait {
@@ -228,6 +244,16 @@ impl GpuVoxelGi {
     /// Voxelises `tris` (world metres) into a grid laid out as `layout` (an empty
     /// [`VoxelGrid`]) and builds its mipmaps, all on the GPU; returns when done.
     pub fn voxelize(&self, layout: &VoxelGrid, tris: &[[[f64; 3]; 3]]) -> Result<GpuGrid, GiError> {
+        self.scoped("voxelising on the GPU", || {
+            self.voxelize_unscoped(layout, tris)
+        })
+    }
+
+    fn voxelize_unscoped(
+        &self,
+        layout: &VoxelGrid,
+        tris: &[[[f64; 3]; 3]],
+    ) -> Result<GpuGrid, GiError> {
         let (words, offsets) = level_layout(layout);
         self.check_binding("the voxel grid", words * 4)?;
         let grid = self.device.create_buffer(&wgpu::BufferDescriptor {
@@ -237,6 +263,7 @@ impl GpuVoxelGi {
             mapped_at_creation: false,
         });
         let (corners, boxes, first_row) = triangle_rows(layout, tris)?;
+        self.check_binding("the triangles", corners.len() as u64 * 4)?;
         let total_rows = u64::from(*first_row.last().unwrap_or(&0));
         let mut enc = self.device.create_command_encoder(&Default::default());
         let storage = wgpu::BufferUsages::STORAGE;
@@ -269,8 +296,7 @@ impl GpuVoxelGi {
             n: layout.n,
             levels,
             offsets,
-            origin: layout.origin,
-            voxel_m: layout.voxel_m,
+            inv_voxel: layout.inv_voxel_f32(),
         })
     }
 
@@ -311,12 +337,7 @@ impl GpuVoxelGi {
             first: samples.first,
             last: samples.last,
             pad: 0,
-            origin_inv: [
-                g.origin[0] as f32,
-                g.origin[1] as f32,
-                g.origin[2] as f32,
-                (1.0 / g.voxel_m) as f32,
-            ],
+            inv_voxel: [g.inv_voxel, 0.0, 0.0, 0.0],
             shading,
             offsets: g.offsets,
         };
@@ -339,8 +360,7 @@ impl GpuVoxelGi {
             n: g.n,
             levels: g.level_count() as u32,
             offsets,
-            origin: g.origin,
-            voxel_m: g.voxel_m,
+            inv_voxel: g.inv_voxel_f32(),
         })
     }
 
@@ -392,8 +412,9 @@ impl GpuVoxelGi {
     /// Shades every pixel of `view` in `s`'s light (as [`super::gi::shade`]): XYZ in
     /// cd/m².
     pub fn shade(&self, g: &GpuGrid, s: &GiLight, view: &GiView) -> Result<Vec<[f32; 3]>, GiError> {
-        let mut items: Vec<[f32; 4]> =
-            Vec::with_capacity(4 * view.surfels.len() + 3 * (s.lights.len() + s.vpls.len()));
+        let item_count = 4 * view.surfels.len() + 3 * (s.lights.len() + s.vpls.len());
+        self.check_binding("the pixels and samples", item_count as u64 * 16)?;
+        let mut items: Vec<[f32; 4]> = Vec::with_capacity(item_count);
         let v4 = |v: [f32; 3]| [v[0], v[1], v[2], 0.0];
         for p in &view.surfels {
             items.extend([v4(p.p), v4(p.n), v4(p.rho), v4(p.le)]);
@@ -405,7 +426,7 @@ impl GpuVoxelGi {
             items.extend([v4(v.p), v4(v.n), v4(v.flux)]);
         }
         let (lights, vpls) = (s.lights.len() as u32, s.vpls.len() as u32);
-        let chunk = super::gi::SHADE_CHUNK as u32;
+        let chunk = super::gi::shade_chunk(g.n) as u32;
         let chunks: Vec<Samples> = (0..(lights + vpls).div_ceil(chunk).max(1))
             .map(|c| Samples {
                 lights,
@@ -416,10 +437,35 @@ impl GpuVoxelGi {
             .collect();
         let shading = [s.offset_m, s.vpl_clamp2_m2, 0.0, 0.0];
         let out = self.run_items(g, &self.shade, &items, view.surfels.len(), &chunks, shading)?;
+        let total = (lights + vpls) as f32;
+        if let Some(k) =
+            (0..out.len()).find(|&k| view.surfels[k].n != [0.0; 3] && out[k][3] != total)
+        {
+            return Err(GiError::Gpu(format!(
+                "{} cut the shading of pixel {k} short ({} of {total} samples): its shader \
+                 loops are capped; use --cpu",
+                self.adapter_name(),
+                out[k][3]
+            )));
+        }
         Ok(out.iter().map(|v| [v[0], v[1], v[2]]).collect())
     }
 
     fn run_items(
+        &self,
+        g: &GpuGrid,
+        pipe: &wgpu::ComputePipeline,
+        items: &[[f32; 4]],
+        count: usize,
+        dispatches: &[Samples],
+        shading: [f32; 4],
+    ) -> Result<Vec<[f32; 4]>, GiError> {
+        self.scoped("computing on the GPU", || {
+            self.run_items_unscoped(g, pipe, items, count, dispatches, shading)
+        })
+    }
+
+    fn run_items_unscoped(
         &self,
         g: &GpuGrid,
         pipe: &wgpu::ComputePipeline,

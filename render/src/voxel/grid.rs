@@ -133,6 +133,11 @@ impl VoxelGrid {
         self.levels.iter().map(|l| l.len() * 4).sum()
     }
 
+    /// 1 / voxel edge (1/m) in f32, the one value the CPU and the GPU scale by.
+    pub fn inv_voxel_f32(&self) -> f32 {
+        (1.0 / self.voxel_m) as f32
+    }
+
     /// A world point in grid coordinates (level-0 voxels).
     pub fn to_grid(&self, p: &V3) -> [f64; 3] {
         std::array::from_fn(|a| (p[a] - self.origin[a]) / self.voxel_m)

@@ -336,6 +336,53 @@ fn the_floor_under_a_square_emitter_shows_the_closed_form_luminance() {
     assert!(f.vpls > 0);
 }
 
+/// Positions are kept relative to the grid, so a scene 100 km from the world's origin
+/// (f32 steps of 8 mm there) is lit as at the origin.
+#[test]
+fn a_scene_far_from_the_world_origin_is_lit_as_at_the_origin() {
+    let near = cornell();
+    let shift = V3::new(1e5, -3e4, 2e5);
+    let mut far = near.clone();
+    far.polygons
+        .iter_mut()
+        .for_each(|p| p.vertices.iter_mut().for_each(|v| *v += shift));
+    let mut camera = near.camera.clone().unwrap();
+    (camera.width_px, camera.height_px) = (32, 32);
+    let mut far_camera = camera.clone();
+    far_camera.position += shift;
+    far_camera.look_at += shift;
+    let opts = GiOptions {
+        resolution: 128,
+        light_samples: 32,
+        vpl_paths: 64,
+        vpl_clamp_m: None,
+    };
+    let a = render_frame(&near, &camera, &opts).unwrap();
+    let b = render_frame(&far, &far_camera, &opts).unwrap();
+    let sum = |f: &gi::GiFrame| f.xyz.iter().map(|p| f64::from(p[1])).sum::<f64>();
+    let (sa, sb) = (sum(&a), sum(&b));
+    assert!(
+        (sa - sb).abs() < 1e-3 * sa,
+        "sum of Y {sa} at the origin, {sb} far from it"
+    );
+}
+
+#[test]
+fn an_emission_too_small_to_carry_flux_is_refused_as_no_emitter() {
+    let mut scene = emitter_over_floor(1.0, 1.0);
+    scene.materials[1].emission_cd_m2 = [1e-320, 0.0, 0.0];
+    let camera = Camera {
+        position: V3::new(0.0, 0.5, -0.01),
+        look_at: V3::zeros(),
+        up: V3::new(0.0, 0.0, 1.0),
+        vfov_deg: 2.0,
+        width_px: 2,
+        height_px: 2,
+    };
+    let err = render_frame(&scene, &camera, &GiOptions::default()).unwrap_err();
+    assert!(matches!(err, gi::GiError::NoEmitter), "{err}");
+}
+
 #[cfg(feature = "gpu")]
 mod on_gpu {
     use super::*;
@@ -448,39 +495,37 @@ mod on_gpu {
         let mut camera = scene.camera.clone().unwrap();
         (camera.width_px, camera.height_px) = (24, 24);
         scene.camera = None;
-        // thousands of VPLs: more traversal steps than llvmpipe lets one invocation loop
-        let opts = GiOptions {
-            resolution: 64,
-            light_samples: 64,
-            vpl_paths: 2048,
-            vpl_clamp_m: None,
-        };
-        let Prepared {
-            mut light,
-            tris,
-            hits,
-        } = prepare(&scene, &opts).unwrap();
-        voxelize(&mut light.grid, &tris);
-        let view = hits.pinhole(&camera).unwrap();
-        let cpu: Vec<[f32; 3]> = view.surfels.iter().map(|s| shade(&light, s)).collect();
-        assert!(
-            cpu.iter().filter(|p| p[1] > 0.0).count() * 2 > cpu.len(),
-            "a dark image"
-        );
-        let on_gpu = gpu.upload(&light.grid).unwrap();
-        let got = gpu.shade(&on_gpu, &light, &view).unwrap();
-        let mut worst = 0f32;
-        let mut off = 0;
-        for (a, b) in cpu.iter().zip(&got) {
-            let rel = (a[1] - b[1]).abs() / a[1].max(1e-3);
-            worst = worst.max(rel);
-            off += usize::from(rel > 1e-4);
+        // thousands of VPLs: more traversal steps than llvmpipe lets one invocation
+        // loop, on a coarse and a fine grid (longer traversals, smaller chunks)
+        for resolution in [64, 256] {
+            let opts = GiOptions {
+                resolution,
+                light_samples: 64,
+                vpl_paths: 2048,
+                vpl_clamp_m: None,
+            };
+            let Prepared {
+                mut light,
+                tris,
+                hits,
+            } = prepare(&scene, &opts).unwrap();
+            voxelize(&mut light.grid, &tris);
+            let view = hits.pinhole(&camera).unwrap();
+            let cpu: Vec<[f32; 3]> = view.surfels.iter().map(|s| shade(&light, s)).collect();
+            let lit = cpu.iter().filter(|p| p[1] > 0.0).count();
+            assert!(lit * 2 > cpu.len(), "{resolution}³: a dark image");
+            let on_gpu = gpu.upload(&light.grid).unwrap();
+            let got = gpu.shade(&on_gpu, &light, &view).unwrap();
+            let mut worst = 0f32;
+            let mut off = 0;
+            for (a, b) in cpu.iter().zip(&got) {
+                let rel = (a[1] - b[1]).abs() / a[1].max(1e-3);
+                worst = worst.max(rel);
+                off += usize::from(rel > 1e-4);
+            }
+            eprintln!("{resolution}³: worst relative difference {worst}, {off} pixels beyond 1e-4");
+            // a sample whose visibility rounds the other way moves a pixel by its share
+            assert!(off * 200 <= cpu.len(), "{resolution}³: {off} pixels differ");
         }
-        eprintln!(
-            "worst relative difference {worst}, {off} of {} pixels beyond 1e-4",
-            cpu.len()
-        );
-        // a sample whose visibility rounds the other way moves a pixel by its share
-        assert!(off * 200 <= cpu.len(), "{off} pixels differ");
     }
 }

@@ -28,7 +28,8 @@ pub fn step_cap(n: u32) -> u32 {
 }
 
 /// First set voxel along `o + t·d` for `t` in `[t_min, t_max]`, in grid coordinates
-/// (level-0 voxels; see [`VoxelGrid::to_grid`]), through the hierarchy.
+/// (level-0 voxels; see [`VoxelGrid::to_grid`]), through the hierarchy; `None` also
+/// for `t_min < 0`, `t_min > t_max` or non-finite input.
 pub fn trace(
     grid: &VoxelGrid,
     o: [f32; 3],
@@ -84,6 +85,10 @@ fn walk(
     t_max: f32,
     top: usize,
 ) -> Option<VoxelHit> {
+    // t ≥ 0 only (the GPU marks a miss by a negative t), finite rays only
+    if !(t_min >= 0.0 && t_min <= t_max && o.iter().chain(&d).all(|v| v.is_finite())) {
+        return None;
+    }
     let n = grid.n as i32;
     let inv = d.map(|v| if v == 0.0 { 0.0 } else { 1.0 / v });
     let (mut t, t_end) = clip(n as f32, o, d, inv, t_min, t_max)?;

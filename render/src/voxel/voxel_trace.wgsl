@@ -11,7 +11,7 @@ struct Params {
     first: u32,              // shade: the samples [first, last) of lights then VPLs
     last: u32,
     pad2: u32,
-    origin_inv: vec4<f32>,   // grid origin (m) and 1 / voxel edge (1/m)
+    inv_voxel: vec4<f32>,    // x: 1 / voxel edge (1/m); positions are relative to the grid's origin
     shading: vec4<f32>,      // offset (m), VPL clamp² (m²), -, -
     offsets: array<vec4<u32>, 3>,
 }
@@ -125,9 +125,9 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
 }
 
 fn visible(a: vec3<f32>, b: vec3<f32>) -> bool {
-    let inv_h = P.origin_inv.w;
-    let o = (a - P.origin_inv.xyz) * inv_h;
-    let e = (b - P.origin_inv.xyz) * inv_h;
+    let inv_h = P.inv_voxel.x;
+    let o = a * inv_h;
+    let e = b * inv_h;
     return trace(o, e - o, 0.0, 1.0).x < 0.0;
 }
 
@@ -147,7 +147,8 @@ fn illuminance(sp: vec3<f32>, sn: vec3<f32>, start: vec3<f32>, p: vec3<f32>, n: 
 }
 
 // One chunk of the samples (lights, then VPLs) per dispatch, added to `out`: a
-// software rasteriser such as llvmpipe caps the loop iterations of one invocation.
+// software rasteriser such as llvmpipe caps the loop iterations of one invocation
+// (shade_chunk in gi.rs keeps a chunk's traversal steps under the cap).
 @compute @workgroup_size(64)
 fn shade(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = id.x + id.y * groups.x * 64u;
@@ -158,11 +159,9 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
     let sn = items[4u * i + 1u].xyz;
     let rho = items[4u * i + 2u].xyz;
     let le = items[4u * i + 3u].xyz;
-    var acc = vec3<f32>(0.0);
-    if P.first == 0u {
-        acc = le;
-    } else {
-        acc = out[i].xyz;
+    var acc = vec4<f32>(le, 0.0);
+    if P.first != 0u {
+        acc = out[i];
     }
     if all(sn == vec3<f32>(0.0)) {
         out[i] = vec4<f32>(0.0);
@@ -172,7 +171,9 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
     let inv_pi = 0.31830988618379067;
     let lights = 4u * P.count;
     var e = vec3<f32>(0.0);
+    var done = 0u;
     for (var k = P.first; k < P.last; k++) {
+        done += 1u;
         let j = lights + 3u * k;
         if k < P.light_count {
             e += illuminance(sp, sn, start, items[j].xyz, items[j + 1u].xyz, items[j + 2u].xyz, 0.0);
@@ -180,5 +181,6 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
             e += illuminance(sp, sn, start, items[j].xyz, items[j + 1u].xyz, items[j + 2u].xyz * inv_pi, P.shading.y);
         }
     }
-    out[i] = vec4<f32>(acc + rho * inv_pi * e, 1.0);
+    // w counts the samples summed: the host checks that no loop was cut short
+    out[i] = vec4<f32>(acc.xyz + rho * inv_pi * e, acc.w + f32(done));
 }

@@ -117,6 +117,7 @@ pub(crate) fn run(args: &RenderArgs) -> Result<(), CliError> {
     if let Some((w, h)) = args.voxel.image_size {
         (camera.width_px, camera.height_px) = (w, h);
     }
+    lumiwall_render::voxel::check_view_size(camera.width_px, camera.height_px)?;
     let paths: Vec<PathBuf> = frames.iter().map(|f| out_path(&args.out, *f)).collect();
     let refs: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
     crate::values::check_output_files("--out", &refs)?;
