@@ -103,6 +103,7 @@ impl Engine {
 /// Runs `lumiwall render --method voxel-gi` (with `--frames`: each frame of the
 /// animation).
 pub(crate) fn run(args: &RenderArgs) -> Result<(), CliError> {
+    refuse_radiosity_options(args)?;
     let (scene, anim, report) = load_animated_scene(&args.scene)?;
     eprintln!("scene {}: {}", args.scene.display(), report.summary());
     let frames = frame_list(args, anim.as_ref())?;
@@ -157,6 +158,24 @@ pub(crate) fn run(args: &RenderArgs) -> Result<(), CliError> {
     );
     println!("wrote {} …", paths[0].display());
     Ok(())
+}
+
+/// Options only a radiosity solution has are refused, not ignored (the scene file may
+/// have chosen voxel GI without the user asking).
+fn refuse_radiosity_options(args: &RenderArgs) -> Result<(), CliError> {
+    let given = [
+        ("--sensors", args.sensors.is_some()),
+        ("--per-frame", args.per_frame),
+        ("--visibility-keys", args.visibility_keys.is_some()),
+    ];
+    match given.iter().find(|(_, g)| *g) {
+        Some((flag, _)) => Err(CliError::input(format!(
+            "{flag} needs a radiosity solution, and {} is lit by voxel GI (--method \
+             voxel-gi or the scene's method); add --method radiosity or progressive",
+            args.scene.display()
+        ))),
+        None => Ok(()),
+    }
 }
 
 /// `None` for a still image; the frames of `--frames` otherwise.

@@ -56,7 +56,7 @@ fn the_dynamic_scene_asks_for_voxel_gi_and_each_frame_is_lit_and_timed() {
 }
 
 #[test]
-fn voxel_gi_refuses_a_bad_resolution_a_point_light_and_frames_without_animation() {
+fn voxel_gi_refuses_a_bad_resolution_a_point_light_frames_without_animation_and_sensors() {
     let tmp = TempDir::new().unwrap();
     lumiwall()
         .arg("render")
@@ -82,6 +82,18 @@ fn voxel_gi_refuses_a_bad_resolution_a_point_light_and_frames_without_animation(
         .assert()
         .code(2)
         .stderr(contains("has no [animation] entry"));
+    lumiwall()
+        .arg("render")
+        .arg(fixture("scenes/cornell/cornell_dynamic.toml"))
+        .arg("--sensors")
+        .arg(fixture("scenes/cornell/grid.sensors.csv"))
+        .arg("--sensors-out")
+        .arg(tmp.path().join("s.csv"))
+        .arg("--out")
+        .arg(tmp.path().join("d.exr"))
+        .assert()
+        .code(2)
+        .stderr(contains("--sensors needs a radiosity solution"));
     assert!(!tmp.path().join("a.exr").exists());
 }
 
