@@ -312,7 +312,8 @@ pub fn check_view_size(w: u32, h: u32) -> Result<(), GiError> {
     Ok(())
 }
 
-fn bounds(tris: &[[[f64; 3]; 3]]) -> (V3, V3) {
+/// The box around `tris`: lowest and highest corner.
+pub(crate) fn bounds(tris: &[[[f64; 3]; 3]]) -> (V3, V3) {
     let mut lo = V3::repeat(f64::INFINITY);
     let mut hi = V3::repeat(f64::NEG_INFINITY);
     for p in tris.iter().flatten() {

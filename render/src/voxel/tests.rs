@@ -16,14 +16,7 @@ pub(crate) fn cornell() -> Scene {
 
 pub(crate) fn grid_of(scene: &Scene, n: u32) -> (VoxelGrid, Vec<[[f64; 3]; 3]>) {
     let (tris, _) = scene_triangles(scene);
-    let mut lo = V3::repeat(f64::INFINITY);
-    let mut hi = V3::repeat(f64::NEG_INFINITY);
-    for p in tris.iter().flatten() {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-    }
+    let (lo, hi) = gi::bounds(&tris);
     let mut g = VoxelGrid::empty(lo, hi, n).unwrap();
     voxelize(&mut g, &tris);
     (g, tris)

@@ -35,7 +35,7 @@ fn view(wall: &Path, profiles: &Path, solution: &Path, out: &Path) -> assert_cmd
 }
 
 /// Lit pixels (any drive above 0) in column `x` of a PNG.
-fn lit_in_column(path: &Path, x: u32) -> usize {
+pub(crate) fn lit_in_column(path: &Path, x: u32) -> usize {
     let img = image::open(path).unwrap().to_rgb16();
     (0..img.height())
         .filter(|&y| img.get_pixel(x, y).0.iter().any(|v| *v > 0))

@@ -5,6 +5,7 @@ use predicates::str::contains;
 use tempfile::TempDir;
 
 use crate::common::{cornell, fixture, lumiwall, small_wall};
+use crate::view::lit_in_column;
 
 /// Y of an EXR's pixels.
 fn luminance(path: &std::path::Path) -> Vec<f32> {
@@ -95,14 +96,6 @@ fn voxel_gi_refuses_a_bad_resolution_a_point_light_frames_without_animation_and_
         .code(2)
         .stderr(contains("--sensors needs a radiosity solution"));
     assert!(!tmp.path().join("a.exr").exists());
-}
-
-/// Lit pixels (any drive above 0) in column `x` of a PNG.
-fn lit_in_column(path: &std::path::Path, x: u32) -> usize {
-    let img = image::open(path).unwrap().to_rgb16();
-    (0..img.height())
-        .filter(|&y| img.get_pixel(x, y).0.iter().any(|v| *v > 0))
-        .count()
 }
 
 /// As the radiosity solution in view.rs: the box continues across the seam of
