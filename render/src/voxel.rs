@@ -5,7 +5,8 @@
 //! [`voxelize`]) whose OR-mipmaps form the hierarchy that rays traverse ([`trace`]):
 //! empty cells of a coarse level are skipped whole, occupied ones are descended into.
 //! [`gi`] lights a camera's view with it: direct light from area emitters and point
-//! lights, and one bounce of indirect light from virtual point lights (VPLs) placed
+//! lights (isotropic, spot and goniometric, through intensity tables), and one bounce
+//! of indirect light from virtual point lights (VPLs) placed
 //! where the lights' rays first land (Thiedemann's reflective-shadow-map VPLs, found
 //! here by exact ray casting), every visibility decided by the voxel hierarchy.
 //! [`gpu`] does the voxelisation, the hierarchy and the shading with wgpu compute
@@ -26,6 +27,7 @@ pub mod gi;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 mod grid;
+pub mod points;
 mod traverse;
 mod voxelize;
 

@@ -3,8 +3,9 @@
 //!
 //! Per frame: the scene is voxelised ([`super::voxelize`]); the camera's primary
 //! rays find the visible surfaces exactly (a G-buffer, [`Surfel`]); the area emitters
-//! are sampled at fixed points ([`LightSample`], shared by all pixels); light paths
-//! leave the emitters and where they first land (exact ray cast: Thiedemann takes
+//! are sampled at fixed points ([`LightSample`], shared by all pixels) and the
+//! point-like lights are read from their intensity tables ([`super::points`]); light
+//! paths leave the emitters and lights and where they first land (exact ray cast: Thiedemann takes
 //! them from a reflective shadow map) a virtual point light ([`Vpl`]) keeps the
 //! reflected flux. Each pixel then sums, with voxel visibility, the emitters'
 //! illuminance and the VPLs' (Thiedemann eq. 6, `E = Φ/π · cosθ·cosθ′ / max(d², d_min²)`)
@@ -24,6 +25,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::grid::{GridError, VoxelGrid};
+use super::points::{PointLights, PointSample};
 use super::traverse::trace;
 use super::voxelize::{scene_triangles, voxelize};
 use crate::mesh::Bvh;
@@ -60,19 +62,19 @@ pub enum GiError {
     /// The voxel grid could not be made.
     #[error(transparent)]
     Grid(#[from] GridError),
-    /// The scene has a point-like light (not yet supported by this method).
+    /// More point-like lights than the tables hold.
     #[error(
-        "light `{0}` is a point-like light; --method voxel-gi lights scenes by their \
-         area emitters only: model it as an emitting polygon or use --method radiosity"
+        "the scene has {0} point-like lights; --method voxel-gi takes at most {max}",
+        max = super::points::MAX_POINT_LIGHTS
     )]
-    PointLight(String),
+    TooManyLights(usize),
     /// The scene is lit by daylight.
     #[error(
         "the scene is lit by daylight, which --method voxel-gi does not take; use --method radiosity"
     )]
     Daylight,
     /// Nothing emits.
-    #[error("nothing in the scene emits light: give a material emission_cd_m2")]
+    #[error("nothing in the scene emits light: give a material emission_cd_m2 or add [[lights]]")]
     NoEmitter,
     /// A count is zero or too large.
     #[error("{what} is {value}; it must be between 1 and {max}")]
@@ -156,6 +158,10 @@ pub struct GiLight {
     pub lights: Vec<LightSample>,
     /// VPLs.
     pub vpls: Vec<Vpl>,
+    /// Point-like lights.
+    pub points: Vec<PointSample>,
+    /// Their intensity tables ([`super::points`]; one zero where there are none).
+    pub tables: Vec<f32>,
     /// Square of the VPL clamp distance (m²).
     pub vpl_clamp2_m2: f32,
     /// Offset of ray ends from their surfaces (m): one voxel diagonal.
@@ -218,7 +224,8 @@ pub fn prepare(scene: &Scene, opts: &GiOptions) -> Result<Prepared, GiError> {
         origin: grid.origin,
     };
     let lights = light_samples(scene, opts.light_samples, grid.origin);
-    let vpls = vpls(scene, &hits, opts.vpl_paths);
+    let points = PointLights::of(scene, grid.origin);
+    let vpls = vpls(scene, &hits, opts.vpl_paths, &points);
     timings.lights_s = started.elapsed().as_secs_f64();
     let clamp = opts.vpl_clamp_m.unwrap_or(0.05 * (max - min).max());
     let light = GiLight {
@@ -226,6 +233,12 @@ pub fn prepare(scene: &Scene, opts: &GiOptions) -> Result<Prepared, GiError> {
         grid,
         lights,
         vpls,
+        tables: if points.tables.is_empty() {
+            vec![0.0]
+        } else {
+            points.tables
+        },
+        points: points.samples,
         vpl_clamp2_m2: (clamp * clamp) as f32,
         timings,
     };
@@ -265,20 +278,20 @@ pub fn shade_view(light: &GiLight, view: &GiView) -> Vec<[f32; 3]> {
     view.surfels.par_iter().map(|s| shade(light, s)).collect()
 }
 
-/// Whether this method can light `scene` with `opts` (area emitters only, counts in
-/// range).
+/// Whether this method can light `scene` with `opts` (no daylight, something that
+/// emits, counts in range).
 pub fn check(scene: &Scene, opts: &GiOptions) -> Result<(), GiError> {
     let n = opts.resolution;
     if !(super::MIN_RESOLUTION..=super::MAX_RESOLUTION).contains(&n) || !n.is_power_of_two() {
         return Err(GridError::Resolution(n).into());
     }
-    if let Some(l) = scene.lights.first() {
-        return Err(GiError::PointLight(l.name.clone()));
+    if scene.lights.len() > super::points::MAX_POINT_LIGHTS {
+        return Err(GiError::TooManyLights(scene.lights.len()));
     }
     if scene.sky.is_some() {
         return Err(GiError::Daylight);
     }
-    if emitters(scene).0.is_empty() {
+    if emitters(scene).0.is_empty() && !scene.lights.iter().any(|l| l.total_flux_lm() > 0.0) {
         return Err(GiError::NoEmitter);
     }
     for (what, value) in [
@@ -503,6 +516,9 @@ fn point_on(v: &[V3], u1: f64, u2: f64) -> V3 {
 fn light_samples(scene: &Scene, count: u32, origin: [f64; 3]) -> Vec<LightSample> {
     let (idx, flux) = emitters(scene);
     let total: f64 = flux.iter().sum();
+    if idx.is_empty() {
+        return Vec::new();
+    }
     (0..count)
         .map(|i| {
             let k = pick(&flux, total, halton(i + 1, 2));
@@ -523,32 +539,49 @@ fn light_samples(scene: &Scene, count: u32, origin: [f64; 3]) -> Vec<LightSample
 
 /// Light paths from the emitters (by flux, cosine-distributed); a VPL where each
 /// first lands on a front face, carrying the reflected part of the path's flux.
-fn vpls(scene: &Scene, hits: &SceneHits, paths: u32) -> Vec<Vpl> {
-    let (idx, flux) = emitters(scene);
+/// Light paths from the area emitters (cosine-distributed) and the point-like lights
+/// (by their tabulated power), each source chosen by flux; a VPL where each first
+/// lands on a front face, carrying the reflected part of the path's flux.
+fn vpls(scene: &Scene, hits: &SceneHits, paths: u32, points: &PointLights) -> Vec<Vpl> {
+    let (idx, mut flux) = emitters(scene);
+    let areas = idx.len();
+    flux.extend((0..points.samples.len()).map(|k| points.flux_lm(k)));
     let total: f64 = flux.iter().sum();
+    if total.is_nan() || total <= 0.0 {
+        return Vec::new();
+    }
     (0..paths)
         .into_par_iter()
         .filter_map(|i| {
             let k = pick(&flux, total, halton(i + 1, 2));
-            let poly = &scene.polygons[idx[k]];
-            let m = &scene.materials[poly.material];
-            let n = polygon_normal(&poly.vertices)?;
-            let y = point_on(&poly.vertices, halton(i + 1, 3), halton(i + 1, 5));
-            let d = cosine_direction(&n, halton(i + 1, 7), halton(i + 1, 11));
-            let o = y + n * 1e-7;
+            let u = [3, 5, 7, 11].map(|b| halton(i + 1, b));
+            // the path's start, direction and flux (XYZ lm): Φ_k / p(k) / paths
+            let (o, d, f) = if k < areas {
+                let poly = &scene.polygons[idx[k]];
+                let m = &scene.materials[poly.material];
+                let n = polygon_normal(&poly.vertices)?;
+                let y = point_on(&poly.vertices, u[0], u[1]);
+                let a = polygon_area_m2(&poly.vertices);
+                let f: [f64; 3] = std::array::from_fn(|c| {
+                    PI * m.emission_cd_m2[c] * a * total / (flux[k] * f64::from(paths))
+                });
+                (y + n * 1e-7, cosine_direction(&n, u[2], u[3]), f)
+            } else {
+                let light = &scene.lights[k - areas];
+                let d = points.direction(k - areas, u[0], u[1], u[2]);
+                let f = light.color_xyz.map(|c| c * total / f64::from(paths));
+                (light.position, d, f)
+            };
             let (s, _) =
                 hits.surfaces
                     .hit(&hits.bvh, [o.x, o.y, o.z], [d.x, d.y, d.z], hits.origin)?;
             if s.n == [0.0; 3] {
                 return None;
             }
-            // path flux: π·L·A / p(k) / paths, per XYZ channel
-            let a = polygon_area_m2(&poly.vertices);
-            let f = |c: usize| PI * m.emission_cd_m2[c] * a * total / (flux[k] * f64::from(paths));
             Some(Vpl {
                 p: s.p,
                 n: s.n,
-                flux: std::array::from_fn(|c| (f(c) * f64::from(s.rho[c])) as f32),
+                flux: std::array::from_fn(|c| (f[c] * f64::from(s.rho[c])) as f32),
             })
         })
         .collect()
@@ -607,24 +640,20 @@ pub fn shade(g: &GiLight, s: &Surfel) -> [f32; 3] {
     };
     let inv_pi = std::f32::consts::FRAC_1_PI;
     let n_lights = g.lights.len();
-    let total = n_lights + g.vpls.len();
+    let n_area_vpl = n_lights + g.vpls.len();
+    let total = n_area_vpl + g.points.len();
     let chunk = shade_chunk(g.grid.n);
     let mut out = s.le;
     for first in (0..total).step_by(chunk) {
         let mut e = [0.0f32; 3];
         for k in first..(first + chunk).min(total) {
-            match g.lights.get(k) {
-                Some(l) => add(&mut e, l.p, l.n, l.w, 0.0),
-                None => {
-                    let v = &g.vpls[k - n_lights];
-                    add(
-                        &mut e,
-                        v.p,
-                        v.n,
-                        v.flux.map(|f| f * inv_pi),
-                        g.vpl_clamp2_m2,
-                    );
-                }
+            if let Some(l) = g.lights.get(k) {
+                add(&mut e, l.p, l.n, l.w, 0.0);
+            } else if let Some(v) = g.vpls.get(k - n_lights) {
+                let flux = v.flux.map(|f| f * inv_pi);
+                add(&mut e, v.p, v.n, flux, g.vpl_clamp2_m2);
+            } else {
+                point_light(&mut e, g, s, start, &g.points[k - n_area_vpl]);
             }
         }
         out = std::array::from_fn(|i| out[i] + s.rho[i] * inv_pi * e[i]);
@@ -632,7 +661,26 @@ pub fn shade(g: &GiLight, s: &Surfel) -> [f32; 3] {
     out
 }
 
-/// Samples (emitter samples, then VPLs) summed per step of the shading of a grid of
+/// Adds a point-like light's illuminance at surfel `s` (seen from `start`, off the
+/// surface): its tabulated intensity towards the surfel, the ray ending one voxel
+/// diagonal short of the light (a light mounted on a surface is not shadowed by it).
+fn point_light(e: &mut [f32; 3], g: &GiLight, s: &Surfel, start: [f32; 3], l: &PointSample) {
+    let v = sub3(l.p, s.p);
+    let r2 = dot3(v, v);
+    let r = r2.sqrt();
+    let c = dot3(s.n, v) / r;
+    if c.is_nan() || c <= 0.0 {
+        return;
+    }
+    let out = [-v[0] / r, -v[1] / r, -v[2] / r];
+    let i = super::points::intensity(&g.tables, l.table, out);
+    if i > 0.0 && visible(&g.grid, start, madd(l.p, out, g.offset_m)) {
+        let k = i * c / r2;
+        *e = std::array::from_fn(|a| e[a] + l.color[a] * k);
+    }
+}
+
+/// Samples (emitter samples, VPLs, then point lights) summed per step of the shading of a grid of
 /// `n³` voxels, on the CPU as on the GPU (one dispatch each): llvmpipe caps the loop
 /// iterations of one shader invocation at 65 535, so a chunk's traversals may take at
 /// most that many steps together ([`super::step_cap`] each), at most 32 samples.

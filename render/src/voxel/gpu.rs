@@ -39,7 +39,7 @@ struct TraceParams {
     vpl_count: u32,
     first: u32,
     last: u32,
-    pad: u32,
+    point_count: u32,
     inv_voxel: [f32; 4],
     shading: [f32; 4],
     offsets: [[u32; 4]; 3],
@@ -54,8 +54,20 @@ pub type RayHit = Option<(f32, [u32; 3])>;
 struct Samples {
     lights: u32,
     vpls: u32,
+    points: u32,
     first: u32,
     last: u32,
+}
+
+/// One compute job over `count` items: the pipeline, its inputs and its dispatches.
+struct Job<'a> {
+    pipe: &'a wgpu::ComputePipeline,
+    items: &'a [[f32; 4]],
+    count: usize,
+    dispatches: &'a [Samples],
+    shading: [f32; 4],
+    /// The point lights' tables (binding 4 of `shade`).
+    tables: Option<&'a [f32]>,
 }
 
 /// A GPU device with the voxel GI's four compute pipelines.
@@ -336,7 +348,7 @@ impl GpuVoxelGi {
             vpl_count: samples.vpls,
             first: samples.first,
             last: samples.last,
-            pad: 0,
+            point_count: samples.points,
             inv_voxel: [g.inv_voxel, 0.0, 0.0, 0.0],
             shading,
             offsets: g.offsets,
@@ -395,14 +407,15 @@ impl GpuVoxelGi {
             .iter()
             .flat_map(|(o, d, t0, t1)| [[o[0], o[1], o[2], *t0], [d[0], d[1], d[2], *t1]])
             .collect();
-        let out = self.run_items(
-            g,
-            &self.trace_rays,
-            &items,
-            rays.len(),
-            &[Samples::default()],
-            [0.0; 4],
-        )?;
+        let job = Job {
+            pipe: &self.trace_rays,
+            items: &items,
+            count: rays.len(),
+            dispatches: &[Samples::default()],
+            shading: [0.0; 4],
+            tables: None,
+        };
+        let out = self.run_items(g, &job)?;
         Ok(out
             .iter()
             .map(|v| (v[0] >= 0.0).then(|| (v[0], [v[1] as u32, v[2] as u32, v[3] as u32])))
@@ -412,7 +425,8 @@ impl GpuVoxelGi {
     /// Shades every pixel of `view` in `s`'s light (as [`super::gi::shade`]): XYZ in
     /// cd/m².
     pub fn shade(&self, g: &GpuGrid, s: &GiLight, view: &GiView) -> Result<Vec<[f32; 3]>, GiError> {
-        let item_count = 4 * view.surfels.len() + 3 * (s.lights.len() + s.vpls.len());
+        let item_count =
+            4 * view.surfels.len() + 3 * (s.lights.len() + s.vpls.len()) + 2 * s.points.len();
         self.check_binding("the pixels and samples", item_count as u64 * 16)?;
         let mut items: Vec<[f32; 4]> = Vec::with_capacity(item_count);
         let v4 = |v: [f32; 3]| [v[0], v[1], v[2], 0.0];
@@ -425,19 +439,37 @@ impl GpuVoxelGi {
         for v in &s.vpls {
             items.extend([v4(v.p), v4(v.n), v4(v.flux)]);
         }
-        let (lights, vpls) = (s.lights.len() as u32, s.vpls.len() as u32);
+        for q in &s.points {
+            // the table's offset (< 2^24) is exact in f32
+            items.extend([[q.p[0], q.p[1], q.p[2], q.table as f32], v4(q.color)]);
+        }
+        let (lights, vpls, points) = (
+            s.lights.len() as u32,
+            s.vpls.len() as u32,
+            s.points.len() as u32,
+        );
         let chunk = super::gi::shade_chunk(g.n) as u32;
-        let chunks: Vec<Samples> = (0..(lights + vpls).div_ceil(chunk).max(1))
+        let all = lights + vpls + points;
+        let chunks: Vec<Samples> = (0..all.div_ceil(chunk).max(1))
             .map(|c| Samples {
                 lights,
                 vpls,
+                points,
                 first: c * chunk,
-                last: ((c + 1) * chunk).min(lights + vpls),
+                last: ((c + 1) * chunk).min(all),
             })
             .collect();
         let shading = [s.offset_m, s.vpl_clamp2_m2, 0.0, 0.0];
-        let out = self.run_items(g, &self.shade, &items, view.surfels.len(), &chunks, shading)?;
-        let total = (lights + vpls) as f32;
+        let job = Job {
+            pipe: &self.shade,
+            items: &items,
+            count: view.surfels.len(),
+            dispatches: &chunks,
+            shading,
+            tables: Some(&s.tables),
+        };
+        let out = self.run_items(g, &job)?;
+        let total = all as f32;
         if let Some(k) =
             (0..out.len()).find(|&k| view.surfels[k].n != [0.0; 3] && out[k][3] != total)
         {
@@ -451,37 +483,23 @@ impl GpuVoxelGi {
         Ok(out.iter().map(|v| [v[0], v[1], v[2]]).collect())
     }
 
-    fn run_items(
-        &self,
-        g: &GpuGrid,
-        pipe: &wgpu::ComputePipeline,
-        items: &[[f32; 4]],
-        count: usize,
-        dispatches: &[Samples],
-        shading: [f32; 4],
-    ) -> Result<Vec<[f32; 4]>, GiError> {
-        self.scoped("computing on the GPU", || {
-            self.run_items_unscoped(g, pipe, items, count, dispatches, shading)
-        })
+    fn run_items(&self, g: &GpuGrid, job: &Job<'_>) -> Result<Vec<[f32; 4]>, GiError> {
+        self.scoped("computing on the GPU", || self.run_items_unscoped(g, job))
     }
 
-    fn run_items_unscoped(
-        &self,
-        g: &GpuGrid,
-        pipe: &wgpu::ComputePipeline,
-        items: &[[f32; 4]],
-        count: usize,
-        dispatches: &[Samples],
-        shading: [f32; 4],
-    ) -> Result<Vec<[f32; 4]>, GiError> {
-        let out_bytes = count as u64 * 16;
-        self.check_binding("the inputs", items.len() as u64 * 16)?;
+    fn run_items_unscoped(&self, g: &GpuGrid, job: &Job<'_>) -> Result<Vec<[f32; 4]>, GiError> {
+        let out_bytes = job.count as u64 * 16;
+        self.check_binding("the inputs", job.items.len() as u64 * 16)?;
         self.check_binding("the output", out_bytes)?;
-        let input = self.buffer(
-            "voxel items",
-            bytemuck::cast_slice(items),
-            wgpu::BufferUsages::STORAGE,
-        );
+        let storage = wgpu::BufferUsages::STORAGE;
+        let input = self.buffer("voxel items", bytemuck::cast_slice(job.items), storage);
+        let tables = match job.tables {
+            Some(t) => {
+                self.check_binding("the light tables", t.len() as u64 * 4)?;
+                Some(self.buffer("light tables", bytemuck::cast_slice(t), storage))
+            }
+            None => None,
+        };
         let out = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("voxel out"),
             size: out_bytes,
@@ -489,15 +507,16 @@ impl GpuVoxelGi {
             mapped_at_creation: false,
         });
         let mut enc = self.device.create_command_encoder(&Default::default());
-        for samples in dispatches {
-            let params = self.trace_params(g, count as u32, *samples, shading);
-            let entries = [
+        for samples in job.dispatches {
+            let params = self.trace_params(g, job.count as u32, *samples, job.shading);
+            let mut entries = vec![
                 entry(0, &params),
                 entry(1, &g.buffer),
                 entry(2, &input),
                 entry(3, &out),
             ];
-            self.dispatch(&mut enc, pipe, &entries, count as u64)?;
+            entries.extend(tables.as_ref().map(|t| entry(4, t)));
+            self.dispatch(&mut enc, job.pipe, &entries, job.count as u64)?;
         }
         self.queue.submit([enc.finish()]);
         Ok(bytemuck::pod_collect_to_vec(

@@ -6,7 +6,7 @@ use rand_chacha::ChaCha8Rng;
 use super::gi::{GiOptions, render_frame};
 use super::*;
 use crate::mesh::Bvh;
-use crate::scene::{Camera, Material, Polygon, Scene, V3, load_scene};
+use crate::scene::{Camera, Light, LightKind, Material, Polygon, Scene, V3, load_scene};
 
 pub(crate) fn cornell() -> Scene {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -376,6 +376,93 @@ fn an_emission_too_small_to_carry_flux_is_refused_as_no_emitter() {
     assert!(matches!(err, gi::GiError::NoEmitter), "{err}");
 }
 
+/// The floor alone under a point-like light: a camera looking straight down sees
+/// `ρ/π · I(θ) · cos θ / r²` (no other surface, so no indirect light).
+fn floor_under(light: LightKind, pixels: u32, vfov_deg: f64) -> (Vec<[f32; 3]>, Camera) {
+    let mut scene = emitter_over_floor(1.0, 1.0);
+    scene.polygons.truncate(1);
+    scene.lights = vec![Light {
+        name: "lamp".into(),
+        position: V3::new(0.0, 1.0, 0.0),
+        color_xyz: [1.0, 1.0, 1.0],
+        kind: light,
+    }];
+    let camera = Camera {
+        position: V3::new(0.0, 0.5, 0.0),
+        look_at: V3::zeros(),
+        up: V3::new(0.0, 0.0, 1.0),
+        vfov_deg,
+        width_px: pixels,
+        height_px: 1,
+    };
+    let opts = GiOptions {
+        resolution: 64,
+        light_samples: 16,
+        vpl_paths: 64,
+        vpl_clamp_m: None,
+    };
+    (render_frame(&scene, &camera, &opts).unwrap().xyz, camera)
+}
+
+/// Where the ray through pixel column `x` of `floor_under`'s camera meets the floor:
+/// the angle from the light's nadir (the light is 1 m above the floor).
+fn floor_angle(camera: &Camera, x: u32) -> f64 {
+    let w = f64::from(camera.width_px);
+    let focal = 0.5 / (0.5 * camera.vfov_deg.to_radians()).tan();
+    let dx = (f64::from(x) + 0.5 - 0.5 * w) / focal;
+    // the camera 0.5 m up looks down: the floor point is dx·0.5 m aside
+    (dx * 0.5).atan()
+}
+
+#[test]
+fn an_isotropic_point_light_gives_the_floor_its_inverse_square_cosine_luminance() {
+    let (img, camera) = floor_under(
+        LightKind::Isotropic {
+            intensity_cd: 1000.0,
+        },
+        9,
+        40.0,
+    );
+    for x in 0..9 {
+        let t = floor_angle(&camera, x);
+        let expected = 0.5 / std::f64::consts::PI * 1000.0 * t.cos().powi(3);
+        let got = f64::from(img[x as usize][1]);
+        assert!(
+            (got - expected).abs() < 1e-4 * expected,
+            "pixel {x}: {got} vs {expected}"
+        );
+    }
+}
+
+#[test]
+fn a_spot_lights_the_floor_inside_its_cone_and_not_outside() {
+    let spot = LightKind::Spot {
+        axis: V3::new(0.0, -1.0, 0.0),
+        intensity_cd: 1000.0,
+        inner_half_angle_rad: 25f64.to_radians(),
+        outer_half_angle_rad: 35f64.to_radians(),
+    };
+    let (img, camera) = floor_under(spot, 21, 17.0);
+    let (mut inside, mut outside) = (0, 0);
+    for x in 0..21 {
+        let t = floor_angle(&camera, x).abs().to_degrees();
+        let full = 0.5 / std::f64::consts::PI * 1000.0 * t.to_radians().cos().powi(3);
+        let got = f64::from(img[x as usize][1]);
+        // the table blurs the edge over a texel (1.4°)
+        if t < 23.5 {
+            assert!((got - full).abs() < 1e-4 * full, "{t:.1}°: {got} vs {full}");
+            inside += 1;
+        } else if t > 36.5 {
+            assert_eq!(got, 0.0, "{t:.1}°: lit outside the cone");
+            outside += 1;
+        }
+    }
+    assert!(
+        inside >= 3 && outside >= 3,
+        "{inside} inside, {outside} outside"
+    );
+}
+
 #[cfg(feature = "gpu")]
 mod on_gpu {
     use super::*;
@@ -488,6 +575,18 @@ mod on_gpu {
         let mut camera = scene.camera.clone().unwrap();
         (camera.width_px, camera.height_px) = (24, 24);
         scene.camera = None;
+        // and a spot under the ceiling aimed at the tall block (point lights' tables)
+        scene.lights.push(Light {
+            name: "spot".into(),
+            position: V3::new(0.2, 0.5, 0.3),
+            color_xyz: [0.9, 1.0, 1.1],
+            kind: LightKind::Spot {
+                axis: V3::new(0.3, -1.0, 0.2).normalize(),
+                intensity_cd: 50.0,
+                inner_half_angle_rad: 0.3,
+                outer_half_angle_rad: 0.5,
+            },
+        });
         // thousands of VPLs: more traversal steps than llvmpipe lets one invocation
         // loop, on a coarse and a fine grid (longer traversals, smaller chunks)
         for resolution in [64, 256] {

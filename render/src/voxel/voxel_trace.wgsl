@@ -10,7 +10,7 @@ struct Params {
     vpl_count: u32,
     first: u32,              // shade: the samples [first, last) of lights then VPLs
     last: u32,
-    pad2: u32,
+    point_count: u32,
     inv_voxel: vec4<f32>,    // x: 1 / voxel edge (1/m); positions are relative to the grid's origin
     shading: vec4<f32>,      // offset (m), VPL clamp² (m²), -, -
     offsets: array<vec4<u32>, 3>,
@@ -23,6 +23,51 @@ struct Params {
 // the VPLs (p, n, flux) in `items`
 @group(0) @binding(2) var<storage, read> items: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read_write> out: array<vec4<f32>>;
+// shade: the point lights' intensity tables (points.rs)
+@group(0) @binding(4) var<storage, read> tables: array<f32>;
+
+const TABLE_W: u32 = 256u;
+const TABLE_H: u32 = 128u;
+
+// Bilinear intensity (cd) of the table at `offset` towards unit `d`, as
+// points::intensity.
+fn point_intensity(offset: u32, d: vec3<f32>) -> f32 {
+    let w = f32(TABLE_W);
+    let h = f32(TABLE_H);
+    let phi = atan2(d.z, d.x);
+    let theta = acos(clamp(d.y, -1.0, 1.0));
+    let u = (phi / 6.283185307179586 + 0.5) * w - 0.5;
+    let v = clamp(theta / 3.141592653589793 * h - 0.5, 0.0, h - 1.0);
+    let u0 = floor(u);
+    let v0 = floor(v);
+    let fu = u - u0;
+    let fv = v - v0;
+    let iw = i32(TABLE_W);
+    let i0 = u32(((i32(u0) % iw) + iw) % iw);
+    let i1 = u32(((i32(u0) + 1) % iw + iw) % iw);
+    let j0 = u32(v0);
+    let j1 = min(j0 + 1u, TABLE_H - 1u);
+    let top = tables[offset + j0 * TABLE_W + i0] * (1.0 - fu) + tables[offset + j0 * TABLE_W + i1] * fu;
+    let bottom = tables[offset + j1 * TABLE_W + i0] * (1.0 - fu) + tables[offset + j1 * TABLE_W + i1] * fu;
+    return top * (1.0 - fv) + bottom * fv;
+}
+
+// A point light's illuminance at the surfel, as gi.rs point_light.
+fn point_light(sp: vec3<f32>, sn: vec3<f32>, start: vec3<f32>, lp: vec3<f32>, color: vec3<f32>, table: u32) -> vec3<f32> {
+    let v = lp - sp;
+    let r2 = dot(v, v);
+    let r = sqrt(r2);
+    let c = dot(sn, v) / r;
+    if !(c > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let o = vec3<f32>(-v.x / r, -v.y / r, -v.z / r);
+    let i = point_intensity(table, o);
+    if i > 0.0 && visible(start, lp + o * P.shading.x) {
+        return color * (i * c / r2);
+    }
+    return vec3<f32>(0.0);
+}
 
 fn level_offset(level: u32) -> u32 {
     return P.offsets[level / 4u][level % 4u];
@@ -177,8 +222,11 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
         let j = lights + 3u * k;
         if k < P.light_count {
             e += illuminance(sp, sn, start, items[j].xyz, items[j + 1u].xyz, items[j + 2u].xyz, 0.0);
-        } else {
+        } else if k < P.light_count + P.vpl_count {
             e += illuminance(sp, sn, start, items[j].xyz, items[j + 1u].xyz, items[j + 2u].xyz * inv_pi, P.shading.y);
+        } else {
+            let q = lights + 3u * (P.light_count + P.vpl_count) + 2u * (k - P.light_count - P.vpl_count);
+            e += point_light(sp, sn, start, items[q].xyz, items[q + 1u].xyz, u32(items[q].w));
         }
     }
     // w counts the samples summed: the host checks that no loop was cut short

@@ -51,6 +51,11 @@ def build(toml_path, move=None, max_depth=64):
         if m.get("emission_cd_m2"):
             sh["emitter"] = {"type": "area", "radiance": {"type": "spectrum", "value": m["emission_cd_m2"]}}
         scene[obj] = sh
+    for k, light in enumerate(cfg.get("lights", [])):
+        if light.get("type", "point") != "point" or "intensity_cd" not in light:
+            raise SystemExit("mitsuba_ref.py builds isotropic point lights given by intensity_cd only")
+        scene[f"lamp_{k}"] = {"type": "point", "position": [x * unit for x in light["position"]],
+                              "intensity": {"type": "spectrum", "value": light["intensity_cd"]}}
     c = cfg["camera"]
     scene["sensor"] = {"type": "perspective", "fov_axis": "y", "fov": c["vfov_deg"],
         "near_clip": 1e-3, "far_clip": 1e3,

@@ -13,7 +13,10 @@ Usage (repository root, after cargo build --release -p lumiwall; a venv with
 `pip install mitsuba numpy openexr`, Debian libllvm19):
   DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 \\
     VENV/bin/python tests/reference/mitsuba/voxel_gi_table.py \\
-    [--frames 0,30,59] [--voxels 64,128,256,512] [--vpls 256] [--spp 512] [--cpu]
+    [--scene S] [--frames 0,30,59] [--voxels 64,128,256,512] [--vpls 256] [--spp 512] [--cpu]
+
+A scene without [animation] (e.g. cornell_point.toml, a bare bulb: point lights) is
+measured as its one frame.
 """
 import argparse
 import pathlib
@@ -52,14 +55,16 @@ def run_lumiwall(a, frames, voxels, vpls, out):
     for f in frames:
         cmd = [a.lumiwall, "render", a.scene, "--method", "voxel-gi", "--voxels", str(voxels),
                "--light-samples", str(a.light_samples), "--vpls", str(vpls),
-               "--frames", f"{f}..{f}", "--out", str(out)] + (["--cpu"] if a.cpu else [])
+               "--out", str(out)] + (["--cpu"] if a.cpu else [])
+        if a.animated:
+            cmd += ["--frames", f"{f}..{f}"]
         run = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True)
         for line in run.stdout.splitlines():
             if line.startswith("voxel GI on"):
                 device = line[len("voxel GI on "):]
-            m = re.match(r"\s*(\d+)\s+([\d.]+)\s+([\d.]+)\s+([\d.]+)\s+([\d.]+)\s+([\d.]+)", line)
+            m = re.match(r"\s*(\d+|-)\s+([\d.]+)\s+([\d.]+)\s+([\d.]+)\s+([\d.]+)\s+([\d.]+)", line)
             if m:
-                times[int(m.group(1))] = (float(m.group(2)), float(m.group(6)))
+                times[f] = (float(m.group(2)), float(m.group(6)))
     return times, device
 
 
@@ -75,7 +80,9 @@ def main():
     ap.add_argument("--passes", type=int, default=1)
     ap.add_argument("--cpu", action="store_true")
     a = ap.parse_args()
-    frames = [int(f) for f in a.frames.split(",")]
+    import tomllib
+    a.animated = "animation" in tomllib.load(open(a.scene, "rb"))
+    frames = [int(f) for f in a.frames.split(",")] if a.animated else [0]
     refs = {}
     for f in frames:
         start = time.perf_counter()
@@ -88,13 +95,14 @@ def main():
             for n in [int(v) for v in a.voxels.split(",")]:
                 out = pathlib.Path(tmp) / f"v{n}.exr"
                 times, device = run_lumiwall(a, frames, n, vpls, out)
-                errs = [measured(blocks.read_y(pathlib.Path(tmp) / f"v{n}_{f:04}.exr"), refs[f])
-                        for f in frames]
+                name = (lambda f: f"v{n}_{f:04}.exr") if a.animated else (lambda f: f"v{n}.exr")
+                errs = [measured(blocks.read_y(pathlib.Path(tmp) / name(f)), refs[f]) for f in frames]
                 vox = np.mean([times[f][0] for f in frames])
                 gi = np.mean([times[f][1] for f in frames])
                 rows.append((n, vpls, vox, gi, errs, device))
     print(f"\nvoxel GI on {rows[0][5]}, {a.light_samples} emitter samples; error against "
-          f"Mitsuba (direct + one bounce, {a.spp} spp), frames {a.frames}")
+          f"Mitsuba (direct + one bounce, {a.spp} spp), "
+          + (f"frames {a.frames}" if a.animated else "a still scene"))
     head = " ".join(f"{'frame ' + str(f):>9}" for f in frames)
     print(f"{'voxels':>7} {'VPLs':>5} {'voxelize ms':>11} {'GI ms':>9} {head} {'mean':>7}")
     for n, vpls, vox, gi, errs, _ in rows:

@@ -57,7 +57,7 @@ fn the_dynamic_scene_asks_for_voxel_gi_and_each_frame_is_lit_and_timed() {
 }
 
 #[test]
-fn voxel_gi_refuses_a_bad_resolution_a_point_light_frames_without_animation_and_sensors() {
+fn voxel_gi_refuses_a_bad_resolution_no_camera_frames_without_animation_and_sensors() {
     let tmp = TempDir::new().unwrap();
     lumiwall()
         .arg("render")
@@ -74,7 +74,7 @@ fn voxel_gi_refuses_a_bad_resolution_a_point_light_frames_without_animation_and_
         .arg(tmp.path().join("b.exr"))
         .assert()
         .code(2)
-        .stderr(contains("is a point-like light"));
+        .stderr(contains("has no [camera]"));
     lumiwall()
         .arg("render")
         .arg(cornell())
