@@ -14,10 +14,13 @@
 //!
 //! Shadow rays start one voxel diagonal off the surface along its normal and end one
 //! voxel diagonal off the light (Thiedemann l.547–560), so a surface never shadows
-//! itself. The price, shrinking with the voxel: within about that distance of a
-//! concave edge (a wall meeting the floor) the start lies in the other surface's
-//! voxels and the pixel gets no light at all (a dark band along the edge), and light
-//! leaks through walls thinner than it.
+//! itself; their first voxel diagonal is not tested either, because within about
+//! that distance of a concave edge (a wall meeting the floor) the start lies in the
+//! other surface's voxels. The price, shrinking with the voxel: occluders thinner
+//! than that right at the receiver cast no shadow, rays nearly parallel to the other
+//! surface still start in it (a narrower dark band along the edge), and light leaks
+//! through walls thinner than a voxel diagonal. Skipping the first diagonal took the
+//! error against Mitsuba at 64³ from 4.2 to 3.4 % (`voxel_gi_table.py`, frame 0).
 
 use std::f64::consts::PI;
 use std::time::Instant;
@@ -614,8 +617,16 @@ pub fn visible(grid: &VoxelGrid, a: [f32; 3], b: [f32; 3]) -> bool {
     let inv_h = grid.inv_voxel_f32();
     let o: [f32; 3] = a.map(|v| v * inv_h);
     let e: [f32; 3] = b.map(|v| v * inv_h);
-    trace(grid, o, sub3(e, o), 0.0, 1.0).is_none()
+    let d = sub3(e, o);
+    // the first voxel diagonal is skipped: there the start may lie in the voxels of a
+    // surface meeting the receiver at a concave edge
+    let t0 = (SKIP_VOXELS / dot3(d, d).sqrt()).min(0.5);
+    trace(grid, o, d, t0, 1.0).is_none()
 }
+
+/// Voxels (one voxel diagonal) at the start of a shadow ray in which nothing is
+/// tested.
+const SKIP_VOXELS: f32 = 1.732_050_8;
 
 /// The luminance (XYZ, cd/m²) a pixel shows: the same steps as the WGSL `shade`
 /// (its dispatches over chunks of [`shade_chunk`] samples included).

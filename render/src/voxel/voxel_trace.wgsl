@@ -173,7 +173,10 @@ fn visible(a: vec3<f32>, b: vec3<f32>) -> bool {
     let inv_h = P.inv_voxel.x;
     let o = a * inv_h;
     let e = b * inv_h;
-    return trace(o, e - o, 0.0, 1.0).x < 0.0;
+    let d = e - o;
+    // the first voxel diagonal is skipped, as gi.rs visible
+    let t0 = min(1.7320508 / sqrt(dot(d, d)), 0.5);
+    return trace(o, d, t0, 1.0).x < 0.0;
 }
 
 fn illuminance(sp: vec3<f32>, sn: vec3<f32>, start: vec3<f32>, p: vec3<f32>, n: vec3<f32>, w: vec3<f32>, clamp2: f32) -> vec3<f32> {
