@@ -264,12 +264,7 @@ impl<'a> MonteCarloReference<'a> {
 fn cosine_direction(n: &V3, rng: &mut ChaCha8Rng) -> V3 {
     let u: f64 = rng.random();
     let v: f64 = rng.random();
-    let r = u.sqrt();
-    let phi = std::f64::consts::TAU * v;
-    let helper = if n.x.abs() < 0.9 { V3::x() } else { V3::y() };
-    let t = n.cross(&helper).normalize();
-    let b = n.cross(&t);
-    (t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u).max(0.0).sqrt()).normalize()
+    super::quadrature::cosine_direction(n, u, v).normalize()
 }
 
 /// A uniformly distributed point on a triangle or (planar convex) quad.

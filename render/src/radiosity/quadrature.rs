@@ -138,6 +138,17 @@ pub fn split4(v: &[V3]) -> Vec<Vec<V3>> {
     }
 }
 
+/// A cosine-distributed direction about the unit normal `n` (Malley's method) from two
+/// uniform numbers in [0, 1); unit up to rounding.
+pub fn cosine_direction(n: &V3, u1: f64, u2: f64) -> V3 {
+    let helper = if n.x.abs() < 0.9 { V3::x() } else { V3::y() };
+    let t = n.cross(&helper).normalize();
+    let b = n.cross(&t);
+    let r = u1.sqrt();
+    let phi = std::f64::consts::TAU * u2;
+    t * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt()
+}
+
 /// A point uniformly distributed by area on a triangle or planar convex quad, from
 /// three uniform numbers in [0, 1): `r0` picks the quad's half (by area), `r1`, `r2`
 /// the point in the triangle (folded square).

@@ -32,6 +32,7 @@ use super::points::{PointLights, PointSample};
 use super::traverse::trace;
 use super::voxelize::{scene_triangles, voxelize};
 use crate::mesh::Bvh;
+use crate::radiosity::quadrature::cosine_direction;
 use crate::scene::{Camera, Scene, V3, polygon_area_m2, polygon_normal};
 
 /// What a voxel GI frame is computed with.
@@ -330,15 +331,8 @@ pub fn check_view_size(w: u32, h: u32) -> Result<(), GiError> {
 
 /// The box around `tris`: lowest and highest corner.
 pub(crate) fn bounds(tris: &[[[f64; 3]; 3]]) -> (V3, V3) {
-    let mut lo = V3::repeat(f64::INFINITY);
-    let mut hi = V3::repeat(f64::NEG_INFINITY);
-    for p in tris.iter().flatten() {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-    }
-    (lo, hi)
+    let corners: Vec<V3> = tris.iter().flatten().map(|&p| V3::from(p)).collect();
+    crate::radiosity::shaft::bounds(&corners)
 }
 
 /// Per polygon: unit normal, reflectance and emission (f32), and triangle → polygon.
@@ -375,34 +369,22 @@ impl Surfaces {
 
     /// The surfel where a ray from `o` along `d` first lands; a back face gives a
     /// surfel with a zero normal (one-sided surfaces reflect and emit nothing there).
-    fn hit(
-        &self,
-        bvh: &Bvh,
-        o: [f64; 3],
-        d: [f64; 3],
-        origin: [f64; 3],
-    ) -> Option<(Surfel, usize)> {
+    fn hit(&self, bvh: &Bvh, o: [f64; 3], d: [f64; 3], origin: [f64; 3]) -> Option<Surfel> {
         let h = bvh.intersect(o, d, f64::INFINITY)?;
         let poly = self.owner[h.triangle as usize] as usize;
         let p = std::array::from_fn(|a| (o[a] + h.t * d[a] - origin[a]) as f32);
         if !h.front_face {
-            return Some((
-                Surfel {
-                    p,
-                    ..Surfel::default()
-                },
-                poly,
-            ));
-        }
-        Some((
-            Surfel {
+            return Some(Surfel {
                 p,
-                n: self.normal[poly],
-                rho: self.rho[poly],
-                le: self.le[poly],
-            },
-            poly,
-        ))
+                ..Surfel::default()
+            });
+        }
+        Some(Surfel {
+            p,
+            n: self.normal[poly],
+            rho: self.rho[poly],
+            le: self.le[poly],
+        })
     }
 }
 
@@ -436,7 +418,7 @@ impl SceneHits {
                 let (o, d) = ray((i % w) as u32, (i / w) as u32);
                 self.surfaces
                     .hit(&self.bvh, o, d, self.origin)
-                    .map_or(Surfel::default(), |s| s.0)
+                    .unwrap_or_default()
             })
             .collect();
         Ok(GiView {
@@ -575,9 +557,9 @@ fn vpls(scene: &Scene, hits: &SceneHits, paths: u32, points: &PointLights) -> Ve
                 let f = light.color_xyz.map(|c| c * total / f64::from(paths));
                 (light.position, d, f)
             };
-            let (s, _) =
-                hits.surfaces
-                    .hit(&hits.bvh, [o.x, o.y, o.z], [d.x, d.y, d.z], hits.origin)?;
+            let s = hits
+                .surfaces
+                .hit(&hits.bvh, [o.x, o.y, o.z], [d.x, d.y, d.z], hits.origin)?;
             if s.n == [0.0; 3] {
                 return None;
             }
@@ -588,15 +570,6 @@ fn vpls(scene: &Scene, hits: &SceneHits, paths: u32, points: &PointLights) -> Ve
             })
         })
         .collect()
-}
-
-fn cosine_direction(n: &V3, u1: f64, u2: f64) -> V3 {
-    let t = if n.x.abs() < 0.9 { V3::x() } else { V3::y() };
-    let b1 = n.cross(&t).normalize();
-    let b2 = n.cross(&b1);
-    let r = u1.sqrt();
-    let phi = 2.0 * PI * u2;
-    b1 * (r * phi.cos()) + b2 * (r * phi.sin()) + n * (1.0 - u1).max(0.0).sqrt()
 }
 
 fn sub3(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
