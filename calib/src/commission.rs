@@ -898,12 +898,24 @@ fn solve_inputs(
                 &m.measurement,
                 correction.as_ref().map_or([0.0; 2], |c| c.xy_offset),
                 f64::from(opts.measure.primary_repeats()),
-                // the commissioning averages the white like the primaries
-                f64::from(opts.measure.primary_repeats()),
+                white_readings(m, opts.measure.primary_repeats()),
             )
         })
         .collect();
     (correction, inputs)
+}
+
+/// Readings averaged in display `m`'s full white, as its log records them
+/// (`otherwise` where it records none).
+pub(crate) fn white_readings(m: &MeasuredDisplay, otherwise: u32) -> f64 {
+    let logged = m
+        .log
+        .samples
+        .iter()
+        .rev()
+        .find(|r| r.patch == crate::measure::Patch::White && r.xyz.is_some())
+        .map(|r| r.repeats.max(1));
+    f64::from(logged.unwrap_or(otherwise))
 }
 
 /// Removes a recalibration's `previous/`: it belongs to the profiles this

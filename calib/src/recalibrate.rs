@@ -908,8 +908,9 @@ fn solve_again(
                 &m.measurement,
                 opts.meter_xy_offset,
                 f64::from(opts.measure.primary_repeats()),
-                // a night reads the white once
-                1.0,
+                // a night reads the white once, a display measured again as the
+                // commissioning does
+                crate::commission::white_readings(m, 1),
             )
         })
         .collect();

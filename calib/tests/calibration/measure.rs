@@ -468,3 +468,44 @@ fn a_primarys_colour_pooled_over_its_ramp_is_closer_to_the_truth_than_its_full_d
         );
     }
 }
+
+/// The full white gets the readings a CS-100A class meter's xy noise needs (7 for a
+/// standard error of 0.0002, at most 6) only from 40 readings per display, and at most
+/// one in twelve of the budget; a meter without stated noise, or an exact one, reads
+/// it as often as a primary.
+#[test]
+fn the_white_is_averaged_by_the_stated_noise_only_where_the_budget_allows() {
+    let cs100a = lumiwall_devices::ReadingNoise {
+        luminance_rel: 0.001,
+        xy: 0.0005,
+        dark_xyz_cd_m2: [0.008, 0.004, 0.008],
+    };
+    let exact = lumiwall_devices::ReadingNoise {
+        luminance_rel: 0.0,
+        xy: 0.0,
+        dark_xyz_cd_m2: [0.0; 3],
+    };
+    let quiet = lumiwall_devices::ReadingNoise {
+        xy: 0.0001,
+        ..cs100a
+    };
+    let opts = |budget| MeasureOptions {
+        budget,
+        reserved: 9,
+        ..MeasureOptions::default()
+    };
+    let white = |budget, n: Option<&lumiwall_devices::ReadingNoise>| {
+        (
+            opts(budget).primary_repeats(),
+            opts(budget).white_repeats(n),
+        )
+    };
+    assert_eq!(white(24, Some(&cs100a)), (1, 1));
+    assert_eq!(white(39, Some(&cs100a)), (1, 1));
+    assert_eq!(white(40, Some(&cs100a)), (1, 3));
+    assert_eq!(white(64, Some(&cs100a)), (4, 5));
+    assert_eq!(white(200, Some(&cs100a)), (4, 6));
+    assert_eq!(white(64, Some(&quiet)), (4, 4));
+    assert_eq!(white(64, Some(&exact)), (4, 4));
+    assert_eq!(white(64, None), (4, 4));
+}
