@@ -40,7 +40,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
 use crate::colorimetry::cct_to_xy;
-use crate::measure::channel_colour::{MIN_POOLED_INTENSITY, pool, ramp_sigmas};
+use crate::measure::channel_colour::{MIN_POOLED_INTENSITY, pool};
 use crate::measure::drift::{DriftCheck, recheck};
 use crate::measure::grey_drives::{
     GreyLevel, GreyTargets, read_grey_drives, readings_needed, whole_grey_repeats,
@@ -454,7 +454,6 @@ fn read_greys_of(
     let readings = read.readings;
     m.log.samples.extend(read.samples);
     let (primaries, ramps) = pool(&m.log, m.measurement.black, m.measurement.primaries, noise);
-    m.measurement.ramp_sigmas = ramp_sigmas(&m.log, m.measurement.black, primaries, noise);
     (m.measurement.primaries, m.measurement.ramps) = (primaries, ramps);
     m.measurement.composites.extend(read.composites);
     m.measurement.readings += readings;

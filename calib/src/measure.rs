@@ -1206,7 +1206,6 @@ fn ramps_in(
     ramps.measure(s, opts, progress)?;
     ramps.check_measurable(key, s)?;
     let (primaries, ramps) = channel_colour::pool(&s.log, black, primaries, noise);
-    let ramp_sigmas = channel_colour::ramp_sigmas(&s.log, black, primaries, noise);
     let readings = s.log.readings;
     let log = std::mem::take(&mut s.log);
     progress(Progress::DisplayDone {
@@ -1221,7 +1220,6 @@ fn ramps_in(
             primaries,
             white,
             ramps,
-            ramp_sigmas,
             readings,
             instrument,
             composites: Vec::new(),

@@ -1213,7 +1213,6 @@ mod tests {
             primaries: c.primaries,
             white: c.white,
             ramps: Default::default(),
-            ramp_sigmas: Default::default(),
             readings: 0,
             instrument: String::new(),
             composites: Vec::new(),

@@ -36,7 +36,7 @@ use serde::{Deserialize, Serialize};
 use crate::CalibError;
 use crate::colorimetry::cct_to_xy;
 use crate::gamut::{MIN_TRIANGLE_AREA, XyPoint, common_gamut_named, signed_area};
-use crate::tone::fit_monotone_within_noise;
+use crate::tone::fit_monotone_named;
 
 /// A channel used for less than this fraction of the headroom by the white gets a
 /// [`SolveWarning::LowChannelUsage`]: few code values are left for the image.
@@ -78,13 +78,6 @@ pub struct DisplayMeasurement {
     /// Per channel R, G, B: `(drive 0..=1, raw XYZ)` readings in any order; may include
     /// drives 0 and 1.
     pub ramps: [Vec<(f64, Xyz)>; 3],
-    /// 1σ of each ramp sample's intensity along its channel, in units of the channel's
-    /// full-drive light, in the order of `ramps` (from the meter's stated noise,
-    /// [`crate::measure::channel_colour::ramp_sigmas`]): the tone fit smooths the
-    /// samples within it ([`crate::tone::fit_monotone_within_noise`]). Empty: exact
-    /// readings, or a measurement written before the figures.
-    #[serde(default, skip_serializing_if = "ramp_sigmas_unknown")]
-    pub ramp_sigmas: [Vec<f64>; 3],
     /// Number of meter readings taken for this display.
     pub readings: u32,
     /// Instrument that measured (model and serial, or "virtual").
@@ -95,11 +88,6 @@ pub struct DisplayMeasurement {
     /// (`composite_gains`); empty in measurements written before them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub composites: Vec<CompositeReading>,
-}
-
-/// True when no ramp sample has a noise figure (nothing to write).
-fn ramp_sigmas_unknown(s: &[Vec<f64>; 3]) -> bool {
-    s.iter().all(Vec::is_empty)
 }
 
 /// A reading of all three channels together at one drive (a grey as the display
@@ -558,11 +546,7 @@ fn fit_curves(
             samples.push((drive, (xyz.to_vector() - black).dot(&pc) / norm2));
         }
         samples.push((1.0, 1.0));
-        let mut sigmas = m.ramp_sigmas[c.index()].clone();
-        if sigmas.len() == ramp.len() {
-            sigmas.push(0.0);
-        }
-        fit_monotone_within_noise(&samples, &sigmas, &what)?.to_tone_curve(entries)
+        fit_monotone_named(&samples, &what)?.to_tone_curve(entries)
     };
     Ok([
         fit(Channel::Red)?,

@@ -7,9 +7,6 @@
 //! 2. Weighted isotonic regression (pool-adjacent-violators) with the end points (0, 0)
 //!    and (1, 1) pinned by very large weights, so noisy, non-monotone ramps become
 //!    monotone; each pooled block becomes one knot at its weighted mean drive.
-//!    With a noise figure per sample ([`fit_monotone_within_noise`]), the samples
-//!    are first smoothed within their noise (`tone/smooth.rs`), so the curve does not follow
-//!    a dark reading's noise.
 //! 3. A monotone cubic through the knots (the not-a-knot cubic spline's slopes limited
 //!    by Hyman's monotonicity filter; PCHIP, as SciPy's `PchipInterpolator`, below four
 //!    knots) in a perceptual domain `u = intensity^(1/γ̂)`, with γ̂ the least-squares
@@ -21,8 +18,6 @@
 //! [`suggest_next_drive`] places ramp samples adaptively: it splits the ramp segment
 //! that is longest in the (drive, cube-root intensity) plane, weighted up where the
 //! curve bends.
-
-mod smooth;
 
 use lumiwall_profiles::{MIN_LUT_ENTRIES, ToneCurve};
 
@@ -279,32 +274,14 @@ fn monotone_spline_slopes(x: &[f64], y: &[f64]) -> Vec<f64> {
 /// Fits the monotone curve through `samples` `(drive 0..=1, relative intensity)`; see
 /// the module docs for the method. `what` names the ramp in errors.
 pub fn fit_monotone_named(samples: &[(f64, f64)], what: &str) -> Result<MonotoneCurve, CalibError> {
-    fit_monotone_within_noise(samples, &[], what)
-}
-
-/// [`fit_monotone_named`] with each sample's 1σ (in the samples' intensity units, in
-/// their order): the interior samples are smoothed within their noise (`tone/smooth.rs`)
-/// before the isotonic regression. Without a figure for every sample (`sigmas` of
-/// another length, or a zero or non-finite one strictly inside the ramp) the samples
-/// are taken as exact.
-pub fn fit_monotone_within_noise(
-    samples: &[(f64, f64)],
-    sigmas: &[f64],
-    what: &str,
-) -> Result<MonotoneCurve, CalibError> {
     check_samples(samples, what)?;
-    let sigmas: Vec<f64> = if sigmas.len() == samples.len() {
-        sigmas.to_vec()
-    } else {
-        vec![0.0; samples.len()]
-    };
-    let merged = merge_same_drive(samples, &sigmas);
+    let merged = merge_same_drive(samples);
     let full = merged
         .iter()
         .find(|m| m.0 >= 1.0 - SAME_DRIVE)
         .map(|m| m.1)
         .unwrap_or(1.0);
-    let mut interior: Vec<(f64, f64, f64, f64)> = merged
+    let interior: Vec<(f64, f64, f64)> = merged
         .iter()
         .copied()
         .filter(|m| m.0 > SAME_DRIVE && m.0 < 1.0 - SAME_DRIVE)
@@ -323,7 +300,6 @@ pub fn fit_monotone_within_noise(
             full_drive: full,
         });
     }
-    smooth_interior(&mut interior, full);
     let mut pts: Vec<(f64, f64, f64)> = Vec::with_capacity(interior.len() + 2);
     pts.push((0.0, 0.0, ANCHOR_WEIGHT));
     pts.extend(interior.iter().map(|m| (m.0, m.1 / full, m.2)));
@@ -367,20 +343,15 @@ fn check_samples(samples: &[(f64, f64)], what: &str) -> Result<(), CalibError> {
 }
 
 /// Samples sorted by drive, those at the same drive or within [`NEAR_DRIVE`] of the
-/// first of a group averaged in drive and intensity: `(drive, intensity, count, 1σ of
-/// the mean intensity)`. The ends (drive 0 and 1) are never moved: a group there keeps
-/// its drive.
-fn merge_same_drive(samples: &[(f64, f64)], sigmas: &[f64]) -> Vec<(f64, f64, f64, f64)> {
-    let mut sorted: Vec<(f64, f64, f64)> = samples
-        .iter()
-        .zip(sigmas)
-        .map(|(&(d, i), &s)| (d, i, s))
-        .collect();
+/// first of a group averaged in drive and intensity: `(drive, intensity, count)`. The
+/// ends (drive 0 and 1) are never moved: a group there keeps its drive.
+fn merge_same_drive(samples: &[(f64, f64)]) -> Vec<(f64, f64, f64)> {
+    let mut sorted: Vec<(f64, f64)> = samples.to_vec();
     sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // (first drive of the group, mean drive, mean intensity, count, Σσ²)
-    let mut groups: Vec<(f64, f64, f64, f64, f64)> = Vec::with_capacity(sorted.len());
+    // (first drive of the group, mean drive, mean intensity, count)
+    let mut groups: Vec<(f64, f64, f64, f64)> = Vec::with_capacity(sorted.len());
     let is_end = |d: f64| d <= SAME_DRIVE || d >= 1.0 - SAME_DRIVE;
-    for (d, i, s) in sorted {
+    for (d, i) in sorted {
         match groups.last_mut() {
             Some(g)
                 if (d - g.0).abs() <= SAME_DRIVE
@@ -389,37 +360,11 @@ fn merge_same_drive(samples: &[(f64, f64)], sigmas: &[f64]) -> Vec<(f64, f64, f6
                 g.1 = (g.1 * g.3 + d) / (g.3 + 1.0);
                 g.2 = (g.2 * g.3 + i) / (g.3 + 1.0);
                 g.3 += 1.0;
-                g.4 += s * s;
             }
-            _ => groups.push((d, d, i, 1.0, s * s)),
+            _ => groups.push((d, d, i, 1.0)),
         }
     }
-    groups
-        .into_iter()
-        .map(|g| (g.1, g.2, g.3, g.4.sqrt() / g.3))
-        .collect()
-}
-
-/// The interior samples `(drive, intensity, count, σ)` smoothed within their noise
-/// ([`smooth`]) in the domain of the power law fitted to them; left as read when a
-/// sample has no noise figure. `full` is the full-drive intensity they are relative to.
-fn smooth_interior(interior: &mut [(f64, f64, f64, f64)], full: f64) {
-    let knots: Vec<smooth::NoisyKnot> = interior
-        .iter()
-        .map(|m| smooth::NoisyKnot {
-            drive: m.0,
-            value: m.1 / full,
-            sigma: m.3 / full,
-        })
-        .collect();
-    let drives: Vec<f64> = knots.iter().map(|k| k.drive).collect();
-    let vals: Vec<f64> = knots.iter().map(|k| k.value.max(0.0)).collect();
-    let gamma = estimate_gamma(&drives, &vals);
-    if let Some(values) = smooth::smooth_within_noise(&knots, gamma) {
-        for (m, v) in interior.iter_mut().zip(values) {
-            m.1 = v * full;
-        }
-    }
+    groups.into_iter().map(|g| (g.1, g.2, g.3)).collect()
 }
 
 /// Knots of the curve from the pooled blocks: pinned ends (0, 0) and (1, 1), and the

@@ -111,7 +111,6 @@ mod tests {
                 vec![(0.5, xyz(14.0))],
                 vec![(0.5, xyz(2.5))],
             ],
-            ramp_sigmas: Default::default(),
             readings: 8,
             instrument: "virtual".into(),
             composites: Vec::new(),

@@ -100,47 +100,6 @@ pub fn pool(
     (pooled, ramps)
 }
 
-/// 1σ of each ramp sample's intensity along its channel's pooled colour `pooled` (black
-/// included), in units of the channel's full-drive light, in the order of the ramps
-/// [`pool`] returns: `1/√(Σₖ pₖ²/varₖ)` with `p` the colour above black and `var` the
-/// sample's and the black's variance under the meter's stated `noise`, each averaged
-/// over its readings. Empty for a meter that states no noise or none (its samples are
-/// taken as exact), or where the numbers are not finite.
-pub fn ramp_sigmas(
-    log: &MeasureLog,
-    black: Xyz,
-    pooled: [Xyz; 3],
-    noise: Option<ReadingNoise>,
-) -> [Vec<f64>; 3] {
-    let Some(noise) = noise.filter(|n| !n.is_exact()) else {
-        return Default::default();
-    };
-    let black = Averaged {
-        drive: 0.0,
-        xyz: black,
-        readings: last_record(log, |p| *p == Patch::Black).map_or(1, |a| a.readings),
-    };
-    std::array::from_fn(|i| {
-        let p = (pooled[i] - black.xyz).to_array();
-        let sigmas: Vec<f64> = ramp_samples(log, Channel::ALL[i])
-            .into_iter()
-            .map(|s| {
-                let var = variance_above_black(s, black, &noise);
-                let info: f64 = (0..3)
-                    .filter(|&k| var[k] > 0.0)
-                    .map(|k| p[k] * p[k] / var[k])
-                    .sum();
-                1.0 / info.sqrt()
-            })
-            .collect();
-        if sigmas.iter().all(|s| s.is_finite() && *s > 0.0) {
-            sigmas
-        } else {
-            Vec::new()
-        }
-    })
-}
-
 /// The last record with a reading of a patch matching `is`.
 fn last_record(log: &MeasureLog, is: impl Fn(&Patch) -> bool) -> Option<Averaged> {
     log.samples.iter().rev().find_map(|r| match r.xyz {
@@ -310,48 +269,6 @@ mod tests {
             black + Xyz::new(30.0, 60.0, 10.0),
             black + Xyz::new(15.0, 6.0, 80.0),
         ]
-    }
-
-    /// A dark sample's intensity is relatively less certain than a bright one's, four averaged
-    /// readings halve a sample's σ, and a meter without stated noise gives no figures.
-    #[test]
-    fn ramp_sigmas_follow_the_stated_noise_and_the_readings_averaged() {
-        let mut log = log_with_red_ramp(&[0.1, 0.5, 0.5], |_| RED);
-        let black = Xyz::from_array(BLACK);
-        if let Some(r) = log.samples.last_mut() {
-            r.repeats = 4;
-        }
-        // The sample at 0.5 read four times: its XYZ noise halves (the black's does not).
-        let [red, green, blue] = ramp_sigmas(&log, black, primaries(), Some(noise()));
-        assert!(green.is_empty() && blue.is_empty());
-        assert_eq!(red.len(), 3);
-        // σ is in units of the full red: relative to the samples' intensities (d²).
-        let (dark, bright) = (red[0] / 0.01, red[1] / 0.25);
-        assert!(dark > 5.0 * bright, "dark {dark} vs bright {bright}");
-        assert!(
-            red[2] < red[1] && red[2] > 0.45 * red[1],
-            "{} vs {}",
-            red[2],
-            red[1]
-        );
-        // One bright reading: about the 0.1 % luminance repeatability of a quarter of
-        // the red, relative to the full red.
-        assert!((red[1] / 0.25 - 0.001).abs() < 0.0005, "{}", red[1]);
-        let exact = ReadingNoise {
-            luminance_rel: 0.0,
-            xy: 0.0,
-            dark_xyz_cd_m2: [0.0; 3],
-        };
-        assert!(
-            ramp_sigmas(&log, black, primaries(), Some(exact))
-                .iter()
-                .all(Vec::is_empty)
-        );
-        assert!(
-            ramp_sigmas(&log, black, primaries(), None)
-                .iter()
-                .all(Vec::is_empty)
-        );
     }
 
     #[test]

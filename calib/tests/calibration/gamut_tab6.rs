@@ -75,7 +75,6 @@ fn measurement(i: usize, name: &str, primaries: [Xyz; 3], black: Xyz) -> Display
         primaries,
         white: None,
         ramps: [vec![], vec![], vec![]],
-        ramp_sigmas: Default::default(),
         readings: 0,
         instrument: format!("Minolta CS-100A ({name}, Kresse 2003 Tab. 6)"),
         composites: Vec::new(),

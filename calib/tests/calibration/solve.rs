@@ -96,7 +96,6 @@ impl Model {
             primaries,
             white: Some(self.show([1.0; 3])),
             ramps,
-            ramp_sigmas: Default::default(),
             readings: (2 + 3 + 3 * ramp_samples) as u32,
             instrument: "analytic model".into(),
             composites: Vec::new(),
