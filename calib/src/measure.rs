@@ -200,12 +200,11 @@ impl MeasureOptions {
     /// reading of it fixes its chromaticity far better than one of a saturated blue
     /// (y ≈ 0.3 against 0.06). Realistic meter, 40 readings per display (3 on the
     /// white instead of 1), 40 unseen seeds per class, runs within every limit of
-    /// issue 12: mono-2x1 32 → 40, offaxis-gain-2x1 32 → 39, infitec-pair 34 → 38, mean
-    /// white ΔE2000 0.73 → 0.65, 0.74 → 0.64, 0.69 → 0.62; weak-channel-3x1, whose grey
-    /// balance needs the two readings more, 4 → 1. At 48 readings (4 on the white),
-    /// mono-2x1 with 15 seeds 12 → 15. Below 40 the ramps cannot spare them: at 24 and
-    /// 32, two readings on the white made runs within the limits fewer (mono-2x1, 15
-    /// seeds: 1 → 0 and 13 → 8).
+    /// issue 12: mono-2x1 30 → 40, offaxis-gain-2x1 31 → 39, infitec-pair 33 → 37, mean
+    /// white ΔE2000 0.73 → 0.65, 0.74 → 0.64, 0.69 → 0.63; weak-channel-3x1, whose grey
+    /// balance needs the two readings more, 4 → 1. Below 40 the ramps cannot spare
+    /// them: two readings on the white gave mono-2x1 (15 seeds) 1 → 0 runs within the
+    /// limits at 24 readings and 13 → 8 at 32.
     pub fn white_repeats(&self, noise: Option<&ReadingNoise>) -> u32 {
         let primary = self.primary_repeats();
         let stated = noise.filter(|n| !n.is_exact());
