@@ -907,14 +907,8 @@ fn solve_inputs(
 /// Readings averaged in display `m`'s full white, as its log records them
 /// (`otherwise` where it records none).
 pub(crate) fn white_readings(m: &MeasuredDisplay, otherwise: u32) -> f64 {
-    let logged = m
-        .log
-        .samples
-        .iter()
-        .rev()
-        .find(|r| r.patch == crate::measure::Patch::White && r.xyz.is_some())
-        .map(|r| r.repeats.max(1));
-    f64::from(logged.unwrap_or(otherwise))
+    let logged = m.log.last_read(crate::measure::Patch::White);
+    f64::from(logged.map_or(otherwise, |r| r.repeats.max(1)))
 }
 
 /// Removes a recalibration's `previous/`: it belongs to the profiles this

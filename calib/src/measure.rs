@@ -433,6 +433,14 @@ impl MeasureLog {
     pub fn skipped(&self) -> usize {
         self.samples.iter().filter(|s| s.xyz.is_none()).count()
     }
+
+    /// The last record of `patch` that has a reading.
+    pub fn last_read(&self, patch: Patch) -> Option<&ReadingRecord> {
+        self.samples
+            .iter()
+            .rev()
+            .find(|r| r.patch == patch && r.xyz.is_some())
+    }
 }
 
 /// A display's measurement and its log, as saved in a commissioning run folder.

@@ -65,7 +65,7 @@ pub fn pool(
 ) -> ([Xyz; 3], [Vec<(f64, Xyz)>; 3]) {
     let full: [Averaged; 3] = std::array::from_fn(|i| {
         let c = Channel::ALL[i];
-        last_record(log, |p| *p == Patch::Primary(c)).unwrap_or(Averaged {
+        last_record(log, Patch::Primary(c)).unwrap_or(Averaged {
             drive: 1.0,
             xyz: primaries[i],
             readings: 1,
@@ -76,7 +76,7 @@ pub fn pool(
             let black = Averaged {
                 drive: 0.0,
                 xyz: black,
-                readings: last_record(log, |p| *p == Patch::Black).map_or(1, |a| a.readings),
+                readings: last_record(log, Patch::Black).map_or(1, |a| a.readings),
             };
             std::array::from_fn(|i| {
                 let samples = ramp_samples(log, Channel::ALL[i]);
@@ -100,15 +100,13 @@ pub fn pool(
     (pooled, ramps)
 }
 
-/// The last record with a reading of a patch matching `is`.
-fn last_record(log: &MeasureLog, is: impl Fn(&Patch) -> bool) -> Option<Averaged> {
-    log.samples.iter().rev().find_map(|r| match r.xyz {
-        Some(xyz) if is(&r.patch) => Some(Averaged {
-            drive: 1.0,
-            xyz,
-            readings: r.repeats.max(1),
-        }),
-        _ => None,
+/// The last reading of `patch` in `log` ([`MeasureLog::last_read`]).
+fn last_record(log: &MeasureLog, patch: Patch) -> Option<Averaged> {
+    let r = log.last_read(patch)?;
+    Some(Averaged {
+        drive: 1.0,
+        xyz: r.xyz?,
+        readings: r.repeats.max(1),
     })
 }
 
