@@ -333,15 +333,24 @@ fn display_model(white: Option<Xyz>, sum: Vector3<f64>, p_inv: &Matrix3<f64>) ->
     }
 }
 
+/// Largest negative X or Z, as a share of the reading's X + Y + Z, taken as a
+/// colorimeter's noise rather than a wrong zero: the Z of a dim red is a few per
+/// mille of its light, and a sensor's zero-light noise of a few mcd/m² takes it below
+/// zero about half the time (a red of 0.1 cd/m² under a CS-100A's 8 mcd/m² in Z).
+const NEGATIVE_NOISE_SHARE: f64 = 0.02;
+
+/// Refuses a non-finite component, a negative Y, and an X or Z more negative than
+/// [`NEGATIVE_NOISE_SHARE`] of the reading.
 fn check_xyz(what: &str, v: Xyz) -> Result<(), CalibError> {
-    for (name, c) in [("X", v.x), ("Y", v.y), ("Z", v.z)] {
+    let noise = NEGATIVE_NOISE_SHARE * (v.x + v.y + v.z).max(0.0);
+    for (name, c, tolerance) in [("X", v.x, noise), ("Y", v.y, 0.0), ("Z", v.z, noise)] {
         if !c.is_finite() {
             return Err(CalibError::NonFinite {
                 what: format!("{what} {name}"),
                 value: c,
             });
         }
-        if c < 0.0 {
+        if c < -tolerance {
             return Err(CalibError::Negative {
                 what: format!("{what} {name}"),
                 value: c,

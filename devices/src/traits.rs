@@ -46,7 +46,8 @@ pub struct MeterInfo {
 pub struct ReadingNoise {
     /// 1σ relative repeatability of Y at high luminance.
     pub luminance_rel: f64,
-    /// 1σ repeatability of x and y at high luminance.
+    /// 1σ repeatability of x and y at high luminance, on illuminant A as makers
+    /// state it (a saturated colour's differs; [`ReadingNoise::sensor_rel`]).
     pub xy: f64,
     /// 1σ zero-light noise of the X, Y and Z sensors (cd/m²).
     pub dark_xyz_cd_m2: [f64; 3],
@@ -59,28 +60,41 @@ impl ReadingNoise {
         self.xy == 0.0 && self.luminance_rel == 0.0 && self.dark_xyz_cd_m2.iter().all(|v| *v == 0.0)
     }
 
-    /// 1σ of X, Y and Z of one reading of `xyz`: the dark noise and the high-light
-    /// repeatability carried from Y, x and y to each component (X = x·Y/y,
-    /// Z = (1 − x − y)·Y/y, the three taken as independent).
+    /// 1σ relative high-light noise of the X, Y and Z sensors. A filter colorimeter
+    /// reads three photodiodes behind its filters, and each one's noise is relative to
+    /// its own signal: Y's is the stated luminance repeatability, X's and Z's `k` times
+    /// it, with `k` such that illuminant A (x 0.4476, y 0.4074, as makers state
+    /// repeatability) reads with the stated xy repeatability (the mean of σx² and σy²).
+    /// A saturated blue then keeps its Z as precise as a white's, while its x and y
+    /// scatter far less than on illuminant A: the repeatability is not an xy noise
+    /// that moves every spectrum alike.
+    pub fn sensor_rel(&self) -> [f64; 3] {
+        let l = self.luminance_rel;
+        if l <= 0.0 {
+            return [0.0; 3];
+        }
+        let [x, y] = ILLUMINANT_A_XY;
+        let z = 1.0 - x - y;
+        // σx² + σy² = l²·(k²·a + b) for independent relative noise [k·l, l, k·l].
+        let a = x * x * ((1.0 - x).powi(2) + z * z) + y * y * (x * x + z * z);
+        let b = x * x * y * y + y * y * (1.0 - y).powi(2);
+        let k2 = ((2.0 * self.xy * self.xy / (l * l) - b) / a).max(0.0);
+        let k = k2.sqrt();
+        [k * l, l, k * l]
+    }
+
+    /// 1σ of X, Y and Z of one reading of `xyz`: each sensor's relative high-light
+    /// noise ([`ReadingNoise::sensor_rel`]) and its zero-light noise, independent.
     pub fn sigma_xyz(&self, xyz: Xyz) -> [f64; 3] {
-        let s = xyz.x + xyz.y + xyz.z;
-        let [x, y, z] = if s > 0.0 {
-            [xyz.x / s, xyz.y / s, xyz.z / s]
-        } else {
-            [1.0 / 3.0; 3]
-        };
-        // Relative variance of each component from Y's and the chromaticity's noise.
-        let (l2, c2) = (self.luminance_rel.powi(2), self.xy.powi(2));
-        let floor = 1e-3;
-        let rel2 = [
-            l2 + c2 * (1.0 / x.max(floor).powi(2) + 1.0 / y.max(floor).powi(2)),
-            l2,
-            l2 + c2 * (2.0 / z.max(floor).powi(2) + 1.0 / y.max(floor).powi(2)),
-        ];
-        let v = [xyz.x, xyz.y, xyz.z];
-        std::array::from_fn(|k| (self.dark_xyz_cd_m2[k].powi(2) + rel2[k] * v[k] * v[k]).sqrt())
+        let rel = self.sensor_rel();
+        let v = xyz.to_array();
+        std::array::from_fn(|k| self.dark_xyz_cd_m2[k].hypot(rel[k] * v[k]))
     }
 }
+
+/// Chromaticity of CIE illuminant A, on which makers state a colorimeter's xy
+/// repeatability.
+pub const ILLUMINANT_A_XY: [f64; 2] = [0.44757, 0.40745];
 
 /// A spot colorimeter: measures the XYZ (Y in cd/m²) of the spot it is aimed at.
 pub trait Colorimeter {

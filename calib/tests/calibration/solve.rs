@@ -485,8 +485,13 @@ fn nan_and_negative_readings_are_errors() {
         matches!(err, CalibError::NonFinite { .. }) && err.to_string().contains("display 1"),
         "{err}"
     );
+    // A component far below zero is a wrong zero; a dim red's Z a few per mille of
+    // its light below zero is the meter's zero-light noise and solves.
     let mut m = base.clone();
-    m[0].black.z = -0.01;
+    m[1].primaries[0].z = -0.005 * m[1].primaries[0].y;
+    solve_wall(&m, &options(BlackMode::Individual, 1.0)).expect("noise below zero solves");
+    let mut m = base.clone();
+    m[0].black.z = -0.1 * (m[0].black.x + m[0].black.y);
     let err = solve_wall(&m, &options(BlackMode::Individual, 1.0)).unwrap_err();
     assert!(
         matches!(err, CalibError::Negative { .. }) && err.to_string().contains("display 0"),

@@ -6,13 +6,16 @@
 //! So its systematic error depends on the spectrum, as a real filter colorimeter's
 //! does: small on a lamp white, larger on narrow-band (Infitec) primaries, and linear
 //! in the light (it keeps additivity; no reading of R, G, B and white reveals it).
-//! Then, in xyY: a per-instrument absolute luminance gain and (optionally) an xy
-//! offset (drawn once from the instrument seed) and the per-reading high-light
-//! repeatability; then, in X, Y and Z, each sensor's zero-light noise (Gaussian, a few
-//! mcd/m², independent of the light: it dominates in the dark, and a dim saturated
-//! colour keeps its strongest component far more precise than its weakest, as a real
-//! filter colorimeter's three photodiodes do; [`MeterModel::dark_sigma_xyz_cd_m2`]);
-//! then display rounding. Limits: over `max_cd_m2` → [`DeviceError::OverRange`]; below
+//! Then a per-instrument absolute luminance gain and (optionally, for what-if
+//! studies) an xy offset, drawn once from the instrument seed. Then the noise, in
+//! each of the X, Y and Z sensors on its own, as a filter colorimeter's three
+//! photodiodes have it: a relative high-light noise (Y's the stated luminance
+//! repeatability, X's and Z's larger so that illuminant A reads with the stated xy
+//! repeatability; [`crate::ReadingNoise::sensor_rel`]) and a zero-light noise
+//! (Gaussian, a few mcd/m², independent of the light: it dominates in the dark;
+//! [`MeterModel::dark_sigma_xyz_cd_m2`]). A saturated colour keeps its strongest
+//! component as precise as a white's: the Z of a blue of y 0.02 scatters 0.2 %, not
+//! the 2 % an xy noise of 0.0005 would give it. Then display rounding. Limits: over `max_cd_m2` → [`DeviceError::OverRange`]; below
 //! `floor_cd_m2` → [`DeviceError::TooDark`]; between the floor and
 //! `min_reliable_cd_m2` the meter still answers, with larger noise.
 
@@ -55,7 +58,8 @@ pub struct MeterModel {
     /// Relative luminance noise added by the Y sensor's zero-light noise at
     /// `low_light_cd_m2` (so σ_Y = this × `low_light_cd_m2` cd/m² at any light).
     pub lum_low_light_rel: f64,
-    /// 1σ noise of x and y per reading at high luminance.
+    /// 1σ noise of x and y per reading at high luminance, on illuminant A (it sets
+    /// the X and Z sensors' relative noise; [`crate::ReadingNoise::sensor_rel`]).
     pub xy_noise: f64,
     /// xy noise of a white at `low_light_cd_m2` from the sensors' zero-light noise:
     /// it sets how much noisier the X and Z sensors are than Y's
@@ -297,15 +301,16 @@ impl SimMeter {
                 limit_cd_m2: m.floor_cd_m2,
             });
         };
-        // High-light repeatability in xyY, then each sensor's zero-light noise.
-        let n: [f64; 3] = std::array::from_fn(|_| self.rng.sample::<f64, _>(StandardNormal));
-        let lum = y_true * self.systematic_gain * (1.0 + m.lum_noise_rel * n[0]);
-        let xm = x + self.systematic_xy[0] + m.xy_noise * n[1];
-        let ym = y + self.systematic_xy[1] + m.xy_noise * n[2];
-        let lit = Xy::new(xm, ym).with_luminance(lum).to_array();
-        let dark = m.dark_sigma_xyz_cd_m2();
+        // The gain and the xy offset, then each sensor's relative high-light noise and
+        // its zero-light noise.
+        let biased = Xy::new(x + self.systematic_xy[0], y + self.systematic_xy[1])
+            .with_luminance(y_true * self.systematic_gain)
+            .to_array();
+        let noise = m.reading_noise();
+        let (rel, dark) = (noise.sensor_rel(), noise.dark_xyz_cd_m2);
         let read = Xyz::from_array(std::array::from_fn(|k| {
-            lit[k] + dark[k] * self.rng.sample::<f64, _>(StandardNormal)
+            let n: [f64; 2] = std::array::from_fn(|_| self.rng.sample::<f64, _>(StandardNormal));
+            biased[k] * (1.0 + rel[k] * n[0]) + dark[k] * n[1]
         }));
         let (mut lum, [mut xm, mut ym]) = (read.y, read.xy().unwrap_or([1.0 / 3.0; 2]));
         if let Some(d) = m.display_digits {

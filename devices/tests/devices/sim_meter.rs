@@ -372,3 +372,51 @@ fn a_dim_blue_reads_its_z_more_precisely_than_its_y_as_its_stated_noise_says() {
         );
     }
 }
+
+#[test]
+fn a_bright_saturated_blue_keeps_its_z_as_precise_as_a_whites_and_its_xy_tighter() {
+    let w = wall("infitec-pair.toml");
+    let model = MeterModel::cs100a(7);
+    let mut rig = Rig::on(&w, model);
+    let stated = rig
+        .meter
+        .info()
+        .noise
+        .expect("the simulated meter states its noise");
+    let stats = |rig: &mut Rig, drive: [f64; 3]| {
+        let r: Vec<Xyz> = (0..600)
+            .map(|_| rig.read(DisplayId(0), drive, C).unwrap())
+            .collect();
+        let (mz, sz) = mean_std(&r.iter().map(|x| x.z).collect::<Vec<_>>());
+        let (_, sx) = mean_std(&r.iter().map(|x| x.xy().unwrap()[0]).collect::<Vec<_>>());
+        let (my, sy) = mean_std(&r.iter().map(|x| x.xy().unwrap()[1]).collect::<Vec<_>>());
+        (sz / mz, sx.hypot(sy) / 2f64.sqrt(), my, r[0])
+    };
+    let (white_z, white_xy, _, _) = stats(&mut rig, [1.0; 3]);
+    let (blue_z, blue_xy, blue_y, first) = stats(&mut rig, [0.0, 0.0, 1.0]);
+    println!(
+        "white: Z σ {:.3} %, xy σ {white_xy:.5}; blue (y {blue_y:.3}): Z σ {:.3} %, xy σ {blue_xy:.5}",
+        100.0 * white_z,
+        100.0 * blue_z
+    );
+    assert!(blue_y < 0.08, "a saturated blue: y {blue_y}");
+    // A white reads with about the stated xy repeatability (stated on illuminant A).
+    assert!(
+        (white_xy / stated.xy - 1.0).abs() < 0.2,
+        "white xy σ {white_xy} vs stated {}",
+        stated.xy
+    );
+    // The blue's Z is as precise as the white's, not the 2 % an xy noise of 0.0005
+    // would make of it at y 0.05; its chromaticity scatters less than the white's.
+    assert!(
+        blue_z < 1.25 * white_z && blue_z < 0.004,
+        "blue Z σ {blue_z}"
+    );
+    assert!(blue_xy < 0.6 * white_xy, "blue xy σ {blue_xy}");
+    // And the station's stated model says the same of this reading.
+    let want = stated.sigma_xyz(first)[2] / first.z;
+    assert!(
+        (blue_z / want - 1.0).abs() < 0.15,
+        "Z σ {blue_z} vs stated {want}"
+    );
+}
