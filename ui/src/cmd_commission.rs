@@ -227,7 +227,8 @@ pub(crate) struct CommissionArgs {
     /// curves are sampled where the white and the greys sit; then the wall is solved
     /// again. Up to three readings per grey out of each display's budget, and the meter
     /// visits every display a second time. A luminance is read only where the meter is
-    /// reliable at a third of it. `none` skips the pass. Default: `1,1cd` where software
+    /// reliable at a third of it; the brightest share (from 64 readings) is also read
+    /// whole. `none` skips the pass. Default: `1,0.5,1cd` where software
     /// aims the meter, `none` where a technician aims it (guided aiming, a real meter
     /// with `--aim auto`), who would have to aim at every display again.
     #[arg(long, value_parser = parse_grey_levels)]
