@@ -62,25 +62,22 @@ impl ReadingNoise {
 
     /// 1σ relative high-light noise of the X, Y and Z sensors. A filter colorimeter
     /// reads three photodiodes behind its filters, and each one's noise is relative to
-    /// its own signal: Y's is the stated luminance repeatability, X's and Z's `k` times
-    /// it, with `k` such that illuminant A (x 0.4476, y 0.4074, as makers state
-    /// repeatability) reads with the stated xy repeatability (the mean of σx² and σy²).
+    /// its own signal: Y's is the stated luminance repeatability, X's and Z's (equal)
+    /// such that illuminant A (x 0.4476, y 0.4074, as makers state repeatability)
+    /// reads with the stated xy repeatability (the mean of σx² and σy²); twice Y's for
+    /// a CS-100A's 0.1 % and 0.0005.
     /// A saturated blue then keeps its Z as precise as a white's, while its x and y
     /// scatter far less than on illuminant A: the repeatability is not an xy noise
     /// that moves every spectrum alike.
     pub fn sensor_rel(&self) -> [f64; 3] {
-        let l = self.luminance_rel;
-        if l <= 0.0 {
-            return [0.0; 3];
-        }
+        let l = self.luminance_rel.max(0.0);
         let [x, y] = ILLUMINANT_A_XY;
         let z = 1.0 - x - y;
-        // σx² + σy² = l²·(k²·a + b) for independent relative noise [k·l, l, k·l].
+        // σx² + σy² = r²·a + l²·b for independent relative noise [r, l, r] (r = k·l).
         let a = x * x * ((1.0 - x).powi(2) + z * z) + y * y * (x * x + z * z);
         let b = x * x * y * y + y * y * (1.0 - y).powi(2);
-        let k2 = ((2.0 * self.xy * self.xy / (l * l) - b) / a).max(0.0);
-        let k = k2.sqrt();
-        [k * l, l, k * l]
+        let r = ((2.0 * self.xy * self.xy - l * l * b) / a).max(0.0).sqrt();
+        [r, l, r]
     }
 
     /// 1σ of X, Y and Z of one reading of `xyz`: each sensor's relative high-light

@@ -420,3 +420,24 @@ fn a_bright_saturated_blue_keeps_its_z_as_precise_as_a_whites_and_its_xy_tighter
         "Z σ {blue_z} vs stated {want}"
     );
 }
+
+#[test]
+fn stated_repeatability_becomes_each_sensors_relative_noise_even_without_a_luminance_figure() {
+    let cs100a = MeterModel::cs100a(1).reading_noise().sensor_rel();
+    // Y's is the stated 0.1 %; X's and Z's about twice it (illuminant A at 0.0005 xy).
+    assert_eq!(cs100a[1], 0.001);
+    assert_eq!(cs100a[0], cs100a[2]);
+    assert!((cs100a[0] / cs100a[1] - 2.0).abs() < 0.02, "{cs100a:?}");
+    // A maker that states only the xy repeatability: X and Z still carry it.
+    let xy_only = lumiwall_devices::ReadingNoise {
+        luminance_rel: 0.0,
+        xy: 0.0005,
+        dark_xyz_cd_m2: [0.0; 3],
+    }
+    .sensor_rel();
+    assert_eq!(xy_only[1], 0.0);
+    assert!(
+        xy_only[0] > 0.0015 && xy_only[0] == xy_only[2],
+        "{xy_only:?}"
+    );
+}
