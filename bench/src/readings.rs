@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 
 use lumiwall_calib::commission::{CommissionError, CommissionOptions};
 use lumiwall_calib::measure::MeasureOptions;
+use lumiwall_calib::measure::grey_drives::GreyLevel;
 use lumiwall_calib::measure::meter_matrix::{MeterMatrices, MeterMatrixError};
 use lumiwall_calib::solve::SolveOptions;
 use lumiwall_calib::station::{MeterChoice, Noise, Station, StationError, StationOptions};
@@ -41,7 +42,22 @@ pub struct ReadingsBench {
     /// Match the realistic meter to the reference on every display (`meter-matrix
     /// --per-display`) instead of once per eye.
     pub per_display_matrix: bool,
+    /// The simulated reference spectroradiometer the realistic meter is matched to
+    /// ([`SpectroModel::cs2000`] by default; [`SpectroModel::noiseless`] shows what
+    /// the station reaches when the reference adds no error of its own).
+    pub reference: SpectroModel,
+    /// The grey-drive pass's greys (`commission --grey-levels`).
+    pub grey_levels: Vec<GreyLevel>,
 }
+
+/// The reference of [`ReadingsBench::reference`] by default: the simulated CS-2000 of
+/// serial number 2000, the unit `lumiwall meter-matrix` simulates by default.
+pub fn default_reference() -> SpectroModel {
+    SpectroModel::cs2000(DEFAULT_REFERENCE_SEED)
+}
+
+/// Serial number of the simulated reference of [`default_reference`].
+pub const DEFAULT_REFERENCE_SEED: u64 = 2000;
 
 /// One commission-and-verify run.
 #[derive(Debug, Clone, PartialEq)]
@@ -166,18 +182,19 @@ pub fn run(
 }
 
 /// With the realistic meter, the station's meter matched to the simulated reference
-/// spectroradiometer (a CS-2000 whose wavelength scale a Hg-Ar lamp checked, one
-/// matrix per eye), as a station commissioning Infitec
-/// walls with a filter colorimeter would; nothing for the exact meter.
+/// spectroradiometer `reference` (its wavelength scale checked with a Hg-Ar lamp; one
+/// matrix per eye, or per display), as a station commissioning Infitec walls with a
+/// filter colorimeter would; nothing for the exact meter.
 pub(crate) fn match_meter(
     station: &mut Station,
     noise: Noise,
+    reference: &SpectroModel,
     per_display: bool,
 ) -> Result<Option<MeterMatrices>, MeterMatrixError> {
     Ok(match noise {
-        Noise::Realistic => Some(
-            station.meter_matrices_against_simulated(SpectroModel::cs2000(2000), per_display)?,
-        ),
+        Noise::Realistic => {
+            Some(station.meter_matrices_against_simulated(reference.clone(), per_display)?)
+        }
         Noise::None => None,
     })
 }
@@ -190,7 +207,12 @@ fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsR
         &bench.wall,
         &StationOptions::new(bench.meter.clone(), noise),
     )?;
-    let meter_matrix = match_meter(&mut station, noise, bench.per_display_matrix)?;
+    let meter_matrix = match_meter(
+        &mut station,
+        noise,
+        &bench.reference,
+        bench.per_display_matrix,
+    )?;
     let out = bench.out.join(format!("{}-{budget}", noise.name()));
     let opts = CommissionOptions {
         measure: MeasureOptions {
@@ -204,7 +226,7 @@ fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsR
         solve: bench.solve,
         resume: false,
         meter_correction: false,
-        grey_levels: lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
+        grey_levels: bench.grey_levels.clone(),
     };
     let outcome =
         station

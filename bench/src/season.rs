@@ -222,7 +222,12 @@ pub fn run(
         &bench.wall,
         &StationOptions::new(bench.meter.clone(), bench.noise),
     )?;
-    let meter_matrix = crate::readings::match_meter(&mut station, bench.noise, false)?;
+    let meter_matrix = crate::readings::match_meter(
+        &mut station,
+        bench.noise,
+        &crate::readings::default_reference(),
+        false,
+    )?;
     let profiles_dir = bench.out.join("profiles");
     let mut store = ProfileStore::open(&store_path)?;
     let mut season = Season {

@@ -659,6 +659,33 @@ pub(crate) struct BenchArgs {
     /// --per-display`), not once per eye.
     #[arg(long)]
     per_display_matrix: bool,
+    /// The simulated reference spectroradiometer the realistic meter is matched to:
+    /// `cs2000`, `specbos` or `ideal` (a perfect one: what the station reaches when the
+    /// reference adds no error of its own).
+    #[arg(long, default_value = "cs2000", value_parser = parse_reference)]
+    reference: ReferenceArg,
+    /// Serial number of the simulated reference (its systematic errors: wavelength
+    /// offset, gain and spectral tilt), as `meter-matrix --reference-seed`.
+    #[arg(long, default_value_t = readings::DEFAULT_REFERENCE_SEED)]
+    reference_seed: u64,
+    /// The grey-drive pass's greys, as `commission --grey-levels` (`none` skips the
+    /// pass). Default: `1,0.5,1cd`, commission's default where software aims the meter.
+    #[arg(long, value_parser = parse_grey_levels)]
+    grey_levels: Option<GreyLevels>,
+}
+
+/// The simulated reference `bench readings` matches the realistic meter to.
+fn bench_reference(arg: &ReferenceArg, seed: u64) -> Result<SpectroModel, CliError> {
+    match arg {
+        ReferenceArg::Cs2000 => Ok(SpectroModel::cs2000(seed)),
+        ReferenceArg::Specbos => Ok(SpectroModel::specbos_1211(seed)),
+        ReferenceArg::Ideal => Ok(SpectroModel::noiseless()),
+        ReferenceArg::SpecbosEmulated | ReferenceArg::Serial(_) => Err(CliError::input(
+            "bench readings reads its reference directly on the virtual wall: give \
+             --reference cs2000, specbos or ideal"
+                .to_string(),
+        )),
+    }
 }
 
 /// Runs `lumiwall bench readings`: for each budget and each meter error model,
@@ -674,12 +701,23 @@ pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
         out: args.out,
         warm_up: args.warm_up,
         per_display_matrix: args.per_display_matrix,
+        reference: bench_reference(&args.reference, args.reference_seed)?,
+        grey_levels: args.grey_levels.map_or_else(
+            || lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
+            |l| l.0,
+        ),
     };
     println!(
         "accuracy against meter readings per display ({}): the 51-patch chart read by a \
          perfect meter (the truth); the realistic meter matched to the reference first \
-         (meter-matrix)",
-        bench.wall.display()
+         (meter-matrix, {}{})",
+        bench.wall.display(),
+        bench.reference.model,
+        if args.reference == ReferenceArg::Ideal {
+            String::new()
+        } else {
+            format!(" SIM-{}", args.reference_seed)
+        }
     );
     println!(
         "limits: noiseless median ≤ 0.5, max ≤ 2.0; realistic median ≤ 1.0, max ≤ 3.0, \

@@ -749,6 +749,69 @@ fn bench_readings_prints_one_row_per_noise_model() {
         .stdout(contains("runs outside the limits"));
 }
 
+/// The realistic row of `bench readings` on mono-2x1 at 40 readings with these extra
+/// arguments: its numbers from the budget to the grey balance.
+fn realistic_row(extra: &[&str]) -> Vec<f64> {
+    let tmp = TempDir::new().unwrap();
+    let out = lumiwall()
+        .args(["bench", "readings", "--budgets", "40", "--wall"])
+        .arg(fixture("walls/mono-2x1.toml"))
+        .arg("--out")
+        .arg(tmp.path())
+        .args(extra)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let row = stdout
+        .lines()
+        .find(|l| l.starts_with("realistic"))
+        .unwrap_or_else(|| panic!("no realistic row: {stdout}"));
+    row.split_whitespace()
+        .skip(1)
+        .take(8)
+        .map(|v| v.parse().unwrap())
+        .collect()
+}
+
+/// The simulated CS-2000 the realistic meter is matched to (serial number 2000, a
+/// spectral tilt of 0.92 % near its ±1 % bound) shifts every colour of the chart: with
+/// an ideal reference the median is a fraction of it, so the figure says how much of
+/// the error is the reference's own.
+#[test]
+fn bench_readings_with_an_ideal_reference_leaves_out_the_reference_units_own_error() {
+    let cs2000 = realistic_row(&[])[2];
+    let ideal = realistic_row(&["--reference", "ideal"])[2];
+    assert!(ideal < 0.5 * cs2000, "ideal {ideal}, cs2000 {cs2000}");
+    let tmp = TempDir::new().unwrap();
+    lumiwall()
+        .args([
+            "bench",
+            "readings",
+            "--reference",
+            "serial:/dev/ttyUSB0",
+            "--out",
+        ])
+        .arg(tmp.path())
+        .assert()
+        .code(2)
+        .stderr(contains("give --reference cs2000, specbos or ideal"));
+}
+
+/// `--grey-levels` reaches the commissioning: without the grey-drive pass the curves
+/// are interpolated where the white and the greys sit, and the grey balance is worse.
+#[test]
+fn bench_readings_without_the_grey_drive_pass_balances_the_greys_worse() {
+    let grey_balance = |extra: &[&str]| realistic_row(extra)[7];
+    let default = grey_balance(&[]);
+    let none = grey_balance(&["--grey-levels", "none"]);
+    assert!(none > default + 0.05, "none {none}, default {default}");
+}
+
 /// A wall just switched on drifts while the first displays are measured: without the
 /// warm-up wait even the noiseless meter's calibration misses the limits; with
 /// `--warm-up` both meter models meet them at 64 readings per display.
