@@ -373,7 +373,6 @@ fn read_greys(
             levels: &opts.grey_levels,
             budget: opts.measure.budget.saturating_sub(m.measurement.readings),
             whole_repeats: whole_grey_repeats(noise.as_ref(), opts.measure.budget),
-            fill_ramps: true,
         };
         // Every display's measurement is saved; --resume reads the rest of the grey
         // drives.
@@ -399,9 +398,6 @@ struct GreyPass<'l> {
     budget: u32,
     /// Readings averaged for each grey read whole (0: none).
     whole_repeats: u32,
-    /// Spend what the greys leave of `budget` on ramp samples: the first pass, whose
-    /// budget is what the display's measurement left of it.
-    fill_ramps: bool,
 }
 
 /// Why a grey-drive pass over one display stopped.
@@ -443,7 +439,6 @@ fn read_greys_of(
         PreparedProfile::new(profile, &ApplyOptions::default()).map_err(GreyPassError::Profile)?;
     let mut mopts = opts.measure.clone();
     mopts.budget = pass.budget;
-    let ramps = m.measurement.ramps.clone();
     let targets = GreyTargets {
         prepared: &prepared,
         white: Xyz::from_array(profile.target_white_xyz_cd_m2),
@@ -451,9 +446,8 @@ fn read_greys_of(
         bit_depth: m.measurement.bit_depth,
         black: m.measurement.black,
         primaries: m.measurement.primaries,
-        ramps: &ramps,
+        ramp_drives: std::array::from_fn(|c| m.measurement.ramps[c].iter().map(|s| s.0).collect()),
         whole_repeats: pass.whole_repeats,
-        fill_ramps: pass.fill_ramps,
     };
     let read = read_grey_drives(rig, &m.measurement.key, info.id, &targets, &mopts, progress)
         .map_err(GreyPassError::Measure)?;

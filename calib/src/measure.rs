@@ -1149,54 +1149,6 @@ pub fn measure_ramps(
     ramps_in(&mut s, info, key, survey, opts, progress)
 }
 
-/// Spends what is left of session `s`'s budget on more ramp samples of a display whose
-/// ramps were read already (`ramps`: each channel's `(drive, XYZ)` samples on its line),
-/// placed as the adaptive ramps place them, with `usage` (each channel's relative
-/// intensity at the white) as the range that counts. The grey-drive pass ends with it:
-/// the readings it reserved but did not need (a grey's drive beside a ramp sample, a
-/// dark grey read fewer times than reserved) would otherwise go unspent while a
-/// channel's curve still had a wide gap in its used range (heyewall-48, exact readings
-/// with the realistic meter's plan: a green ramp 0.50 → 0.75 with the 65 % and 80 %
-/// greys inside it, four readings of 40 left over).
-pub fn extend_ramps(
-    s: &mut Session<'_, '_>,
-    line: [ChannelLine; 3],
-    bit_depth: u32,
-    usage: [f64; 3],
-    ramps: &[Vec<(f64, Xyz)>; 3],
-    progress: &mut dyn FnMut(Progress),
-) -> Result<(), MeasureError> {
-    let mut planner = RampPlanner {
-        black: line[0].black,
-        primaries: line.map(|l| l.full),
-        usage: usage.map(|u| u.clamp(MIN_EXPECTED_USAGE, 1.0)),
-        depth: crate::solve::clamped_bit_depth(bit_depth),
-        ramps: ramps.clone(),
-        rel: std::array::from_fn(|_| vec![(0.0, 0.0), (1.0, 1.0)]),
-        noise: line[0].noise,
-    };
-    for (i, ramp) in ramps.iter().enumerate() {
-        for &(d, xyz) in ramp {
-            let r = relative_intensity(xyz, planner.black, planner.primaries[i]);
-            insert_sorted(&mut planner.rel[i], (d, r));
-        }
-    }
-    planner.adaptive(s, 0, progress)
-}
-
-/// A channel's relative intensity at `drive`, interpolated between its ramp samples
-/// (`ramp` on the channel's line) and the ends (0, 0) and (1, 1).
-pub fn ramp_intensity_at(ramp: &[(f64, Xyz)], line: &ChannelLine, drive: f64) -> f64 {
-    let mut rel = vec![(0.0, 0.0), (1.0, 1.0)];
-    for &(d, xyz) in ramp {
-        insert_sorted(
-            &mut rel,
-            (d, relative_intensity(xyz, line.black, line.full)),
-        );
-    }
-    interpolate(&rel, drive)
-}
-
 /// A session on `info` once the budget is known to be workable
 /// ([`MeasureOptions::MIN_BUDGET`]).
 fn start_within_budget<'r, 'a>(

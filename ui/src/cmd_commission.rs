@@ -228,9 +228,7 @@ pub(crate) struct CommissionArgs {
     /// again. Up to three readings per grey out of each display's budget, and the meter
     /// visits every display a second time. A luminance is read only where the meter is
     /// reliable at a third of it; the brightest share (from 64 readings) is also read
-    /// whole; a dark grey brighter than the darkest is read on a channel only where no
-    /// sample lies within 0.03 of its drive, and what the pass leaves of the budget
-    /// goes to more ramp samples. `none` skips the pass. Default: `1,0.5,1cd,2cd` where software
+    /// whole. `none` skips the pass. Default: `1,0.5,1cd` where software
     /// aims the meter, `none` where a technician aims it (guided aiming, a real meter
     /// with `--aim auto`), who would have to aim at every display again.
     #[arg(long, value_parser = parse_grey_levels)]
@@ -671,8 +669,7 @@ pub(crate) struct BenchArgs {
     #[arg(long, default_value_t = readings::DEFAULT_REFERENCE_SEED)]
     reference_seed: u64,
     /// The grey-drive pass's greys, as `commission --grey-levels` (`none` skips the
-    /// pass). Default: `1,0.5,1cd,2cd`, commission's default where software aims the
-    /// meter.
+    /// pass). Default: `1,0.5,1cd`, commission's default where software aims the meter.
     #[arg(long, value_parser = parse_grey_levels)]
     grey_levels: Option<GreyLevels>,
 }

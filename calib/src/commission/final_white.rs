@@ -61,7 +61,6 @@ pub fn resample_at_final_white(
             opts.measure.budget,
         ),
         whole_repeats: 0,
-        fill_ramps: false,
     };
     let mut measured = outcome.measured.clone();
     let mut readings = 0;

@@ -23,14 +23,6 @@
 //! `P⁻¹` instead fixed the white alone and left the greys below it off their balance
 //! (tried: mean grey balance 0.30 → 0.36 on `mono-2x1`, 0.51 → 0.72 on
 //! `weak-channel-3x1`).
-//!
-//! Why a second dark grey, read only in a toe gap, and ramp samples after: with a
-//! meter that has noise the ramps spend readings on averages (black, white, dark
-//! samples), so they have fewer samples than with an exact one, and the toe has the
-//! widest gaps; infitec-pair's dark greys were off balance as much with exact
-//! readings on the realistic meter's plan as with the meter's noise. The 2 cd/m² grey
-//! fills such a gap where there is one ([`DARK_GAP`]); the readings the pass reserved
-//! and did not need go to the ramps ([`super::extend_ramps`]).
 
 use lumiwall_core::Channel;
 use lumiwall_devices::{DisplayId, ReadingNoise, Xyz};
@@ -102,23 +94,10 @@ impl std::str::FromStr for GreyLevel {
 /// offaxis-gain-2x1 30 / 30, infitec-pair 30 / 29 (mean grey balance 0.23 / 0.33).
 /// Read whole as well at 64 readings it did less than per channel alone (heyewall-48:
 /// max ΔE2000 1.80 / 1.13; weak-channel-3x1, 20 seeds: 16 / 18 of 20).
-///
-/// And a second dark grey of 2 cd/m², the top of the dark end, read on a channel only
-/// in a toe gap ([`DARK_GAP`]); what the pass does not read goes to more ramp samples
-/// ([`GreyTargets::fill_ramps`]). Realistic meter, 40 unseen seeds, runs within every
-/// limit without / with both (40 readings unless said): infitec-pair 39 / 40 (mean
-/// grey balance 0.32 / 0.29, mean worst ΔE2000 0.98 / 0.96), mono-2x1 40 / 40 (0.19 /
-/// 0.16), offaxis-gain-2x1 40 / 40 (0.19 / 0.18), weak-channel-3x1 32 / 32 (largest
-/// ΔE2000 2.10 / 1.37), dlp-infitec-2x1 at 64 39 / 40, dlp-nonadditive at 64 40 / 40,
-/// cold-start-2x2 40 / 40; heyewall-48 (10 seeds) 3 / 2 (mean grey balance 0.55 /
-/// 0.52); but weak-channel-3x1 at 64 readings 36 / 32 (its white is 15 cd/m², where
-/// 2 cd/m² is no dark grey; with the ramp samples alone, 37). Without the ramp samples from what is left, the second dark grey's reserve
-/// went unspent where it was not read: infitec-pair 15 of 40.
-pub const DEFAULT_LEVELS: [GreyLevel; 4] = [
+pub const DEFAULT_LEVELS: [GreyLevel; 3] = [
     GreyLevel::Share(1.0),
     GreyLevel::Share(0.5),
     GreyLevel::Luminance(1.0),
-    GreyLevel::Luminance(2.0),
 ];
 
 /// Largest number of grey levels.
@@ -138,33 +117,6 @@ pub const MIN_DRIVE_GAP: f64 = crate::tone::NEAR_DRIVE;
 /// 0.28 → 0.23, 0.22 → 0.19 (0.005: 1.25, 0.76, 0.91; 0.02: 1.29, 0.88, 0.83).
 /// An exact meter's sample is pure information: it keeps [`MIN_DRIVE_GAP`].
 pub const NOISY_DRIVE_GAP: f64 = 0.01;
-
-/// A dark grey brighter than the darkest grey level is read on a channel only where no
-/// sample (of the ramps or of this pass) lies this close to its drive: it is there to
-/// fill a gap in the toe, not to add a knot beside one. With the default levels, the
-/// 2 cd/m² grey's blue on infitec-pair's left display sits between ramp samples at
-/// drives 0.02 and 0.10, where the curve is interpolated across the toe's bend (2
-/// cd/m² grey 0.86 ΔC' off balance with exact readings and the realistic meter's
-/// plan); on mono-2x1 the ramps already have samples there and its readings go to the
-/// ramps instead.
-pub const DARK_GAP: f64 = 0.03;
-
-/// The gaps a grey level's channel drives keep from the ramps' samples and from the
-/// samples this pass took, for a meter of this stated noise ([`drive_gap`],
-/// [`DARK_GAP`] for a dark grey brighter than the darkest of `levels`).
-fn level_gaps(level: &GreyLevel, levels: &[GreyLevel], noise: Option<&ReadingNoise>) -> (f64, f64) {
-    let darkest = levels
-        .iter()
-        .filter_map(|l| match l {
-            GreyLevel::Luminance(y) => Some(*y),
-            GreyLevel::Share(_) => None,
-        })
-        .fold(f64::INFINITY, f64::min);
-    match level {
-        GreyLevel::Luminance(y) if *y > darkest => (DARK_GAP, DARK_GAP),
-        _ => (drive_gap(noise), MIN_DRIVE_GAP),
-    }
-}
 
 /// Closest a grey's channel drive may be to a ramp sample and still be read, for a
 /// meter of this stated noise ([`NOISY_DRIVE_GAP`]; [`MIN_DRIVE_GAP`] for an exact one).
@@ -192,16 +144,11 @@ pub struct GreyTargets<'a> {
     pub black: Xyz,
     /// See `black`.
     pub primaries: [Xyz; 3],
-    /// Each channel's ramp samples so far, `(drive, XYZ)` on its line: a grey's drive
-    /// within [`drive_gap`] of one is not read again.
-    pub ramps: &'a [Vec<(f64, Xyz)>; 3],
+    /// Drives of each channel's ramp samples so far: a grey's drive within
+    /// [`MIN_DRIVE_GAP`] of one is not read again.
+    pub ramp_drives: [Vec<f64>; 3],
     /// Readings averaged for each grey read whole ([`whole_grey_repeats`]; 0: none).
     pub whole_repeats: u32,
-    /// Spend what the greys leave of the budget on more ramp samples
-    /// ([`super::extend_ramps`]), in the range the white uses: the readings reserved
-    /// for a grey whose drive sits beside a sample, or for a dark grey read fewer
-    /// times than reserved.
-    pub fill_ramps: bool,
 }
 
 /// What the pass read on one display: each channel's new `(drive, XYZ)` ramp samples,
@@ -295,10 +242,9 @@ pub fn read_grey_drives(
     let mut s = Session::start(rig, key, id, opts.spot_uv, opts)?;
     let mut out = GreyDrives::default();
     let inside = MIN_DRIVE_GAP..=1.0 - MIN_DRIVE_GAP;
+    let gap = drive_gap(noise.as_ref());
     let brightest = brightest_share(targets.levels);
     let max_code = crate::solve::clamped_bit_depth(targets.bit_depth).max_code_f64();
-    let mut read: [Vec<(f64, Xyz)>; 3] = Default::default();
-    let mut white_drive = None;
     for level in targets.levels {
         let Some(xyz) = level.xyz(targets.white) else {
             continue;
@@ -309,18 +255,26 @@ pub fn read_grey_drives(
         if let GreyLevel::Share(v) = level
             && *v >= brightest
         {
-            white_drive = Some(drive);
-            read_whole(&mut s, drive, targets.whole_repeats, &mut out, &mut quiet)?;
+            let n = targets.whole_repeats.min(s.remaining());
+            if n > 0
+                && let Some(xyz) = s.repeated(Patch::Drive(drive), n, &mut quiet)?
+            {
+                let readings = s.log.samples.last().map_or(n, |r| r.repeats.max(1));
+                out.composites.push(CompositeReading {
+                    drive,
+                    xyz,
+                    readings,
+                });
+            }
         }
-        let (ramp_gap, taken_gap) = level_gaps(level, targets.levels, noise.as_ref());
         for c in Channel::ALL {
             let d = drive[c.index()];
             let taken = &mut out.drives[c.index()];
+            let far = |t: &f64| (t - d).abs() >= MIN_DRIVE_GAP;
+            let far_from_ramp = |t: &f64| (t - d).abs() >= gap;
             let new = inside.contains(&d)
-                && taken.iter().all(|t| (t - d).abs() >= taken_gap)
-                && targets.ramps[c.index()]
-                    .iter()
-                    .all(|r| (r.0 - d).abs() >= ramp_gap);
+                && taken.iter().all(far)
+                && targets.ramp_drives[c.index()].iter().all(far_from_ramp);
             if !new || s.remaining() == 0 {
                 continue;
             }
@@ -329,14 +283,12 @@ pub fn read_grey_drives(
                 full: targets.primaries[c.index()],
                 noise,
             };
-            if let Some(raw) = s.sample_channel(Patch::Ramp(c, d), &line, &mut quiet)? {
+            if s.sample_channel(Patch::Ramp(c, d), &line, &mut quiet)?
+                .is_some()
+            {
                 taken.push(d);
-                read[c.index()].push((d, line.reading(raw)));
             }
         }
-    }
-    if targets.fill_ramps && s.remaining() > 0 {
-        fill_ramps(&mut s, targets, white_drive, &read, &mut quiet)?;
     }
     out.readings = s.log.readings;
     out.samples = std::mem::take(&mut s.log.samples);
@@ -347,57 +299,6 @@ pub fn read_grey_drives(
         readings: out.readings,
     });
     Ok(out)
-}
-
-/// The grey at `drive` read whole `repeats` times (fewer where the session's budget
-/// ends) into `out`'s composites.
-fn read_whole(
-    s: &mut Session<'_, '_>,
-    drive: [f64; 3],
-    repeats: u32,
-    out: &mut GreyDrives,
-    progress: &mut dyn FnMut(Progress),
-) -> Result<(), MeasureError> {
-    let n = repeats.min(s.remaining());
-    if n > 0
-        && let Some(xyz) = s.repeated(Patch::Drive(drive), n, progress)?
-    {
-        let readings = s.log.samples.last().map_or(n, |r| r.repeats.max(1));
-        out.composites.push(CompositeReading {
-            drive,
-            xyz,
-            readings,
-        });
-    }
-    Ok(())
-}
-
-/// The rest of session `s`'s budget spent on ramp samples ([`super::extend_ramps`]):
-/// each channel's earlier samples and this pass's (`read`) are where it has samples,
-/// its intensity at `white_drive` (the brightest share's drives; the whole range
-/// without one) the range that counts.
-fn fill_ramps(
-    s: &mut Session<'_, '_>,
-    targets: &GreyTargets<'_>,
-    white_drive: Option<[f64; 3]>,
-    read: &[Vec<(f64, Xyz)>; 3],
-    progress: &mut dyn FnMut(Progress),
-) -> Result<(), MeasureError> {
-    let noise = s.rig.meter.info().noise;
-    let line = std::array::from_fn(|c| ChannelLine {
-        black: targets.black,
-        full: targets.primaries[c],
-        noise,
-    });
-    let ramps: [Vec<(f64, Xyz)>; 3] = std::array::from_fn(|c| {
-        let mut v = targets.ramps[c].clone();
-        v.extend_from_slice(&read[c]);
-        v
-    });
-    let usage = std::array::from_fn(|c| {
-        white_drive.map_or(1.0, |d| super::ramp_intensity_at(&ramps[c], &line[c], d[c]))
-    });
-    super::extend_ramps(s, line, targets.bit_depth, usage, &ramps, progress)
 }
 
 /// The largest share of the white among `levels` (0 without one): the one grey read
@@ -482,42 +383,17 @@ mod tests {
     }
 
     #[test]
-    fn a_dark_grey_brighter_than_the_darkest_keeps_a_toe_gap_from_every_sample() {
-        let n = cs100a_class();
-        let gaps = |l: GreyLevel| level_gaps(&l, &DEFAULT_LEVELS, Some(&n));
-        assert_eq!(gaps(GreyLevel::Luminance(2.0)), (DARK_GAP, DARK_GAP));
-        assert_eq!(
-            gaps(GreyLevel::Luminance(1.0)),
-            (NOISY_DRIVE_GAP, MIN_DRIVE_GAP)
-        );
-        assert_eq!(
-            gaps(GreyLevel::Share(0.5)),
-            (NOISY_DRIVE_GAP, MIN_DRIVE_GAP)
-        );
-        // A single dark grey is the darkest: it keeps the usual gaps.
-        let one = [GreyLevel::Share(1.0), GreyLevel::Luminance(2.0)];
-        assert_eq!(
-            level_gaps(&GreyLevel::Luminance(2.0), &one, Some(&n)),
-            (NOISY_DRIVE_GAP, MIN_DRIVE_GAP)
-        );
-    }
-
-    #[test]
     fn only_the_brightest_share_is_read_whole() {
         let n = cs100a_class();
         let whole = whole_grey_repeats(Some(&n), 64);
         assert_eq!(whole, 6);
-        // White: 3 channels + 6 whole; middle grey: 3 channels; 1 and 2 cd/m²: 3 × 2
-        // each.
+        // White: 3 channels + 6 whole; middle grey: 3 channels; 1 cd/m²: 3 × 2.
         assert_eq!(
             readings_needed(&DEFAULT_LEVELS, Some(&n), 64),
-            3 + whole + 3 + 6 + 6
+            3 + whole + 3 + 6
         );
         // Below 64 nothing is read whole.
-        assert_eq!(
-            readings_needed(&DEFAULT_LEVELS, Some(&n), 40),
-            3 + 3 + 6 + 6
-        );
+        assert_eq!(readings_needed(&DEFAULT_LEVELS, Some(&n), 40), 3 + 3 + 6);
         // A user's levels: only 0.8, the brightest share, is read whole.
         let levels = [GreyLevel::Share(0.4), GreyLevel::Share(0.8)];
         assert_eq!(readings_needed(&levels, Some(&n), 64), 3 + 3 + whole);

@@ -354,33 +354,3 @@ fn the_first_displays_ramps_are_focused_on_the_white_that_a_later_dimmer_display
     eprintln!("display 0 grey balance {grey:.3}");
     assert!(grey < 0.15, "display 0 grey balance {grey}");
 }
-
-/// With the realistic meter the grey-drive pass reserves readings it does not always
-/// take (a grey's drive beside a ramp sample, a dark grey read fewer times than
-/// reserved, the 2 cd/m² grey outside a toe gap): what it leaves goes to more ramp
-/// samples, so every display spends its whole budget (without them infitec-pair's left
-/// display stops at 32 of 40).
-#[test]
-fn the_grey_drive_pass_spends_what_it_leaves_of_the_budget_on_ramp_samples() {
-    let budget = 40;
-    let measure = MeasureOptions {
-        budget,
-        ..MeasureOptions::default()
-    };
-    let opts = crate::support::options_8500k(measure, BlackMode::Individual, false);
-    let mut station = crate::support::direct_station("infitec-pair.toml", Noise::Realistic);
-    let out = tempfile::tempdir().expect("tmp");
-    let o = station
-        .commission(out.path(), &opts, &mut |_| {})
-        .expect("commission");
-    for m in &o.measured {
-        assert_eq!(m.measurement.readings, budget, "{}", m.measurement.key);
-        let greys = m.log.grey_drive_readings.expect("grey pass");
-        let reserved = lumiwall_calib::measure::grey_drives::readings_needed(
-            &opts.grey_levels,
-            station.meter.info().noise.as_ref(),
-            budget,
-        );
-        assert!(greys >= reserved, "{greys} of {reserved} reserved");
-    }
-}
