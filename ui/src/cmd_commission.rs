@@ -674,13 +674,12 @@ pub(crate) struct BenchArgs {
     grey_levels: Option<GreyLevels>,
 }
 
-/// The simulated reference `bench readings` matches the realistic meter to.
+/// The simulated reference `bench readings` matches the realistic meter to: the one
+/// `meter-matrix` would read directly ([`ReferenceArg::choice`]).
 fn bench_reference(arg: &ReferenceArg, seed: u64) -> Result<SpectroModel, CliError> {
-    match arg {
-        ReferenceArg::Cs2000 => Ok(SpectroModel::cs2000(seed)),
-        ReferenceArg::Specbos => Ok(SpectroModel::specbos_1211(seed)),
-        ReferenceArg::Ideal => Ok(SpectroModel::noiseless()),
-        ReferenceArg::SpecbosEmulated | ReferenceArg::Serial(_) => Err(CliError::input(
+    match arg.choice(seed, 1.0) {
+        ReferenceChoice::Simulated(model) => Ok(model),
+        ReferenceChoice::Emulated { .. } | ReferenceChoice::Serial(_) => Err(CliError::input(
             "bench readings reads its reference directly on the virtual wall: give \
              --reference cs2000, specbos or ideal"
                 .to_string(),
@@ -781,7 +780,7 @@ pub(crate) struct MeterMatrixArgs {
     reference: ReferenceArg,
     /// Serial number of the simulated reference spectroradiometer (its systematic
     /// errors: wavelength offset, responsivity).
-    #[arg(long, default_value_t = 2000)]
+    #[arg(long, default_value_t = readings::DEFAULT_REFERENCE_SEED)]
     reference_seed: u64,
     /// Also one matrix per display (the reference reads every display): for walls
     /// whose displays of one eye differ in spectrum, e.g. Infitec comb filters.
