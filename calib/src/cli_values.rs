@@ -41,8 +41,8 @@ pub fn parse_budget(s: &str) -> Result<u32, String> {
 }
 
 /// Parses `--grey-levels`: `none`, or comma-separated grey levels, each a share of the
-/// target white's luminance in (0, 1] or a luminance such as `1.5cd`
-/// ([`crate::measure::grey_drives`]).
+/// target white's luminance in (0, 1], a luminance such as `1.5cd` or `gap` (each
+/// channel's widest gap) ([`crate::measure::grey_drives`]).
 pub fn parse_grey_levels(s: &str) -> Result<GreyLevels, String> {
     if s.trim().eq_ignore_ascii_case("none") {
         return Ok(GreyLevels(Vec::new()));

@@ -43,12 +43,12 @@ use crate::colorimetry::cct_to_xy;
 use crate::measure::channel_colour::{MIN_POOLED_INTENSITY, pool};
 use crate::measure::drift::{DriftCheck, recheck};
 use crate::measure::grey_drives::{
-    GreyLevel, GreyTargets, read_grey_drives, readings_needed, whole_grey_repeats,
+    GreyLevel, GreyTargets, merged_black, read_grey_drives, readings_needed, whole_grey_repeats,
 };
 use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall, fuse_with_white};
 use crate::measure::{
-    MeasureError, MeasureOptions, MeasuredDisplay, Progress, RampFocus, Rig, Survey, display_key,
-    luminance_only, measure_display, measure_ramps, survey_display, white_capacity,
+    MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, RampFocus, Rig, Survey,
+    display_key, luminance_only, measure_display, measure_ramps, survey_display, white_capacity,
 };
 use crate::report::{self, ReportInputs};
 use crate::solve::{
@@ -373,6 +373,7 @@ fn read_greys(
             levels: &opts.grey_levels,
             budget: opts.measure.budget.saturating_sub(m.measurement.readings),
             whole_repeats: whole_grey_repeats(noise.as_ref(), opts.measure.budget),
+            black_with_rest: true,
         };
         // Every display's measurement is saved; --resume reads the rest of the grey
         // drives.
@@ -398,6 +399,9 @@ struct GreyPass<'l> {
     budget: u32,
     /// Readings averaged for each grey read whole (0: none).
     whole_repeats: u32,
+    /// Whether what the pass leaves of `budget` re-reads the black
+    /// ([`GreyTargets::black_with_rest`]).
+    black_with_rest: bool,
 }
 
 /// Why a grey-drive pass over one display stopped.
@@ -448,10 +452,15 @@ fn read_greys_of(
         primaries: m.measurement.primaries,
         ramp_drives: std::array::from_fn(|c| m.measurement.ramps[c].iter().map(|s| s.0).collect()),
         whole_repeats: pass.whole_repeats,
+        black_with_rest: pass.black_with_rest,
     };
     let read = read_grey_drives(rig, &m.measurement.key, info.id, &targets, &mopts, progress)
         .map_err(GreyPassError::Measure)?;
     let readings = read.readings;
+    if let Some((again, n)) = read.black {
+        let first = m.log.readings_of(Patch::Black);
+        m.measurement.black = merged_black(m.measurement.black, first, again, n);
+    }
     m.log.samples.extend(read.samples);
     let (primaries, ramps) = pool(&m.log, m.measurement.black, m.measurement.primaries, noise);
     (m.measurement.primaries, m.measurement.ramps) = (primaries, ramps);
@@ -490,7 +499,7 @@ fn usable_grey_levels(
         .iter()
         .copied()
         .filter(|l| match l {
-            GreyLevel::Share(_) => true,
+            GreyLevel::Share(_) | GreyLevel::WidestGap => true,
             GreyLevel::Luminance(y) => noise_stated || *y >= 3.0 * limit_cd_m2,
         })
         .collect()

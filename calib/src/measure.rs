@@ -441,6 +441,15 @@ impl MeasureLog {
             .rev()
             .find(|r| r.patch == patch && r.xyz.is_some())
     }
+
+    /// Readings in every record of `patch` that gave a value.
+    pub fn readings_of(&self, patch: Patch) -> u32 {
+        self.samples
+            .iter()
+            .filter(|r| r.patch == patch && r.xyz.is_some())
+            .map(|r| r.repeats.max(1))
+            .sum()
+    }
 }
 
 /// A display's measurement and its log, as saved in a commissioning run folder.
@@ -884,14 +893,7 @@ impl<'r, 'a> Session<'r, 'a> {
         line: Option<&ChannelLine>,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<Option<Xyz>, MeasureError> {
-        self.rig
-            .pattern
-            .show(self.id, patch.drive())
-            .map_err(|source| MeasureError::Pattern {
-                display: self.name.clone(),
-                patch,
-                source,
-            })?;
+        self.show(patch)?;
         let first = self.read_once(patch, progress)?;
         if let Some(x) = first.filter(|x| x.y >= self.limit_cd_m2) {
             self.log.samples.push(ReadingRecord {
@@ -944,6 +946,52 @@ impl<'r, 'a> Session<'r, 'a> {
 }
 
 impl Session<'_, '_> {
+    /// Shows `patch` on the session's display.
+    fn show(&mut self, patch: Patch) -> Result<(), MeasureError> {
+        self.rig
+            .pattern
+            .show(self.id, patch.drive())
+            .map_err(|source| MeasureError::Pattern {
+                display: self.name.clone(),
+                patch,
+                source,
+            })
+    }
+
+    /// Shows `patch` and averages `repeats` readings in XYZ (at most what the budget
+    /// leaves), whatever their light: re-reads whose number is decided elsewhere (the
+    /// black, with what the grey-drive pass leaves of a display's budget). Logs one
+    /// record. Returns the mean and the readings in it; `None` when none came (every
+    /// one refused as too dark, or no budget left).
+    pub fn averaged(
+        &mut self,
+        patch: Patch,
+        repeats: u32,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Option<(Xyz, u32)>, MeasureError> {
+        let n = repeats.min(self.remaining());
+        if n == 0 {
+            return Ok(None);
+        }
+        self.show(patch)?;
+        let mut sum = Xyz::default();
+        let mut ok = 0u32;
+        for _ in 0..n {
+            if let Some(x) = self.read_once(patch, progress)? {
+                sum = sum + x;
+                ok += 1;
+            }
+        }
+        let mean = (ok > 0).then(|| sum * (1.0 / f64::from(ok)));
+        self.log.samples.push(ReadingRecord {
+            patch,
+            xyz: mean,
+            repeats: n,
+            low_light: mean.is_none_or(|m| m.y < self.limit_cd_m2),
+        });
+        Ok(mean.map(|m| (m, ok)))
+    }
+
     /// Shows `patch` and averages `repeats` readings (in xyY), or more under the
     /// low-light policy when the patch is dark. `None` when every reading was refused as
     /// too dark.

@@ -224,11 +224,13 @@ pub(crate) struct CommissionArgs {
     /// After every display is measured: each channel read alone at the code each
     /// display's provisional profile gives it for these greys (a share of the target
     /// white's luminance, e.g. `1` or `0.5`, or a luminance, e.g. `1cd`), so the tone
-    /// curves are sampled where the white and the greys sit; then the wall is solved
-    /// again. Up to three readings per grey out of each display's budget, and the meter
-    /// visits every display a second time. A luminance is read only where the meter is
-    /// reliable at a third of it; the brightest share (from 64 readings) is also read
-    /// whole. `none` skips the pass. Default: `1,0.5,1cd` where software
+    /// curves are sampled where the white and the greys sit; `gap` reads each channel
+    /// in the middle of the widest gap between its samples over the drives the greys
+    /// use; then the wall is solved again. Up to three readings per grey out of each
+    /// display's budget, and the meter visits every display a second time. A luminance
+    /// is read only where the meter is reliable at a third of it; the brightest share
+    /// (from 64 readings) is also read whole. `none` skips the pass. Default:
+    /// `1,gap,1cd` where software
     /// aims the meter, `none` where a technician aims it (guided aiming, a real meter
     /// with `--aim auto`), who would have to aim at every display again.
     #[arg(long, value_parser = parse_grey_levels)]
@@ -669,7 +671,7 @@ pub(crate) struct BenchArgs {
     #[arg(long, default_value_t = readings::DEFAULT_REFERENCE_SEED)]
     reference_seed: u64,
     /// The grey-drive pass's greys, as `commission --grey-levels` (`none` skips the
-    /// pass). Default: `1,0.5,1cd`, commission's default where software aims the meter.
+    /// pass). Default: `1,gap,1cd`, commission's default where software aims the meter.
     #[arg(long, value_parser = parse_grey_levels)]
     grey_levels: Option<GreyLevels>,
 }

@@ -61,6 +61,8 @@ pub fn resample_at_final_white(
             opts.measure.budget,
         ),
         whole_repeats: 0,
+        // The curves are read again where the lowered white sits; the black stays.
+        black_with_rest: false,
     };
     let mut measured = outcome.measured.clone();
     let mut readings = 0;

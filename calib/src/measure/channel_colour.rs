@@ -83,7 +83,7 @@ pub fn pool(
             let black = Averaged {
                 drive: 0.0,
                 xyz: black,
-                readings: last_record(log, Patch::Black).map_or(1, |a| a.readings),
+                readings: log.readings_of(Patch::Black).max(1),
             };
             std::array::from_fn(|i| {
                 let samples = ramp_samples(log, Channel::ALL[i]);

@@ -1,9 +1,11 @@
 //! Ramp samples at the drives a display really uses: after a first solve, each channel
 //! is read alone at the drive it gets in the display's white and a few greys, through
 //! the provisional profile; the samples join the ramps and the wall is solved again.
-//! From [`WHOLE_GREY_MIN_BUDGET`] readings per display, the brightest grey given as a
-//! share of the white (the white itself by default) is also read whole
-//! ([`whole_grey_repeats`]).
+//! A channel at full drive in a grey is read at its drive in a slightly darker grey
+//! instead ([`FULL_DRIVE_STAND_IN_SHARE`]). From [`WHOLE_GREY_MIN_BUDGET`] readings per
+//! display, the brightest grey given as a share of the white (the white itself by
+//! default) is also read whole ([`whole_grey_repeats`]). What the pass leaves of the
+//! display's budget goes to the black ([`merged_black`]).
 //!
 //! Why the channel samples: the ramps are spread over each channel's range and the
 //! curve is interpolated between samples. Where the white sits between two samples, the
@@ -33,7 +35,8 @@ use super::{ChannelLine, MeasureError, MeasureOptions, Patch, Progress, Rig, Ses
 use crate::solve::CompositeReading;
 use crate::verify::drive_for;
 
-/// One grey of the pass: a share of the target white's luminance, or a luminance.
+/// One grey of the pass: a share of the target white's luminance, a luminance, or each
+/// channel's widest gap.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum GreyLevel {
     /// This share of the target white's luminance, in (0, 1].
@@ -41,17 +44,23 @@ pub enum GreyLevel {
     /// A grey of this luminance (cd/m², shown in total, black included), e.g. the dark
     /// greys of 0.5–2 cd/m² whose channels sit in the tone curves' toes.
     Luminance(f64),
+    /// No one grey: each channel is read in the middle of the widest gap between its
+    /// samples over the drives the greys use, from a grey of [`GAP_LOWEST_SHARE`] of
+    /// the white to the white ([`widest_gap_drive`]), where its interpolated tone curve
+    /// is least pinned. `gap` on the command line.
+    WidestGap,
 }
 
 impl GreyLevel {
     /// The grey's XYZ input for target white `white`; `None` for a luminance above the
-    /// white's.
+    /// white's, and for [`GreyLevel::WidestGap`], which is no one grey.
     pub fn xyz(self, white: Xyz) -> Option<Xyz> {
         match self {
             GreyLevel::Share(s) => Some(white * s),
             GreyLevel::Luminance(y) => {
                 (white.y > 0.0 && y <= white.y).then(|| white * (y / white.y))
             }
+            GreyLevel::WidestGap => None,
         }
     }
 }
@@ -59,9 +68,13 @@ impl GreyLevel {
 impl std::str::FromStr for GreyLevel {
     type Err = String;
 
-    /// `0.5` (a share of the white, in (0, 1]) or `1.5cd` (cd/m², greater than 0).
+    /// `0.5` (a share of the white, in (0, 1]), `1.5cd` (cd/m², greater than 0) or
+    /// `gap` ([`GreyLevel::WidestGap`]).
     fn from_str(s: &str) -> Result<Self, String> {
         let t = s.trim();
+        if t.eq_ignore_ascii_case("gap") {
+            return Ok(GreyLevel::WidestGap);
+        }
         let (v, absolute) = match t.strip_suffix("cd") {
             Some(v) => (v, true),
             None => (t, false),
@@ -69,7 +82,8 @@ impl std::str::FromStr for GreyLevel {
         let bad = || {
             format!(
                 "`{s}` is not a grey level: a share of the white's luminance in (0, 1] \
-                 (e.g. 0.5) or a luminance in cd/m² (e.g. 1.5cd)"
+                 (e.g. 0.5), a luminance in cd/m² (e.g. 1.5cd) or `gap` (each channel \
+                 read in the widest gap between its samples)"
             )
         };
         let v: f64 = v.trim().parse().map_err(|_| bad())?;
@@ -86,19 +100,52 @@ impl std::str::FromStr for GreyLevel {
 /// reliably (`commission` drops it otherwise). The white's samples took the noiseless
 /// worst white ΔE2000 from 0.08–0.23 to ≤ 0.01; the dark grey's took infitec-pair's
 /// worst dark-patch Δxy from 0.0053 to 0.0021 (blue's toe at code 5, between the ramp's
-/// 0 and 8). And a middle grey (0.5, read per channel only): a channel the white uses
-/// over its whole range (a weak one) has its greys between ramp samples a quarter of
-/// the range apart. Realistic meter, 40 readings, 30 unseen seeds (with
-/// [`NOISY_DRIVE_GAP`]), runs within every limit of issue 12 without / with it:
-/// weak-channel-3x1 4 / 24, mono-2x1 30 / 30 (mean worst ΔE2000 0.85 / 0.76),
-/// offaxis-gain-2x1 30 / 30, infitec-pair 30 / 29 (mean grey balance 0.23 / 0.33).
-/// Read whole as well at 64 readings it did less than per channel alone (heyewall-48:
-/// max ΔE2000 1.80 / 1.13; weak-channel-3x1, 20 seeds: 16 / 18 of 20).
+/// 0 and 8). Between them each channel's widest gap ([`GreyLevel::WidestGap`], after
+/// the white so that the white's samples count): a channel the white uses over its
+/// whole range (a weak one) has its greys between ramp samples a quarter of the range
+/// apart, and on heyewall-48 the 65–90 % greys sat between the ramp's green at 0.50
+/// and 0.75 (the curve 0.6 % low there, grey balance 1.5 ΔC' on the worst display).
+/// It replaced a middle grey of half the white, whose drives often sat beside a ramp
+/// sample (0.463 beside 0.5). Realistic meter, 40 readings, 40 unseen seeds, runs
+/// within every limit of issue 12 with the middle grey / the widest gap: mono-2x1 40 /
+/// 40 (mean worst grey balance 0.18 / 0.16), offaxis-gain-2x1 40 / 40, infitec-pair 39
+/// / 40, weak-channel-3x1 39 / 40; heyewall-48 (10 seeds) 2 / 4 (grey balance 0.55 /
+/// 0.46; what fails there is the white); at 64, dlp-infitec-2x1, dlp-nonadditive and
+/// weak-channel-3x1 40 / 40 each. (The middle grey against none, 30 seeds:
+/// weak-channel-3x1 4 → 24.) Read whole as well at 64 readings the middle grey did
+/// less than per channel alone (heyewall-48: max ΔE2000 1.80 / 1.13).
 pub const DEFAULT_LEVELS: [GreyLevel; 3] = [
     GreyLevel::Share(1.0),
-    GreyLevel::Share(0.5),
+    GreyLevel::WidestGap,
     GreyLevel::Luminance(1.0),
 ];
+
+/// The darkest grey, as a share of the white's luminance, whose drives bound the range
+/// [`GreyLevel::WidestGap`] looks for gaps in: the verification chart's darkest share
+/// grey (5 %); below it the dark greys given as a luminance have their own samples.
+pub const GAP_LOWEST_SHARE: f64 = 0.05;
+
+/// The middle of the widest gap between `samples` (drives of a channel's samples so
+/// far) over `lo..=hi` (the drives the greys use), 0 and `hi` counted as samples; only
+/// gaps whose middle lies in `lo..=hi` count. `None` when `hi` is not above 0.
+pub fn widest_gap_drive(samples: &[f64], lo: f64, hi: f64) -> Option<f64> {
+    if hi.is_nan() || hi <= 0.0 {
+        return None;
+    }
+    let mut points: Vec<f64> = samples
+        .iter()
+        .copied()
+        .filter(|d| d.is_finite() && *d > 0.0 && *d < hi)
+        .collect();
+    points.extend([0.0, hi]);
+    points.sort_by(f64::total_cmp);
+    points
+        .windows(2)
+        .map(|w| (w[1] - w[0], 0.5 * (w[0] + w[1])))
+        .filter(|(_, mid)| *mid >= lo)
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, mid)| mid)
+}
 
 /// Largest number of grey levels.
 pub const MAX_LEVELS: usize = 16;
@@ -149,6 +196,10 @@ pub struct GreyTargets<'a> {
     pub ramp_drives: [Vec<f64>; 3],
     /// Readings averaged for each grey read whole ([`whole_grey_repeats`]; 0: none).
     pub whole_repeats: u32,
+    /// Whether the readings left of the budget re-read the black (with a meter that
+    /// has noise; [`merged_black`]): the commissioning's pass, not a re-read of the
+    /// curves at a lowered white.
+    pub black_with_rest: bool,
 }
 
 /// What the pass read on one display: each channel's new `(drive, XYZ)` ramp samples,
@@ -166,7 +217,40 @@ pub struct GreyDrives {
     pub readings: u32,
     /// The pass's samples as read, for the display's [`super::MeasureLog`].
     pub samples: Vec<super::ReadingRecord>,
+    /// The black read again with what the pass leaves of the display's budget (a
+    /// meter with noise only): its mean (black included, cd/m²) and the readings in
+    /// it, for the commissioning to average with the black read first
+    /// ([`merged_black`]).
+    pub black: Option<(Xyz, u32)>,
 }
+
+/// The display's black `first`, read `first_readings` times, averaged with the pass's
+/// re-read `again` of `again_readings` readings, each weighted by its readings.
+///
+/// Why: the dark greys ride on the black (individual black: a grey of 0.76 cd/m² on a
+/// display whose black is 0.17 cd/m² in X takes a fifth of its X from it), and four
+/// readings leave a CS-100A class meter's black 0.004 cd/m² off in X and Z, 0.5 % of
+/// that grey's X. The readings the pass leaves (a channel whose grey needs no sample
+/// of its own, a dark grey read fewer times than reserved: three or four of forty on
+/// weak-channel-3x1) would otherwise go unread. Realistic meter, 40 readings, 40
+/// unseen seeds (with [`FULL_DRIVE_STAND_IN_SHARE`]), runs within every limit of issue
+/// 12 without / with: weak-channel-3x1 38 / 39 (mean worst grey balance 0.35 / 0.32);
+/// mono-2x1, offaxis-gain-2x1 40 / 40, infitec-pair 39 / 39.
+pub fn merged_black(first: Xyz, first_readings: u32, again: Xyz, again_readings: u32) -> Xyz {
+    let (a, b) = (f64::from(first_readings.max(1)), f64::from(again_readings));
+    (first * a + again * b) * (1.0 / (a + b))
+}
+
+/// A channel at full drive in a grey (the limiting channel in the white) needs no
+/// sample there: its full-drive reading is one. It is read instead at the drive it gets
+/// in a grey of this share of that grey, in the ramp's last gap, where the greys just
+/// below the white sit: weak-channel-3x1's failing blue had nothing between 0.75 and 1,
+/// and its curve there came out 0.7–1.2 % high at the 90 % and 95 % greys (grey
+/// balance 0.5 against its white, 0.05 on its neighbours). Realistic meter, 40 unseen
+/// seeds of weak-channel-3x1, runs within every limit of issue 12 without / with: 34 /
+/// 38 at 40 readings, 37 / 40 at 64 (0.8: 37 and 36; 0.95: 39 and 40); dlp-infitec-2x1
+/// at 64 39 / 40; mono-2x1, offaxis-gain-2x1, infitec-pair, dlp-nonadditive unchanged.
+pub const FULL_DRIVE_STAND_IN_SHARE: f64 = 0.9;
 
 /// Most readings averaged for a grey read whole (a share of the white), and what a
 /// meter that states no noise gets: with a CS-100A class meter's xy noise of 0.0005 per
@@ -220,10 +304,14 @@ fn dark_repeats(noise: Option<&ReadingNoise>) -> u32 {
 
 /// Reads each channel of display `id` alone at the code nearest the drive the
 /// provisional profile gives it for each grey of `targets`, at the calibration spot,
-/// skipping drives at 0, 1 or within [`MIN_DRIVE_GAP`] of one already read (in this
-/// pass or the ramps). Samples below the meter's reliable limit are averaged as their
-/// channel's stated noise needs ([`super::ChannelLine`]), or as the low-light policy
-/// says. At most `opts.budget` readings.
+/// skipping drives at 0 or within [`MIN_DRIVE_GAP`] of one already read (in this
+/// pass or the ramps); a channel at full drive is read at its drive in a grey of
+/// [`FULL_DRIVE_STAND_IN_SHARE`] of that grey. Samples below the meter's reliable limit
+/// are averaged as their channel's stated noise needs ([`super::ChannelLine`]), or as
+/// the low-light policy says. [`GreyLevel::WidestGap`] reads each channel in its
+/// widest gap ([`gap_drives`]). With a meter that has noise, and where `targets` say
+/// so, the readings left of `opts.budget` then re-read the black
+/// ([`GreyDrives::black`]). At most `opts.budget` readings.
 pub fn read_grey_drives(
     rig: &mut Rig<'_>,
     key: &DisplayKey,
@@ -241,54 +329,28 @@ pub fn read_grey_drives(
     let noise = rig.meter.info().noise;
     let mut s = Session::start(rig, key, id, opts.spot_uv, opts)?;
     let mut out = GreyDrives::default();
-    let inside = MIN_DRIVE_GAP..=1.0 - MIN_DRIVE_GAP;
-    let gap = drive_gap(noise.as_ref());
     let brightest = brightest_share(targets.levels);
     let max_code = crate::solve::clamped_bit_depth(targets.bit_depth).max_code_f64();
     for level in targets.levels {
-        let Some(xyz) = level.xyz(targets.white) else {
-            continue;
+        let sampled = match level {
+            GreyLevel::WidestGap => gap_drives(targets, &out.drives, opts.spot_uv, max_code),
+            _ => {
+                let Some(xyz) = level.xyz(targets.white) else {
+                    continue;
+                };
+                let drive = drive_at_codes(targets.prepared, xyz, opts.spot_uv, max_code);
+                if let GreyLevel::Share(v) = level
+                    && *v >= brightest
+                {
+                    read_whole(&mut s, targets, drive, &mut out, &mut quiet)?;
+                }
+                sample_drives(targets.prepared, xyz, drive, opts.spot_uv, max_code).map(Some)
+            }
         };
-        // At codes, as every ramp sample is: shown exactly, with no dither.
-        let drive = drive_for(targets.prepared, xyz, opts.spot_uv)
-            .map(|d| (d * max_code).round() / max_code);
-        if let GreyLevel::Share(v) = level
-            && *v >= brightest
-        {
-            let n = targets.whole_repeats.min(s.remaining());
-            if n > 0
-                && let Some(xyz) = s.repeated(Patch::Drive(drive), n, &mut quiet)?
-            {
-                let readings = s.log.samples.last().map_or(n, |r| r.repeats.max(1));
-                out.composites.push(CompositeReading {
-                    drive,
-                    xyz,
-                    readings,
-                });
-            }
-        }
-        for c in Channel::ALL {
-            let d = drive[c.index()];
-            let taken = &mut out.drives[c.index()];
-            let far = |t: &f64| (t - d).abs() >= MIN_DRIVE_GAP;
-            let far_from_ramp = |t: &f64| (t - d).abs() >= gap;
-            let new = inside.contains(&d)
-                && taken.iter().all(far)
-                && targets.ramp_drives[c.index()].iter().all(far_from_ramp);
-            if !new || s.remaining() == 0 {
-                continue;
-            }
-            let line = ChannelLine {
-                black: targets.black,
-                full: targets.primaries[c.index()],
-                noise,
-            };
-            if s.sample_channel(Patch::Ramp(c, d), &line, &mut quiet)?
-                .is_some()
-            {
-                taken.push(d);
-            }
-        }
+        read_channels(&mut s, targets, sampled, &mut out, &mut quiet)?;
+    }
+    if targets.black_with_rest && !noise.is_some_and(|n| n.is_exact()) {
+        out.black = s.averaged(Patch::Black, s.remaining(), &mut quiet)?;
     }
     out.readings = s.log.readings;
     out.samples = std::mem::take(&mut s.log.samples);
@@ -301,6 +363,115 @@ pub fn read_grey_drives(
     Ok(out)
 }
 
+/// Reads the grey at `drive` whole, as often as `targets` says (what the budget
+/// leaves at most), into `out`'s composites.
+fn read_whole(
+    s: &mut Session<'_, '_>,
+    targets: &GreyTargets<'_>,
+    drive: [f64; 3],
+    out: &mut GreyDrives,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(), MeasureError> {
+    let n = targets.whole_repeats.min(s.remaining());
+    if n > 0
+        && let Some(xyz) = s.repeated(Patch::Drive(drive), n, progress)?
+    {
+        let readings = s.log.samples.last().map_or(n, |r| r.repeats.max(1));
+        out.composites.push(CompositeReading {
+            drive,
+            xyz,
+            readings,
+        });
+    }
+    Ok(())
+}
+
+/// Reads each channel alone at its drive of `sampled` (none: not read), unless the
+/// drive is at 0 or 1, within [`MIN_DRIVE_GAP`] of a sample of this pass or within
+/// [`drive_gap`] of a ramp sample, or the budget is spent; the drives read join `out`.
+fn read_channels(
+    s: &mut Session<'_, '_>,
+    targets: &GreyTargets<'_>,
+    sampled: [Option<f64>; 3],
+    out: &mut GreyDrives,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(), MeasureError> {
+    let noise = s.rig.meter.info().noise;
+    let gap = drive_gap(noise.as_ref());
+    let inside = MIN_DRIVE_GAP..=1.0 - MIN_DRIVE_GAP;
+    for c in Channel::ALL {
+        let Some(d) = sampled[c.index()] else {
+            continue;
+        };
+        let taken = &mut out.drives[c.index()];
+        let far = |t: &f64| (t - d).abs() >= MIN_DRIVE_GAP;
+        let far_from_ramp = |t: &f64| (t - d).abs() >= gap;
+        let new = inside.contains(&d)
+            && taken.iter().all(far)
+            && targets.ramp_drives[c.index()].iter().all(far_from_ramp);
+        if !new || s.remaining() == 0 {
+            continue;
+        }
+        let line = ChannelLine {
+            black: targets.black,
+            full: targets.primaries[c.index()],
+            noise,
+        };
+        if s.sample_channel(Patch::Ramp(c, d), &line, progress)?
+            .is_some()
+        {
+            taken.push(d);
+        }
+    }
+    Ok(())
+}
+
+/// Each channel's drive for [`GreyLevel::WidestGap`]: the middle of its widest gap
+/// ([`widest_gap_drive`]) among its ramp samples and those of this pass so far
+/// (`taken`), between its drives in a grey of [`GAP_LOWEST_SHARE`] of the white and in
+/// the white, at the nearest code.
+fn gap_drives(
+    targets: &GreyTargets<'_>,
+    taken: &[Vec<f64>; 3],
+    uv: [f64; 2],
+    max_code: f64,
+) -> [Option<f64>; 3] {
+    let hi = drive_for(targets.prepared, targets.white, uv);
+    let lo = drive_for(targets.prepared, targets.white * GAP_LOWEST_SHARE, uv);
+    std::array::from_fn(|c| {
+        let samples: Vec<f64> = targets.ramp_drives[c]
+            .iter()
+            .chain(&taken[c])
+            .copied()
+            .collect();
+        widest_gap_drive(&samples, lo[c], hi[c].min(1.0)).map(|d| (d * max_code).round() / max_code)
+    })
+}
+
+/// The drives the provisional profile gives `xyz` at `uv`, at the nearest codes (as
+/// every ramp sample is: shown exactly, with no dither).
+fn drive_at_codes(prepared: &PreparedProfile, xyz: Xyz, uv: [f64; 2], max_code: f64) -> [f64; 3] {
+    drive_for(prepared, xyz, uv).map(|d| (d * max_code).round() / max_code)
+}
+
+/// The drive each channel of a grey `xyz` shown at `drive` is sampled at: its own, or
+/// for a channel at full drive its drive in a grey of [`FULL_DRIVE_STAND_IN_SHARE`] of
+/// `xyz`.
+fn sample_drives(
+    prepared: &PreparedProfile,
+    xyz: Xyz,
+    drive: [f64; 3],
+    uv: [f64; 2],
+    max_code: f64,
+) -> [f64; 3] {
+    let full = |d: &f64| *d > 1.0 - MIN_DRIVE_GAP;
+    if !drive.iter().any(full) {
+        return drive;
+    }
+    let below = drive_at_codes(prepared, xyz * FULL_DRIVE_STAND_IN_SHARE, uv, max_code);
+    std::array::from_fn(|c| if full(&drive[c]) { below[c] } else { drive[c] })
+}
+
 /// The largest share of the white among `levels` (0 without one): the one grey read
 /// whole.
 fn brightest_share(levels: &[GreyLevel]) -> f64 {
@@ -308,7 +479,7 @@ fn brightest_share(levels: &[GreyLevel]) -> f64 {
         .iter()
         .filter_map(|l| match l {
             GreyLevel::Share(v) => Some(*v),
-            GreyLevel::Luminance(_) => None,
+            GreyLevel::Luminance(_) | GreyLevel::WidestGap => None,
         })
         .fold(0.0, f64::max)
 }
@@ -325,7 +496,7 @@ pub fn check_levels(levels: &[GreyLevel]) -> Result<(), String> {
 }
 
 /// Readings the pass reserves per display of `budget` readings read with a meter of
-/// stated `noise`: for a share of the white, one per channel at its drive, and
+/// stated `noise`: for a share of the white or the widest gap, one per channel, and
 /// [`whole_grey_repeats`] for the brightest, read whole; two per channel of a dark grey given
 /// as a luminance (one with an exact meter), whose samples the low-light policy
 /// averages (reserving one left heyewall-48's dark greys without their own samples at
@@ -336,7 +507,7 @@ pub fn readings_needed(levels: &[GreyLevel], noise: Option<&ReadingNoise>, budge
     let brightest = brightest_share(levels);
     let per_level = |l: &GreyLevel| match l {
         GreyLevel::Share(v) if *v >= brightest => 3 + whole_grey_repeats(noise, budget),
-        GreyLevel::Share(_) => 3,
+        GreyLevel::Share(_) | GreyLevel::WidestGap => 3,
         GreyLevel::Luminance(_) => 3 * dark_repeats(noise),
     };
     levels.iter().map(per_level).sum()
@@ -354,6 +525,8 @@ mod tests {
     fn grey_levels_parse_as_shares_of_the_white_or_as_luminances() {
         assert_eq!("0.5".parse(), Ok(GreyLevel::Share(0.5)));
         assert_eq!(" 1.5cd".parse(), Ok(GreyLevel::Luminance(1.5)));
+        assert_eq!(" Gap".parse(), Ok(GreyLevel::WidestGap));
+        assert_eq!(GreyLevel::WidestGap.xyz(Xyz::new(95.0, 100.0, 109.0)), None);
         for bad in ["0", "1.2", "-1cd", "0cd", "nan", "cd", "1 cd/m2"] {
             assert!(bad.parse::<GreyLevel>().is_err(), "{bad}");
         }
@@ -398,6 +571,32 @@ mod tests {
         let levels = [GreyLevel::Share(0.4), GreyLevel::Share(0.8)];
         assert_eq!(readings_needed(&levels, Some(&n), 64), 3 + 3 + whole);
         assert_eq!(brightest_share(&[GreyLevel::Luminance(1.0)]), 0.0);
+    }
+
+    #[test]
+    fn the_widest_gap_is_found_among_the_samples_within_the_greys_range() {
+        // Gaps 0–0.1, 0.1–0.5 (the widest), 0.5–0.62, 0.62–0.75, 0.75–0.9 (the white).
+        let got = widest_gap_drive(&[0.62, 0.1, 0.75, 0.5, 0.95], 0.05, 0.9);
+        assert_eq!(got, Some(0.3));
+        // A gap whose middle is below the darkest grey's drive does not count.
+        assert_eq!(widest_gap_drive(&[0.5], 0.3, 0.6), Some(0.55));
+        // Without samples: the middle of 0..white.
+        assert_eq!(widest_gap_drive(&[], 0.05, 0.8), Some(0.4));
+        assert_eq!(widest_gap_drive(&[0.2], 0.05, 0.0), None);
+        assert_eq!(widest_gap_drive(&[0.2], 0.05, f64::NAN), None);
+    }
+
+    #[test]
+    fn the_black_read_again_is_averaged_with_the_first_by_readings() {
+        let first = Xyz::new(0.17, 0.14, 0.46);
+        let again = Xyz::new(0.15, 0.14, 0.42);
+        let b = merged_black(first, 4, again, 4);
+        assert!((b.x - 0.16).abs() < 1e-12 && (b.z - 0.44).abs() < 1e-12);
+        let b = merged_black(first, 4, again, 1);
+        assert!((b.x - (0.68 + 0.15) / 5.0).abs() < 1e-12);
+        // A black never read (taken as 0) counts as one reading, not as none.
+        let b = merged_black(Xyz::default(), 0, again, 3);
+        assert!((b.x - 0.45 / 4.0).abs() < 1e-12);
     }
 
     #[test]
