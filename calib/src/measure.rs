@@ -915,33 +915,39 @@ impl<'r, 'a> Session<'r, 'a> {
         };
         // Average in XYZ: in the dark a colorimeter's noise is its sensors' zero-light
         // noise, Gaussian in X, Y and Z (in x and y it has heavy tails: x = X/(X+Y+Z)).
-        let mut sum = [0.0f64; 3];
-        let mut ok = 0u32;
-        let mut n = 1;
-        let add = |x: Xyz, sum: &mut [f64; 3]| {
-            for (s, v) in sum.iter_mut().zip(x.to_array()) {
-                *s += v;
-            }
-        };
-        if let Some(x) = first {
-            add(x, &mut sum);
-            ok = 1;
-        }
-        while repeats > 0 && n < repeats && self.remaining() > 0 {
-            if let Some(x) = self.read_once(patch, progress)? {
-                add(x, &mut sum);
-                ok += 1;
-            }
-            n += 1;
-        }
-        let mean = (repeats > 0 && ok > 0).then(|| Xyz::from_array(sum) * (1.0 / f64::from(ok)));
+        let mut sum = first.unwrap_or_default();
+        let (more, more_ok) =
+            self.read_into(patch, repeats.saturating_sub(1), &mut sum, progress)?;
+        let ok = u32::from(first.is_some()) + more_ok;
+        let mean = (repeats > 0 && ok > 0).then(|| sum * (1.0 / f64::from(ok)));
         self.log.samples.push(ReadingRecord {
             patch,
             xyz: mean,
-            repeats: n,
+            repeats: 1 + more,
             low_light: true,
         });
         Ok(mean)
+    }
+
+    /// Reads the patch already shown up to `n` times (at most what the budget leaves),
+    /// adding each value to `sum`. Returns the readings taken and those that gave a
+    /// value (the others were refused as too dark).
+    fn read_into(
+        &mut self,
+        patch: Patch,
+        n: u32,
+        sum: &mut Xyz,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<(u32, u32), MeasureError> {
+        let n = n.min(self.remaining());
+        let mut ok = 0;
+        for _ in 0..n {
+            if let Some(x) = self.read_once(patch, progress)? {
+                *sum = *sum + x;
+                ok += 1;
+            }
+        }
+        Ok((n, ok))
     }
 }
 
@@ -975,13 +981,7 @@ impl Session<'_, '_> {
         }
         self.show(patch)?;
         let mut sum = Xyz::default();
-        let mut ok = 0u32;
-        for _ in 0..n {
-            if let Some(x) = self.read_once(patch, progress)? {
-                sum = sum + x;
-                ok += 1;
-            }
-        }
+        let (n, ok) = self.read_into(patch, n, &mut sum, progress)?;
         let mean = (ok > 0).then(|| sum * (1.0 / f64::from(ok)));
         self.log.samples.push(ReadingRecord {
             patch,

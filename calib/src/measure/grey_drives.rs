@@ -347,7 +347,7 @@ pub fn read_grey_drives(
                 sample_drives(targets.prepared, xyz, drive, opts.spot_uv, max_code).map(Some)
             }
         };
-        read_channels(&mut s, targets, sampled, &mut out, &mut quiet)?;
+        read_channels(&mut s, targets, noise, sampled, &mut out, &mut quiet)?;
     }
     if targets.black_with_rest && !noise.is_some_and(|n| n.is_exact()) {
         out.black = s.averaged(Patch::Black, s.remaining(), &mut quiet)?;
@@ -388,15 +388,16 @@ fn read_whole(
 
 /// Reads each channel alone at its drive of `sampled` (none: not read), unless the
 /// drive is at 0 or 1, within [`MIN_DRIVE_GAP`] of a sample of this pass or within
-/// [`drive_gap`] of a ramp sample, or the budget is spent; the drives read join `out`.
+/// [`drive_gap`] of a ramp sample for the meter's stated `noise`, or the budget is
+/// spent; the drives read join `out`.
 fn read_channels(
     s: &mut Session<'_, '_>,
     targets: &GreyTargets<'_>,
+    noise: Option<ReadingNoise>,
     sampled: [Option<f64>; 3],
     out: &mut GreyDrives,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(), MeasureError> {
-    let noise = s.rig.meter.info().noise;
     let gap = drive_gap(noise.as_ref());
     let inside = MIN_DRIVE_GAP..=1.0 - MIN_DRIVE_GAP;
     for c in Channel::ALL {
@@ -444,14 +445,19 @@ fn gap_drives(
             .chain(&taken[c])
             .copied()
             .collect();
-        widest_gap_drive(&samples, lo[c], hi[c].min(1.0)).map(|d| (d * max_code).round() / max_code)
+        widest_gap_drive(&samples, lo[c], hi[c].min(1.0)).map(|d| at_code(d, max_code))
     })
 }
 
 /// The drives the provisional profile gives `xyz` at `uv`, at the nearest codes (as
 /// every ramp sample is: shown exactly, with no dither).
 fn drive_at_codes(prepared: &PreparedProfile, xyz: Xyz, uv: [f64; 2], max_code: f64) -> [f64; 3] {
-    drive_for(prepared, xyz, uv).map(|d| (d * max_code).round() / max_code)
+    drive_for(prepared, xyz, uv).map(|d| at_code(d, max_code))
+}
+
+/// `drive` at the nearest code of an input whose largest code is `max_code`.
+fn at_code(drive: f64, max_code: f64) -> f64 {
+    (drive * max_code).round() / max_code
 }
 
 /// The drive each channel of a grey `xyz` shown at `drive` is sampled at: its own, or
