@@ -40,8 +40,9 @@ pub struct ReadingsBench {
     /// --warm-up`), as a station does on a wall just switched on.
     pub warm_up: bool,
     /// Match the realistic meter to the reference on every display (`meter-matrix
-    /// --per-display`) instead of once per eye.
-    pub per_display_matrix: bool,
+    /// --per-display`) instead of once per eye; `None`: as `meter-matrix` does by
+    /// default on the wall ([`Station::per_display_matrices_by_default`]).
+    pub per_display_matrix: Option<bool>,
     /// The simulated reference spectroradiometer the realistic meter is matched to
     /// ([`SpectroModel::cs2000`] by default; [`SpectroModel::noiseless`] shows what
     /// the station reaches when the reference adds no error of its own).
@@ -207,12 +208,10 @@ fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsR
         &bench.wall,
         &StationOptions::new(bench.meter.clone(), noise),
     )?;
-    let meter_matrix = match_meter(
-        &mut station,
-        noise,
-        &bench.reference,
-        bench.per_display_matrix,
-    )?;
+    let per_display = bench
+        .per_display_matrix
+        .unwrap_or_else(|| station.per_display_matrices_by_default());
+    let meter_matrix = match_meter(&mut station, noise, &bench.reference, per_display)?;
     let out = bench.out.join(format!("{}-{budget}", noise.name()));
     let opts = CommissionOptions {
         measure: MeasureOptions {

@@ -658,9 +658,13 @@ pub(crate) struct BenchArgs {
     #[arg(long)]
     warm_up: bool,
     /// Match the realistic meter to the reference on every display (as `meter-matrix
-    /// --per-display`), not once per eye.
-    #[arg(long)]
+    /// --per-display`), not once per eye. The default on an Infitec wall.
+    #[arg(long, conflicts_with = "per_eye_matrix")]
     per_display_matrix: bool,
+    /// Match the realistic meter to the reference once per eye (as `meter-matrix
+    /// --per-eye`), also on an Infitec wall.
+    #[arg(long)]
+    per_eye_matrix: bool,
     /// The simulated reference spectroradiometer the realistic meter is matched to:
     /// `cs2000`, `specbos` or `ideal` (a perfect one: what the station reaches when the
     /// reference adds no error of its own).
@@ -674,6 +678,13 @@ pub(crate) struct BenchArgs {
     /// pass). Default: `1,gap,1cd`, commission's default where software aims the meter.
     #[arg(long, value_parser = parse_grey_levels)]
     grey_levels: Option<GreyLevels>,
+}
+
+/// Whether the meter is matched on every display: `Some(true)` for `--per-display`,
+/// `Some(false)` for `--per-eye`, `None` (the station's default for the wall) for
+/// neither.
+fn matrix_scope(per_display: bool, per_eye: bool) -> Option<bool> {
+    (per_display || per_eye).then_some(per_display)
 }
 
 /// The simulated reference `bench readings` matches the realistic meter to: the one
@@ -701,7 +712,7 @@ pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
         patches: args.patches,
         out: args.out,
         warm_up: args.warm_up,
-        per_display_matrix: args.per_display_matrix,
+        per_display_matrix: matrix_scope(args.per_display_matrix, args.per_eye_matrix),
         reference: bench_reference(&args.reference, args.reference_seed)?,
         grey_levels: args.grey_levels.map_or_else(
             || lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
@@ -785,9 +796,15 @@ pub(crate) struct MeterMatrixArgs {
     #[arg(long, default_value_t = readings::DEFAULT_REFERENCE_SEED)]
     reference_seed: u64,
     /// Also one matrix per display (the reference reads every display): for walls
-    /// whose displays of one eye differ in spectrum, e.g. Infitec comb filters.
-    #[arg(long)]
+    /// whose displays of one eye differ in spectrum, e.g. Infitec comb filters. The
+    /// default on an Infitec wall.
+    #[arg(long, conflicts_with = "per_eye")]
     per_display: bool,
+    /// Only one matrix per eye (the reference reads one display of each eye), also on
+    /// an Infitec wall: quicker, but it leaves each projector's comb-filter offset in
+    /// the meter's readings.
+    #[arg(long)]
+    per_eye: bool,
     /// Check the reference's wavelength scale with a line lamp first and correct its
     /// readings by it: `hg-ar` (a mercury–argon pen lamp; a real reference prompts
     /// to hold it before the lens) or `none` (take the instrument's scale as it is;
@@ -862,8 +879,10 @@ pub(crate) fn meter_matrix(args: MeterMatrixArgs) -> Result<(), CliError> {
     if args.wavelength_check == "hg-ar" {
         check_reference_wavelengths(&mut reference)?;
     }
+    let per_display = matrix_scope(args.per_display, args.per_eye)
+        .unwrap_or_else(|| station.per_display_matrices_by_default());
     let matrices = station
-        .meter_matrices(&mut reference, [0.5, 0.5], args.per_display)
+        .meter_matrices(&mut reference, [0.5, 0.5], per_display)
         .map_err(|e| CliError::failure(e.to_string()))?;
     print_matrices(&matrices, &station.wall.name());
     if real_meter {
