@@ -51,7 +51,8 @@ pub struct MonotoneCurve {
     drives: Vec<f64>,
     /// Knot values in the perceptual domain `u = intensity^(1/gamma)`, non-decreasing.
     u: Vec<f64>,
-    /// Slopes du/ddrive at the knots ([`monotone_spline_slopes`]).
+    /// Slopes du/ddrive at the knots ([`monotone_spline_slopes`]); with a toe the first
+    /// is unused (the toe is no cubic).
     slopes: Vec<f64>,
     /// The segment between drive 0 and the first interior knot ([`toe_and_slopes`]);
     /// `None`: a cubic like the others.
@@ -340,7 +341,7 @@ fn toe_and_slopes(x: &[f64], u: &[f64], gamma: f64) -> (Option<Toe>, Vec<f64>) {
     let q = (gamma * above[0] * x[1] / u[1]).clamp(TOE_EXPONENT_RANGE.0, TOE_EXPONENT_RANGE.1);
     let toe = Toe::with_exponent(q, gamma);
     let mut slopes = Vec::with_capacity(x.len());
-    slopes.push(q / gamma * u[1] / x[1]);
+    slopes.push(0.0); // drive 0 starts the toe, not a cubic
     slopes.extend(above);
     (Some(toe), slopes)
 }
@@ -599,13 +600,12 @@ mod tests {
         }
     }
 
-    /// The simulator's S-shaped LCD curves (its default red, green and blue; the
-    /// truth, independent of the fit) sampled where a 40-reading commission samples a
-    /// ramp: the fit's largest luminance error above drive 0.4 between the knots.
-    #[test]
-    fn a_tone_curve_through_a_sparse_ramp_is_within_one_percent_of_the_simulators_curve() {
-        use lumiwall_devices::sim::TransferCurve;
-        let curves = [
+    use lumiwall_devices::sim::TransferCurve;
+
+    /// The simulator's S-shaped LCD curves: its default red, green and blue, the truth
+    /// the fit is judged against (independent of it).
+    fn simulator_curves() -> [TransferCurve; 3] {
+        [
             (2.45, 0.30, 0.56, 9.0, 1.3),
             (2.25, 0.25, 0.50, 10.0, 1.6),
             (2.05, 0.38, 0.62, 8.0, 1.1),
@@ -618,15 +618,29 @@ mod tests {
                 s_steepness,
                 shoulder,
             },
-        );
+        )
+    }
+
+    /// The curve fitted through `truth` read exactly at `drives`.
+    fn fit_through(truth: &TransferCurve, drives: &[f64]) -> MonotoneCurve {
+        let samples: Vec<(f64, f64)> = drives.iter().map(|&d| (d, truth.intensity(d))).collect();
+        fit_monotone_named(&samples, "test").expect("fit")
+    }
+
+    /// |fit / truth − 1| at `drive`.
+    fn relative_error(fit: &MonotoneCurve, truth: &TransferCurve, drive: f64) -> f64 {
+        (fit.eval(drive) / truth.intensity(drive) - 1.0).abs()
+    }
+
+    /// The simulator's curves sampled where a 40-reading commission samples a
+    /// ramp: the fit's largest luminance error above drive 0.4 between the knots.
+    #[test]
+    fn a_tone_curve_through_a_sparse_ramp_is_within_one_percent_of_the_simulators_curve() {
         let drives = [0.0625, 0.102, 0.125, 0.25, 0.375, 0.5, 0.751, 0.82, 1.0];
-        for truth in curves {
-            let samples: Vec<(f64, f64)> =
-                drives.iter().map(|&d| (d, truth.intensity(d))).collect();
-            let fit = fit_monotone_named(&samples, "test").expect("fit");
+        for truth in simulator_curves() {
+            let fit = fit_through(&truth, &drives);
             let worst = (400..=1000)
-                .map(|i| f64::from(i) / 1000.0)
-                .map(|d| (fit.eval(d) / truth.intensity(d) - 1.0).abs())
+                .map(|i| relative_error(&fit, &truth, f64::from(i) / 1000.0))
                 .fold(0.0, f64::max);
             assert!(worst < 0.01, "{truth:?}: {:.3} %", 100.0 * worst);
         }
@@ -640,32 +654,14 @@ mod tests {
     /// at 2 % drive and 30–41 % at 1 %; a power law alone below the knot 9–14 % at 1 %.
     #[test]
     fn a_tone_curve_follows_a_near_linear_toe_between_its_lowest_knots() {
-        use lumiwall_devices::sim::TransferCurve;
-        let curves = [
-            (2.45, 0.30, 0.56, 9.0, 1.3),
-            (2.25, 0.25, 0.50, 10.0, 1.6),
-            (2.05, 0.38, 0.62, 8.0, 1.1),
-        ]
-        .map(
-            |(gamma, s_weight, s_centre, s_steepness, shoulder)| TransferCurve {
-                gamma,
-                s_weight,
-                s_centre,
-                s_steepness,
-                shoulder,
-            },
-        );
         let drives = [0.028, 0.080, 0.120, 0.159, 0.237, 0.336, 0.669, 1.0];
-        for truth in curves {
-            let samples: Vec<(f64, f64)> =
-                drives.iter().map(|&d| (d, truth.intensity(d))).collect();
-            let fit = fit_monotone_named(&samples, "test").expect("fit");
+        for truth in simulator_curves() {
+            let fit = fit_through(&truth, &drives);
             let worst = (20..=120)
-                .map(|i| f64::from(i) / 1000.0)
-                .map(|d| (fit.eval(d) / truth.intensity(d) - 1.0).abs())
+                .map(|i| relative_error(&fit, &truth, f64::from(i) / 1000.0))
                 .fold(0.0, f64::max);
             assert!(worst < 0.02, "{truth:?}: {:.3} %", 100.0 * worst);
-            let below = (fit.eval(0.01) / truth.intensity(0.01) - 1.0).abs();
+            let below = relative_error(&fit, &truth, 0.01);
             assert!(
                 below < 0.08,
                 "{truth:?} at 1 % drive: {:.3} %",
