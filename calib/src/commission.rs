@@ -40,7 +40,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
 use crate::colorimetry::cct_to_xy;
-use crate::measure::channel_colour::{MIN_POOLED_INTENSITY, pool};
+use crate::measure::channel_colour::{MIN_POOLED_INTENSITY, pool, ramp_sigma_rel};
 use crate::measure::drift::{DriftCheck, recheck};
 use crate::measure::grey_drives::{
     GreyLevel, GreyTargets, merged_black, read_grey_drives, readings_needed, whole_grey_repeats,
@@ -463,6 +463,7 @@ fn read_greys_of(
     }
     m.log.samples.extend(read.samples);
     let (primaries, ramps) = pool(&m.log, m.measurement.black, m.measurement.primaries, noise);
+    m.measurement.ramp_sigma_rel = ramp_sigma_rel(&m.log, m.measurement.black, primaries, noise);
     (m.measurement.primaries, m.measurement.ramps) = (primaries, ramps);
     m.measurement.composites.extend(read.composites);
     m.measurement.readings += readings;

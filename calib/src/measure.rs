@@ -871,7 +871,7 @@ impl<'r, 'a> Session<'r, 'a> {
         always_average: bool,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<Option<Xyz>, MeasureError> {
-        self.sample_until(patch, always_average, None, progress)
+        self.sample_until(patch, always_average, None, 1, progress)
     }
 
     /// [`Session::sample`] of one channel alone, averaged in the dark only as often as
@@ -883,7 +883,19 @@ impl<'r, 'a> Session<'r, 'a> {
         line: &ChannelLine,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<Option<Xyz>, MeasureError> {
-        self.sample_until(patch, false, Some(line), progress)
+        self.sample_until(patch, false, Some(line), 1, progress)
+    }
+
+    /// [`Session::sample_channel`] averaged over at least `at_least` readings, in the
+    /// light too (at most what the budget leaves).
+    pub fn sample_channel_averaged(
+        &mut self,
+        patch: Patch,
+        line: &ChannelLine,
+        at_least: u32,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Option<Xyz>, MeasureError> {
+        self.sample_until(patch, false, Some(line), at_least, progress)
     }
 
     fn sample_until(
@@ -891,18 +903,23 @@ impl<'r, 'a> Session<'r, 'a> {
         patch: Patch,
         always_average: bool,
         line: Option<&ChannelLine>,
+        at_least: u32,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<Option<Xyz>, MeasureError> {
         self.show(patch)?;
         let first = self.read_once(patch, progress)?;
         if let Some(x) = first.filter(|x| x.y >= self.limit_cd_m2) {
+            let mut sum = x;
+            let (more, ok) =
+                self.read_into(patch, at_least.saturating_sub(1), &mut sum, progress)?;
+            let mean = sum * (1.0 / f64::from(1 + ok));
             self.log.samples.push(ReadingRecord {
                 patch,
-                xyz: Some(x),
-                repeats: 1,
+                xyz: Some(mean),
+                repeats: 1 + more,
                 low_light: false,
             });
-            return Ok(Some(x));
+            return Ok(Some(mean));
         }
         let repeats = match (self.low_light, always_average) {
             (LowLight::Average { repeats }, _) => repeats.max(1),
@@ -912,6 +929,11 @@ impl<'r, 'a> Session<'r, 'a> {
         let repeats = match (line, first) {
             (Some(l), Some(x)) if repeats > 0 => repeats.min(l.repeats_needed(x)),
             _ => repeats,
+        };
+        let repeats = if repeats > 0 {
+            repeats.max(at_least)
+        } else {
+            repeats
         };
         // Average in XYZ: in the dark a colorimeter's noise is its sensors' zero-light
         // noise, Gaussian in X, Y and Z (in x and y it has heavy tails: x = X/(X+Y+Z)).
@@ -1264,6 +1286,7 @@ fn ramps_in(
     ramps.measure(s, opts, progress)?;
     ramps.check_measurable(key, s)?;
     let (primaries, ramps) = channel_colour::pool(&s.log, black, primaries, noise);
+    let ramp_sigma_rel = channel_colour::ramp_sigma_rel(&s.log, black, primaries, noise);
     let readings = s.log.readings;
     let log = std::mem::take(&mut s.log);
     progress(Progress::DisplayDone {
@@ -1281,6 +1304,7 @@ fn ramps_in(
             readings,
             instrument,
             composites: Vec::new(),
+            ramp_sigma_rel,
         },
         log,
         anchor: None,

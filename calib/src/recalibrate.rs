@@ -1216,6 +1216,7 @@ mod tests {
             readings: 0,
             instrument: String::new(),
             composites: Vec::new(),
+            ramp_sigma_rel: Default::default(),
         };
         let mut primaries = c.primaries;
         let b = primaries[2] - c.black;

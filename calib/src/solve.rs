@@ -88,6 +88,18 @@ pub struct DisplayMeasurement {
     /// (`composite_gains`); empty in measurements written before them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub composites: Vec<CompositeReading>,
+    /// Per channel, the relative standard error of each ramp sample's intensity, in the
+    /// order of `ramps` ([`crate::measure::channel_colour::ramp_sigma_rel`]): the solve
+    /// smooths each curve's samples within it ([`crate::tone::smoothing`]). Empty (the
+    /// curve passes through the samples) for an exact meter, one that states no noise,
+    /// a channel whose list does not match its ramp, and measurements written before it.
+    #[serde(default, skip_serializing_if = "no_sigma")]
+    pub ramp_sigma_rel: [Vec<f64>; 3],
+}
+
+/// True when no channel has stated sample errors (nothing to write).
+fn no_sigma(s: &[Vec<f64>; 3]) -> bool {
+    s.iter().all(Vec::is_empty)
 }
 
 /// A reading of all three channels together at one drive (a grey as the display
@@ -554,6 +566,7 @@ fn fit_curves(
             check_xyz(&format!("{what} at drive {drive:.4}"), xyz)?;
             samples.push((drive, (xyz.to_vector() - black).dot(&pc) / norm2));
         }
+        crate::tone::smoothing::smooth_within_noise(&mut samples, &m.ramp_sigma_rel[c.index()]);
         samples.push((1.0, 1.0));
         fit_monotone_named(&samples, &what)?.to_tone_curve(entries)
     };

@@ -1,6 +1,7 @@
 //! Tone-curve fit and exact inverse (Kresse 2003, 3.3.4).
 //!
-//! Method, per channel:
+//! Method, per channel (with a meter that states its noise, the solve first smooths
+//! the samples within it: [`smoothing`]):
 //! 1. Drop nothing silently: non-finite samples or drives outside 0..=1 are errors;
 //!    samples at the same drive are averaged; intensities are normalised by the mean of
 //!    the full-drive samples (if any).
@@ -20,6 +21,8 @@
 //! [`suggest_next_drive`] places ramp samples adaptively: it splits the ramp segment
 //! that is longest in the (drive, cube-root intensity) plane, weighted up where the
 //! curve bends.
+
+pub mod smoothing;
 
 use lumiwall_profiles::{MIN_LUT_ENTRIES, ToneCurve};
 

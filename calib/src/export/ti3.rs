@@ -114,6 +114,7 @@ mod tests {
             readings: 8,
             instrument: "virtual".into(),
             composites: Vec::new(),
+            ramp_sigma_rel: Default::default(),
         }
     }
 

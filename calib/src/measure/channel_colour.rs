@@ -34,7 +34,7 @@
 use lumiwall_core::Channel;
 use lumiwall_devices::{ReadingNoise, Xyz};
 
-use super::{ChannelLine, MeasureLog, Patch};
+use super::{ChannelLine, MeasureLog, Patch, relative_intensity};
 
 /// Smallest intensity (share of the full drive's light above black) of a ramp sample
 /// that counts for the channel's colour: below it black's noise and the sample's own
@@ -105,6 +105,46 @@ pub fn pool(
             .collect()
     });
     (pooled, ramps)
+}
+
+/// Relative standard error of each ramp sample's intensity, per channel in the order
+/// [`pool`] gives the ramps: from the Fisher information `Σ pₖ²·n/σₖ²` of its `n`
+/// averaged readings along the channel's colour `p` above black (`primaries`: the
+/// pooled ones), each sensor's `σₖ` as the meter's stated `noise` gives it for the
+/// reading, divided by the sample's intensity along `p`. The black's own noise is left
+/// out: it moves every sample of a channel alike, which no smoothing removes. Empty
+/// without a stated, non-zero noise (the curves then pass through the samples:
+/// [`crate::tone::smoothing`]); 0 for a sample with no light along `p`.
+pub fn ramp_sigma_rel(
+    log: &MeasureLog,
+    black: Xyz,
+    primaries: [Xyz; 3],
+    noise: Option<ReadingNoise>,
+) -> [Vec<f64>; 3] {
+    let Some(noise) = noise.filter(|n| !n.is_exact()) else {
+        return Default::default();
+    };
+    std::array::from_fn(|i| {
+        let p = (primaries[i] - black).to_array();
+        ramp_samples(log, Channel::ALL[i])
+            .into_iter()
+            .map(|s| {
+                let sigma = noise.sigma_xyz(s.xyz);
+                let n = f64::from(s.readings);
+                let info: f64 = (0..3)
+                    .filter(|&k| sigma[k] > 0.0)
+                    .map(|k| p[k] * p[k] * n / (sigma[k] * sigma[k]))
+                    .sum();
+                let r = relative_intensity(s.xyz, black, primaries[i]);
+                let rel = 1.0 / (info.sqrt() * r);
+                if rel.is_finite() && rel > 0.0 {
+                    rel
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    })
 }
 
 /// The last reading of `patch` in `log` ([`MeasureLog::last_read`]).
@@ -276,6 +316,39 @@ mod tests {
             black + Xyz::new(30.0, 60.0, 10.0),
             black + Xyz::new(15.0, 6.0, 80.0),
         ]
+    }
+
+    #[test]
+    fn a_ramp_samples_relative_error_grows_in_the_dark_and_falls_with_its_readings() {
+        let black = Xyz::from_array(BLACK);
+        let mut log = log_with_red_ramp(&[0.05, 0.5], |_| RED);
+        let sigma = ramp_sigma_rel(&log, black, primaries(), Some(noise()));
+        let [dark, bright] = [sigma[0][0], sigma[0][1]];
+        // At 0.5 the red is 5 cd/m² (X and Y at 0.2 % and 0.1 %); at 0.05 it is 0.05
+        // cd/m², where the sensors' zero-light noise dominates.
+        assert!(bright > 0.0005 && bright < 0.002, "{bright}");
+        assert!(dark > 10.0 * bright, "{dark} vs {bright}");
+        assert!(sigma[1].is_empty() && sigma[2].is_empty());
+        // Four readings averaged halve it.
+        log.samples[2].repeats = 4;
+        let four = ramp_sigma_rel(&log, black, primaries(), Some(noise()))[0][0];
+        assert!((four / dark - 0.5).abs() < 1e-9, "{four} vs {dark}");
+        // An exact meter's samples state no error: the curve goes through them.
+        let exact = ReadingNoise {
+            luminance_rel: 0.0,
+            xy: 0.0,
+            dark_xyz_cd_m2: [0.0; 3],
+        };
+        assert!(
+            ramp_sigma_rel(&log, black, primaries(), Some(exact))
+                .iter()
+                .all(Vec::is_empty)
+        );
+        assert!(
+            ramp_sigma_rel(&log, black, primaries(), None)
+                .iter()
+                .all(Vec::is_empty)
+        );
     }
 
     #[test]

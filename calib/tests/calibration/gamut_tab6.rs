@@ -78,6 +78,7 @@ fn measurement(i: usize, name: &str, primaries: [Xyz; 3], black: Xyz) -> Display
         readings: 0,
         instrument: format!("Minolta CS-100A ({name}, Kresse 2003 Tab. 6)"),
         composites: Vec::new(),
+        ramp_sigma_rel: Default::default(),
     }
 }
 

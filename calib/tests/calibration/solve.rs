@@ -99,6 +99,7 @@ impl Model {
             readings: (2 + 3 + 3 * ramp_samples) as u32,
             instrument: "analytic model".into(),
             composites: Vec::new(),
+            ramp_sigma_rel: Default::default(),
         }
     }
 }
