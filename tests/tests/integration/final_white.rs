@@ -4,7 +4,10 @@
 //! ([`lumiwall_calib::commission::final_white`]); read through curves sampled at the
 //! old white it is off by the curves' interpolation error between ramp samples
 //! (heyewall-48, noiseless K-10-A: 1.25 % with PCHIP, 0.37 % with the monotone spline,
-//! 0.17 % once the grey-drive pass reads each channel's widest gap, 0.02 % read again).
+//! 0.17 % once the grey-drive pass reads each channel's widest gap, 0.02 % read again;
+//! 0.14 % and 0.06 % since the solve smooths the samples within the K-10-A's stated
+//! noise, [`lumiwall_calib::tone::smoothing`], which moves the noiseless emulator's exact
+//! samples by up to about half that noise).
 
 use lumiwall_calib::commission::CommissionOutcome;
 use lumiwall_calib::commission::final_white::resample_at_final_white;
@@ -93,7 +96,7 @@ fn a_white_lowered_after_the_commission_is_shown_at_its_luminance_once_the_curve
         "the solved white is read exactly: {at_solved} %"
     );
     assert!(
-        before > 0.1 && before > 4.0 * after,
+        before > 0.1 && before > 2.0 * after,
         "the commission's curves miss the lowered white: {before} % (read again: {after} %)"
     );
     assert!(
