@@ -1121,26 +1121,35 @@ impl ChannelLine {
         channel_reading(raw, self.black, self.full, self.noise.as_ref())
     }
 
+    /// Standard error of one reading's weighted intensity along the line (in shares of
+    /// the full drive's light above black), for a reading near `raw`: `1/√(Σ pₖ²/σₖ²)`,
+    /// the Fisher information along the channel's black-subtracted colour `p` with each
+    /// sensor's `σₖ` as the stated noise gives it for `raw`. `None` without stated
+    /// noise, or where no sensor carries information.
+    pub fn intensity_sigma(&self, raw: Xyz) -> Option<f64> {
+        let sigma = self.noise?.sigma_xyz(raw);
+        let p = (self.full - self.black).to_array();
+        let info: f64 = (0..3)
+            .filter(|&k| sigma[k] > 0.0)
+            .map(|k| (p[k] / sigma[k]).powi(2))
+            .sum();
+        (info.is_finite() && info > 0.0).then(|| 1.0 / info.sqrt())
+    }
+
     /// Readings to average for a sample whose first reading is `first`, so that the
     /// standard error of its weighted intensity ([`channel_reading`]) is at most
     /// [`DARK_SAMPLE_REL_SIGMA`] of the intensity: from the Fisher information
     /// Σ pₖ²/σₖ² of one reading along the channel's black-subtracted colour `p`.
     /// Without stated noise, `u32::MAX` (the low-light policy decides).
     pub fn repeats_needed(&self, first: Xyz) -> u32 {
-        let Some(noise) = self.noise else {
+        let Some(sigma) = self.intensity_sigma(first) else {
             return u32::MAX;
         };
-        let sigma = noise.sigma_xyz(first);
-        let p = (self.full - self.black).to_array();
-        let info: f64 = (0..3)
-            .filter(|&k| sigma[k] > 0.0)
-            .map(|k| (p[k] / sigma[k]).powi(2))
-            .sum();
         let r = relative_intensity(self.reading(first), self.black, self.full);
-        if info.is_nan() || info <= 0.0 || r.is_nan() || r <= 0.0 {
+        if r.is_nan() || r <= 0.0 {
             return u32::MAX;
         }
-        let rel = 1.0 / (info.sqrt() * r);
+        let rel = sigma / r;
         let n = (rel / DARK_SAMPLE_REL_SIGMA).powi(2).ceil();
         if n >= f64::from(u32::MAX) {
             u32::MAX

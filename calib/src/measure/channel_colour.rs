@@ -108,10 +108,9 @@ pub fn pool(
 }
 
 /// Relative standard error of each ramp sample's intensity, per channel in the order
-/// [`pool`] gives the ramps: from the Fisher information `Σ pₖ²·n/σₖ²` of its `n`
-/// averaged readings along the channel's colour `p` above black (`primaries`: the
-/// pooled ones), each sensor's `σₖ` as the meter's stated `noise` gives it for the
-/// reading, divided by the sample's intensity along `p`. The black's own noise is left
+/// [`pool`] gives the ramps: one reading's error along the channel's line
+/// ([`ChannelLine::intensity_sigma`], `primaries`: the pooled ones) over the square root
+/// of the `n` readings averaged, divided by the sample's intensity along the line. The black's own noise is left
 /// out: it moves every sample of a channel alike, which no smoothing removes. Empty
 /// without a stated, non-zero noise (the curves then pass through the samples:
 /// [`crate::tone::smoothing`]); 0 for a sample with no light along `p`.
@@ -125,18 +124,19 @@ pub fn ramp_sigma_rel(
         return Default::default();
     };
     std::array::from_fn(|i| {
-        let p = (primaries[i] - black).to_array();
+        let line = ChannelLine {
+            black,
+            full: primaries[i],
+            noise: Some(noise),
+        };
         ramp_samples(log, Channel::ALL[i])
             .into_iter()
             .map(|s| {
-                let sigma = noise.sigma_xyz(s.xyz);
-                let n = f64::from(s.readings);
-                let info: f64 = (0..3)
-                    .filter(|&k| sigma[k] > 0.0)
-                    .map(|k| p[k] * p[k] * n / (sigma[k] * sigma[k]))
-                    .sum();
+                let Some(one) = line.intensity_sigma(s.xyz) else {
+                    return 0.0;
+                };
                 let r = relative_intensity(s.xyz, black, primaries[i]);
-                let rel = 1.0 / (info.sqrt() * r);
+                let rel = one / (f64::from(s.readings).sqrt() * r);
                 if rel.is_finite() && rel > 0.0 {
                     rel
                 } else {
