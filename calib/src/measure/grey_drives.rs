@@ -131,6 +131,19 @@ pub const GAP_LOWEST_SHARE: f64 = 0.05;
 /// far) over `lo..=hi` (the drives the greys use), 0 and `hi` counted as samples; only
 /// gaps whose middle lies in `lo..=hi` count. `None` when `hi` is not above 0.
 pub fn widest_gap_drive(samples: &[f64], lo: f64, hi: f64) -> Option<f64> {
+    widest_middle(samples, lo, hi, &[0.0, hi], |a, b| (b - a, 0.5 * (a + b)))
+}
+
+/// The middle of the widest gap between `samples` in `(0, hi)` and `ends`, sorted,
+/// whose middle lies at `lo` or above: `gap(a, b)` gives the width and middle of the
+/// gap from `a` to `b`. `None` when `hi` is not above 0 or no gap counts.
+fn widest_middle(
+    samples: &[f64],
+    lo: f64,
+    hi: f64,
+    ends: &[f64],
+    gap: fn(f64, f64) -> (f64, f64),
+) -> Option<f64> {
     if hi.is_nan() || hi <= 0.0 {
         return None;
     }
@@ -139,11 +152,11 @@ pub fn widest_gap_drive(samples: &[f64], lo: f64, hi: f64) -> Option<f64> {
         .copied()
         .filter(|d| d.is_finite() && *d > 0.0 && *d < hi)
         .collect();
-    points.extend([0.0, hi]);
+    points.extend_from_slice(ends);
     points.sort_by(f64::total_cmp);
     points
         .windows(2)
-        .map(|w| (w[1] - w[0], 0.5 * (w[0] + w[1])))
+        .map(|w| gap(w[0], w[1]))
         .filter(|(_, mid)| *mid >= lo)
         .max_by(|a, b| a.0.total_cmp(&b.0))
         .map(|(_, mid)| mid)
@@ -163,22 +176,7 @@ pub fn widest_gap_drive(samples: &[f64], lo: f64, hi: f64) -> Option<f64> {
 /// display's grey balance came from the 2–2.4 cd/m² greys, whose green sat in such a
 /// gap, its curve 1.5–1.75 % low there (seed 137: ΔC' 1.2 at those greys).
 pub fn widest_ratio_gap_drive(samples: &[f64], lo: f64, hi: f64) -> Option<f64> {
-    if hi.is_nan() || hi <= 0.0 {
-        return None;
-    }
-    let mut points: Vec<f64> = samples
-        .iter()
-        .copied()
-        .filter(|d| d.is_finite() && *d > 0.0 && *d < hi)
-        .collect();
-    points.push(hi);
-    points.sort_by(f64::total_cmp);
-    points
-        .windows(2)
-        .map(|w| (w[1] / w[0], (w[0] * w[1]).sqrt()))
-        .filter(|(_, mid)| *mid >= lo)
-        .max_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|(_, mid)| mid)
+    widest_middle(samples, lo, hi, &[hi], |a, b| (b / a, (a * b).sqrt()))
 }
 
 /// Readings the pass must have left, one per channel, for each channel to be read once

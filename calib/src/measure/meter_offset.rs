@@ -151,18 +151,15 @@ pub fn fuse_with_white(
     let (sxy, sy) = (0.001, 0.002);
     let sum = primaries[0] + primaries[1] + primaries[2] - black * 2.0;
     let res = (white - sum).to_array();
-    let xy_noise = |n: &[f64; 3], w: f64| {
-        let vp: Vec<[f64; 3]> = primaries
-            .iter()
-            .zip(n)
-            .map(|(p, n)| reading_variance(*p, n.max(1.0), sxy, sy))
-            .collect();
-        let vw = reading_variance(white, w.max(1.0), sxy, sy);
-        std::array::from_fn::<f64, 3, _>(|j| vp[0][j] + vp[1][j] + vp[2][j] + vw[j])
+    let variances = |of: &dyn Fn(Xyz, f64) -> [f64; 3]| {
+        let vp: [[f64; 3]; 3] = std::array::from_fn(|c| of(primaries[c], repeats[c].max(1.0)));
+        let vw = of(white, white_repeats.max(1.0));
+        let total: [f64; 3] = std::array::from_fn(|j| vp[0][j] + vp[1][j] + vp[2][j] + vw[j]);
+        (vp, total)
     };
     // Consistency: is the residual explained by meter noise? (χ² with 3 degrees of
     // freedom; a DLP white segment adds far more.)
-    let consistency = xy_noise(&repeats, white_repeats);
+    let (_, consistency) = variances(&|r, n| reading_variance(r, n, sxy, sy));
     let chi2: f64 = (0..3)
         .filter(|j| consistency[*j] > 0.0)
         .map(|j| res[j] * res[j] / consistency[j])
@@ -170,13 +167,7 @@ pub fn fuse_with_white(
     if !chi2.is_finite() || chi2 > max_chi2 {
         return None;
     }
-    let vp: Vec<[f64; 3]> = primaries
-        .iter()
-        .zip(repeats)
-        .map(|(p, n)| sensor_variance(*p, n.max(1.0)))
-        .collect();
-    let vw = sensor_variance(white, white_repeats.max(1.0));
-    let total: [f64; 3] = std::array::from_fn(|j| vp[0][j] + vp[1][j] + vp[2][j] + vw[j]);
+    let (vp, total) = variances(&sensor_variance);
     let mut out = *primaries;
     let k = black.to_array();
     for j in 0..3 {
