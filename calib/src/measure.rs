@@ -42,6 +42,7 @@
     reason = "errors carry the display, the reading and the device error and occur at most once per run"
 )]
 
+pub mod black_readings;
 pub mod ccmx;
 pub mod channel_colour;
 pub mod drift;
@@ -1290,6 +1291,7 @@ fn ramps_in(
         log,
     } = survey;
     s.log = log;
+    let black = black_for_darkest_grey(s, black, &primaries, opts, progress)?;
     let noise = s.rig.meter.info().noise;
     let mut ramps = RampPlanner::new(black, primaries, info.bit_depth, opts, noise);
     ramps.measure(s, opts, progress)?;
@@ -1358,6 +1360,36 @@ pub(crate) fn measure_black_and_primaries(
         }
     }
     Ok((black, primaries))
+}
+
+/// `black` averaged with the black read again as often as the darkest grey of the wall
+/// white this display is expected to show needs ([`black_readings::black_readings`]):
+/// the white of `opts.focus` at the luminance the display reaches (at most the wall's
+/// so far). Unchanged without a focus or a meter that states its noise.
+fn black_for_darkest_grey(
+    s: &mut Session<'_, '_>,
+    black: Xyz,
+    primaries: &[Xyz; 3],
+    opts: &MeasureOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Xyz, MeasureError> {
+    let (Some(noise), Some(f)) = (s.rig.meter.info().noise, opts.focus) else {
+        return Ok(black);
+    };
+    let Some((own_y, _)) = white_capacity(black, primaries, f.white_xy, f.headroom) else {
+        return Ok(black);
+    };
+    let white_y = f.white_y_cd_m2.map_or(own_y, |y| y.min(own_y));
+    let grey = black_readings::darkest_grey(f.white_xy, white_y);
+    let want = black_readings::black_readings(&noise, black, grey, opts.budget);
+    let have = s.log.readings_of(Patch::Black);
+    if want <= have {
+        return Ok(black);
+    }
+    Ok(match s.averaged(Patch::Black, want - have, progress)? {
+        Some((again, n)) => grey_drives::merged_black(black, have, again, n),
+        None => black,
+    })
 }
 
 /// Adaptive placement of the ramp samples of one display, one sample per channel in
