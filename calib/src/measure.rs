@@ -1381,7 +1381,20 @@ fn black_for_darkest_grey(
     };
     let white_y = f.white_y_cd_m2.map_or(own_y, |y| y.min(own_y));
     let grey = black_readings::darkest_grey(f.white_xy, white_y);
-    let want = black_readings::black_readings(&noise, black, grey, opts.budget);
+    let (needed, allowed) = black_readings::black_readings(&noise, black, grey, opts.budget);
+    if needed > allowed {
+        tracing::warn!(
+            "{}: the black needs {needed} readings for the chart's darkest grey ({:.2} cd/m², \
+             2 % of the wall white of {white_y:.1} cd/m²) to within {:.1} %; {} readings per display \
+             allow {allowed}, so the darkest greys will carry the meter's noise (more \
+             readings per display, or a meter quieter in the dark, help)",
+            s.name,
+            grey.y,
+            100.0 * black_readings::BLACK_REL_SE,
+            opts.budget,
+        );
+    }
+    let want = needed.min(allowed);
     let have = s.log.readings_of(Patch::Black);
     if want <= have {
         return Ok(black);

@@ -43,24 +43,27 @@ pub fn darkest_grey(white_xy: [f64; 2], white_y_cd_m2: f64) -> Xyz {
 }
 
 /// Readings of the black, averaged, that put its mean within [`BLACK_REL_SE`] of
-/// `darkest_grey` in every tristimulus value with a meter of this stated noise, at most
-/// [`BLACK_BUDGET_SHARE`] of `budget`; 0 for an exact meter, or a grey that is not
-/// above 0 in every value.
-pub fn black_readings(noise: &ReadingNoise, black: Xyz, darkest_grey: Xyz, budget: u32) -> u32 {
-    if noise.is_exact() {
-        return 0;
+/// `darkest_grey` in every tristimulus value with a meter of this stated noise, and the
+/// most [`BLACK_BUDGET_SHARE`] of `budget` allows: `(needed, allowed)`. Needed is 0 for
+/// an exact meter, or a grey that is not above 0 in every value.
+pub fn black_readings(
+    noise: &ReadingNoise,
+    black: Xyz,
+    darkest_grey: Xyz,
+    budget: u32,
+) -> (u32, u32) {
+    let allowed = (f64::from(budget) * BLACK_BUDGET_SHARE).floor() as u32;
+    let grey = darkest_grey.to_array();
+    if noise.is_exact() || grey.iter().any(|g| !g.is_finite() || *g <= 0.0) {
+        return (0, allowed);
     }
     let sigma = noise.sigma_xyz(black);
-    let grey = darkest_grey.to_array();
-    if grey.iter().any(|g| !g.is_finite() || *g <= 0.0) {
-        return 0;
-    }
     let needed = (0..3)
         .map(|k| (sigma[k] / (BLACK_REL_SE * grey[k])).powi(2))
         .fold(0.0, f64::max)
-        .ceil();
-    let most = (f64::from(budget) * BLACK_BUDGET_SHARE).floor();
-    needed.min(most).max(0.0) as u32
+        .ceil()
+        .min(f64::from(u32::MAX));
+    (needed as u32, allowed)
 }
 
 #[cfg(test)]
@@ -80,8 +83,8 @@ mod tests {
     #[test]
     fn a_dim_wall_reads_its_black_more_often_than_a_bright_one() {
         let black = Xyz::new(0.018, 0.016, 0.05);
-        let dim = black_readings(&cs100a_class(), black, darkest_grey(D65, 12.0), 120);
-        let bright = black_readings(&cs100a_class(), black, darkest_grey(D65, 47.0), 120);
+        let (dim, _) = black_readings(&cs100a_class(), black, darkest_grey(D65, 12.0), 120);
+        let (bright, _) = black_readings(&cs100a_class(), black, darkest_grey(D65, 47.0), 120);
         // 12 cd/m²: a 0.24 cd/m² grey, X 0.228; 0.008 / (0.015 · 0.228) squared is 5.5.
         assert_eq!(dim, 6);
         assert!(bright <= 1, "{bright}");
@@ -91,8 +94,9 @@ mod tests {
     fn the_black_takes_at_most_an_eighth_of_the_budget() {
         let black = Xyz::new(0.05, 0.03, 0.15);
         let grey = darkest_grey(D65, 8.0);
-        assert_eq!(black_readings(&cs100a_class(), black, grey, 40), 5);
-        assert_eq!(black_readings(&cs100a_class(), black, grey, 64), 8);
+        // An 8 cd/m² white: X of its 2 % grey 0.152, 0.008 / (0.015 · 0.152) squared 12.3.
+        assert_eq!(black_readings(&cs100a_class(), black, grey, 40), (13, 5));
+        assert_eq!(black_readings(&cs100a_class(), black, grey, 64), (13, 8));
     }
 
     #[test]
@@ -103,12 +107,10 @@ mod tests {
             dark_xyz_cd_m2: [0.0; 3],
         };
         let black = Xyz::new(0.05, 0.03, 0.15);
+        let grey = darkest_grey(D65, 8.0);
+        assert_eq!(black_readings(&exact, black, grey, 120).0, 0);
         assert_eq!(
-            black_readings(&exact, black, darkest_grey(D65, 8.0), 120),
-            0
-        );
-        assert_eq!(
-            black_readings(&cs100a_class(), black, Xyz::default(), 120),
+            black_readings(&cs100a_class(), black, Xyz::default(), 120).0,
             0
         );
     }
