@@ -157,6 +157,17 @@ pub struct RampFocus {
     pub common_black: Option<Xyz>,
 }
 
+impl RampFocus {
+    /// The wall white's luminance (cd/m²) this display is expected to show, its own
+    /// largest at the focus chromaticity and headroom but at most the wall's so far,
+    /// and the display's channel intensities per cd/m² of it; `None` when that white is
+    /// outside the display's gamut or its primaries are degenerate.
+    pub fn expected_white(&self, black: Xyz, primaries: &[Xyz; 3]) -> Option<(f64, [f64; 3])> {
+        let (own_y, per_cd) = white_capacity(black, primaries, self.white_xy, self.headroom)?;
+        Some((self.white_y_cd_m2.map_or(own_y, |y| y.min(own_y)), per_cd))
+    }
+}
+
 impl Default for MeasureOptions {
     fn default() -> Self {
         Self {
@@ -1363,7 +1374,7 @@ pub(crate) fn measure_black_and_primaries(
 }
 
 /// `black` averaged with the black read again as often as the darkest grey of the wall
-/// white this display is expected to show needs ([`black_readings::black_readings`]):
+/// white this display is expected to show needs ([`black_readings::for_darkest_grey`]):
 /// the white of `opts.focus` at the luminance the display reaches (at most the wall's
 /// so far). Unchanged without a focus or a meter that states its noise.
 fn black_for_darkest_grey(
@@ -1376,26 +1387,23 @@ fn black_for_darkest_grey(
     let (Some(noise), Some(f)) = (s.rig.meter.info().noise, opts.focus) else {
         return Ok(black);
     };
-    let Some((own_y, _)) = white_capacity(black, primaries, f.white_xy, f.headroom) else {
+    let Some((white_y, _)) = f.expected_white(black, primaries) else {
         return Ok(black);
     };
-    let white_y = f.white_y_cd_m2.map_or(own_y, |y| y.min(own_y));
     let grey = black_readings::darkest_grey(f.white_xy, white_y);
-    let (needed, allowed) = black_readings::black_readings(&noise, black, grey, opts.budget);
-    if needed > allowed {
-        tracing::warn!(
-            "{}: the black needs {needed} readings for the chart's darkest grey ({:.2} cd/m², \
-             2 % of the wall white of {white_y:.1} cd/m²) to within {:.1} %; {} readings per display \
-             allow {allowed}, so the darkest greys will carry the meter's noise (more \
-             readings per display, or a meter quieter in the dark, help)",
-            s.name,
+    let (needed, allowed) = black_readings::for_darkest_grey(&noise, black, grey, opts.budget);
+    let have = s.log.readings_of(Patch::Black);
+    if needed > allowed && needed > have {
+        warn_black_short(
+            &s.name,
             grey.y,
-            100.0 * black_readings::BLACK_REL_SE,
+            white_y,
+            needed,
+            allowed.max(have),
             opts.budget,
         );
     }
     let want = needed.min(allowed);
-    let have = s.log.readings_of(Patch::Black);
     if want <= have {
         return Ok(black);
     }
@@ -1403,6 +1411,28 @@ fn black_for_darkest_grey(
         Some((again, n)) => grey_drives::merged_black(black, have, again, n),
         None => black,
     })
+}
+
+/// Tells the technician that display `name`'s black gets fewer readings (`allowed`)
+/// than the darkest grey of a `white_y_cd_m2` wall white needs (`needed`).
+fn warn_black_short(
+    name: &str,
+    grey_y_cd_m2: f64,
+    white_y_cd_m2: f64,
+    needed: u32,
+    allowed: u32,
+    budget: u32,
+) {
+    tracing::warn!(
+        display = %name,
+        "the black needs {needed} readings for the chart's darkest grey ({grey_y_cd_m2:.2} \
+         cd/m², {:.0} % of the wall white of {white_y_cd_m2:.1} cd/m²) to within {:.1} %; \
+         {budget} readings per display allow {allowed}, so the darkest greys will carry \
+         the meter's noise (more readings per display, or a meter quieter in the dark, \
+         help)",
+        100.0 * black_readings::DARKEST_GREY_SHARE,
+        100.0 * black_readings::BLACK_REL_SE,
+    );
 }
 
 /// Adaptive placement of the ramp samples of one display, one sample per channel in
@@ -1432,11 +1462,8 @@ impl RampPlanner {
     ) -> Self {
         let usage = opts
             .focus
-            .and_then(|f| {
-                let (own_y, per_cd) = white_capacity(black, &primaries, f.white_xy, f.headroom)?;
-                let y = f.white_y_cd_m2.map_or(own_y, |h| h.min(own_y));
-                Some(per_cd.map(|v| (v * y).clamp(MIN_EXPECTED_USAGE, 1.0)))
-            })
+            .and_then(|f| f.expected_white(black, &primaries))
+            .map(|(y, per_cd)| per_cd.map(|v| (v * y).clamp(MIN_EXPECTED_USAGE, 1.0)))
             .unwrap_or([1.0; 3]);
         Self {
             black,

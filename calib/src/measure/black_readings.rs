@@ -12,8 +12,10 @@
 
 use lumiwall_devices::{ReadingNoise, Xyz};
 
-/// The darkest grey of the verification chart (`verify --chart 51`), as a share of the
-/// target white's luminance: the grey whose colour the black's error moves most.
+/// The darkest grey the verification chart (`verify --chart 51`) gives as a share of
+/// the target white's luminance: the grey whose colour the black's error moves most on a
+/// dim wall. (Above 50 cd/m² the chart's 1 cd/m² grey is darker, but there four
+/// readings are more than this share's grey needs and nothing changes.)
 pub const DARKEST_GREY_SHARE: f64 = 0.02;
 
 /// Standard error of the black's mean in each of X, Y and Z that its readings aim at,
@@ -46,7 +48,7 @@ pub fn darkest_grey(white_xy: [f64; 2], white_y_cd_m2: f64) -> Xyz {
 /// `darkest_grey` in every tristimulus value with a meter of this stated noise, and the
 /// most [`BLACK_BUDGET_SHARE`] of `budget` allows: `(needed, allowed)`. Needed is 0 for
 /// an exact meter, or a grey that is not above 0 in every value.
-pub fn black_readings(
+pub fn for_darkest_grey(
     noise: &ReadingNoise,
     black: Xyz,
     darkest_grey: Xyz,
@@ -83,8 +85,8 @@ mod tests {
     #[test]
     fn a_dim_wall_reads_its_black_more_often_than_a_bright_one() {
         let black = Xyz::new(0.018, 0.016, 0.05);
-        let (dim, _) = black_readings(&cs100a_class(), black, darkest_grey(D65, 12.0), 120);
-        let (bright, _) = black_readings(&cs100a_class(), black, darkest_grey(D65, 47.0), 120);
+        let (dim, _) = for_darkest_grey(&cs100a_class(), black, darkest_grey(D65, 12.0), 120);
+        let (bright, _) = for_darkest_grey(&cs100a_class(), black, darkest_grey(D65, 47.0), 120);
         // 12 cd/m²: a 0.24 cd/m² grey, X 0.228; 0.008 / (0.015 · 0.228) squared is 5.5.
         assert_eq!(dim, 6);
         assert!(bright <= 1, "{bright}");
@@ -95,8 +97,8 @@ mod tests {
         let black = Xyz::new(0.05, 0.03, 0.15);
         let grey = darkest_grey(D65, 8.0);
         // An 8 cd/m² white: X of its 2 % grey 0.152, 0.008 / (0.015 · 0.152) squared 12.3.
-        assert_eq!(black_readings(&cs100a_class(), black, grey, 40), (13, 5));
-        assert_eq!(black_readings(&cs100a_class(), black, grey, 64), (13, 8));
+        assert_eq!(for_darkest_grey(&cs100a_class(), black, grey, 40), (13, 5));
+        assert_eq!(for_darkest_grey(&cs100a_class(), black, grey, 64), (13, 8));
     }
 
     #[test]
@@ -108,9 +110,9 @@ mod tests {
         };
         let black = Xyz::new(0.05, 0.03, 0.15);
         let grey = darkest_grey(D65, 8.0);
-        assert_eq!(black_readings(&exact, black, grey, 120).0, 0);
+        assert_eq!(for_darkest_grey(&exact, black, grey, 120).0, 0);
         assert_eq!(
-            black_readings(&cs100a_class(), black, Xyz::default(), 120).0,
+            for_darkest_grey(&cs100a_class(), black, Xyz::default(), 120).0,
             0
         );
     }

@@ -509,3 +509,55 @@ fn the_white_is_averaged_by_the_stated_noise_only_where_the_budget_allows() {
     assert_eq!(white(64, Some(&exact)), (4, 4));
     assert_eq!(white(64, None), (4, 4));
 }
+
+/// The black is read as often as the chart's darkest grey needs (`measure::black_readings`):
+/// on mono-2x1 with lamps of 12.5 cd/m² (a wall white of about 6 cd/m², its 2 % grey
+/// 0.13 cd/m²) a CS-100A class meter's black needs about twenty readings, of which an
+/// eighth of 64 are allowed; at the fixture's 250 cd/m² it keeps the survey's readings.
+#[test]
+fn a_dim_walls_black_is_read_as_often_as_its_darkest_grey_needs_within_an_eighth_of_the_budget() {
+    use lumiwall_calib::measure::{Patch, RampFocus};
+    use lumiwall_devices::sim::{MeterModel, VirtualWall};
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/walls/mono-2x1.toml");
+    let text = std::fs::read_to_string(&path).expect("wall file");
+    assert!(
+        text.contains("white_cd_m2 = 250.0"),
+        "the fixture's lamp changed"
+    );
+    let black_readings = |lamp_cd_m2: f64| {
+        let dim = text.replace(
+            "white_cd_m2 = 250.0",
+            &format!("white_cd_m2 = {lamp_cd_m2:.1}"),
+        );
+        let wall = VirtualWall::from_toml_str(&dim).expect("wall");
+        let info = wall.pattern_output().displays()[0].clone();
+        let (mut out, mut meter, mut pos) = (
+            wall.pattern_output(),
+            wall.meter(MeterModel::cs100a(7)),
+            wall.positioner(),
+        );
+        let mut rig = Rig {
+            pattern: &mut out,
+            meter: &mut meter,
+            positioner: &mut pos,
+        };
+        let opts = MeasureOptions {
+            budget: 64,
+            focus: Some(RampFocus {
+                white_xy: [0.3127, 0.3290],
+                headroom: 1.0,
+                white_y_cd_m2: None,
+                toe_samples: false,
+                common_black: None,
+            }),
+            ..MeasureOptions::default()
+        };
+        let key = display_key("mono-2x1", &info);
+        let m = measure_display(&mut rig, &info, &key, &opts, &mut |_| {}).expect("measured");
+        m.log.readings_of(Patch::Black)
+    };
+    let (dim, bright) = (black_readings(12.5), black_readings(250.0));
+    assert_eq!(dim, 64 / 8, "dim wall's black");
+    assert!(bright < dim, "bright wall's black read {bright} times");
+}
