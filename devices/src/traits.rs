@@ -54,6 +54,21 @@ pub struct ReadingNoise {
 }
 
 impl ReadingNoise {
+    /// A CS-100A class filter colorimeter's stated figures: 0.1 % in Y and 0.0005 in x
+    /// and y on illuminant A, and a few mcd/m² of zero-light noise in each sensor.
+    pub const CS100A_CLASS: ReadingNoise = ReadingNoise {
+        luminance_rel: 0.001,
+        xy: 0.0005,
+        dark_xyz_cd_m2: [0.008, 0.004, 0.008],
+    };
+
+    /// An instrument that states it has no noise at all ([`ReadingNoise::is_exact`]).
+    pub const EXACT: ReadingNoise = ReadingNoise {
+        luminance_rel: 0.0,
+        xy: 0.0,
+        dark_xyz_cd_m2: [0.0; 3],
+    };
+
     /// True for an instrument that states it has no noise at all (the simulator's
     /// exact meter).
     pub fn is_exact(&self) -> bool {

@@ -72,21 +72,23 @@ pub fn for_darkest_grey(
 mod tests {
     use super::*;
 
-    fn cs100a_class() -> ReadingNoise {
-        ReadingNoise {
-            luminance_rel: 0.001,
-            xy: 0.0005,
-            dark_xyz_cd_m2: [0.008, 0.004, 0.008],
-        }
-    }
-
     const D65: [f64; 2] = [0.3127, 0.3290];
 
     #[test]
     fn a_dim_wall_reads_its_black_more_often_than_a_bright_one() {
         let black = Xyz::new(0.018, 0.016, 0.05);
-        let (dim, _) = for_darkest_grey(&cs100a_class(), black, darkest_grey(D65, 12.0), 120);
-        let (bright, _) = for_darkest_grey(&cs100a_class(), black, darkest_grey(D65, 47.0), 120);
+        let (dim, _) = for_darkest_grey(
+            &ReadingNoise::CS100A_CLASS,
+            black,
+            darkest_grey(D65, 12.0),
+            120,
+        );
+        let (bright, _) = for_darkest_grey(
+            &ReadingNoise::CS100A_CLASS,
+            black,
+            darkest_grey(D65, 47.0),
+            120,
+        );
         // 12 cd/m²: a 0.24 cd/m² grey, X 0.228; 0.008 / (0.015 · 0.228) squared is 5.5.
         assert_eq!(dim, 6);
         assert!(bright <= 1, "{bright}");
@@ -97,22 +99,24 @@ mod tests {
         let black = Xyz::new(0.05, 0.03, 0.15);
         let grey = darkest_grey(D65, 8.0);
         // An 8 cd/m² white: X of its 2 % grey 0.152, 0.008 / (0.015 · 0.152) squared 12.3.
-        assert_eq!(for_darkest_grey(&cs100a_class(), black, grey, 40), (13, 5));
-        assert_eq!(for_darkest_grey(&cs100a_class(), black, grey, 64), (13, 8));
+        assert_eq!(
+            for_darkest_grey(&ReadingNoise::CS100A_CLASS, black, grey, 40),
+            (13, 5)
+        );
+        assert_eq!(
+            for_darkest_grey(&ReadingNoise::CS100A_CLASS, black, grey, 64),
+            (13, 8)
+        );
     }
 
     #[test]
     fn an_exact_meter_or_a_grey_without_light_needs_no_more_readings() {
-        let exact = ReadingNoise {
-            luminance_rel: 0.0,
-            xy: 0.0,
-            dark_xyz_cd_m2: [0.0; 3],
-        };
+        let exact = ReadingNoise::EXACT;
         let black = Xyz::new(0.05, 0.03, 0.15);
         let grey = darkest_grey(D65, 8.0);
         assert_eq!(for_darkest_grey(&exact, black, grey, 120).0, 0);
         assert_eq!(
-            for_darkest_grey(&cs100a_class(), black, Xyz::default(), 120).0,
+            for_darkest_grey(&ReadingNoise::CS100A_CLASS, black, Xyz::default(), 120).0,
             0
         );
     }

@@ -271,14 +271,6 @@ mod tests {
     const BLACK: [f64; 3] = [0.2, 0.2, 0.3];
     const RED: [f64; 3] = [40.0, 21.0, 2.0];
 
-    fn noise() -> ReadingNoise {
-        ReadingNoise {
-            luminance_rel: 0.001,
-            xy: 0.0005,
-            dark_xyz_cd_m2: [0.008, 0.004, 0.008],
-        }
-    }
-
     fn record(patch: Patch, xyz: Xyz) -> ReadingRecord {
         ReadingRecord {
             patch,
@@ -322,7 +314,7 @@ mod tests {
     fn a_ramp_samples_relative_error_grows_in_the_dark_and_falls_with_its_readings() {
         let black = Xyz::from_array(BLACK);
         let mut log = log_with_red_ramp(&[0.05, 0.5], |_| RED);
-        let sigma = ramp_sigma_rel(&log, black, primaries(), Some(noise()));
+        let sigma = ramp_sigma_rel(&log, black, primaries(), Some(ReadingNoise::CS100A_CLASS));
         let [dark, bright] = [sigma[0][0], sigma[0][1]];
         // At 0.5 the red is 5 cd/m² (X and Y at 0.2 % and 0.1 %); at 0.05 it is 0.05
         // cd/m², where the sensors' zero-light noise dominates.
@@ -331,14 +323,10 @@ mod tests {
         assert!(sigma[1].is_empty() && sigma[2].is_empty());
         // Four readings averaged halve it.
         log.samples[2].repeats = 4;
-        let four = ramp_sigma_rel(&log, black, primaries(), Some(noise()))[0][0];
+        let four = ramp_sigma_rel(&log, black, primaries(), Some(ReadingNoise::CS100A_CLASS))[0][0];
         assert!((four / dark - 0.5).abs() < 1e-9, "{four} vs {dark}");
         // An exact meter's samples state no error: the curve goes through them.
-        let exact = ReadingNoise {
-            luminance_rel: 0.0,
-            xy: 0.0,
-            dark_xyz_cd_m2: [0.0; 3],
-        };
+        let exact = ReadingNoise::EXACT;
         assert!(
             ramp_sigma_rel(&log, black, primaries(), Some(exact))
                 .iter()
@@ -365,7 +353,7 @@ mod tests {
         };
         let log = log_with_red_ramp(&[0.3, 0.6, 0.9], shifted);
         let black = Xyz::from_array(BLACK);
-        let (p, ramps) = pool(&log, black, primaries(), Some(noise()));
+        let (p, ramps) = pool(&log, black, primaries(), Some(ReadingNoise::CS100A_CLASS));
         let x0 = Xyz::from_array(RED).xy().unwrap()[0];
         let x = (p[0] - black).xy().unwrap()[0];
         assert!(x > x0 + 0.0002 && x < x0 + 0.0008, "{x0} → {x}");
@@ -405,7 +393,7 @@ mod tests {
         };
         let mut prims = primaries();
         prims[2] = read_full;
-        let (p, ramps) = pool(&log, black, prims, Some(noise()));
+        let (p, ramps) = pool(&log, black, prims, Some(ReadingNoise::CS100A_CLASS));
         let z = (p[2] - black).z;
         assert!(
             (z / blue[2] - 1.0).abs() < 0.002,
@@ -428,7 +416,12 @@ mod tests {
                 .to_array()
         };
         let log = log_with_red_ramp(&[0.3, 0.5, 0.7], drifting);
-        let (p, _) = pool(&log, Xyz::from_array(BLACK), primaries(), Some(noise()));
+        let (p, _) = pool(
+            &log,
+            Xyz::from_array(BLACK),
+            primaries(),
+            Some(ReadingNoise::CS100A_CLASS),
+        );
         assert_eq!(p[0], primaries()[0]);
     }
 
@@ -436,11 +429,7 @@ mod tests {
     fn without_stated_noise_or_with_an_exact_meter_the_primaries_are_the_full_drive_readings() {
         let off = |_: f64| [41.0, 21.0, 2.0];
         let log = log_with_red_ramp(&[0.4, 0.8], off);
-        let exact = ReadingNoise {
-            luminance_rel: 0.0,
-            xy: 0.0,
-            dark_xyz_cd_m2: [0.0; 3],
-        };
+        let exact = ReadingNoise::EXACT;
         for n in [None, Some(exact)] {
             let (p, ramps) = pool(&log, Xyz::from_array(BLACK), primaries(), n);
             assert_eq!(p, primaries(), "{n:?}");

@@ -646,32 +646,26 @@ mod tests {
         }
     }
 
-    fn cs100a_class() -> ReadingNoise {
-        ReadingNoise {
-            luminance_rel: 0.001,
-            xy: 0.0005,
-            dark_xyz_cd_m2: [0.008, 0.004, 0.008],
-        }
-    }
-
     #[test]
     fn a_noisy_meter_skips_grey_drives_beside_a_ramp_sample_and_an_exact_one_does_not() {
-        let exact = ReadingNoise {
-            luminance_rel: 0.0,
-            xy: 0.0,
-            dark_xyz_cd_m2: [0.0; 3],
-        };
+        let exact = ReadingNoise::EXACT;
         assert_eq!(drive_gap(Some(&exact)), MIN_DRIVE_GAP);
-        assert_eq!(drive_gap(Some(&cs100a_class())), NOISY_DRIVE_GAP);
+        assert_eq!(
+            drive_gap(Some(&ReadingNoise::CS100A_CLASS)),
+            NOISY_DRIVE_GAP
+        );
         assert_eq!(drive_gap(None), NOISY_DRIVE_GAP);
         // Two codes at 8 bit: read for the exact meter, not for a noisy one.
         let apart = 2.0 / 255.0;
-        assert!(apart >= drive_gap(Some(&exact)) && apart < drive_gap(Some(&cs100a_class())));
+        assert!(
+            apart >= drive_gap(Some(&exact))
+                && apart < drive_gap(Some(&ReadingNoise::CS100A_CLASS))
+        );
     }
 
     #[test]
     fn only_the_brightest_share_is_read_whole() {
-        let n = cs100a_class();
+        let n = ReadingNoise::CS100A_CLASS;
         let whole = whole_grey_repeats(Some(&n), 64);
         assert_eq!(whole, 6);
         // White: 3 channels read twice + 6 whole; the widest gap: 3 channels; 1 cd/m²:

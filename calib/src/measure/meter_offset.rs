@@ -105,11 +105,7 @@ fn reading_variance(r: Xyz, n: f64, sigma_xy: f64, sigma_y_rel: f64) -> [f64; 3]
 /// model a filter colorimeter. Only the ratios between the readings' variances matter
 /// for the sharing, and the zero-light part only against a saturated primary's small
 /// components (a red's Z).
-pub const FUSION_NOISE: ReadingNoise = ReadingNoise {
-    luminance_rel: 0.001,
-    xy: 0.0005,
-    dark_xyz_cd_m2: [0.008, 0.004, 0.008],
-};
+pub const FUSION_NOISE: ReadingNoise = ReadingNoise::CS100A_CLASS;
 
 /// Variance of the X, Y, Z of `n` readings of `r` averaged, with [`FUSION_NOISE`] in
 /// each sensor.

@@ -475,16 +475,8 @@ fn a_primarys_colour_pooled_over_its_ramp_is_closer_to_the_truth_than_its_full_d
 /// it as often as a primary.
 #[test]
 fn the_white_is_averaged_by_the_stated_noise_only_where_the_budget_allows() {
-    let cs100a = lumiwall_devices::ReadingNoise {
-        luminance_rel: 0.001,
-        xy: 0.0005,
-        dark_xyz_cd_m2: [0.008, 0.004, 0.008],
-    };
-    let exact = lumiwall_devices::ReadingNoise {
-        luminance_rel: 0.0,
-        xy: 0.0,
-        dark_xyz_cd_m2: [0.0; 3],
-    };
+    let cs100a = lumiwall_devices::ReadingNoise::CS100A_CLASS;
+    let exact = lumiwall_devices::ReadingNoise::EXACT;
     let quiet = lumiwall_devices::ReadingNoise {
         xy: 0.0001,
         ..cs100a
