@@ -47,8 +47,9 @@ pub struct ReadingsBench {
     /// ([`SpectroModel::cs2000`] by default; [`SpectroModel::noiseless`] shows what
     /// the station reaches when the reference adds no error of its own).
     pub reference: SpectroModel,
-    /// The grey-drive pass's greys (`commission --grey-levels`).
-    pub grey_levels: Vec<GreyLevel>,
+    /// The grey-drive pass's greys (`commission --grey-levels`); `None`: commission's
+    /// default for each budget ([`lumiwall_calib::measure::grey_drives::default_levels`]).
+    pub grey_levels: Option<Vec<GreyLevel>>,
 }
 
 /// The reference of [`ReadingsBench::reference`] by default: the simulated CS-2000 of
@@ -225,7 +226,10 @@ fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsR
         solve: bench.solve,
         resume: false,
         meter_correction: false,
-        grey_levels: bench.grey_levels.clone(),
+        grey_levels: bench
+            .grey_levels
+            .clone()
+            .unwrap_or_else(|| lumiwall_calib::measure::grey_drives::default_levels(budget)),
     };
     let outcome =
         station

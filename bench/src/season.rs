@@ -340,7 +340,9 @@ impl Season<'_> {
             solve: self.bench.solve,
             resume: false,
             meter_correction: false,
-            grey_levels: lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
+            grey_levels: lumiwall_calib::measure::grey_drives::default_levels(
+                MeasureOptions::default().budget,
+            ),
         };
         let clock = station.wall.elapsed_s();
         let mut readings = 0u64;

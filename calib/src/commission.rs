@@ -43,9 +43,11 @@ use crate::colorimetry::cct_to_xy;
 use crate::measure::channel_colour::{MIN_POOLED_INTENSITY, pool, ramp_sigma_rel};
 use crate::measure::drift::{DriftCheck, recheck};
 use crate::measure::grey_drives::{
-    GreyLevel, GreyTargets, merged_black, read_grey_drives, readings_needed, whole_grey_repeats,
+    GreyLevel, GreyTargets, drive_gap, merged_black, read_grey_drives, readings_needed,
+    whole_grey_repeats,
 };
 use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall, fuse_with_white};
+use crate::measure::split_grey::{SplitDisplay, below_the_samples, split_greys};
 use crate::measure::{
     MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, RampFocus, Rig, Survey,
     display_key, luminance_only, measure_display, measure_ramps, survey_display, white_capacity,
@@ -465,10 +467,46 @@ fn read_greys_of(
     let (primaries, ramps) = pool(&m.log, m.measurement.black, m.measurement.primaries, noise);
     m.measurement.ramp_sigma_rel = ramp_sigma_rel(&m.log, m.measurement.black, primaries, noise);
     (m.measurement.primaries, m.measurement.ramps) = (primaries, ramps);
+    add_split_greys(m, profile, noise);
     m.measurement.composites.extend(read.composites);
     m.measurement.readings += readings;
     m.log.readings += readings;
     Ok(readings)
+}
+
+/// The greys of `m`'s log read whole ([`GreyLevel::Split`]) split into channel samples
+/// on its pooled lines ([`split_greys`], the white segment of the provisional `profile`
+/// inverted) and added to its ramps, each weighted by its noise where the ramps are
+/// ([`ramp_sigma_rel`]): only a channel's samples below its ramp samples
+/// ([`below_the_samples`], where its curve is extrapolated), and none within
+/// [`drive_gap`] of another.
+fn add_split_greys(m: &mut MeasuredDisplay, profile: &DisplayProfile, noise: Option<ReadingNoise>) {
+    let display = SplitDisplay {
+        black: m.measurement.black,
+        primaries: m.measurement.primaries,
+        model: profile.display_model,
+        xyz_to_drive: profile.xyz_to_drive,
+    };
+    let gap = drive_gap(noise.as_ref());
+    // As `ramp_sigma_rel` weighs the ramps: with a stated, non-zero noise only.
+    let weighted = noise.is_some_and(|n| !n.is_exact());
+    for (c, samples) in split_greys(&m.log, &display, noise).into_iter().enumerate() {
+        let ramp_drives: Vec<f64> = m.measurement.ramps[c].iter().map(|(d, _)| *d).collect();
+        for s in samples {
+            let ramp = &mut m.measurement.ramps[c];
+            let beside = ramp.iter().any(|(d, _)| (d - s.drive).abs() < gap);
+            let wanted = below_the_samples(s.drive, &ramp_drives, gap)
+                && !beside
+                && (!weighted || s.sigma_rel > 0.0);
+            if !wanted {
+                continue;
+            }
+            ramp.push((s.drive, s.xyz));
+            if weighted {
+                m.measurement.ramp_sigma_rel[c].push(s.sigma_rel);
+            }
+        }
+    }
 }
 
 /// The grey levels of `opts` worth reading with the rig's meter ([`usable_grey_levels`]
@@ -500,7 +538,7 @@ fn usable_grey_levels(
         .iter()
         .copied()
         .filter(|l| match l {
-            GreyLevel::Share(_) | GreyLevel::WidestGap => true,
+            GreyLevel::Share(_) | GreyLevel::WidestGap | GreyLevel::Split(_) => true,
             GreyLevel::Luminance(y) => noise_stated || *y >= 3.0 * limit_cd_m2,
         })
         .collect()

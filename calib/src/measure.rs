@@ -49,6 +49,7 @@ pub mod drift;
 pub mod grey_drives;
 pub mod meter_matrix;
 pub mod meter_offset;
+pub mod split_grey;
 pub mod warm_up;
 pub mod wavelength_check;
 
@@ -290,8 +291,11 @@ pub enum Patch {
     White,
     /// One channel at the given drive (channel serialised as its index).
     Ramp(#[serde(with = "channel_index")] Channel, f64),
-    /// Any drive triple (verification patches).
+    /// Any drive triple (verification patches, greys read whole).
     Drive([f64; 3]),
+    /// A grey read whole to be split into its channels' intensities
+    /// ([`grey_drives::GreyLevel::Split`], [`channel_colour::split_greys`]).
+    Grey([f64; 3]),
 }
 
 impl Patch {
@@ -302,7 +306,7 @@ impl Patch {
             Patch::White => [1.0; 3],
             Patch::Primary(c) => unit(c, 1.0),
             Patch::Ramp(c, d) => unit(c, d),
-            Patch::Drive(d) => d,
+            Patch::Drive(d) | Patch::Grey(d) => d,
         }
     }
 }
@@ -315,6 +319,7 @@ impl std::fmt::Display for Patch {
             Patch::Primary(c) => write!(f, "full {}", c.name()),
             Patch::Ramp(c, d) => write!(f, "{} ramp at drive {d:.4}", c.name()),
             Patch::Drive(d) => write!(f, "drive ({:.4}, {:.4}, {:.4})", d[0], d[1], d[2]),
+            Patch::Grey(d) => write!(f, "grey at drive ({:.4}, {:.4}, {:.4})", d[0], d[1], d[2]),
         }
     }
 }

@@ -38,7 +38,9 @@ fn commission_options() -> CommissionOptions {
         },
         resume: false,
         meter_correction: true,
-        grey_levels: lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
+        grey_levels: lumiwall_calib::measure::grey_drives::default_levels(
+            MeasureOptions::default().budget,
+        ),
     }
 }
 

@@ -226,11 +226,14 @@ pub(crate) struct CommissionArgs {
     /// white's luminance, e.g. `1` or `0.5`, or a luminance, e.g. `1cd`), so the tone
     /// curves are sampled where the white and the greys sit; `gap` reads each channel
     /// in the middle of the widest gap between its samples over the drives the greys
-    /// use; then the wall is solved again. Up to three readings per grey out of each
-    /// display's budget, and the meter visits every display a second time. A luminance
-    /// is read only where the meter is reliable at a third of it; the brightest share
-    /// (from 64 readings) is also read whole. `none` skips the pass. Default:
-    /// `1,gap,1cd` where software
+    /// use; a share with `split` (e.g. `0.02split`) is read whole, once or as the
+    /// low-light policy averages it, where one of its channels sits below that
+    /// channel's samples (a dim wall's toe), and split into three channel samples
+    /// through the primaries; then the wall is solved again. Up to three readings per
+    /// grey out of each display's budget, and the meter visits every display a second
+    /// time. A luminance is read only where the meter is reliable at a third of it; the
+    /// brightest share (from 64 readings) is also read whole. `none` skips the pass.
+    /// Default: `1,gap,1cd,0.02split` (`1,gap,1cd` from 64 readings) where software
     /// aims the meter, `none` where a technician aims it (guided aiming, a real meter
     /// with `--aim auto`), who would have to aim at every display again.
     #[arg(long, value_parser = parse_grey_levels)]
@@ -292,7 +295,7 @@ impl CommissionArgs {
         match &self.grey_levels {
             Some(levels) => levels.0.clone(),
             None if technician_aims => Vec::new(),
-            None => lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
+            None => lumiwall_calib::measure::grey_drives::default_levels(self.budget),
         }
     }
 
@@ -675,7 +678,8 @@ pub(crate) struct BenchArgs {
     #[arg(long, default_value_t = readings::DEFAULT_REFERENCE_SEED)]
     reference_seed: u64,
     /// The grey-drive pass's greys, as `commission --grey-levels` (`none` skips the
-    /// pass). Default: `1,gap,1cd`, commission's default where software aims the meter.
+    /// pass). Default: commission's where software aims the meter, for each budget
+    /// (`1,gap,1cd,0.02split`, from 64 readings `1,gap,1cd`).
     #[arg(long, value_parser = parse_grey_levels)]
     grey_levels: Option<GreyLevels>,
 }
@@ -714,10 +718,7 @@ pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
         warm_up: args.warm_up,
         per_display_matrix: matrix_scope(args.per_display_matrix, args.per_eye_matrix),
         reference: bench_reference(&args.reference, args.reference_seed)?,
-        grey_levels: args.grey_levels.map_or_else(
-            || lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
-            |l| l.0,
-        ),
+        grey_levels: args.grey_levels.map(|l| l.0),
     };
     println!(
         "accuracy against meter readings per display ({}): the 51-patch chart read by a \

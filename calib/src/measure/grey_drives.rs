@@ -7,7 +7,10 @@
 //! default) is also read whole ([`whole_grey_repeats`]). What the pass leaves of the
 //! display's budget goes first, when it holds a reading per channel, to each channel's
 //! widest gap in drive ratio ([`widest_ratio_gap_drive`]), then to the black
-//! ([`merged_black`]).
+//! ([`merged_black`]). A grey given as a split share ([`GreyLevel::Split`], the
+//! default's darkest grey below 64 readings: [`default_levels`]) is read whole where
+//! one of its channels sits below that channel's samples, and split into three channel
+//! samples through the primaries ([`super::split_grey`]).
 //!
 //! Why the channel samples: the ramps are spread over each channel's range and the
 //! curve is interpolated between samples. Where the white sits between two samples, the
@@ -33,6 +36,7 @@ use lumiwall_devices::{DisplayId, ReadingNoise, Xyz};
 use lumiwall_profiles::DisplayKey;
 use lumiwall_profiles::apply::PreparedProfile;
 
+use super::split_grey::below_the_samples;
 use super::{ChannelLine, MeasureError, MeasureOptions, Patch, Progress, Rig, Session};
 use crate::solve::CompositeReading;
 use crate::verify::drive_for;
@@ -51,6 +55,10 @@ pub enum GreyLevel {
     /// the white to the white ([`widest_gap_drive`]), where its interpolated tone curve
     /// is least pinned. `gap` on the command line.
     WidestGap,
+    /// A grey of this share of the target white's luminance, in (0, 1], read whole and
+    /// split into its channels' intensities ([`super::split_grey`]): one reading (or
+    /// low-light average) for three toe samples. `0.02split` on the command line.
+    Split(f64),
 }
 
 impl GreyLevel {
@@ -58,7 +66,7 @@ impl GreyLevel {
     /// white's, and for [`GreyLevel::WidestGap`], which is no one grey.
     pub fn xyz(self, white: Xyz) -> Option<Xyz> {
         match self {
-            GreyLevel::Share(s) => Some(white * s),
+            GreyLevel::Share(s) | GreyLevel::Split(s) => Some(white * s),
             GreyLevel::Luminance(y) => {
                 (white.y > 0.0 && y <= white.y).then(|| white * (y / white.y))
             }
@@ -70,31 +78,45 @@ impl GreyLevel {
 impl std::str::FromStr for GreyLevel {
     type Err = String;
 
-    /// `0.5` (a share of the white, in (0, 1]), `1.5cd` (cd/m², greater than 0) or
-    /// `gap` ([`GreyLevel::WidestGap`]).
+    /// `0.5` (a share of the white, in (0, 1]), `1.5cd` (cd/m², greater than 0), `gap`
+    /// ([`GreyLevel::WidestGap`]) or `0.02split` (a share read whole and split,
+    /// [`GreyLevel::Split`]).
     fn from_str(s: &str) -> Result<Self, String> {
         let t = s.trim();
         if t.eq_ignore_ascii_case("gap") {
             return Ok(GreyLevel::WidestGap);
         }
-        let (v, absolute) = match t.strip_suffix("cd") {
-            Some(v) => (v, true),
-            None => (t, false),
+        let (v, kind) = if let Some(v) = t.strip_suffix("cd") {
+            (v, LevelKind::Luminance)
+        } else if let Some(v) = t.strip_suffix("split") {
+            (v, LevelKind::Split)
+        } else {
+            (t, LevelKind::Share)
         };
         let bad = || {
             format!(
                 "`{s}` is not a grey level: a share of the white's luminance in (0, 1] \
-                 (e.g. 0.5), a luminance in cd/m² (e.g. 1.5cd) or `gap` (each channel \
-                 read in the widest gap between its samples)"
+                 (e.g. 0.5), a luminance in cd/m² (e.g. 1.5cd), `gap` (each channel read \
+                 in the widest gap between its samples) or a share read whole and split \
+                 into its channels (e.g. 0.02split)"
             )
         };
         let v: f64 = v.trim().parse().map_err(|_| bad())?;
-        match absolute {
-            true if v.is_finite() && v > 0.0 => Ok(GreyLevel::Luminance(v)),
-            false if v.is_finite() && v > 0.0 && v <= 1.0 => Ok(GreyLevel::Share(v)),
+        let share = v.is_finite() && v > 0.0 && v <= 1.0;
+        match kind {
+            LevelKind::Luminance if v.is_finite() && v > 0.0 => Ok(GreyLevel::Luminance(v)),
+            LevelKind::Share if share => Ok(GreyLevel::Share(v)),
+            LevelKind::Split if share => Ok(GreyLevel::Split(v)),
             _ => Err(bad()),
         }
     }
+}
+
+/// How a grey level's number is read ([`GreyLevel::from_str`]).
+enum LevelKind {
+    Share,
+    Luminance,
+    Split,
 }
 
 /// Default grey levels: the white, and a dark grey of 1 cd/m² (the middle, in
@@ -121,6 +143,38 @@ pub const DEFAULT_LEVELS: [GreyLevel; 3] = [
     GreyLevel::WidestGap,
     GreyLevel::Luminance(1.0),
 ];
+
+/// Budget per display from which the default levels leave out the split darkest grey
+/// ([`default_levels`]).
+pub const SPLIT_DEFAULT_BELOW_BUDGET: u32 = 64;
+
+/// The default grey levels for a display budget of `budget` readings:
+/// [`DEFAULT_LEVELS`], and below [`SPLIT_DEFAULT_BELOW_BUDGET`] the chart's darkest grey
+/// (2 % of the white) read whole and split into its channels ([`GreyLevel::Split`],
+/// [`super::split_grey`]), read only where one of its channels sits below that
+/// channel's samples: on a dim wall (white about 12 cd/m²) 40 readings leave the
+/// toes unsampled, every dark reading being averaged four times, and the fitted toe
+/// comes out low (dim-mono-2x1 seed 101: green 10 % low at drive 0.10, the 2 % grey
+/// ΔC' 2.4). On a bright wall the ramps mostly reach below that grey and nothing is
+/// read (heyewall-48 seed 103: 9 of 48 displays read it). Realistic meter, 40
+/// readings, 60 unseen seeds (101–160), runs within every limit of issue 12 without /
+/// with it: dim-mono-2x1 29 / 38, dim-infitec-pair 23 / 31, dim-lcd-3x2 39 / 59,
+/// weak-green-infitec-2x2 0 / 2, weak-channel-3x1 60 / 59 (seed 125: grey balance
+/// 0.499 → 0.510), infitec-pair 60 / 60; heyewall-48 on seeds 101–180 78 / 80 → 80 /
+/// 80. At 64 readings it did more harm than good: dim-mono-2x1 57 / 53,
+/// weak-channel-3x1 60 / 58, against dim-infitec-pair 44 / 52, weak-green-infitec-2x2
+/// 5 / 13, dim-lcd-3x2 58 / 60. One reading is reserved for it: none (the pass's
+/// leftover only) gave dim-mono-2x1 31 and dim-lcd-3x2 47; the four a low-light
+/// average takes starved the ramps (dim-mono-2x1 0 of 60). In place of the 1 cd/m²
+/// grey it did less (weak-channel-3x1 57 of 60: a weak channel's greys need that
+/// one).
+pub fn default_levels(budget: u32) -> Vec<GreyLevel> {
+    let mut levels = DEFAULT_LEVELS.to_vec();
+    if budget < SPLIT_DEFAULT_BELOW_BUDGET {
+        levels.push(GreyLevel::Split(super::black_readings::DARKEST_GREY_SHARE));
+    }
+    levels
+}
 
 /// The darkest grey, as a share of the white's luminance, whose drives bound the range
 /// [`GreyLevel::WidestGap`] looks for gaps in: the verification chart's darkest share
@@ -385,6 +439,10 @@ pub fn read_grey_drives(
                 max_code,
                 widest_gap_drive,
             ),
+            GreyLevel::Split(_) => {
+                read_split_if_extrapolated(&mut s, targets, *level, opts, &mut out, &mut quiet)?;
+                continue;
+            }
             _ => {
                 let Some(xyz) = level.xyz(targets.white) else {
                     continue;
@@ -408,21 +466,8 @@ pub fn read_grey_drives(
         };
         read_channels(&mut s, targets, noise, sampled, &mut out, &mut quiet)?;
     }
-    if targets.black_with_rest && s.remaining() >= REST_GAP_MIN_READINGS {
-        let sampled = Sampled {
-            drives: gap_drives(
-                targets,
-                &out.drives,
-                opts.spot_uv,
-                max_code,
-                widest_ratio_gap_drive,
-            ),
-            at_least: 1,
-        };
-        read_channels(&mut s, targets, noise, sampled, &mut out, &mut quiet)?;
-    }
-    if targets.black_with_rest && !noise.is_some_and(|n| n.is_exact()) {
-        out.black = s.averaged(Patch::Black, s.remaining(), &mut quiet)?;
+    if targets.black_with_rest {
+        read_rest(&mut s, targets, noise, opts.spot_uv, &mut out, &mut quiet)?;
     }
     out.readings = s.log.readings;
     out.samples = std::mem::take(&mut s.log.samples);
@@ -433,6 +478,77 @@ pub fn read_grey_drives(
         readings: out.readings,
     });
     Ok(out)
+}
+
+/// What the pass leaves of the budget: each channel in its widest gap in drive ratio
+/// when it holds [`REST_GAP_MIN_READINGS`], then (a meter with noise) the black.
+fn read_rest(
+    s: &mut Session<'_, '_>,
+    targets: &GreyTargets<'_>,
+    noise: Option<ReadingNoise>,
+    spot_uv: [f64; 2],
+    out: &mut GreyDrives,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(), MeasureError> {
+    if s.remaining() >= REST_GAP_MIN_READINGS {
+        let max_code = crate::solve::clamped_bit_depth(targets.bit_depth).max_code_f64();
+        let drives = gap_drives(
+            targets,
+            &out.drives,
+            spot_uv,
+            max_code,
+            widest_ratio_gap_drive,
+        );
+        let sampled = Sampled {
+            drives,
+            at_least: 1,
+        };
+        read_channels(s, targets, noise, sampled, out, progress)?;
+    }
+    if !noise.is_some_and(|n| n.is_exact()) {
+        out.black = s.averaged(Patch::Black, s.remaining(), progress)?;
+    }
+    Ok(())
+}
+
+/// Reads the grey of a [`GreyLevel::Split`] whole at the drives the provisional
+/// profile gives it, to be split into its channels ([`super::split_grey`]), averaged
+/// in the dark as the low-light policy says; only where a channel's drive in it lies
+/// below that channel's samples, the ramps' and this pass's so far
+/// ([`below_the_samples`]: its curve is extrapolated there, where between samples it
+/// is interpolated). The channels' drives
+/// join `out` (a later level does not read beside them).
+fn read_split_if_extrapolated(
+    s: &mut Session<'_, '_>,
+    targets: &GreyTargets<'_>,
+    level: GreyLevel,
+    opts: &MeasureOptions,
+    out: &mut GreyDrives,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(), MeasureError> {
+    let Some(xyz) = level.xyz(targets.white) else {
+        return Ok(());
+    };
+    let max_code = crate::solve::clamped_bit_depth(targets.bit_depth).max_code_f64();
+    let drive = drive_at_codes(targets.prepared, xyz, opts.spot_uv, max_code);
+    let gap = drive_gap(s.rig.meter.info().noise.as_ref());
+    let extrapolated = (0..3).any(|c| {
+        let taken = targets.ramp_drives[c].iter().chain(&out.drives[c]);
+        below_the_samples(drive[c], &taken.copied().collect::<Vec<_>>(), gap)
+    });
+    if !extrapolated
+        || s.remaining() == 0
+        || s.sample(Patch::Grey(drive), true, progress)?.is_none()
+    {
+        return Ok(());
+    }
+    for c in Channel::ALL {
+        let d = drive[c.index()];
+        if d > 0.0 && d < 1.0 {
+            out.drives[c.index()].push(d);
+        }
+    }
+    Ok(())
 }
 
 /// Reads the grey at `drive` whole, as often as `targets` says (what the budget
@@ -591,7 +707,7 @@ fn brightest_share(levels: &[GreyLevel]) -> f64 {
         .iter()
         .filter_map(|l| match l {
             GreyLevel::Share(v) => Some(*v),
-            GreyLevel::Luminance(_) | GreyLevel::WidestGap => None,
+            GreyLevel::Luminance(_) | GreyLevel::WidestGap | GreyLevel::Split(_) => None,
         })
         .fold(0.0, f64::max)
 }
@@ -623,6 +739,9 @@ pub fn readings_needed(levels: &[GreyLevel], noise: Option<&ReadingNoise>, budge
         }
         GreyLevel::Share(_) | GreyLevel::WidestGap => 3,
         GreyLevel::Luminance(_) => 3 * dark_repeats(noise),
+        // One; in the dark the low-light average takes the rest from what the pass
+        // leaves, which would otherwise re-read the black.
+        GreyLevel::Split(_) => 1,
     };
     levels.iter().map(per_level).sum()
 }
@@ -636,12 +755,20 @@ mod tests {
     use super::*;
 
     #[test]
-    fn grey_levels_parse_as_shares_of_the_white_or_as_luminances() {
+    fn grey_levels_parse_as_shares_of_the_white_luminances_gaps_or_split_shares() {
         assert_eq!("0.5".parse(), Ok(GreyLevel::Share(0.5)));
         assert_eq!(" 1.5cd".parse(), Ok(GreyLevel::Luminance(1.5)));
         assert_eq!(" Gap".parse(), Ok(GreyLevel::WidestGap));
+        assert_eq!("0.02split".parse(), Ok(GreyLevel::Split(0.02)));
         assert_eq!(GreyLevel::WidestGap.xyz(Xyz::new(95.0, 100.0, 109.0)), None);
-        for bad in ["0", "1.2", "-1cd", "0cd", "nan", "cd", "1 cd/m2"] {
+        assert_eq!(
+            GreyLevel::Split(0.02).xyz(Xyz::new(95.0, 100.0, 109.0)),
+            Some(Xyz::new(95.0, 100.0, 109.0) * 0.02)
+        );
+        for bad in [
+            "0", "1.2", "-1cd", "0cd", "nan", "cd", "1 cd/m2", "split", "0split", "1.5split",
+            "2cdsplit",
+        ] {
             assert!(bad.parse::<GreyLevel>().is_err(), "{bad}");
         }
     }
@@ -672,13 +799,13 @@ mod tests {
         // 3 × 2.
         assert_eq!(white_channel_readings(Some(&n)), 2);
         assert_eq!(
-            readings_needed(&DEFAULT_LEVELS, Some(&n), 64),
+            readings_needed(&default_levels(64), Some(&n), 64),
             3 * 2 + whole + 3 + 6
         );
-        // Below 64 nothing is read whole.
+        // Below 64 nothing is read whole, and the split darkest grey reserves 1.
         assert_eq!(
-            readings_needed(&DEFAULT_LEVELS, Some(&n), 40),
-            3 * 2 + 3 + 6
+            readings_needed(&default_levels(40), Some(&n), 40),
+            3 * 2 + 3 + 6 + 1
         );
         // A user's levels: only 0.8, the brightest share, is read whole.
         let levels = [GreyLevel::Share(0.4), GreyLevel::Share(0.8)];

@@ -213,9 +213,9 @@ fn resume_refuses_a_run_folder_of_another_wall() {
 fn a_meter_that_stops_in_the_grey_drive_pass_resumes_with_the_grey_drives_only() {
     let out = tempfile::tempdir().unwrap();
     let wall = wall();
-    use lumiwall_calib::measure::grey_drives::{DEFAULT_LEVELS, readings_needed};
+    use lumiwall_calib::measure::grey_drives::{default_levels, readings_needed};
     let with_greys = |resume| CommissionOptions {
-        grey_levels: DEFAULT_LEVELS.to_vec(),
+        grey_levels: default_levels(40),
         ..options(resume)
     };
     // The pass's reserve depends on the noise the meter states (the emulated K-10-A's).
@@ -223,7 +223,7 @@ fn a_meter_that_stops_in_the_grey_drive_pass_resumes_with_the_grey_drives_only()
         .meter
         .info()
         .noise;
-    let measuring = 40 - readings_needed(&DEFAULT_LEVELS, noise.as_ref(), 40);
+    let measuring = 40 - readings_needed(&default_levels(40), noise.as_ref(), 40);
     let faults = FaultPlan {
         stop_after_readings: Some(2 * measuring + 1),
         ..FaultPlan::default()

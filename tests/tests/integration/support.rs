@@ -30,6 +30,7 @@ pub(crate) fn options_8500k(
     black_mode: BlackMode,
     resume: bool,
 ) -> CommissionOptions {
+    let grey_levels = lumiwall_calib::measure::grey_drives::default_levels(measure.budget);
     CommissionOptions {
         measure,
         solve: SolveOptions {
@@ -39,6 +40,6 @@ pub(crate) fn options_8500k(
         },
         resume,
         meter_correction: false,
-        grey_levels: lumiwall_calib::measure::grey_drives::DEFAULT_LEVELS.to_vec(),
+        grey_levels,
     }
 }
