@@ -485,7 +485,6 @@ fn add_split_greys(m: &mut MeasuredDisplay, profile: &DisplayProfile, noise: Opt
         black: m.measurement.black,
         primaries: m.measurement.primaries,
         model: profile.display_model,
-        xyz_to_drive: profile.xyz_to_drive,
     };
     let gap = drive_gap(noise.as_ref());
     // As `ramp_sigma_rel` weighs the ramps: with a stated, non-zero noise only.
@@ -538,8 +537,11 @@ fn usable_grey_levels(
         .iter()
         .copied()
         .filter(|l| match l {
-            GreyLevel::Share(_) | GreyLevel::WidestGap | GreyLevel::Split(_) => true,
+            GreyLevel::Share(_) | GreyLevel::WidestGap => true,
             GreyLevel::Luminance(y) => noise_stated || *y >= 3.0 * limit_cd_m2,
+            // Its samples come from the reading's colour through `P⁻¹`, which a meter
+            // that states no noise is not trusted with in the dark (`luminance_only`).
+            GreyLevel::Split(_) => noise_stated,
         })
         .collect()
 }
@@ -1079,5 +1081,15 @@ mod tests {
         );
         // ... and stated: its channel samples are weighted by it
         assert_eq!(usable_grey_levels(&levels, 1.0, true), levels.to_vec());
+    }
+
+    #[test]
+    fn a_grey_is_split_into_its_channels_only_with_a_meter_that_states_its_noise() {
+        let levels = [GreyLevel::Share(1.0), GreyLevel::Split(0.02)];
+        assert_eq!(usable_grey_levels(&levels, 0.0, true), levels.to_vec());
+        assert_eq!(
+            usable_grey_levels(&levels, 0.0, false),
+            vec![GreyLevel::Share(1.0)]
+        );
     }
 }

@@ -294,7 +294,7 @@ pub enum Patch {
     /// Any drive triple (verification patches, greys read whole).
     Drive([f64; 3]),
     /// A grey read whole to be split into its channels' intensities
-    /// ([`grey_drives::GreyLevel::Split`], [`channel_colour::split_greys`]).
+    /// ([`grey_drives::GreyLevel::Split`], [`split_grey::split_greys`]).
     Grey([f64; 3]),
 }
 

@@ -66,7 +66,9 @@ pub fn to_ti3(m: &DisplayMeasurement, created: &str) -> Result<String, Ti3Error>
     Ok(out)
 }
 
-/// (drive 0..1, raw XYZ) of every reading: black, the ramps, primaries, white.
+/// (drive 0..1, XYZ) of every reading: black, the ramps (as the solve takes them:
+/// each channel sample on its channel's line, with the channel samples split from the
+/// greys read whole, `measure::split_grey`), primaries, white.
 fn rows(m: &DisplayMeasurement) -> Vec<([f64; 3], lumiwall_devices::Xyz)> {
     let mut rows = vec![([0.0; 3], m.black)];
     for (c, ramp) in m.ramps.iter().enumerate() {

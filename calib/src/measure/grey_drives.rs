@@ -516,8 +516,8 @@ fn read_rest(
 /// in the dark as the low-light policy says; only where a channel's drive in it lies
 /// below that channel's samples, the ramps' and this pass's so far
 /// ([`below_the_samples`]: its curve is extrapolated there, where between samples it
-/// is interpolated). The channels' drives
-/// join `out` (a later level does not read beside them).
+/// is interpolated). The drives of the channels below their samples, which take
+/// the split's samples, join `out` (a later level does not read beside them).
 fn read_split_if_extrapolated(
     s: &mut Session<'_, '_>,
     targets: &GreyTargets<'_>,
@@ -532,21 +532,18 @@ fn read_split_if_extrapolated(
     let max_code = crate::solve::clamped_bit_depth(targets.bit_depth).max_code_f64();
     let drive = drive_at_codes(targets.prepared, xyz, opts.spot_uv, max_code);
     let gap = drive_gap(s.rig.meter.info().noise.as_ref());
-    let extrapolated = (0..3).any(|c| {
+    let below: [bool; 3] = std::array::from_fn(|c| {
         let taken = targets.ramp_drives[c].iter().chain(&out.drives[c]);
         below_the_samples(drive[c], &taken.copied().collect::<Vec<_>>(), gap)
     });
-    if !extrapolated
+    if !below.contains(&true)
         || s.remaining() == 0
         || s.sample(Patch::Grey(drive), true, progress)?.is_none()
     {
         return Ok(());
     }
-    for c in Channel::ALL {
-        let d = drive[c.index()];
-        if d > 0.0 && d < 1.0 {
-            out.drives[c.index()].push(d);
-        }
+    for c in (0..3).filter(|c| below[*c]) {
+        out.drives[c].push(drive[c]);
     }
     Ok(())
 }

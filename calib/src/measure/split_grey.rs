@@ -33,11 +33,9 @@ pub struct SplitDisplay {
     pub black: Xyz,
     /// The channels at full drive, black included (cd/m²).
     pub primaries: [Xyz; 3],
-    /// How the channels mix ([`DisplayModel::Additive`] or a white segment).
+    /// How the channels mix ([`DisplayModel::Additive`] or a white segment, whose `W`
+    /// is put in channel intensities through the split's own `P⁻¹`).
     pub model: DisplayModel,
-    /// The profile's `P⁻¹` (XYZ cd/m² to relative channel intensities), which the
-    /// white segment's inverse is stated in.
-    pub xyz_to_drive: [[f64; 3]; 3],
 }
 
 /// Whether a channel's `drive` in a grey lies below every one of its ramp samples
@@ -68,7 +66,7 @@ pub struct SplitSample {
     /// Relative intensity `a` (1 at full drive).
     pub intensity: f64,
     /// Relative standard error of `intensity` under the meter's stated noise (0 when the
-    /// meter states none or none at all).
+    /// meter states no noise or states that it is exact).
     pub sigma_rel: f64,
 }
 
@@ -103,6 +101,11 @@ fn columns(display: &SplitDisplay) -> Matrix3<f64> {
     Matrix3::from_columns(&display.primaries.map(|p| (p - display.black).to_vector()))
 }
 
+/// `p_inv` as the rows [`DisplayModel`] takes.
+fn rows(p_inv: &Matrix3<f64>) -> [[f64; 3]; 3] {
+    std::array::from_fn(|r| std::array::from_fn(|c| p_inv[(r, c)]))
+}
+
 /// One grey `xyz` (the mean of `n` readings) shown at `drive`, split into its channels.
 fn split_one(
     display: &SplitDisplay,
@@ -113,9 +116,7 @@ fn split_one(
     noise: Option<ReadingNoise>,
 ) -> Vec<(Channel, SplitSample)> {
     let m = p_inv * (xyz - display.black).to_vector();
-    let a = display
-        .model
-        .channels_for(&display.xyz_to_drive, [m[0], m[1], m[2]]);
+    let a = display.model.channels_for(&rows(p_inv), [m[0], m[1], m[2]]);
     let sigma = noise
         .filter(|n| !n.is_exact())
         .map(|noise| intensity_sigmas(display, p_inv, [m[0], m[1], m[2]], xyz, n, noise));
@@ -142,8 +143,11 @@ fn split_one(
 /// Standard errors of the three intensities split from a grey `xyz` averaged over `n`
 /// readings: the meter's noise in X, Y and Z ([`ReadingNoise::sigma_xyz`]) through
 /// `P⁻¹` and, with a white segment, through its inverse at `m` (linear where the
-/// smallest channel stays the smallest). The black's own noise is left out, as for a
-/// channel read alone ([`super::channel_colour::ramp_sigma_rel`]).
+/// smallest channel stays the smallest). The black's own noise is left out as it is
+/// for a channel read alone ([`super::channel_colour::ramp_sigma_rel`]), though `P⁻¹`
+/// moves a split sample by the black's error otherwise than the projection moves that
+/// channel's ramp samples; the black is read as often as this grey needs for 1.5 %
+/// ([`super::black_readings`]).
 fn intensity_sigmas(
     display: &SplitDisplay,
     p_inv: &Matrix3<f64>,
@@ -156,7 +160,7 @@ fn intensity_sigmas(
     let reading =
         Matrix3::from_diagonal(&(Vector3::new(s[0] * s[0], s[1] * s[1], s[2] * s[2]) / n));
     let cov_m = p_inv * reading * p_inv.transpose();
-    let j = white_segment_jacobian(display, m);
+    let j = white_segment_jacobian(display, p_inv, m);
     let cov_a = j * cov_m * j.transpose();
     std::array::from_fn(|c| cov_a[(c, c)].max(0.0).sqrt())
 }
@@ -165,8 +169,12 @@ fn intensity_sigmas(
 /// identity for an additive display, or where no white light is shown; with a white
 /// segment `u` (in channel intensities) and the smallest scaled channel `k`,
 /// `a = m − u·m_k/(1 + u_k)`.
-fn white_segment_jacobian(display: &SplitDisplay, m: [f64; 3]) -> Matrix3<f64> {
-    let u = display.model.white_in_channels(&display.xyz_to_drive);
+fn white_segment_jacobian(
+    display: &SplitDisplay,
+    p_inv: &Matrix3<f64>,
+    m: [f64; 3],
+) -> Matrix3<f64> {
+    let u = display.model.white_in_channels(&rows(p_inv));
     let scaled = |c: usize| m[c] / (1.0 + u[c]);
     let k = (0..3)
         .min_by(|&a, &b| scaled(a).total_cmp(&scaled(b)))
@@ -192,18 +200,10 @@ mod tests {
             Xyz::new(6.7, 13.9, 0.8),
             Xyz::new(3.7, 1.0, 20.3),
         ];
-        let p = columns(&SplitDisplay {
-            black,
-            primaries,
-            model,
-            xyz_to_drive: [[0.0; 3]; 3],
-        });
-        let inv = p.try_inverse().unwrap();
         SplitDisplay {
             black,
             primaries,
             model,
-            xyz_to_drive: std::array::from_fn(|r| std::array::from_fn(|c| inv[(r, c)])),
         }
     }
 
