@@ -804,12 +804,16 @@ fn bench_readings_with_an_ideal_reference_leaves_out_the_reference_units_own_err
 
 /// `--grey-levels` reaches the commissioning: without the grey-drive pass the curves
 /// are interpolated where the white and the greys sit, and the grey balance is worse.
+/// (The default's split darkest grey, read on this wall's red toe, takes its seed's
+/// grey balance from 0.118 to 0.187: `grey_drives::default_levels`.)
 #[test]
 fn bench_readings_without_the_grey_drive_pass_balances_the_greys_worse() {
     let grey_balance = |extra: &[&str]| realistic_row(extra)[7];
-    let default = grey_balance(&[]);
+    let pass = grey_balance(&["--grey-levels", "1,gap,1cd"]);
     let none = grey_balance(&["--grey-levels", "none"]);
-    assert!(none > default + 0.05, "none {none}, default {default}");
+    assert!(none > pass + 0.05, "none {none}, with the pass {pass}");
+    let default = grey_balance(&[]);
+    assert!(none > default, "none {none}, default {default}");
 }
 
 /// A wall just switched on drifts while the first displays are measured: without the
