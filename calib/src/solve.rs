@@ -384,7 +384,8 @@ fn check_black_and_primaries(name: &str, m: &DisplayMeasurement) -> Result<(), C
     Ok(())
 }
 
-fn rows(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
+/// `m` as rows, the profile's matrix layout (`xyz_to_drive`).
+pub(crate) fn rows(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
     [
         [m[(0, 0)], m[(0, 1)], m[(0, 2)]],
         [m[(1, 0)], m[(1, 1)], m[(1, 2)]],

@@ -440,7 +440,12 @@ pub fn read_grey_drives(
                 widest_gap_drive,
             ),
             GreyLevel::Split(_) => {
-                read_split_if_extrapolated(&mut s, targets, *level, opts, &mut out, &mut quiet)?;
+                let at = SplitAt {
+                    spot_uv: opts.spot_uv,
+                    max_code,
+                    gap: drive_gap(noise.as_ref()),
+                };
+                read_split_if_extrapolated(&mut s, targets, *level, at, &mut out, &mut quiet)?;
                 continue;
             }
             _ => {
@@ -511,6 +516,15 @@ fn read_rest(
     Ok(())
 }
 
+/// Where the pass reads a split grey: the meter's spot, the input's largest code and
+/// the drive gap of the meter's noise ([`drive_gap`]), as the pass has them.
+#[derive(Debug, Clone, Copy)]
+struct SplitAt {
+    spot_uv: [f64; 2],
+    max_code: f64,
+    gap: f64,
+}
+
 /// Reads the grey of a [`GreyLevel::Split`] whole at the drives the provisional
 /// profile gives it, to be split into its channels ([`super::split_grey`]), averaged
 /// in the dark as the low-light policy says; only where a channel's drive in it lies
@@ -522,16 +536,15 @@ fn read_split_if_extrapolated(
     s: &mut Session<'_, '_>,
     targets: &GreyTargets<'_>,
     level: GreyLevel,
-    opts: &MeasureOptions,
+    at: SplitAt,
     out: &mut GreyDrives,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(), MeasureError> {
     let Some(xyz) = level.xyz(targets.white) else {
         return Ok(());
     };
-    let max_code = crate::solve::clamped_bit_depth(targets.bit_depth).max_code_f64();
-    let drive = drive_at_codes(targets.prepared, xyz, opts.spot_uv, max_code);
-    let gap = drive_gap(s.rig.meter.info().noise.as_ref());
+    let drive = drive_at_codes(targets.prepared, xyz, at.spot_uv, at.max_code);
+    let gap = at.gap;
     let below: [bool; 3] = std::array::from_fn(|c| {
         let taken = targets.ramp_drives[c].iter().chain(&out.drives[c]);
         below_the_samples(drive[c], &taken.copied().collect::<Vec<_>>(), gap)

@@ -24,6 +24,7 @@ use lumiwall_profiles::DisplayModel;
 use nalgebra::{Matrix3, Vector3};
 
 use super::{MeasureLog, Patch};
+use crate::solve::rows;
 
 /// A display as the split needs it: black, full-drive primaries (black included) and
 /// how its channels mix.
@@ -81,7 +82,7 @@ pub fn split_greys(
     noise: Option<ReadingNoise>,
 ) -> [Vec<SplitSample>; 3] {
     let mut out: [Vec<SplitSample>; 3] = Default::default();
-    let Some(p_inv) = columns(display).try_inverse() else {
+    let Some(p_inv) = super::drive_matrix(display.black, &display.primaries) else {
         return out;
     };
     for r in &log.samples {
@@ -94,16 +95,6 @@ pub fn split_greys(
         }
     }
     out
-}
-
-/// The black-subtracted primaries as columns.
-fn columns(display: &SplitDisplay) -> Matrix3<f64> {
-    Matrix3::from_columns(&display.primaries.map(|p| (p - display.black).to_vector()))
-}
-
-/// `p_inv` as the rows [`DisplayModel`] takes.
-fn rows(p_inv: &Matrix3<f64>) -> [[f64; 3]; 3] {
-    std::array::from_fn(|r| std::array::from_fn(|c| p_inv[(r, c)]))
 }
 
 /// One grey `xyz` (the mean of `n` readings) shown at `drive`, split into its channels.
@@ -266,7 +257,7 @@ mod tests {
         let four = split_greys(&log_of([0.1; 3], xyz, 4), &d, Some(noise));
         // Monte Carlo of the same split under the meter's stated noise.
         let sx = noise.sigma_xyz(xyz);
-        let p_inv = columns(&d).try_inverse().unwrap();
+        let p_inv = crate::measure::drive_matrix(d.black, &d.primaries).unwrap();
         let mut rng = 12345u64;
         let mut gauss = || {
             // Box–Muller on a small LCG: deterministic.
