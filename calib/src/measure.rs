@@ -915,6 +915,24 @@ impl<'r, 'a> Session<'r, 'a> {
         self.sample_until(patch, false, Some(line), at_least, progress)
     }
 
+    /// [`Session::sample_channel_averaged`] that takes at most `at_most` readings (at
+    /// least one), whatever the low-light policy or the line asks: a sample that must
+    /// leave readings for others.
+    pub fn sample_channel_within(
+        &mut self,
+        patch: Patch,
+        line: &ChannelLine,
+        at_least: u32,
+        at_most: u32,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Option<Xyz>, MeasureError> {
+        let budget = self.budget;
+        self.budget = budget.min(self.log.readings.saturating_add(at_most.max(1)));
+        let r = self.sample_until(patch, false, Some(line), at_least, progress);
+        self.budget = budget;
+        r
+    }
+
     fn sample_until(
         &mut self,
         patch: Patch,

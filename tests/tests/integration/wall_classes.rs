@@ -421,3 +421,56 @@ fn a_channel_at_full_drive_in_the_white_is_read_in_its_last_gap_and_the_greys_be
         assert!(c.abs() <= 0.25, "{grey}: |ΔC'| {c:.3}");
     }
 }
+
+/// On a dim wall every dark sample of the grey-drive pass is averaged, and one of an
+/// early grey must not take the readings a later one needs. `infitec-pair` with lamps
+/// of 170 cd/m² (a 12 cd/m² wall white), the realistic meter and 40 readings per
+/// display, wall seeds 101–116: every display reads the chart's darkest grey whole
+/// (`GreyLevel::Split`, read where a channel's toe is unsampled, which at this white it
+/// always is). Before the pass left a reading for each sample still to come, the red
+/// of the 1 cd/m² grey took three or four of the last readings on four of these 32
+/// displays and the darkest grey went unread (`grey_drives::readings_after`).
+#[test]
+fn a_dim_walls_grey_drive_pass_leaves_its_darkest_grey_a_reading() {
+    use lumiwall_calib::measure::Patch;
+    let text =
+        std::fs::read_to_string(crate::support::wall_path("infitec-pair.toml")).expect("wall file");
+    assert!(
+        text.contains("white_cd_m2 = 1000.0"),
+        "the fixture's lamp changed"
+    );
+    let mut unread = Vec::new();
+    for seed in 101..=116 {
+        let dim = text
+            .replace("white_cd_m2 = 1000.0", "white_cd_m2 = 170.0")
+            .replace("seed = 5", &format!("seed = {seed}"));
+        let dir = tempfile::tempdir().expect("tmp");
+        let path = dir.path().join("wall.toml");
+        std::fs::write(&path, dim).expect("wall file");
+        let mut station = lumiwall_calib::station::Station::open(
+            &path,
+            &lumiwall_calib::station::StationOptions::new(
+                lumiwall_calib::station::MeterChoice::Direct,
+                Noise::Realistic,
+            ),
+        )
+        .expect("station");
+        let opts =
+            crate::support::options_8500k(MeasureOptions::default(), BlackMode::Individual, false);
+        let o = station
+            .commission(&dir.path().join("out"), &opts, &mut |_| {})
+            .expect("commission");
+        for m in &o.measured {
+            assert!(m.measurement.readings <= 40, "seed {seed}: {m:?}");
+            if !m
+                .log
+                .samples
+                .iter()
+                .any(|r| matches!(r.patch, Patch::Grey(_)))
+            {
+                unread.push(format!("seed {seed}: {}", m.measurement.key));
+            }
+        }
+    }
+    assert!(unread.is_empty(), "darkest grey unread on {unread:?}");
+}
