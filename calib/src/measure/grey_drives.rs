@@ -862,6 +862,17 @@ mod tests {
     }
 
     #[test]
+    fn a_grey_leaves_one_reading_per_later_channel_sample_and_one_for_a_split_grey() {
+        // 1, gap, 1cd, 0.02split.
+        let levels = default_levels(40);
+        assert_eq!(levels.len(), 4);
+        assert_eq!(readings_after(&levels, 0), 3 + 3 + 1);
+        assert_eq!(readings_after(&levels, 2), 1);
+        assert_eq!(readings_after(&levels, 3), 0);
+        assert_eq!(readings_after(&default_levels(64), 0), 3 + 3);
+    }
+
+    #[test]
     fn the_widest_gap_is_found_among_the_samples_within_the_greys_range() {
         // Gaps 0–0.1, 0.1–0.5 (the widest), 0.5–0.62, 0.62–0.75, 0.75–0.9 (the white).
         let got = widest_gap_drive(&[0.62, 0.1, 0.75, 0.5, 0.95], 0.05, 0.9);
