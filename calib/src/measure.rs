@@ -888,7 +888,7 @@ impl<'r, 'a> Session<'r, 'a> {
         always_average: bool,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<Option<Xyz>, MeasureError> {
-        self.sample_until(patch, always_average, None, 1, progress)
+        self.sample_until(patch, always_average, None, Repeats::ANY, progress)
     }
 
     /// [`Session::sample`] of one channel alone, averaged in the dark only as often as
@@ -900,37 +900,21 @@ impl<'r, 'a> Session<'r, 'a> {
         line: &ChannelLine,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<Option<Xyz>, MeasureError> {
-        self.sample_until(patch, false, Some(line), 1, progress)
+        self.sample_until(patch, false, Some(line), Repeats::ANY, progress)
     }
 
-    /// [`Session::sample_channel`] averaged over at least `at_least` readings, in the
-    /// light too (at most what the budget leaves).
+    /// [`Session::sample_channel`] averaged over at least `repeats.at_least` readings,
+    /// in the light too, and over at most `repeats.at_most` (at least one), whatever the
+    /// low-light policy or the line asks: a sample that must leave readings for others.
+    /// Never more than the budget leaves.
     pub fn sample_channel_averaged(
         &mut self,
         patch: Patch,
         line: &ChannelLine,
-        at_least: u32,
+        repeats: Repeats,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<Option<Xyz>, MeasureError> {
-        self.sample_until(patch, false, Some(line), at_least, progress)
-    }
-
-    /// [`Session::sample_channel_averaged`] that takes at most `at_most` readings (at
-    /// least one), whatever the low-light policy or the line asks: a sample that must
-    /// leave readings for others.
-    pub fn sample_channel_within(
-        &mut self,
-        patch: Patch,
-        line: &ChannelLine,
-        at_least: u32,
-        at_most: u32,
-        progress: &mut dyn FnMut(Progress),
-    ) -> Result<Option<Xyz>, MeasureError> {
-        let budget = self.budget;
-        self.budget = budget.min(self.log.readings.saturating_add(at_most.max(1)));
-        let r = self.sample_until(patch, false, Some(line), at_least, progress);
-        self.budget = budget;
-        r
+        self.sample_until(patch, false, Some(line), repeats, progress)
     }
 
     fn sample_until(
@@ -938,15 +922,16 @@ impl<'r, 'a> Session<'r, 'a> {
         patch: Patch,
         always_average: bool,
         line: Option<&ChannelLine>,
-        at_least: u32,
+        bounds: Repeats,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<Option<Xyz>, MeasureError> {
+        let at_most = bounds.at_most.max(1);
         self.show(patch)?;
         let first = self.read_once(patch, progress)?;
         if let Some(x) = first.filter(|x| x.y >= self.limit_cd_m2) {
             let mut sum = x;
-            let (more, ok) =
-                self.read_into(patch, at_least.saturating_sub(1), &mut sum, progress)?;
+            let more = bounds.at_least.min(at_most).saturating_sub(1);
+            let (more, ok) = self.read_into(patch, more, &mut sum, progress)?;
             let mean = sum * (1.0 / f64::from(1 + ok));
             self.log.samples.push(ReadingRecord {
                 patch,
@@ -966,7 +951,7 @@ impl<'r, 'a> Session<'r, 'a> {
             _ => repeats,
         };
         let repeats = if repeats > 0 {
-            repeats.max(at_least)
+            repeats.max(bounds.at_least).min(at_most)
         } else {
             repeats
         };
@@ -1137,6 +1122,24 @@ pub fn channel_reading(reading: Xyz, black: Xyz, full: Xyz, noise: Option<&Readi
 /// ramps more than it gives at 40 readings (0.5 % and up to 8 repeats: heyewall-48's
 /// worst grey balance 0.43 → 1.1).
 pub const DARK_SAMPLE_REL_SIGMA: f64 = 0.01;
+
+/// How many readings a sample averages at least and at most, whatever the low-light
+/// policy asks ([`Session::sample_channel_averaged`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Repeats {
+    /// Readings averaged at least, in the light too.
+    pub at_least: u32,
+    /// Readings averaged at most (at least one is always taken).
+    pub at_most: u32,
+}
+
+impl Repeats {
+    /// One reading, or as many as the low-light policy asks in the dark.
+    pub const ANY: Repeats = Repeats {
+        at_least: 1,
+        at_most: u32::MAX,
+    };
+}
 
 /// A channel's line in XYZ (its black and full-drive readings) and the meter's stated
 /// noise: what a single-channel sample is judged against.

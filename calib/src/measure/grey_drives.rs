@@ -37,7 +37,7 @@ use lumiwall_profiles::DisplayKey;
 use lumiwall_profiles::apply::PreparedProfile;
 
 use super::split_grey::below_the_samples;
-use super::{ChannelLine, MeasureError, MeasureOptions, Patch, Progress, Rig, Session};
+use super::{ChannelLine, MeasureError, MeasureOptions, Patch, Progress, Repeats, Rig, Session};
 use crate::solve::CompositeReading;
 use crate::verify::drive_for;
 
@@ -628,15 +628,12 @@ fn read_channels(
             full: targets.primaries[c.index()],
             noise,
         };
-        let at_most = s.remaining().saturating_sub(after).max(1);
-        if s.sample_channel_within(
-            Patch::Ramp(c, d),
-            &line,
-            sampled.at_least,
-            at_most,
-            progress,
-        )?
-        .is_some()
+        let repeats = Repeats {
+            at_least: sampled.at_least,
+            at_most: s.remaining().saturating_sub(after).max(1),
+        };
+        if s.sample_channel_averaged(Patch::Ramp(c, d), &line, repeats, progress)?
+            .is_some()
         {
             out.drives[c.index()].push(d);
         }
