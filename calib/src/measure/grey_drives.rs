@@ -431,6 +431,11 @@ pub fn read_grey_drives(
     let mut out = GreyDrives::default();
     let brightest = brightest_share(targets.levels);
     let max_code = crate::solve::clamped_bit_depth(targets.bit_depth).max_code_f64();
+    let at = ReadAt {
+        spot_uv: opts.spot_uv,
+        max_code,
+        gap: drive_gap(noise.as_ref()),
+    };
     for (i, level) in targets.levels.iter().enumerate() {
         let sampled = match level {
             GreyLevel::WidestGap => gap_drives(
@@ -441,11 +446,6 @@ pub fn read_grey_drives(
                 widest_gap_drive,
             ),
             GreyLevel::Split(_) => {
-                let at = SplitAt {
-                    spot_uv: opts.spot_uv,
-                    max_code,
-                    gap: drive_gap(noise.as_ref()),
-                };
                 read_split_if_extrapolated(&mut s, targets, *level, at, &mut out, &mut quiet)?;
                 continue;
             }
@@ -474,7 +474,7 @@ pub fn read_grey_drives(
         read_channels(&mut s, targets, noise, sampled, &mut out, &mut quiet)?;
     }
     if targets.black_with_rest {
-        read_rest(&mut s, targets, noise, opts.spot_uv, &mut out, &mut quiet)?;
+        read_rest(&mut s, targets, noise, at, &mut out, &mut quiet)?;
     }
     out.readings = s.log.readings;
     out.samples = std::mem::take(&mut s.log.samples);
@@ -493,17 +493,16 @@ fn read_rest(
     s: &mut Session<'_, '_>,
     targets: &GreyTargets<'_>,
     noise: Option<ReadingNoise>,
-    spot_uv: [f64; 2],
+    at: ReadAt,
     out: &mut GreyDrives,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(), MeasureError> {
     if s.remaining() >= REST_GAP_MIN_READINGS {
-        let max_code = crate::solve::clamped_bit_depth(targets.bit_depth).max_code_f64();
         let drives = gap_drives(
             targets,
             &out.drives,
-            spot_uv,
-            max_code,
+            at.spot_uv,
+            at.max_code,
             widest_ratio_gap_drive,
         );
         let sampled = Sampled {
@@ -519,10 +518,10 @@ fn read_rest(
     Ok(())
 }
 
-/// Where the pass reads a split grey: the meter's spot, the input's largest code and
-/// the drive gap of the meter's noise ([`drive_gap`]), as the pass has them.
+/// Where the pass reads: the meter's spot, the input's largest code and the drive gap
+/// of the meter's noise ([`drive_gap`]).
 #[derive(Debug, Clone, Copy)]
-struct SplitAt {
+struct ReadAt {
     spot_uv: [f64; 2],
     max_code: f64,
     gap: f64,
@@ -539,7 +538,7 @@ fn read_split_if_extrapolated(
     s: &mut Session<'_, '_>,
     targets: &GreyTargets<'_>,
     level: GreyLevel,
-    at: SplitAt,
+    at: ReadAt,
     out: &mut GreyDrives,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(), MeasureError> {
