@@ -217,8 +217,8 @@ pub(crate) struct CommissionArgs {
     /// Meter readings allowed per display (11 to 10 000).
     #[arg(long, default_value_t = 40, value_parser = parse_budget)]
     budget: u32,
-    /// Below the meter's reliable limit: average N readings (avg:N) or skip ramp
-    /// samples (skip).
+    /// Below the meter's reliable limit: average N readings (avg:N; a single-channel
+    /// ramp sample at most 2) or skip ramp samples (skip).
     #[arg(long, default_value = "avg:4")]
     low_light: LowLight,
     /// After every display is measured: each channel read alone at the code each

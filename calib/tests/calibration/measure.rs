@@ -251,6 +251,31 @@ fn low_light_readings_are_averaged_or_skipped() {
     }
 }
 
+/// Under the default low-light policy (four readings), a dark single-channel ramp
+/// sample averages at most [`DARK_CHANNEL_REPEATS`] (two) while the dark black averages
+/// four: more drives pin a dark curve better than more readings at one.
+#[test]
+fn a_dark_ramp_sample_averages_at_most_two_readings_where_the_black_averages_four() {
+    use lumiwall_calib::measure::{DARK_CHANNEL_REPEATS, Patch};
+    assert_eq!(DARK_CHANNEL_REPEATS, 2);
+    let mut bench = Bench::new();
+    bench.min_reliable_cd_m2 = 1.0;
+    let (m, _) = run(bench, &MeasureOptions::default());
+    let m = m.unwrap();
+    let dark_ramps: Vec<u32> = m
+        .log
+        .samples
+        .iter()
+        .filter(|r| matches!(r.patch, Patch::Ramp(..)) && r.low_light)
+        .map(|r| r.repeats)
+        .collect();
+    assert!(dark_ramps.len() >= 3, "{dark_ramps:?}");
+    assert!(dark_ramps.iter().all(|n| *n <= 2), "{dark_ramps:?}");
+    assert!(dark_ramps.contains(&2), "{dark_ramps:?}");
+    assert_eq!(m.log.samples[0].patch, Patch::Black);
+    assert_eq!(m.log.samples[0].repeats, 4);
+}
+
 #[test]
 fn too_small_budget_is_refused() {
     let opts = MeasureOptions {
