@@ -1141,9 +1141,9 @@ pub const DARK_SAMPLE_REL_SIGMA: f64 = 0.01;
 /// 132 of 240 (mean worst grey balance 0.500 / 0.482 / 0.497), dim-infitec-pair 160 /
 /// 180 / 187 (0.466 / 0.437 / 0.419), dim-lcd-3x2 230 / 229 / 233, weak-channel-3x1
 /// 237 / 239 / 234 (0.311 / 0.300 / 0.314), heyewall-48 60 / 60 / 60 of 60 (0.385 /
-/// 0.378 / 0.371). Two for the black, the primaries and the split grey as well took
-/// heyewall-48 to 55 of 60 (its black read twice where four were needed) and
-/// dim-lcd-3x2 to 214.
+/// 0.378 / 0.371). Two for every dark reading (`--low-light avg:2`: the black, a dim
+/// primary and the split grey as well) took heyewall-48 to 55 of 60 (mean worst grey
+/// balance 0.403; its black read twice instead of four times) and dim-lcd-3x2 to 214.
 pub const DARK_CHANNEL_REPEATS: u32 = 2;
 
 /// How many readings a sample averages at least and at most, whatever the low-light
