@@ -153,7 +153,8 @@ pub const SPLIT_DEFAULT_BELOW_BUDGET: u32 = 64;
 /// (2 % of the white) read whole and split into its channels ([`GreyLevel::Split`],
 /// [`super::split_grey`]), read only where one of its channels sits below that
 /// channel's samples: on a dim wall (white about 12 cd/m²) 40 readings leave the
-/// toes unsampled, every dark reading being averaged four times, and the fitted toe
+/// toes unsampled, every dark reading being averaged four times (before
+/// [`super::DARK_CHANNEL_REPEATS`]), and the fitted toe
 /// comes out low (dim-mono-2x1 seed 101: green 10 % low at drive 0.10, the 2 % grey
 /// ΔC' 2.4). On a bright wall the ramps mostly reach below that grey and nothing is
 /// read (heyewall-48 seed 103: 9 of 48 displays read it). Realistic meter, 40

@@ -8,8 +8,9 @@
 //! ([`DisplayModel::channels_for`]): three toe samples for the price of one.
 //!
 //! Why, on a dim wall: the chart's darkest greys (2 % and 5 % of the white) sit in the
-//! tone curves' toes, which the ramps leave unsampled at 40 readings when every dark
-//! reading is averaged four times (a 12 cd/m² wall's green below drive 0.2). Read
+//! tone curves' toes, which the ramps left unsampled at 40 readings when every dark
+//! reading was averaged four times (a 12 cd/m² wall's green below drive 0.2; a dark
+//! channel sample now averages at most [`super::DARK_CHANNEL_REPEATS`]). Read
 //! channel by channel, each sample carries the black's error once, so a grey mixed from
 //! three of them carries it twice (`R + G + B − 2K`); read whole, the grey is `K + P·a`
 //! with the same `K` subtracted and added back, and the black's error cancels at the
