@@ -14,7 +14,7 @@
 //!    log–log slope of the knots. A pure power law is then a straight line in `u` and
 //!    is recovered exactly; S-curves are close to straight. The power map is monotone, so the curve stays monotone.
 //!    Between black and the first knot the curve is a linear part and the power law
-//!    γ̂ mixed instead ([`toe_and_slopes`]), so that a near-linear toe is followed too.
+//!    γ̂ mixed instead (`toe_and_slopes`), so that a near-linear toe is followed too.
 //! 4. The inverse LUT is built by bisection on that interpolant: entry `i` is the lowest
 //!    drive whose intensity reaches `i/(n−1)` (flat regions map to their lowest drive).
 //!

@@ -409,8 +409,8 @@ fn dark_repeats(noise: Option<&ReadingNoise>) -> u32 {
 /// [`FULL_DRIVE_STAND_IN_SHARE`] of that grey. Samples below the meter's reliable limit
 /// are averaged as their channel's stated noise needs ([`super::ChannelLine`]), or as
 /// the low-light policy says, but never into the reading each sample still to come
-/// needs ([`readings_after`]). [`GreyLevel::WidestGap`] reads each channel in its
-/// widest gap ([`gap_drives`]). With a meter that has noise, and where `targets` say
+/// needs (`readings_after`). [`GreyLevel::WidestGap`] reads each channel in its
+/// widest gap (`gap_drives`). With a meter that has noise, and where `targets` say
 /// so, the readings left of `opts.budget` then re-read the black
 /// ([`GreyDrives::black`]). At most `opts.budget` readings.
 pub fn read_grey_drives(

@@ -131,7 +131,7 @@ fn sensor_variance(r: Xyz, n: f64) -> [f64; 3] {
 /// mono-2x1 0.46 → 0.47 (seeds 101–140).
 ///
 /// Returns `None` (no change) when the residual is not explained by meter noise
-/// (χ² above `max_chi2`, judged with the xy noise model of [`reading_variance`], as
+/// (χ² above `max_chi2`, judged with the xy noise model of `reading_variance`, as
 /// the additivity check has always been): then the display is not additive and the
 /// solve should warn.
 pub fn fuse_with_white(
