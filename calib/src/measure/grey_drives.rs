@@ -393,12 +393,14 @@ pub fn whole_grey_repeats(noise: Option<&ReadingNoise>, budget: u32) -> u32 {
 }
 
 /// Readings per channel sample of a dark grey level: one for a meter that states it
-/// has no noise, else [`DARK_REPEATS`].
+/// has no noise, else the most a dark channel sample averages
+/// ([`super::DARK_CHANNEL_REPEATS`]; the weighted samples of a CS-100A class meter need
+/// one or two).
 fn dark_repeats(noise: Option<&ReadingNoise>) -> u32 {
     if noise.is_some_and(ReadingNoise::is_exact) {
         1
     } else {
-        DARK_REPEATS
+        super::DARK_CHANNEL_REPEATS
     }
 }
 
@@ -770,12 +772,12 @@ pub fn check_levels(levels: &[GreyLevel]) -> Result<(), String> {
 
 /// Readings the pass reserves per display of `budget` readings read with a meter of
 /// stated `noise`: for a share of the white or the widest gap, one per channel, and
-/// [`whole_grey_repeats`] for the brightest, read whole; two per channel of a dark grey given
-/// as a luminance (one with an exact meter), whose samples the low-light policy
-/// averages (reserving one left heyewall-48's dark greys without their own samples at
-/// 40 readings, realistic meter: 1 cd/m² grey +8–16 % on the right-eye displays, max
-/// ΔE2000 5.1; with two, 3.6). Readings an exact meter does not need stay with the
-/// ramps.
+/// [`whole_grey_repeats`] for the brightest, read whole; for a dark grey given as a
+/// luminance, the most a dark channel sample averages per channel
+/// ([`super::DARK_CHANNEL_REPEATS`], two; one with an exact meter). Reserving one there
+/// left heyewall-48's dark greys without their own samples at 40 readings, realistic
+/// meter: 1 cd/m² grey +8–16 % on the right-eye displays, max ΔE2000 5.1; with two,
+/// 3.6. Readings an exact meter does not need stay with the ramps.
 pub fn readings_needed(levels: &[GreyLevel], noise: Option<&ReadingNoise>, budget: u32) -> u32 {
     let brightest = brightest_share(levels);
     let per_level = |l: &GreyLevel| match l {
@@ -790,10 +792,6 @@ pub fn readings_needed(levels: &[GreyLevel], noise: Option<&ReadingNoise>, budge
     };
     levels.iter().map(per_level).sum()
 }
-
-/// Readings reserved per channel sample of a dark grey level (the weighted samples of
-/// a CS-100A class meter need one or two).
-const DARK_REPEATS: u32 = 2;
 
 #[cfg(test)]
 mod tests {
