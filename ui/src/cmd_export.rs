@@ -20,7 +20,8 @@ use crate::values;
 /// Export formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub(crate) enum Format {
-    /// ArgyllCMS `.ti3`: RGB → XYZ of every reading, one file per display and eye.
+    /// ArgyllCMS `.ti3`: RGB → XYZ of every sample as read (the mean of its readings),
+    /// one file per display and eye.
     Ti3,
     /// `.cube` 3D LUT: common-gamut RGB (encoded with a 2.2 power, 1 = the target
     /// white) → the post pass's drive at the display centre, one file per display and eye.
@@ -266,12 +267,12 @@ fn run_ti3(args: &ExportArgs) -> Result<(), CliError> {
             continue;
         };
         let m = &measured.measurement;
-        let text = to_ti3(m, &created).map_err(|e| CliError::input(e.to_string()))?;
+        let text = to_ti3(&measured, &created).map_err(|e| CliError::input(e.to_string()))?;
         let path = args.out_dir.join(format!("{}.ti3", m.key.file_stem()));
         lumiwall_profiles::write_atomic(&path, text.as_bytes())
             .map_err(|e| CliError::failure(format!("cannot write {}: {e}", path.display())))?;
         println!(
-            "written: {} ({} readings)",
+            "written: {} ({} samples as read)",
             path.display(),
             text.lines()
                 .filter(|l| l.chars().next().is_some_and(|c| c.is_ascii_digit()))

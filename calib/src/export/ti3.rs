@@ -1,9 +1,20 @@
-//! A display's commissioning measurements as an ArgyllCMS `.ti3` (CGATS `CTI3`,
-//! `COLOR_REP RGB_XYZ`, the layout `dispread` writes): one row per reading (black,
-//! every ramp step, the primaries, white), RGB in percent, XYZ normalised to the white's
-//! Y = 100 with the white's absolute XYZ in `LUMINANCE_XYZ_CDM2`.
+//! A display's commissioning readings as an ArgyllCMS `.ti3` (CGATS `CTI3`,
+//! `COLOR_REP RGB_XYZ`, the layout `dispread` writes): one row per sample of the
+//! measurement log, in the order read (black, primaries, white, every ramp step, the
+//! channel samples and greys of the grey-drive pass), each its drive and the mean XYZ
+//! of its readings as the meter gave them (through the display-type correction matrix
+//! where one was given, as `dispread -X` writes them). RGB in percent, XYZ normalised
+//! to the white's Y = 100 with the white's absolute XYZ in `LUMINANCE_XYZ_CDM2`.
+//!
+//! What the solve derives from the readings is not written as if it had been read: a
+//! ramp sample put on its channel's line, a primary pooled over its ramp
+//! (`measure::channel_colour`), the channel samples split from a grey read whole
+//! (`measure::split_grey`). Each grey read whole is written as the grey it was, at its
+//! three drives. After a nightly refit (`recalibrate`) the log is still the
+//! commissioning's: the export holds that night's readings.
 
-use crate::solve::DisplayMeasurement;
+use crate::measure::MeasuredDisplay;
+use lumiwall_devices::Xyz;
 
 /// Why a measurement cannot be exported.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -15,21 +26,43 @@ pub struct Ti3Error {
     pub message: String,
 }
 
-/// The `.ti3` text of `m`, dated `created`. Needs the white reading (every
-/// commissioning takes it) to normalise to.
-pub fn to_ti3(m: &DisplayMeasurement, created: &str) -> Result<String, Ti3Error> {
-    let white = m.white.ok_or_else(|| Ti3Error {
+/// The `.ti3` text of the readings logged in `measured`, dated `created`. Needs a
+/// white reading (every commissioning takes one) to normalise to.
+pub fn to_ti3(measured: &MeasuredDisplay, created: &str) -> Result<String, Ti3Error> {
+    let m = &measured.measurement;
+    let refuse = |message: String| Ti3Error {
         display: m.key.file_stem(),
-        message: "no white reading to normalise the .ti3 to".into(),
-    })?;
+        message,
+    };
+    let white = white_reading(measured)
+        .ok_or_else(|| refuse("no white reading to normalise the .ti3 to".into()))?;
     if !(white.y.is_finite() && white.y > 0.0) {
-        return Err(Ti3Error {
-            display: m.key.file_stem(),
-            message: format!("white luminance {} cd/m² cannot be normalised to", white.y),
-        });
+        return Err(refuse(format!(
+            "white luminance {} cd/m² cannot be normalised to",
+            white.y
+        )));
     }
-    let rows = rows(m);
-    let scale = 100.0 / white.y;
+    let rows = rows(measured);
+    if let Some((rgb, xyz)) = rows.iter().find(|(_, xyz)| !xyz.is_finite()) {
+        return Err(refuse(format!(
+            "the reading at drive {rgb:?} is not a number ({xyz:?})"
+        )));
+    }
+    Ok(header(&m.instrument, white, created, rows.len()) + &data(&rows, 100.0 / white.y))
+}
+
+/// The white the rows are normalised to: the log's last white reading, else the
+/// measurement's.
+fn white_reading(measured: &MeasuredDisplay) -> Option<Xyz> {
+    measured
+        .log
+        .last_read(crate::measure::Patch::White)
+        .and_then(|r| r.xyz)
+        .or(measured.measurement.white)
+}
+
+/// The CGATS header up to `BEGIN_DATA`.
+fn header(instrument: &str, white: Xyz, created: &str, sets: usize) -> String {
     let q = |s: &str| s.replace('"', "'");
     let mut out = String::from("CTI3   \n\n");
     out += "DESCRIPTOR \"Argyll Calibration Target chart information 3\"\n";
@@ -39,7 +72,7 @@ pub fn to_ti3(m: &DisplayMeasurement, created: &str) -> Result<String, Ti3Error>
     out += "KEYWORD \"COLOR_REP\"\nCOLOR_REP \"RGB_XYZ\"\n";
     out += &format!(
         "KEYWORD \"TARGET_INSTRUMENT\"\nTARGET_INSTRUMENT \"{}\"\n",
-        q(&m.instrument)
+        q(instrument)
     );
     out += "KEYWORD \"INSTRUMENT_TYPE_SPECTRAL\"\nINSTRUMENT_TYPE_SPECTRAL \"NO\"\n";
     out += &format!(
@@ -49,7 +82,13 @@ pub fn to_ti3(m: &DisplayMeasurement, created: &str) -> Result<String, Ti3Error>
     out += "KEYWORD \"NORMALIZED_TO_Y_100\"\nNORMALIZED_TO_Y_100 \"YES\"\n\n";
     out += "NUMBER_OF_FIELDS 7\nBEGIN_DATA_FORMAT\n";
     out += "SAMPLE_ID RGB_R RGB_G RGB_B XYZ_X XYZ_Y XYZ_Z\nEND_DATA_FORMAT\n\n";
-    out += &format!("NUMBER_OF_SETS {}\nBEGIN_DATA\n", rows.len());
+    out += &format!("NUMBER_OF_SETS {sets}\nBEGIN_DATA\n");
+    out
+}
+
+/// The data rows (RGB in percent, XYZ times `scale`) and `END_DATA`.
+fn data(rows: &[([f64; 3], Xyz)], scale: f64) -> String {
+    let mut out = String::new();
     for (i, (rgb, xyz)) in rows.iter().enumerate() {
         out += &format!(
             "{} {:.4} {:.4} {:.4} {:.6} {:.6} {:.6}\n",
@@ -63,40 +102,57 @@ pub fn to_ti3(m: &DisplayMeasurement, created: &str) -> Result<String, Ti3Error>
         );
     }
     out += "END_DATA\n";
-    Ok(out)
+    out
 }
 
-/// (drive 0..1, XYZ) of every reading: black, the ramps (as the solve takes them:
-/// each channel sample on its channel's line, with the channel samples split from the
-/// greys read whole, `measure::split_grey`), primaries, white.
-fn rows(m: &DisplayMeasurement) -> Vec<([f64; 3], lumiwall_devices::Xyz)> {
-    let mut rows = vec![([0.0; 3], m.black)];
-    for (c, ramp) in m.ramps.iter().enumerate() {
-        for &(drive, xyz) in ramp {
-            let mut rgb = [0.0; 3];
-            rgb[c] = drive;
-            rows.push((rgb, xyz));
-        }
-    }
-    for (c, p) in m.primaries.iter().enumerate() {
-        let mut rgb = [0.0; 3];
-        rgb[c] = 1.0;
-        rows.push((rgb, *p));
-    }
-    if let Some(w) = m.white {
-        rows.push(([1.0; 3], w));
-    }
-    rows
+/// (drive 0..1, mean XYZ) of every logged sample that gave a reading, in the order read.
+fn rows(measured: &MeasuredDisplay) -> Vec<([f64; 3], Xyz)> {
+    measured
+        .log
+        .samples
+        .iter()
+        .filter_map(|r| r.xyz.map(|xyz| (r.patch.drive(), xyz)))
+        .collect()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use lumiwall_devices::Xyz;
+    use crate::measure::{MeasureLog, Patch, ReadingRecord};
+    use crate::solve::DisplayMeasurement;
+    use lumiwall_core::Channel;
 
-    fn measurement(white: Option<Xyz>) -> DisplayMeasurement {
-        let xyz = |y: f64| Xyz::new(0.95 * y, y, 1.09 * y);
-        DisplayMeasurement {
+    fn xyz(y: f64) -> Xyz {
+        Xyz::new(0.95 * y, y, 1.09 * y)
+    }
+
+    fn record(patch: Patch, xyz: Option<Xyz>, repeats: u32) -> ReadingRecord {
+        ReadingRecord {
+            patch,
+            xyz,
+            repeats,
+            low_light: false,
+        }
+    }
+
+    /// A display whose log holds black, the primaries, white, one ramp step per channel
+    /// (the blue one refused by the meter) and a grey read whole; its measurement holds
+    /// what the solve derived: pooled primaries, ramps on their lines, a split sample.
+    fn measured(white: Option<Xyz>) -> MeasuredDisplay {
+        let mut samples = vec![
+            record(Patch::Black, Some(xyz(0.1)), 4),
+            record(Patch::Primary(Channel::Red), Some(xyz(30.0)), 1),
+            record(Patch::Primary(Channel::Green), Some(xyz(60.0)), 1),
+            record(Patch::Primary(Channel::Blue), Some(xyz(10.0)), 1),
+            record(Patch::Ramp(Channel::Red, 0.5), Some(xyz(7.0)), 1),
+            record(Patch::Ramp(Channel::Green, 0.5), Some(xyz(14.0)), 1),
+            record(Patch::Ramp(Channel::Blue, 0.02), None, 0),
+            record(Patch::Grey([0.1, 0.12, 0.08]), Some(xyz(0.9)), 2),
+        ];
+        if let Some(w) = white {
+            samples.insert(4, record(Patch::White, Some(w), 3));
+        }
+        let measurement = DisplayMeasurement {
             key: lumiwall_core::DisplayKey {
                 wall: "w".into(),
                 display: 0,
@@ -106,44 +162,73 @@ mod tests {
             },
             bit_depth: 8,
             black: xyz(0.1),
-            primaries: [xyz(30.0), xyz(60.0), xyz(10.0)],
+            primaries: [xyz(30.3), xyz(59.7), xyz(10.1)],
             white,
             ramps: [
-                vec![(0.5, xyz(7.0))],
-                vec![(0.5, xyz(14.0))],
-                vec![(0.5, xyz(2.5))],
+                vec![(0.5, xyz(7.05)), (0.1, xyz(0.21))],
+                vec![(0.5, xyz(13.9))],
+                vec![(0.08, xyz(0.11))],
             ],
-            readings: 8,
+            readings: 14,
             instrument: "virtual".into(),
             composites: Vec::new(),
             ramp_sigma_rel: Default::default(),
+        };
+        MeasuredDisplay {
+            measurement,
+            log: MeasureLog {
+                samples,
+                readings: 14,
+                ..MeasureLog::default()
+            },
+            anchor: None,
         }
     }
 
-    #[test]
-    fn a_ti3_holds_every_reading_normalised_to_the_white() {
-        let text = to_ti3(&measurement(Some(Xyz::new(95.0, 100.0, 109.0))), "now").unwrap();
-        assert!(text.starts_with("CTI3"));
-        assert!(text.contains("LUMINANCE_XYZ_CDM2 \"95.000000 100.000000 109.000000\""));
-        let data: Vec<&str> = text
-            .split("BEGIN_DATA\n")
+    fn data_rows(text: &str) -> Vec<&str> {
+        text.split("BEGIN_DATA\n")
             .nth(1)
             .unwrap()
             .lines()
             .take_while(|l| *l != "END_DATA")
-            .collect();
-        // black, three ramp steps, three primaries, white
+            .collect()
+    }
+
+    #[test]
+    fn a_ti3_holds_each_logged_reading_as_read_in_order_normalised_to_the_white() {
+        let text = to_ti3(&measured(Some(Xyz::new(95.0, 100.0, 109.0))), "now").unwrap();
+        assert!(text.starts_with("CTI3"));
+        assert!(text.contains("LUMINANCE_XYZ_CDM2 \"95.000000 100.000000 109.000000\""));
+        assert!(text.contains("NUMBER_OF_SETS 8\n"));
+        let data = data_rows(&text);
+        // black, three primaries, white, two ramp steps, the grey; not the refused
+        // blue step
         assert_eq!(data.len(), 8);
         assert_eq!(data[0], "1 0.0000 0.0000 0.0000 0.095000 0.100000 0.109000");
+        // the red primary as read (30 cd/m²), not as pooled (30.3)
+        assert_eq!(
+            data[1],
+            "2 100.0000 0.0000 0.0000 28.500000 30.000000 32.700000"
+        );
+        assert_eq!(
+            data[4],
+            "5 100.0000 100.0000 100.0000 95.000000 100.000000 109.000000"
+        );
+        // the red ramp step as read (7 cd/m²), not on its line (7.05)
+        assert_eq!(
+            data[5],
+            "6 50.0000 0.0000 0.0000 6.650000 7.000000 7.630000"
+        );
+        // the grey read whole, at its three drives; no channel sample split from it
         assert_eq!(
             data[7],
-            "8 100.0000 100.0000 100.0000 95.000000 100.000000 109.000000"
+            "8 10.0000 12.0000 8.0000 0.855000 0.900000 0.981000"
         );
     }
 
     #[test]
     fn a_measurement_without_white_is_refused() {
-        let e = to_ti3(&measurement(None), "now").unwrap_err();
-        assert!(e.message.contains("no white"));
+        let e = to_ti3(&measured(None), "now").unwrap_err();
+        assert!(e.message.contains("no white"), "{e}");
     }
 }
