@@ -39,6 +39,9 @@ pub struct ReadingsBench {
     /// Wait for the wall to warm up before each commissioning (`commission
     /// --warm-up`), as a station does on a wall just switched on.
     pub warm_up: bool,
+    /// Without `warm_up`: check first whether the wall is warming and wait when it is,
+    /// as `commission` does unless `--no-warm-check`.
+    pub warm_check: bool,
     /// Match the realistic meter to the reference on every display (`meter-matrix
     /// --per-display`) instead of once per eye; `None`: as `meter-matrix` does by
     /// default on the wall ([`Station::per_display_matrices_by_default`]).
@@ -226,6 +229,9 @@ fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsR
         solve: bench.solve,
         resume: false,
         meter_correction: false,
+        warm_check: bench
+            .warm_check
+            .then(lumiwall_calib::measure::warm_up::WarmCheck::default),
         grey_levels: bench
             .grey_levels
             .clone()

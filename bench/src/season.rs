@@ -340,6 +340,7 @@ impl Season<'_> {
             solve: self.bench.solve,
             resume: false,
             meter_correction: false,
+            warm_check: Some(lumiwall_calib::measure::warm_up::WarmCheck::default()),
             grey_levels: lumiwall_calib::measure::grey_drives::default_levels(
                 MeasureOptions::default().budget,
             ),

@@ -48,6 +48,7 @@ use crate::measure::grey_drives::{
 };
 use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall, fuse_with_white};
 use crate::measure::split_grey::{SplitDisplay, below_the_samples, split_greys};
+use crate::measure::warm_up::{WarmCheck, WarmUp, check_warm, wait_for_warm_up};
 use crate::measure::{
     MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, RampFocus, Rig, Survey,
     display_key, luminance_only, measure_display, measure_ramps, survey_display, white_capacity,
@@ -91,6 +92,10 @@ pub struct CommissionOptions {
     /// come out of each display's budget. A luminance the meter cannot read reliably is
     /// left out (see `commission`). Empty: no grey-drive pass.
     pub grey_levels: Vec<GreyLevel>,
+    /// Without [`MeasureOptions::warm_up`]: check first whether the wall is warming,
+    /// and wait for it when it is ([`crate::measure::warm_up::check_warm`]). `None`
+    /// starts at once.
+    pub warm_check: Option<WarmCheck>,
 }
 
 /// The manifest of a run folder.
@@ -802,7 +807,7 @@ pub fn measure_wall(
     };
     prepare_run_dir(&run_dir, &manifest, opts.resume)?;
 
-    warm_up_if_asked(wall, displays, rig, &run_dir, &keys, opts, progress)?;
+    warm_up_first(wall, displays, rig, &run_dir, &keys, opts, progress)?;
     let mopts = MeasureOptions {
         reserved: grey_reserve(opts, rig.meter.info().noise.as_ref()),
         ..opts.measure.clone()
@@ -838,9 +843,12 @@ fn target_white_xy(opts: &CommissionOptions) -> Option<[f64; 2]> {
     }
 }
 
-/// [`MeasureOptions::warm_up`]: waits for the wall on its first display, unless every
-/// display is taken from an earlier run.
-fn warm_up_if_asked(
+/// Before the first display still to measure: waits for the wall
+/// ([`MeasureOptions::warm_up`]), or checks whether it is warming and waits if it is
+/// ([`CommissionOptions::warm_check`]). Nothing when every display is taken from an
+/// earlier run; nothing more when the technician skips that display while aiming (it
+/// stays skipped, and the drift over the run is still reported).
+fn warm_up_first(
     wall: &str,
     displays: &[DisplayInfo],
     rig: &mut Rig<'_>,
@@ -849,23 +857,66 @@ fn warm_up_if_asked(
     opts: &CommissionOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(), CommissionError> {
-    let (Some(w), Some(first)) = (&opts.measure.warm_up, displays.first()) else {
-        return Ok(());
-    };
-    let all_saved = opts.resume
-        && keys
-            .iter()
-            .all(|k| load_measurement(&measurement_path(run_dir, k)).is_ok_and(|m| m.is_some()));
-    if all_saved {
+    if opts.measure.warm_up.is_none() && opts.warm_check.is_none() {
         return Ok(());
     }
-    crate::measure::warm_up::wait_for_warm_up(rig, wall, first, &opts.measure, w, progress)
-        .map_err(|source| CommissionError::Interrupted {
+    let saved =
+        |k: &DisplayKey| load_measurement(&measurement_path(run_dir, k)).is_ok_and(|m| m.is_some());
+    let Some(first) = displays
+        .iter()
+        .zip(keys)
+        .find(|(_, k)| !(opts.resume && saved(k)))
+        .map(|(d, _)| d)
+    else {
+        return Ok(());
+    };
+    let run_readings = opts
+        .measure
+        .budget
+        .saturating_mul(u32::try_from(displays.len()).unwrap_or(u32::MAX));
+    let waited = warm_up_on(wall, first, rig, opts, run_readings, progress);
+    match waited {
+        Err(MeasureError::Aim {
+            source: lumiwall_devices::DeviceError::AimSkipped(_),
+            ..
+        }) => Ok(()),
+        other => other.map_err(|source| CommissionError::Interrupted {
             source,
             saved: 0,
             total: displays.len(),
             run_dir: run_dir.to_path_buf(),
-        })?;
+        }),
+    }
+}
+
+/// [`warm_up_first`] on display `first`: the wait, or the check (its extrapolation over
+/// `run_readings`) and the wait when the wall is warming.
+fn warm_up_on(
+    wall: &str,
+    first: &DisplayInfo,
+    rig: &mut Rig<'_>,
+    opts: &CommissionOptions,
+    run_readings: u32,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(), MeasureError> {
+    let wait = match (opts.measure.warm_up, opts.warm_check) {
+        (Some(w), _) => Some(w),
+        (None, Some(check)) => check_warm(
+            rig,
+            wall,
+            first,
+            &opts.measure,
+            &check,
+            run_readings,
+            progress,
+        )?
+        .warming
+        .then(WarmUp::default),
+        (None, None) => None,
+    };
+    if let Some(w) = wait {
+        wait_for_warm_up(rig, wall, first, &opts.measure, &w, progress)?;
+    }
     Ok(())
 }
 

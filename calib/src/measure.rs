@@ -384,6 +384,9 @@ pub enum Progress {
     },
     /// The wall is warm: the wait is over.
     WarmedUp(warm_up::WarmUpReport),
+    /// Whether the wall is warming, checked before the first display
+    /// ([`warm_up::check_warm`]); when it is, the wait follows.
+    WarmCheck(warm_up::WarmCheckReport),
     /// A display's channels were read at the drives of its provisional white and
     /// greys, and its white read whole ([`grey_drives`]); the readings of that pass are
     /// not reported one by one.

@@ -9,11 +9,17 @@ use crate::{AimingAids, DeviceError, DisplayId, MeterPositioner};
 /// prints the spot and a reading, and waits for an answer on `input`:
 /// Enter (aimed), `r` (read again), `s` (skip this display; `--resume` measures it
 /// later), `q` (stop; `--resume` continues here). Another positioner (the simulator's,
-/// so that a simulated meter reads the display being aimed at) is aimed first.
+/// so that a simulated meter reads the display being aimed at) is aimed first. The
+/// display and spot answered last, and not aimed away from since (the warm-up check or
+/// wait, then that display's measurement), is not asked for again: aimed stays aimed,
+/// skipped stays skipped.
 pub struct GuidedPositioner {
     inner: Box<dyn MeterPositioner + Send>,
     input: Box<dyn BufRead + Send>,
     output: Box<dyn Write + Send>,
+    /// The display and spot the technician answered last, while nothing was aimed
+    /// elsewhere since, and whether the answer was aimed (else skipped).
+    answered: Option<(DisplayId, [f64; 2], bool)>,
 }
 
 impl std::fmt::Debug for GuidedPositioner {
@@ -41,6 +47,7 @@ impl GuidedPositioner {
             inner,
             input,
             output,
+            answered: None,
         }
     }
 
@@ -99,6 +106,12 @@ fn prompt_for(label: &str, uv: [f64; 2]) -> String {
 
 impl MeterPositioner for GuidedPositioner {
     fn aim(&mut self, display: DisplayId, uv: [f64; 2]) -> Result<(), DeviceError> {
+        if self
+            .answered
+            .is_some_and(|(d, at, _)| (d, at) != (display, uv))
+        {
+            self.answered = None;
+        }
         self.inner.aim(display, uv)
     }
 
@@ -114,19 +127,37 @@ impl MeterPositioner for GuidedPositioner {
         uv: [f64; 2],
         mut aids: AimingAids<'_>,
     ) -> Result<(), DeviceError> {
-        aids.pattern.show_aim_marker(display, uv)?;
         let io = |source| DeviceError::Io {
             device: "the technician's terminal".into(),
             source,
         };
+        match self.answered.take() {
+            Some((d, at, aimed)) if (d, at) == (display, uv) => {
+                self.answered = Some((d, at, aimed));
+                return if aimed {
+                    writeln!(self.output, "still aimed at {label}").map_err(io)?;
+                    Ok(())
+                } else {
+                    Err(DeviceError::AimSkipped(label.to_string()))
+                };
+            }
+            _ => {}
+        }
+        aids.pattern.show_aim_marker(display, uv)?;
         writeln!(self.output, "{}", prompt_for(label, uv)).map_err(io)?;
         loop {
             self.print_reading(&mut aids).map_err(io)?;
             self.output.flush().map_err(io)?;
             match self.answer()? {
-                Answer::Aimed => return Ok(()),
+                Answer::Aimed => {
+                    self.answered = Some((display, uv, true));
+                    return Ok(());
+                }
                 Answer::ReadAgain => continue,
-                Answer::Skip => return Err(DeviceError::AimSkipped(label.to_string())),
+                Answer::Skip => {
+                    self.answered = Some((display, uv, false));
+                    return Err(DeviceError::AimSkipped(label.to_string()));
+                }
                 Answer::Stop => return Err(DeviceError::AimStopped(label.to_string())),
             }
         }
@@ -231,5 +262,64 @@ mod tests {
         );
         assert!(matches!(confirm("q\n").0, Err(DeviceError::AimStopped(_))));
         assert!(matches!(confirm("").0, Err(DeviceError::AimStopped(_))));
+    }
+
+    #[test]
+    fn a_spot_confirmed_last_is_not_asked_for_again_until_the_meter_is_aimed_elsewhere() {
+        let mut g = GuidedPositioner::new(
+            Box::new(Still),
+            // one answer per prompt: display 3, then display 4, then display 3 again
+            Box::new(std::io::Cursor::new(b"\n\n\n".to_vec())),
+            Box::new(std::io::sink()),
+        );
+        let (mut probe, mut meter) = (Probe::default(), Meter(0));
+        let mut visit = |d: u32, probe: &mut Probe| {
+            g.aim(DisplayId(d), [0.5, 0.5])?;
+            let aids = AimingAids {
+                pattern: probe,
+                meter: &mut meter,
+            };
+            g.confirm(DisplayId(d), "tile", [0.5, 0.5], aids)
+        };
+        // the warm check on display 3, then its measurement: one prompt
+        assert!(visit(3, &mut probe).is_ok());
+        assert!(visit(3, &mut probe).is_ok());
+        // another display, then display 3 again (the drift re-read): asked each time
+        assert!(visit(4, &mut probe).is_ok());
+        assert!(visit(3, &mut probe).is_ok());
+        assert_eq!(probe.markers, 3, "three prompts for four visits");
+        // every answer was used: a fifth visit elsewhere finds the input ended
+        assert!(matches!(
+            visit(4, &mut probe),
+            Err(DeviceError::AimStopped(_))
+        ));
+    }
+
+    #[test]
+    fn a_spot_skipped_last_stays_skipped_until_the_meter_is_aimed_elsewhere() {
+        let mut g = GuidedPositioner::new(
+            Box::new(Still),
+            Box::new(std::io::Cursor::new(b"s\n\n".to_vec())),
+            Box::new(std::io::sink()),
+        );
+        let (mut probe, mut meter) = (Probe::default(), Meter(0));
+        let mut visit = |d: u32, probe: &mut Probe| {
+            g.aim(DisplayId(d), [0.5, 0.5])?;
+            let aids = AimingAids {
+                pattern: probe,
+                meter: &mut meter,
+            };
+            g.confirm(DisplayId(d), "tile", [0.5, 0.5], aids)
+        };
+        assert!(matches!(
+            visit(3, &mut probe),
+            Err(DeviceError::AimSkipped(_))
+        ));
+        assert!(matches!(
+            visit(3, &mut probe),
+            Err(DeviceError::AimSkipped(_))
+        ));
+        assert!(visit(4, &mut probe).is_ok());
+        assert_eq!(probe.markers, 2, "asked once per display");
     }
 }

@@ -246,6 +246,12 @@ pub(crate) struct CommissionArgs {
     /// that the first and the last display are measured at the same lamp state.
     #[arg(long)]
     warm_up: bool,
+    /// Without `--warm-up` the station first reads the first display's white 40 times
+    /// and waits as `--warm-up` does when the wall is warming: when the trend,
+    /// extrapolated over the run, would drift more than 1 % (by more than 4σ of its own
+    /// noise). This skips that check (the drift over the run is still reported).
+    #[arg(long, conflicts_with = "warm_up")]
+    no_warm_check: bool,
     /// Fault injection for demonstrations and tests: the emulated meter stops answering
     /// after this many readings (`--meter emulated` only).
     #[arg(long, hide = true)]
@@ -314,6 +320,8 @@ impl CommissionArgs {
             resume: self.resume,
             meter_correction: self.meter_offset_correction && !self.no_meter_correction,
             grey_levels: self.grey_levels(),
+            warm_check: (!self.no_warm_check)
+                .then(lumiwall_calib::measure::warm_up::WarmCheck::default),
         })
     }
 }
@@ -391,6 +399,21 @@ impl ProgressReport {
                     );
                 }
             }
+            Progress::WarmCheck(r) => say(
+                &self.bar,
+                format!(
+                    "warm check: {} readings of the white, luminance {:+.2} % ± {:.2} %, {:+.1} % over this run's readings: {}",
+                    r.readings,
+                    r.change_percent,
+                    r.change_sigma_percent,
+                    r.run_drift_percent,
+                    if r.warming {
+                        "the wall is warming up, waiting for it (--no-warm-check skips this)"
+                    } else {
+                        "warm enough"
+                    }
+                ),
+            ),
             Progress::WarmedUp(r) => say(
                 &self.bar,
                 format!(
@@ -660,6 +683,10 @@ pub(crate) struct BenchArgs {
     /// --warm-up`; its readings are not counted in the budget).
     #[arg(long)]
     warm_up: bool,
+    /// Skip the check for a warming wall that each commissioning makes without
+    /// `--warm-up` (as `commission --no-warm-check`).
+    #[arg(long, conflicts_with = "warm_up")]
+    no_warm_check: bool,
     /// Match the realistic meter to the reference on every display (as `meter-matrix
     /// --per-display`), not once per eye. The default on an Infitec wall.
     #[arg(long, conflicts_with = "per_eye_matrix")]
@@ -716,6 +743,7 @@ pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
         patches: args.patches,
         out: args.out,
         warm_up: args.warm_up,
+        warm_check: !args.no_warm_check,
         per_display_matrix: matrix_scope(args.per_display_matrix, args.per_eye_matrix),
         reference: bench_reference(&args.reference, args.reference_seed)?,
         grey_levels: args.grey_levels.map(|l| l.0),

@@ -41,5 +41,7 @@ pub(crate) fn options_8500k(
         resume,
         meter_correction: false,
         grey_levels,
+        // the tests that start cold say so
+        warm_check: None,
     }
 }

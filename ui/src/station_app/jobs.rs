@@ -262,6 +262,20 @@ impl Counter<'_> {
                     "{display}: kept from the stopped run"
                 )));
             }
+            Progress::WarmCheck(r) => (self.send)(JobEvent::Line(format!(
+                "warm check: luminance {:+.2} % over {} readings of the white: {}",
+                r.change_percent,
+                r.readings,
+                if r.warming {
+                    "the wall is warming up, waiting for it"
+                } else {
+                    "warm enough"
+                }
+            ))),
+            Progress::WarmedUp(r) => (self.send)(JobEvent::Line(format!(
+                "warm after {} readings of the white",
+                r.readings
+            ))),
             _ => {}
         }
         let fraction = match readings_total {
