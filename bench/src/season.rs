@@ -251,6 +251,7 @@ pub fn run(
         meter_xy_offset: [0.0; 2],
         headroom: Some(bench.solve.headroom),
         rotation: FullCheckRotation::EVERY_NIGHT,
+        warm_check: Some(lumiwall_calib::measure::warm_up::WarmCheck::default()),
     };
     for night in 1..=bench.nights {
         opts.rotation = FullCheckRotation {

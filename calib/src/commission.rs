@@ -48,7 +48,7 @@ use crate::measure::grey_drives::{
 };
 use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall, fuse_with_white};
 use crate::measure::split_grey::{SplitDisplay, below_the_samples, split_greys};
-use crate::measure::warm_up::{WarmCheck, WarmUp, check_warm, wait_for_warm_up};
+use crate::measure::warm_up::{WarmCheck, wait_or_check};
 use crate::measure::{
     MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, RampFocus, Rig, Survey,
     display_key, luminance_only, measure_display, measure_ramps, survey_display, white_capacity,
@@ -845,9 +845,8 @@ fn target_white_xy(opts: &CommissionOptions) -> Option<[f64; 2]> {
 
 /// Before the first display still to measure: waits for the wall
 /// ([`MeasureOptions::warm_up`]), or checks whether it is warming and waits if it is
-/// ([`CommissionOptions::warm_check`]). Nothing when every display is taken from an
-/// earlier run; nothing more when the technician skips that display while aiming (it
-/// stays skipped, and the drift over the run is still reported).
+/// ([`CommissionOptions::warm_check`]; [`wait_or_check`]). Nothing when every display
+/// is taken from an earlier run.
 fn warm_up_first(
     wall: &str,
     displays: &[DisplayInfo],
@@ -874,50 +873,22 @@ fn warm_up_first(
         .measure
         .budget
         .saturating_mul(u32::try_from(displays.len()).unwrap_or(u32::MAX));
-    let waited = warm_up_on(wall, first, rig, opts, run_readings, progress);
-    match waited {
-        Err(MeasureError::Aim {
-            source: lumiwall_devices::DeviceError::AimSkipped(_),
-            ..
-        }) => Ok(()),
-        other => other.map_err(|source| CommissionError::Interrupted {
-            source,
-            saved: 0,
-            total: displays.len(),
-            run_dir: run_dir.to_path_buf(),
-        }),
-    }
-}
-
-/// [`warm_up_first`] on display `first`: the wait, or the check (its extrapolation over
-/// `run_readings`) and the wait when the wall is warming.
-fn warm_up_on(
-    wall: &str,
-    first: &DisplayInfo,
-    rig: &mut Rig<'_>,
-    opts: &CommissionOptions,
-    run_readings: u32,
-    progress: &mut dyn FnMut(Progress),
-) -> Result<(), MeasureError> {
-    let wait = match (opts.measure.warm_up, opts.warm_check) {
-        (Some(w), _) => Some(w),
-        (None, Some(check)) => check_warm(
-            rig,
-            wall,
-            first,
-            &opts.measure,
-            &check,
-            run_readings,
-            progress,
-        )?
-        .warming
-        .then(WarmUp::default),
-        (None, None) => None,
-    };
-    if let Some(w) = wait {
-        wait_for_warm_up(rig, wall, first, &opts.measure, &w, progress)?;
-    }
-    Ok(())
+    let check = opts.warm_check.as_ref();
+    wait_or_check(
+        rig,
+        wall,
+        first,
+        &opts.measure,
+        check,
+        run_readings,
+        progress,
+    )
+    .map_err(|source| CommissionError::Interrupted {
+        source,
+        saved: 0,
+        total: displays.len(),
+        run_dir: run_dir.to_path_buf(),
+    })
 }
 
 /// The solving half of [`commission`]: solve, write profiles and report.

@@ -23,6 +23,10 @@
 //! one again tonight ([`recalibrate_with_camera`]). The current profiles and measurements
 //! are moved to `previous/` first, so [`rollback`] can restore them.
 //!
+//! Before the first display the station checks whether the wall is warming (lamps
+//! switched on for the run; [`crate::measure::warm_up::check_warm`]) and waits for it
+//! when it is: a wall read cold looks drifted and would be refitted to its cold state.
+//!
 //! The common white stays what it is (chromaticity and luminance) as long as every
 //! display still reaches it at full drive: that is what the headroom's reserve is for
 //! (each check reports the reserve left). A display that cannot reach it even at full
@@ -42,6 +46,7 @@ use crate::CalibError;
 use crate::commission::{
     CommissionError, RUN_DIR, corrected_measurement, load_measurement, measurement_path, to_json,
 };
+use crate::measure::warm_up::{WarmCheck, wait_or_check};
 use crate::measure::{
     FullReading, MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, Rig, Session,
     display_key, measure_black_and_primaries, measure_display, relative_intensity,
@@ -113,7 +118,16 @@ pub struct RecalibrateOptions {
     /// Which displays are measured in full tonight; the others get the one-reading
     /// white check (see [`FullCheckRotation`]).
     pub rotation: FullCheckRotation,
+    /// Without [`MeasureOptions::warm_up`]: check first whether the wall is warming
+    /// (lamps switched on for the night's run) and wait for it when it is
+    /// ([`crate::measure::warm_up::check_warm`]): a wall read cold looks drifted and
+    /// would be refitted to its cold state. `None` starts at once.
+    pub warm_check: Option<WarmCheck>,
 }
+
+/// Readings a night's run takes per display at most, for the warm check's
+/// extrapolation: a full check with a K-10's repeats (the module docs: 8 to 17).
+const NIGHT_READINGS_PER_DISPLAY: u32 = 17;
 
 /// Which displays a recalibration measures in full (black, primaries, white, tone-curve
 /// check: 14 readings on a K-10 with its repeats) and which it only checks with one
@@ -430,6 +444,21 @@ pub fn recalibrate_with_camera(
 ) -> Result<RecalibrationOutcome, RecalibrateError> {
     let _lock = FolderLock::acquire(dir, &format!("recalibration of wall {wall}"))?;
     let (profiles, last) = load_commissioned(wall, displays, dir)?;
+    if let Some(first) = displays.first() {
+        let run_readings = NIGHT_READINGS_PER_DISPLAY
+            .saturating_mul(u32::try_from(displays.len()).unwrap_or(u32::MAX));
+        let check = opts.warm_check.as_ref();
+        wait_or_check(
+            rig,
+            wall,
+            first,
+            &opts.measure,
+            check,
+            run_readings,
+            progress,
+        )
+        .map_err(|e| RecalibrateError::Measure(Box::new(e)))?;
+    }
     let mut checks = Vec::with_capacity(displays.len());
     let mut refitted = Vec::with_capacity(displays.len());
     for (i, ((info, old), profile)) in displays.iter().zip(&last).zip(&profiles).enumerate() {

@@ -399,28 +399,8 @@ impl ProgressReport {
                     );
                 }
             }
-            Progress::WarmCheck(r) => say(
-                &self.bar,
-                format!(
-                    "warm check: {} readings of the white, luminance {:+.2} % ± {:.2} %, {:+.1} % over this run's readings: {}",
-                    r.readings,
-                    r.change_percent,
-                    r.change_sigma_percent,
-                    r.run_drift_percent,
-                    if r.warming {
-                        "the wall is warming up, waiting for it (--no-warm-check skips this)"
-                    } else {
-                        "warm enough"
-                    }
-                ),
-            ),
-            Progress::WarmedUp(r) => say(
-                &self.bar,
-                format!(
-                    "warm: after {} readings of the white the luminance changes {:+.3} % per 120 readings (it changed {:+.2} % at first)",
-                    r.readings, r.last_change_percent, r.first_change_percent
-                ),
-            ),
+            Progress::WarmCheck(r) => say(&self.bar, r.summary()),
+            Progress::WarmedUp(r) => say(&self.bar, r.summary()),
             Progress::GreyDrivesRead {
                 display,
                 samples,

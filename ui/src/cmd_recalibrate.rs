@@ -84,6 +84,11 @@ pub(crate) struct RecalibrateArgs {
     /// recalibration on the simulator).
     #[arg(long, allow_negative_numbers = true, value_parser = values::non_negative_finite)]
     simulate_hours: Option<f64>,
+    /// Skip the check for a warming wall made before the first display (40 readings of
+    /// its white; where the lamps were switched on for the run, the station waits until
+    /// they are warm, since a wall read cold looks drifted).
+    #[arg(long)]
+    no_warm_check: bool,
     #[command(flatten)]
     pub(crate) meter: MeterArgs,
 }
@@ -92,10 +97,11 @@ pub(crate) struct RecalibrateArgs {
 /// recalibrated, 11: a display left the headroom, 12: a device failed).
 pub(crate) fn run(args: RecalibrateArgs) -> Result<i32, CliError> {
     let mut readings = 0u32;
-    let done = recalibrate_with(&args, &mut |p| {
-        if let Progress::Reading { .. } = p {
-            readings += 1;
-        }
+    let done = recalibrate_with(&args, &mut |p| match p {
+        Progress::Reading { .. } => readings += 1,
+        Progress::WarmCheck(r) => println!("{}", r.summary()),
+        Progress::WarmedUp(r) => println!("{}", r.summary()),
+        _ => {}
     })?;
     match done {
         Recalibrated::DeviceFailed { wall, error } => {
@@ -308,6 +314,8 @@ fn options(args: &RecalibrateArgs, station: &Station) -> Result<RecalibrateOptio
             every_nights: args.full_check_every,
             night: args.night.unwrap_or_else(days_since_epoch),
         },
+        warm_check: (!args.no_warm_check)
+            .then(lumiwall_calib::measure::warm_up::WarmCheck::default),
     })
 }
 

@@ -104,6 +104,39 @@ pub struct WarmCheckReport {
     pub warming: bool,
 }
 
+impl WarmCheckReport {
+    /// One line for the console and the station's log.
+    pub fn summary(&self) -> String {
+        format!(
+            "warm check: {} readings of the white, luminance {:+.2} % ± {:.2} %, {:+.1} % over \
+             this run's readings: {}",
+            self.readings,
+            self.change_percent,
+            self.change_sigma_percent,
+            self.run_drift_percent,
+            if self.warming {
+                "the wall is warming up, waiting for it (--no-warm-check skips this)"
+            } else {
+                "warm enough"
+            }
+        )
+    }
+}
+
+impl WarmUpReport {
+    /// One line for the console and the station's log.
+    pub fn summary(&self) -> String {
+        format!(
+            "warm: after {} readings of the white the luminance changes {:+.3} % per {} \
+             readings (it changed {:+.2} % at first)",
+            self.readings,
+            self.last_change_percent,
+            WarmUp::default().window,
+            self.first_change_percent
+        )
+    }
+}
+
 /// The least-squares line through `y` (at 0, 1, 2, …): the change over `y` and its
 /// standard error from the scatter about the line, both in percent of the mean.
 /// (0, 0) for fewer than three values or a mean not above 0.
@@ -166,6 +199,42 @@ pub fn check_warm(
     let report = judge_warmth(&y, check, run_readings);
     progress(Progress::WarmCheck(report));
     Ok(report)
+}
+
+/// Before a run on `first`: the wait when `opts` asks for it
+/// ([`MeasureOptions::warm_up`]), else the warm `check` and the wait (as
+/// [`WarmUp::default`]) when it finds the wall warming; nothing without either. A
+/// technician who skips `first` while aiming skips this too (the display stays
+/// skipped): `Ok`.
+pub fn wait_or_check(
+    rig: &mut Rig<'_>,
+    wall: &str,
+    first: &DisplayInfo,
+    opts: &MeasureOptions,
+    check: Option<&WarmCheck>,
+    run_readings: u32,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(), MeasureError> {
+    let waited = (|| {
+        let wait = match (opts.warm_up, check) {
+            (Some(w), _) => Some(w),
+            (None, Some(c)) => check_warm(rig, wall, first, opts, c, run_readings, progress)?
+                .warming
+                .then(WarmUp::default),
+            (None, None) => None,
+        };
+        if let Some(w) = wait {
+            wait_for_warm_up(rig, wall, first, opts, &w, progress)?;
+        }
+        Ok(())
+    })();
+    match waited {
+        Err(MeasureError::Aim {
+            source: lumiwall_devices::DeviceError::AimSkipped(_),
+            ..
+        }) => Ok(()),
+        other => other,
+    }
 }
 
 /// The warm check's verdict on the white's luminances `y`, read one after the other.

@@ -44,6 +44,9 @@ pub(crate) struct WallState {
     pub(crate) displays: Vec<SimDisplay>,
     /// Simulated seconds since the simulation started.
     pub(crate) clock_s: f64,
+    /// Clock reading (s) when the projectors were last switched on: the wall file's
+    /// `minutes_since_switch_on` before the start, or [`VirtualWall::switch_on_again`].
+    switched_on_s: f64,
     pub(crate) shown: Option<(DisplayId, Shown)>,
     aimed: Option<(DisplayId, [f64; 2])>,
 }
@@ -62,7 +65,7 @@ impl WallState {
     pub(crate) fn conditions(&self, d: &SimDisplay) -> Conditions {
         Conditions {
             lamp_hours: d.lamp_hours_at_start + self.clock_s / 3600.0,
-            minutes_on: self.file.clock.minutes_since_switch_on + self.clock_s / 60.0,
+            minutes_on: (self.clock_s - self.switched_on_s) / 60.0,
         }
     }
 
@@ -461,6 +464,7 @@ impl VirtualWall {
         }
         Ok(Self {
             state: Arc::new(Mutex::new(WallState {
+                switched_on_s: -60.0 * file.clock.minutes_since_switch_on,
                 file,
                 displays,
                 clock_s: 0.0,
@@ -622,6 +626,13 @@ impl VirtualWall {
         if hours.is_finite() && hours > 0.0 {
             self.lock().clock_s += hours * 3600.0;
         }
+    }
+
+    /// Switches every projector off and on again now: the lamps warm up again from
+    /// cold (their hours go on), as when a nightly run switches the wall on.
+    pub fn switch_on_again(&self) {
+        let mut s = self.lock();
+        s.switched_on_s = s.clock_s;
     }
 
     /// Replaces the lamp of display `id` now: its lamp hours start again at 0 (the

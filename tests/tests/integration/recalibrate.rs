@@ -7,6 +7,7 @@
 use std::path::Path;
 
 use lumiwall_calib::commission::{CommissionOptions, RUN_DIR, load_measurement};
+use lumiwall_calib::measure::warm_up::WarmCheck;
 use lumiwall_calib::measure::{FullReading, MeasureOptions, MeasuredDisplay};
 use lumiwall_calib::recalibrate::{
     CheckKind, DriftLimits, FullCheckRotation, PREVIOUS_DIR, RecalibrateError, RecalibrateOptions,
@@ -34,6 +35,8 @@ fn options() -> RecalibrateOptions {
         meter_xy_offset: [0.0; 2],
         headroom: None,
         rotation: FullCheckRotation::EVERY_NIGHT,
+        // a test that switches the lamps on for the night says so
+        warm_check: None,
     }
 }
 
@@ -95,6 +98,55 @@ fn a_wall_that_holds_its_calibration_is_left_alone() {
     assert_eq!(o.verdict, Verdict::Unchanged);
     assert_eq!(files_of(dir.path()), before, "nothing may be written");
     assert!(!dir.path().join(PREVIOUS_DIR).exists());
+}
+
+/// A nightly run on lamps switched on a minute before (an LCD wall whose lamps warm up
+/// over 8 minutes): without the warm check every display reads dark and is taken for
+/// drifted; with it (`recalibrate`'s default) the station finds the wall warming, waits,
+/// and finds nothing to recalibrate.
+#[test]
+fn a_nightly_run_on_lamps_just_switched_on_waits_for_them_instead_of_recalibrating() {
+    let cold =
+        std::fs::read_to_string(crate::support::wall_path("cold-start-2x2.toml")).expect("fixture");
+    let warm = cold.replace(
+        "minutes_since_switch_on = 2.0",
+        "minutes_since_switch_on = 180.0",
+    );
+    let night = |warm_check: Option<WarmCheck>| {
+        let wall = lumiwall_devices::sim::VirtualWall::from_toml_str(&warm).expect("wall");
+        let mut station = Station::with_wall(
+            wall,
+            &StationOptions::new(MeterChoice::Direct, Noise::Realistic),
+        )
+        .expect("station");
+        let dir = tempfile::tempdir().expect("tmp");
+        commission(&mut station, dir.path(), 0.9);
+        // two hours later, switched off and on again for the run
+        station.wall.advance_hours(2.0);
+        station.wall.switch_on_again();
+        station.wall.advance_seconds(60.0);
+        let opts = RecalibrateOptions {
+            warm_check,
+            ..options()
+        };
+        let mut waited = false;
+        let o = station
+            .recalibrate(dir.path(), &opts, &mut |p| {
+                waited |= matches!(p, lumiwall_calib::measure::Progress::WarmedUp(_));
+            })
+            .expect("recalibrate");
+        (
+            o.verdict,
+            o.checks.iter().filter(|c| c.drifted).count(),
+            waited,
+        )
+    };
+    let (rushed, drifted, _) = night(None);
+    assert_ne!(rushed, Verdict::Unchanged);
+    assert_eq!(drifted, 4, "every display read cold");
+    let (checked, drifted, waited) = night(Some(WarmCheck::default()));
+    assert!(waited);
+    assert_eq!((checked, drifted), (Verdict::Unchanged, 0));
 }
 
 #[test]

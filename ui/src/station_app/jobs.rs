@@ -262,20 +262,8 @@ impl Counter<'_> {
                     "{display}: kept from the stopped run"
                 )));
             }
-            Progress::WarmCheck(r) => (self.send)(JobEvent::Line(format!(
-                "warm check: luminance {:+.2} % over {} readings of the white: {}",
-                r.change_percent,
-                r.readings,
-                if r.warming {
-                    "the wall is warming up, waiting for it"
-                } else {
-                    "warm enough"
-                }
-            ))),
-            Progress::WarmedUp(r) => (self.send)(JobEvent::Line(format!(
-                "warm after {} readings of the white",
-                r.readings
-            ))),
+            Progress::WarmCheck(r) => (self.send)(JobEvent::Line(r.summary())),
+            Progress::WarmedUp(r) => (self.send)(JobEvent::Line(r.summary())),
             _ => {}
         }
         let fraction = match readings_total {
