@@ -845,8 +845,9 @@ fn target_white_xy(opts: &CommissionOptions) -> Option<[f64; 2]> {
 
 /// Before the first display still to measure: waits for the wall
 /// ([`MeasureOptions::warm_up`]), or checks whether it is warming and waits if it is
-/// ([`CommissionOptions::warm_check`]; [`wait_or_check`]). Nothing when every display
-/// is taken from an earlier run.
+/// ([`CommissionOptions::warm_check`]; [`wait_or_check`]); on the next one where the
+/// technician skips it while aiming. Nothing when every display is taken from an
+/// earlier run.
 fn warm_up_first(
     wall: &str,
     displays: &[DisplayInfo],
@@ -861,34 +862,38 @@ fn warm_up_first(
     }
     let saved =
         |k: &DisplayKey| load_measurement(&measurement_path(run_dir, k)).is_ok_and(|m| m.is_some());
-    let Some(first) = displays
+    let to_measure: Vec<&DisplayInfo> = displays
         .iter()
         .zip(keys)
-        .find(|(_, k)| !(opts.resume && saved(k)))
+        .filter(|(_, k)| !(opts.resume && saved(k)))
         .map(|(d, _)| d)
-    else {
-        return Ok(());
-    };
+        .collect();
     let run_readings = opts
         .measure
         .budget
-        .saturating_mul(u32::try_from(displays.len()).unwrap_or(u32::MAX));
+        .saturating_mul(u32::try_from(to_measure.len()).unwrap_or(u32::MAX));
     let check = opts.warm_check.as_ref();
-    wait_or_check(
-        rig,
-        wall,
-        first,
-        &opts.measure,
-        check,
-        run_readings,
-        progress,
-    )
-    .map_err(|source| CommissionError::Interrupted {
-        source,
-        saved: 0,
-        total: displays.len(),
-        run_dir: run_dir.to_path_buf(),
-    })
+    for first in &to_measure {
+        let done = wait_or_check(
+            rig,
+            wall,
+            first,
+            &opts.measure,
+            check,
+            run_readings,
+            progress,
+        )
+        .map_err(|source| CommissionError::Interrupted {
+            source,
+            saved: displays.len() - to_measure.len(),
+            total: displays.len(),
+            run_dir: run_dir.to_path_buf(),
+        })?;
+        if done {
+            break;
+        }
+    }
+    Ok(())
 }
 
 /// The solving half of [`commission`]: solve, write profiles and report.

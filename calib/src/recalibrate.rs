@@ -448,6 +448,8 @@ pub fn recalibrate_with_camera(
         let run_readings = NIGHT_READINGS_PER_DISPLAY
             .saturating_mul(u32::try_from(displays.len()).unwrap_or(u32::MAX));
         let check = opts.warm_check.as_ref();
+        // a technician who skips the first display skips the check with it; the
+        // display itself then fails as a skipped one does
         wait_or_check(
             rig,
             wall,

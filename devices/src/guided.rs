@@ -138,6 +138,7 @@ impl MeterPositioner for GuidedPositioner {
                     writeln!(self.output, "still aimed at {label}").map_err(io)?;
                     Ok(())
                 } else {
+                    writeln!(self.output, "{label}: skipped, as answered").map_err(io)?;
                     Err(DeviceError::AimSkipped(label.to_string()))
                 };
             }

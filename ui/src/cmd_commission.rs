@@ -246,8 +246,9 @@ pub(crate) struct CommissionArgs {
     /// that the first and the last display are measured at the same lamp state.
     #[arg(long)]
     warm_up: bool,
-    /// Without `--warm-up` the station first reads the first display's white 40 times
-    /// and waits as `--warm-up` does when the wall is warming: when the trend,
+    /// Without `--warm-up` the station first reads the white of the first display still
+    /// to measure 40 times and waits as `--warm-up` does when the wall is warming: when
+    /// the trend,
     /// extrapolated over the run, would drift more than 1 % (by more than 4σ of its own
     /// noise). This skips that check (the drift over the run is still reported).
     #[arg(long, conflicts_with = "warm_up")]

@@ -268,6 +268,14 @@ fn run_ti3(args: &ExportArgs) -> Result<(), CliError> {
         };
         let m = &measured.measurement;
         let text = to_ti3(&measured, &created).map_err(|e| CliError::input(e.to_string()))?;
+        if lumiwall_calib::export::ti3::refitted_since_read(&measured) {
+            eprintln!(
+                "lumiwall: warning: {}: refitted by a nightly recalibration since it was \
+                 measured; the .ti3 holds the commissioning's readings, not the ones the \
+                 profile stands on now",
+                m.key
+            );
+        }
         let path = args.out_dir.join(format!("{}.ti3", m.key.file_stem()));
         lumiwall_profiles::write_atomic(&path, text.as_bytes())
             .map_err(|e| CliError::failure(format!("cannot write {}: {e}", path.display())))?;

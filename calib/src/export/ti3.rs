@@ -1,7 +1,7 @@
 //! A display's commissioning readings as an ArgyllCMS `.ti3` (CGATS `CTI3`,
 //! `COLOR_REP RGB_XYZ`, the layout `dispread` writes): one row per sample of the
 //! measurement log, in the order read (black, primaries, white, every ramp step, the
-//! channel samples and greys of the grey-drive pass), each its drive and the mean XYZ
+//! channel samples and greys of the grey-drive pass), each its drive and the average
 //! of its readings as the meter gave them (through the display-type correction matrix
 //! where one was given, as `dispread -X` writes them). RGB in percent, XYZ normalised
 //! to the white's Y = 100 with the white's absolute XYZ in `LUMINANCE_XYZ_CDM2`.
@@ -10,8 +10,9 @@
 //! ramp sample put on its channel's line, a primary pooled over its ramp
 //! (`measure::channel_colour`), the channel samples split from a grey read whole
 //! (`measure::split_grey`). Each grey read whole is written as the grey it was, at its
-//! three drives. After a nightly refit (`recalibrate`) the log is still the
-//! commissioning's: the export holds that night's readings.
+//! three drives. A black the meter refused is written as the measurement's black, so
+//! that the shaper has its anchor at RGB 0. After a nightly refit (`recalibrate`) the log
+//! is still the commissioning's, and so is the export ([`refitted_since_read`]).
 
 use crate::measure::MeasuredDisplay;
 use lumiwall_devices::Xyz;
@@ -43,6 +44,13 @@ pub fn to_ti3(measured: &MeasuredDisplay, created: &str) -> Result<String, Ti3Er
         )));
     }
     let rows = rows(measured);
+    if rows.len() < 2 {
+        return Err(refuse(
+            "no readings in the measurement log (a measurement written before the log was \
+             kept?)"
+                .into(),
+        ));
+    }
     if let Some((rgb, xyz)) = rows.iter().find(|(_, xyz)| !xyz.is_finite()) {
         return Err(refuse(format!(
             "the reading at drive {rgb:?} is not a number ({xyz:?})"
@@ -105,14 +113,27 @@ fn data(rows: &[([f64; 3], Xyz)], scale: f64) -> String {
     out
 }
 
-/// (drive 0..1, mean XYZ) of every logged sample that gave a reading, in the order read.
+/// (drive 0..1, XYZ) of every logged sample that gave a reading, in the order read;
+/// first the measurement's black where the log has no black reading.
 fn rows(measured: &MeasuredDisplay) -> Vec<([f64; 3], Xyz)> {
-    measured
+    let logged = measured
         .log
         .samples
         .iter()
-        .filter_map(|r| r.xyz.map(|xyz| (r.patch.drive(), xyz)))
-        .collect()
+        .filter_map(|r| r.xyz.map(|xyz| (r.patch.drive(), xyz)));
+    let black_read = measured
+        .log
+        .last_read(crate::measure::Patch::Black)
+        .is_some();
+    let black = (!black_read).then_some(([0.0; 3], measured.measurement.black));
+    black.into_iter().chain(logged).collect()
+}
+
+/// True when the measurement was refitted since its readings were taken (a nightly
+/// `recalibrate` moved it onto that night's readings, or onto a white check): the
+/// `.ti3` then holds the commissioning's readings, not what the profiles stand on now.
+pub fn refitted_since_read(measured: &MeasuredDisplay) -> bool {
+    measured.anchor.is_some() || measured.measurement.readings != measured.log.readings
 }
 
 #[cfg(test)]
@@ -224,6 +245,29 @@ mod tests {
             data[7],
             "8 10.0000 12.0000 8.0000 0.855000 0.900000 0.981000"
         );
+    }
+
+    #[test]
+    fn a_black_the_meter_refused_is_written_as_the_measurements_and_an_empty_log_is_refused() {
+        let mut m = measured(Some(Xyz::new(95.0, 100.0, 109.0)));
+        m.log.samples[0].xyz = None;
+        m.measurement.black = xyz(0.2);
+        let text = to_ti3(&m, "now").unwrap();
+        let data = data_rows(&text);
+        assert_eq!(data.len(), 8);
+        assert_eq!(data[0], "1 0.0000 0.0000 0.0000 0.190000 0.200000 0.218000");
+        m.log.samples.clear();
+        m.measurement.white = Some(Xyz::new(95.0, 100.0, 109.0));
+        let e = to_ti3(&m, "now").unwrap_err();
+        assert!(e.message.contains("no readings"), "{e}");
+    }
+
+    #[test]
+    fn a_measurement_refitted_by_a_nightly_run_is_told_from_one_as_read() {
+        let mut m = measured(Some(Xyz::new(95.0, 100.0, 109.0)));
+        assert!(!refitted_since_read(&m));
+        m.measurement.readings = 1;
+        assert!(refitted_since_read(&m));
     }
 
     #[test]

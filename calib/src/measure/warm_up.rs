@@ -93,20 +93,36 @@ impl Default for WarmCheck {
 pub struct WarmCheckReport {
     /// Readings it took.
     pub readings: u32,
-    /// Luminance change over them along their least-squares line (percent).
+    /// Values of the white the trend was fitted to: one per reading, or one per
+    /// low-light average below the meter's reliable limit; none for a reading the
+    /// meter refused.
+    pub values: u32,
+    /// False when fewer than three values, or values from fewer than half the
+    /// readings, came back: the check cannot tell, and the run starts at once (the
+    /// drift over it is still reported at its end).
+    pub conclusive: bool,
+    /// Luminance change over the readings along their least-squares line (percent).
     pub change_percent: f64,
     /// Standard error of that change from the readings' scatter about the line.
     pub change_sigma_percent: f64,
     /// The change extrapolated over the readings the run will take (percent).
     pub run_drift_percent: f64,
-    /// True when the run would drift beyond the limit, beyond the trend's noise: the
-    /// wall is waited for.
+    /// True when the check is conclusive and the run would drift beyond the limit,
+    /// beyond the trend's noise: the wall is waited for.
     pub warming: bool,
 }
 
 impl WarmCheckReport {
     /// One line for the console and the station's log.
     pub fn summary(&self) -> String {
+        if !self.conclusive {
+            return format!(
+                "warm check: {} readable values of the white in {} readings: cannot tell \
+                 whether the wall is warming; measuring at once (the drift over the run is \
+                 reported at its end)",
+                self.values, self.readings
+            );
+        }
         format!(
             "warm check: {} readings of the white, luminance {:+.2} % ± {:.2} %, {:+.1} % over \
              this run's readings: {}",
@@ -137,36 +153,35 @@ impl WarmUpReport {
     }
 }
 
-/// The least-squares line through `y` (at 0, 1, 2, …): the change over `y` and its
-/// standard error from the scatter about the line, both in percent of the mean.
-/// (0, 0) for fewer than three values or a mean not above 0.
-fn trend_with_sigma(y: &[f64]) -> (f64, f64) {
-    let n = y.len() as f64;
-    let mean_x = (n - 1.0) / 2.0;
-    let mean_y = y.iter().sum::<f64>() / n;
+/// The least-squares line through `points` (x, y): its slope in percent of the mean y
+/// per unit of x, and the slope's standard error from the scatter about the line.
+/// (0, 0) for fewer than three points, x all alike or a mean y not above 0.
+fn slope_with_sigma(points: &[(f64, f64)]) -> (f64, f64) {
+    let n = points.len() as f64;
+    let mean_x = points.iter().map(|p| p.0).sum::<f64>() / n;
+    let mean_y = points.iter().map(|p| p.1).sum::<f64>() / n;
     let (mut sxy, mut sxx) = (0.0, 0.0);
-    for (i, v) in y.iter().enumerate() {
-        let dx = i as f64 - mean_x;
-        sxy += dx * (v - mean_y);
-        sxx += dx * dx;
+    for (x, y) in points {
+        sxy += (x - mean_x) * (y - mean_y);
+        sxx += (x - mean_x) * (x - mean_x);
     }
-    if y.len() < 3 || sxx <= 0.0 || mean_y <= 0.0 {
+    if points.len() < 3 || sxx <= 0.0 || mean_y <= 0.0 || !(sxx.is_finite() && sxy.is_finite()) {
         return (0.0, 0.0);
     }
     let slope = sxy / sxx;
-    let residual: f64 = y
+    let residual: f64 = points
         .iter()
-        .enumerate()
-        .map(|(i, v)| (v - mean_y - slope * (i as f64 - mean_x)).powi(2))
+        .map(|(x, y)| (y - mean_y - slope * (x - mean_x)).powi(2))
         .sum();
     let slope_sigma = (residual / (n - 2.0) / sxx).sqrt();
-    let percent = 100.0 * (n - 1.0) / mean_y;
-    (slope * percent, slope_sigma * percent)
+    (100.0 * slope / mean_y, 100.0 * slope_sigma / mean_y)
 }
 
-/// Change over `y` (percent of its mean) along its least-squares line.
+/// Change over `y` (percent of its mean) along its least-squares line, `y` read one
+/// after the other.
 fn trend_percent(y: &[f64]) -> f64 {
-    trend_with_sigma(y).0
+    let points: Vec<(f64, f64)> = y.iter().enumerate().map(|(i, v)| (i as f64, *v)).collect();
+    slope_with_sigma(&points).0 * (y.len().max(1) - 1) as f64
 }
 
 /// Whether the wall is warming (module docs): reads `info`'s white `check.readings`
@@ -187,25 +202,31 @@ pub fn check_warm(
     };
     let key = display_key(wall, info);
     let mut s = Session::start(rig, &key, info.id, opts.spot_uv, &session_opts)?;
-    let mut y = Vec::with_capacity(n as usize);
+    let mut points = Vec::with_capacity(n as usize);
+    let mut used = 0;
     while s.remaining() > 0 {
-        if let Some(x) = s
-            .sample(Patch::White, false, &mut |_| {})?
-            .filter(|x| x.y > 0.0)
-        {
-            y.push(x.y);
+        let before = s.log.readings;
+        let value = s.sample(Patch::White, false, &mut |_| {})?;
+        let took = s.log.readings.saturating_sub(before);
+        if let Some(x) = value.filter(|x| x.y > 0.0 && x.y.is_finite()) {
+            // at the middle of the readings it averages
+            points.push((f64::from(before) + 0.5 * f64::from(took.max(1) - 1), x.y));
+            used += took;
+        }
+        if took == 0 {
+            break;
         }
     }
-    let report = judge_warmth(&y, check, run_readings);
+    let report = judge_warmth(&points, s.log.readings, used, check, run_readings);
     progress(Progress::WarmCheck(report));
     Ok(report)
 }
 
 /// Before a run on `first`: the wait when `opts` asks for it
 /// ([`MeasureOptions::warm_up`]), else the warm `check` and the wait (as
-/// [`WarmUp::default`]) when it finds the wall warming; nothing without either. A
-/// technician who skips `first` while aiming skips this too (the display stays
-/// skipped): `Ok`.
+/// [`WarmUp::default`]) when it finds the wall warming; nothing without either.
+/// `Ok(false)` when the technician skipped `first` while aiming (the display stays
+/// skipped; the caller may try the next one).
 pub fn wait_or_check(
     rig: &mut Rig<'_>,
     wall: &str,
@@ -214,7 +235,7 @@ pub fn wait_or_check(
     check: Option<&WarmCheck>,
     run_readings: u32,
     progress: &mut dyn FnMut(Progress),
-) -> Result<(), MeasureError> {
+) -> Result<bool, MeasureError> {
     let waited = (|| {
         let wait = match (opts.warm_up, check) {
             (Some(w), _) => Some(w),
@@ -232,22 +253,33 @@ pub fn wait_or_check(
         Err(MeasureError::Aim {
             source: lumiwall_devices::DeviceError::AimSkipped(_),
             ..
-        }) => Ok(()),
-        other => other,
+        }) => Ok(false),
+        other => other.map(|()| true),
     }
 }
 
-/// The warm check's verdict on the white's luminances `y`, read one after the other.
-fn judge_warmth(y: &[f64], check: &WarmCheck, run_readings: u32) -> WarmCheckReport {
-    let (change, sigma) = trend_with_sigma(y);
-    let per_reading = change / (y.len().max(2) - 1) as f64;
+/// The warm check's verdict on the white's luminances `points` (reading index, Y), from
+/// `used` of the `taken` readings.
+fn judge_warmth(
+    points: &[(f64, f64)],
+    taken: u32,
+    used: u32,
+    check: &WarmCheck,
+    run_readings: u32,
+) -> WarmCheckReport {
+    let (per_reading, sigma) = slope_with_sigma(points);
+    let span = points.last().map_or(0.0, |p| p.0) - points.first().map_or(0.0, |p| p.0);
     let run_drift = per_reading * f64::from(run_readings);
+    let conclusive = points.len() >= 3 && 2 * used >= taken;
     WarmCheckReport {
-        readings: y.len() as u32,
-        change_percent: change,
-        change_sigma_percent: sigma,
+        readings: taken,
+        values: points.len() as u32,
+        conclusive,
+        change_percent: per_reading * span,
+        change_sigma_percent: sigma * span,
         run_drift_percent: run_drift,
-        warming: change.abs() > check.sigmas * sigma
+        warming: conclusive
+            && per_reading.abs() > check.sigmas * sigma
             && run_drift.abs() > check.max_run_drift_percent,
     }
 }
@@ -319,21 +351,27 @@ mod tests {
     use super::*;
 
     /// White luminances rising by `step` per reading with scatter `±wobble` in the
-    /// pattern + − − +, which adds no trend of its own over a multiple of four readings.
-    fn readings(n: usize, step: f64, wobble: f64) -> Vec<f64> {
+    /// pattern + − − +, which adds no trend of its own over a multiple of four readings:
+    /// (reading index, Y).
+    fn readings(n: usize, step: f64, wobble: f64) -> Vec<(f64, f64)> {
         (0..n)
             .map(|i| {
                 let sign = if matches!(i % 4, 0 | 3) { 1.0 } else { -1.0 };
-                100.0 + step * i as f64 + sign * wobble
+                (i as f64, 100.0 + step * i as f64 + sign * wobble)
             })
             .collect()
     }
 
+    fn judge(points: &[(f64, f64)], run_readings: u32) -> WarmCheckReport {
+        let n = points.len() as u32;
+        judge_warmth(points, n, n, &WarmCheck::default(), run_readings)
+    }
+
     #[test]
     fn a_wall_that_would_drift_past_the_limit_over_the_run_is_warming() {
-        // +0.05 % a reading: +1.2 % over the check, +25 % over 500 readings
-        let r = judge_warmth(&readings(24, 0.05, 0.01), &WarmCheck::default(), 500);
-        assert!(r.warming, "{r:?}");
+        // +0.05 % a reading: +1.15 % over 24 readings, +25 % over 500
+        let r = judge(&readings(24, 0.05, 0.01), 500);
+        assert!(r.conclusive && r.warming, "{r:?}");
         assert!((r.change_percent - 1.15).abs() < 0.02, "{r:?}");
         assert!((r.run_drift_percent - 25.0).abs() < 0.5, "{r:?}");
     }
@@ -341,14 +379,33 @@ mod tests {
     #[test]
     fn a_trend_within_its_own_noise_or_within_the_limit_over_the_run_is_warm() {
         // a rise of 0.0005 % a reading hidden in ±0.1 % scatter
-        let noisy = judge_warmth(&readings(24, 0.0005, 0.1), &WarmCheck::default(), 5000);
+        let noisy = judge(&readings(24, 0.0005, 0.1), 5000);
         assert!(noisy.run_drift_percent > 1.0, "{noisy:?}");
         assert!(!noisy.warming, "{noisy:?}");
         // a clear rise that stays below 1 % over a short run
-        let short = judge_warmth(&readings(24, 0.001, 0.0), &WarmCheck::default(), 500);
+        let short = judge(&readings(24, 0.001, 0.0), 500);
         assert!(short.change_sigma_percent < 1e-9, "{short:?}");
         assert!(!short.warming, "{short:?}");
         assert!((short.run_drift_percent - 0.5).abs() < 0.01, "{short:?}");
+    }
+
+    #[test]
+    fn low_light_averages_count_every_reading_and_a_mostly_refused_white_cannot_tell() {
+        // ten averages of four readings each, rising 0.05 % a reading: the drift per
+        // reading, not per average
+        let averaged: Vec<(f64, f64)> = (0..10)
+            .map(|k| {
+                let x = 4.0 * f64::from(k) + 1.5;
+                (x, 100.0 + 0.05 * x)
+            })
+            .collect();
+        let r = judge_warmth(&averaged, 40, 40, &WarmCheck::default(), 500);
+        assert!((r.run_drift_percent - 25.0).abs() < 0.5, "{r:?}");
+        assert!(r.warming && r.values == 10 && r.readings == 40, "{r:?}");
+        // five of forty readings came back: no verdict, no wait
+        let refused = judge_warmth(&averaged[..5], 40, 5, &WarmCheck::default(), 500);
+        assert!(!refused.conclusive && !refused.warming, "{refused:?}");
+        assert!(refused.summary().contains("cannot tell"));
     }
 
     #[test]
