@@ -41,6 +41,8 @@ fn commission_options() -> CommissionOptions {
         grey_levels: lumiwall_calib::measure::grey_drives::default_levels(
             MeasureOptions::default().budget,
         ),
+        // the walls here are warm: measured at once, as before the check existed
+        warm_check: None,
     }
 }
 
