@@ -48,7 +48,7 @@ use crate::measure::grey_drives::{
 };
 use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall, fuse_with_white};
 use crate::measure::split_grey::{SplitDisplay, below_the_samples, split_greys};
-use crate::measure::warm_up::{WarmCheck, wait_or_check};
+use crate::measure::warm_up::{WarmCheck, readings_of_run, wait_or_check};
 use crate::measure::{
     MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, RampFocus, Rig, Survey,
     display_key, luminance_only, measure_display, measure_ramps, survey_display, white_capacity,
@@ -868,10 +868,7 @@ fn warm_up_first(
         .filter(|(_, k)| !(opts.resume && saved(k)))
         .map(|(d, _)| d)
         .collect();
-    let run_readings = opts
-        .measure
-        .budget
-        .saturating_mul(u32::try_from(to_measure.len()).unwrap_or(u32::MAX));
+    let run_readings = readings_of_run(opts.measure.budget, to_measure.len());
     let check = opts.warm_check.as_ref();
     for first in &to_measure {
         let done = wait_or_check(

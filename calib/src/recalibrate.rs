@@ -46,7 +46,7 @@ use crate::CalibError;
 use crate::commission::{
     CommissionError, RUN_DIR, corrected_measurement, load_measurement, measurement_path, to_json,
 };
-use crate::measure::warm_up::{WarmCheck, wait_or_check};
+use crate::measure::warm_up::{WarmCheck, readings_of_run, wait_or_check};
 use crate::measure::{
     FullReading, MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, Rig, Session,
     display_key, measure_black_and_primaries, measure_display, relative_intensity,
@@ -445,8 +445,7 @@ pub fn recalibrate_with_camera(
     let _lock = FolderLock::acquire(dir, &format!("recalibration of wall {wall}"))?;
     let (profiles, last) = load_commissioned(wall, displays, dir)?;
     if let Some(first) = displays.first() {
-        let run_readings = NIGHT_READINGS_PER_DISPLAY
-            .saturating_mul(u32::try_from(displays.len()).unwrap_or(u32::MAX));
+        let run_readings = readings_of_run(NIGHT_READINGS_PER_DISPLAY, displays.len());
         let check = opts.warm_check.as_ref();
         // a technician who skips the first display skips the check with it; the
         // display itself then fails as a skipped one does

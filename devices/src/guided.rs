@@ -265,62 +265,55 @@ mod tests {
         assert!(matches!(confirm("").0, Err(DeviceError::AimStopped(_))));
     }
 
+    /// A positioner answered by `typed`, prompting into nothing.
+    fn answering(typed: &[u8]) -> GuidedPositioner {
+        GuidedPositioner::new(
+            Box::new(Still),
+            Box::new(std::io::Cursor::new(typed.to_vec())),
+            Box::new(std::io::sink()),
+        )
+    }
+
+    /// One session's aiming at display `d`: aim, then confirm.
+    fn visit(g: &mut GuidedPositioner, d: u32, probe: &mut Probe) -> Result<(), DeviceError> {
+        g.aim(DisplayId(d), [0.5, 0.5])?;
+        let aids = AimingAids {
+            pattern: probe,
+            meter: &mut Meter(0),
+        };
+        g.confirm(DisplayId(d), "tile", [0.5, 0.5], aids)
+    }
+
     #[test]
     fn a_spot_confirmed_last_is_not_asked_for_again_until_the_meter_is_aimed_elsewhere() {
-        let mut g = GuidedPositioner::new(
-            Box::new(Still),
-            // one answer per prompt: display 3, then display 4, then display 3 again
-            Box::new(std::io::Cursor::new(b"\n\n\n".to_vec())),
-            Box::new(std::io::sink()),
-        );
-        let (mut probe, mut meter) = (Probe::default(), Meter(0));
-        let mut visit = |d: u32, probe: &mut Probe| {
-            g.aim(DisplayId(d), [0.5, 0.5])?;
-            let aids = AimingAids {
-                pattern: probe,
-                meter: &mut meter,
-            };
-            g.confirm(DisplayId(d), "tile", [0.5, 0.5], aids)
-        };
+        // one answer per prompt: display 3, then display 4, then display 3 again
+        let (mut g, mut probe) = (answering(b"\n\n\n"), Probe::default());
         // the warm check on display 3, then its measurement: one prompt
-        assert!(visit(3, &mut probe).is_ok());
-        assert!(visit(3, &mut probe).is_ok());
+        assert!(visit(&mut g, 3, &mut probe).is_ok());
+        assert!(visit(&mut g, 3, &mut probe).is_ok());
         // another display, then display 3 again (the drift re-read): asked each time
-        assert!(visit(4, &mut probe).is_ok());
-        assert!(visit(3, &mut probe).is_ok());
+        assert!(visit(&mut g, 4, &mut probe).is_ok());
+        assert!(visit(&mut g, 3, &mut probe).is_ok());
         assert_eq!(probe.markers, 3, "three prompts for four visits");
         // every answer was used: a fifth visit elsewhere finds the input ended
         assert!(matches!(
-            visit(4, &mut probe),
+            visit(&mut g, 4, &mut probe),
             Err(DeviceError::AimStopped(_))
         ));
     }
 
     #[test]
     fn a_spot_skipped_last_stays_skipped_until_the_meter_is_aimed_elsewhere() {
-        let mut g = GuidedPositioner::new(
-            Box::new(Still),
-            Box::new(std::io::Cursor::new(b"s\n\n".to_vec())),
-            Box::new(std::io::sink()),
-        );
-        let (mut probe, mut meter) = (Probe::default(), Meter(0));
-        let mut visit = |d: u32, probe: &mut Probe| {
-            g.aim(DisplayId(d), [0.5, 0.5])?;
-            let aids = AimingAids {
-                pattern: probe,
-                meter: &mut meter,
-            };
-            g.confirm(DisplayId(d), "tile", [0.5, 0.5], aids)
-        };
+        let (mut g, mut probe) = (answering(b"s\n\n"), Probe::default());
         assert!(matches!(
-            visit(3, &mut probe),
+            visit(&mut g, 3, &mut probe),
             Err(DeviceError::AimSkipped(_))
         ));
         assert!(matches!(
-            visit(3, &mut probe),
+            visit(&mut g, 3, &mut probe),
             Err(DeviceError::AimSkipped(_))
         ));
-        assert!(visit(4, &mut probe).is_ok());
+        assert!(visit(&mut g, 4, &mut probe).is_ok());
         assert_eq!(probe.markers, 2, "asked once per display");
     }
 }

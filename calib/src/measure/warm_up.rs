@@ -184,6 +184,12 @@ fn trend_percent(y: &[f64]) -> f64 {
     slope_with_sigma(&points).0 * (y.len().max(1) - 1) as f64
 }
 
+/// The readings a run of `displays` displays at `per_display` readings each will take,
+/// for the warm check's extrapolation (saturating).
+pub fn readings_of_run(per_display: u32, displays: usize) -> u32 {
+    per_display.saturating_mul(u32::try_from(displays).unwrap_or(u32::MAX))
+}
+
 /// Whether the wall is warming (module docs): reads `info`'s white `check.readings`
 /// times and extrapolates the trend over `run_readings`, the readings the run will take.
 pub fn check_warm(

@@ -219,6 +219,17 @@ fn commission_text(
     noise: Noise,
     measure: MeasureOptions,
 ) -> lumiwall_calib::commission::CommissionOutcome {
+    let opts = crate::support::options_8500k(measure, BlackMode::Individual, false);
+    commission_text_with(file_text, noise, &opts, &mut |_| {})
+}
+
+/// [`commission_text`] with the commissioning options `opts`, telling `progress`.
+fn commission_text_with(
+    file_text: &str,
+    noise: Noise,
+    opts: &lumiwall_calib::commission::CommissionOptions,
+    progress: &mut dyn FnMut(lumiwall_calib::measure::Progress),
+) -> lumiwall_calib::commission::CommissionOutcome {
     let dir = tempfile::tempdir().expect("tmp");
     let path = dir.path().join("wall.toml");
     std::fs::write(&path, file_text).expect("wall file");
@@ -230,10 +241,19 @@ fn commission_text(
         ),
     )
     .expect("station");
-    let opts = crate::support::options_8500k(measure, BlackMode::Individual, false);
     station
-        .commission(&dir.path().join("out"), &opts, &mut |_| {})
+        .commission(&dir.path().join("out"), opts, progress)
         .expect("commission")
+}
+
+/// The common white and every display's channel luminances of a commissioning.
+fn calibration(o: &lumiwall_calib::commission::CommissionOutcome) -> (f64, Vec<[f64; 3]>) {
+    let channels = o
+        .measured
+        .iter()
+        .map(|m| m.measurement.primaries.map(|p| p.y))
+        .collect();
+    (o.solution.white_xyz_cd_m2.y, channels)
 }
 
 /// The profiles' common white and every display's channel luminances.
@@ -242,13 +262,7 @@ fn calibration_of(file_text: &str, warm_up: bool) -> (f64, Vec<[f64; 3]>) {
         warm_up: warm_up.then(lumiwall_calib::measure::warm_up::WarmUp::default),
         ..MeasureOptions::default()
     };
-    let o = commission_text(file_text, Noise::None, measure);
-    let channels = o
-        .measured
-        .iter()
-        .map(|m| m.measurement.primaries.map(|p| p.y))
-        .collect();
-    (o.solution.white_xyz_cd_m2.y, channels)
+    calibration(&commission_text(file_text, Noise::None, measure))
 }
 
 /// Largest relative difference between two calibrations (white and channels).
@@ -301,36 +315,18 @@ fn calibration_with_the_warm_check(
     lumiwall_calib::measure::warm_up::WarmCheckReport,
     bool,
 ) {
-    let dir = tempfile::tempdir().expect("tmp");
-    let path = dir.path().join("wall.toml");
-    std::fs::write(&path, file_text).expect("wall file");
-    let mut station = lumiwall_calib::station::Station::open(
-        &path,
-        &lumiwall_calib::station::StationOptions::new(
-            lumiwall_calib::station::MeterChoice::Direct,
-            noise,
-        ),
-    )
-    .expect("station");
     let opts = lumiwall_calib::commission::CommissionOptions {
         warm_check: Some(lumiwall_calib::measure::warm_up::WarmCheck::default()),
         ..crate::support::options_8500k(MeasureOptions::default(), BlackMode::Individual, false)
     };
     let (mut check, mut waited) = (None, false);
-    let o = station
-        .commission(&dir.path().join("out"), &opts, &mut |p| match p {
-            lumiwall_calib::measure::Progress::WarmCheck(r) => check = Some(r),
-            lumiwall_calib::measure::Progress::WarmedUp(_) => waited = true,
-            _ => {}
-        })
-        .expect("commission");
-    let channels = o
-        .measured
-        .iter()
-        .map(|m| m.measurement.primaries.map(|p| p.y))
-        .collect();
+    let o = commission_text_with(file_text, noise, &opts, &mut |p| match p {
+        lumiwall_calib::measure::Progress::WarmCheck(r) => check = Some(r),
+        lumiwall_calib::measure::Progress::WarmedUp(_) => waited = true,
+        _ => {}
+    });
     let check = check.expect("the warm check ran");
-    ((o.solution.white_xyz_cd_m2.y, channels), check, waited)
+    (calibration(&o), check, waited)
 }
 
 /// Without `--warm-up`, the commissioning checks first whether the wall is warming: the
