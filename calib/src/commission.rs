@@ -48,7 +48,7 @@ use crate::measure::grey_drives::{
 };
 use crate::measure::meter_offset::{MeterCorrection, correct, estimate_wall, fuse_with_white};
 use crate::measure::split_grey::{SplitDisplay, below_the_samples, split_greys};
-use crate::measure::warm_up::{WarmCheck, readings_of_run, wait_or_check};
+use crate::measure::warm_up::{WarmCheck, wait_or_check};
 use crate::measure::{
     MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, RampFocus, Rig, Survey,
     display_key, luminance_only, measure_display, measure_ramps, survey_display, white_capacity,
@@ -846,8 +846,11 @@ fn target_white_xy(opts: &CommissionOptions) -> Option<[f64; 2]> {
 /// Before the first display still to measure: waits for the wall
 /// ([`MeasureOptions::warm_up`]), or checks whether it is warming and waits if it is
 /// ([`CommissionOptions::warm_check`]; [`wait_or_check`]); on the next one where the
-/// technician skips it while aiming. Nothing when every display is taken from an
-/// earlier run.
+/// technician skips it while aiming. A display taken from an earlier run whose
+/// grey-drive pass is still to read counts as still to measure (its pass reads the
+/// rest of its budget): a run resumed the next morning on lamps just switched on would
+/// otherwise read those channels cold. Nothing when every display is taken from an
+/// earlier run whole.
 fn warm_up_first(
     wall: &str,
     displays: &[DisplayInfo],
@@ -860,17 +863,13 @@ fn warm_up_first(
     if opts.measure.warm_up.is_none() && opts.warm_check.is_none() {
         return Ok(());
     }
-    let saved =
-        |k: &DisplayKey| load_measurement(&measurement_path(run_dir, k)).is_ok_and(|m| m.is_some());
-    let to_measure: Vec<&DisplayInfo> = displays
+    let to_measure = still_to_measure(displays, keys, run_dir, opts);
+    let saved = displays.len() - to_measure.iter().filter(|p| !p.saved).count();
+    let run_readings = to_measure
         .iter()
-        .zip(keys)
-        .filter(|(_, k)| !(opts.resume && saved(k)))
-        .map(|(d, _)| d)
-        .collect();
-    let run_readings = readings_of_run(opts.measure.budget, to_measure.len());
+        .fold(0u32, |sum, p| sum.saturating_add(p.readings));
     let check = opts.warm_check.as_ref();
-    for first in &to_measure {
+    for Pending { info: first, .. } in &to_measure {
         let done = wait_or_check(
             rig,
             wall,
@@ -882,7 +881,7 @@ fn warm_up_first(
         )
         .map_err(|source| CommissionError::Interrupted {
             source,
-            saved: displays.len() - to_measure.len(),
+            saved,
             total: displays.len(),
             run_dir: run_dir.to_path_buf(),
         })?;
@@ -891,6 +890,55 @@ fn warm_up_first(
         }
     }
     Ok(())
+}
+
+/// A display the run still reads ([`still_to_measure`]).
+struct Pending<'d> {
+    info: &'d DisplayInfo,
+    /// The readings it will take.
+    readings: u32,
+    /// Whether its measurement is saved (only its grey-drive pass is left).
+    saved: bool,
+}
+
+/// The displays a run still reads, in order: the whole budget where no measurement is
+/// saved (or the run is not resumed), what the grey-drive pass leaves of it where a
+/// saved measurement still waits for that pass.
+fn still_to_measure<'d>(
+    displays: &'d [DisplayInfo],
+    keys: &[DisplayKey],
+    run_dir: &Path,
+    opts: &CommissionOptions,
+) -> Vec<Pending<'d>> {
+    let budget = opts.measure.budget;
+    let saved = |k: &DisplayKey| {
+        opts.resume
+            .then(|| {
+                load_measurement(&measurement_path(run_dir, k))
+                    .ok()
+                    .flatten()
+            })
+            .flatten()
+    };
+    let greys_pending =
+        |m: &MeasuredDisplay| !opts.grey_levels.is_empty() && m.log.grey_drive_readings.is_none();
+    displays
+        .iter()
+        .zip(keys)
+        .filter_map(|(info, k)| match saved(k) {
+            None => Some(Pending {
+                info,
+                readings: budget,
+                saved: false,
+            }),
+            Some(m) if greys_pending(&m) => Some(Pending {
+                info,
+                readings: budget.saturating_sub(m.measurement.readings).max(1),
+                saved: true,
+            }),
+            Some(_) => None,
+        })
+        .collect()
 }
 
 /// The solving half of [`commission`]: solve, write profiles and report.

@@ -362,6 +362,122 @@ fn the_default_warm_check_waits_for_a_cold_wall_and_measures_a_warm_one_at_once(
     }
 }
 
+/// A commissioning stopped in the grey-drive pass and resumed the next morning on lamps
+/// switched on a minute before: every display's measurement is saved, but the pass still
+/// reads each display's channels, so the resumed run checks first whether the wall is
+/// warming (on the first display whose pass is left), finds it warming, waits, and ends
+/// with the drives of the run that was not stopped for its white and a 20 % grey
+/// (within 0.5 %; exact meter; without the check 4.4 % apart).
+#[test]
+fn a_run_resumed_for_its_grey_drive_pass_on_a_cold_wall_waits_for_it_first() {
+    use lumiwall_calib::measure::Progress;
+    let warm = std::fs::read_to_string(crate::support::wall_path("cold-start-2x2.toml"))
+        .expect("fixture")
+        .replace(
+            "minutes_since_switch_on = 2.0",
+            "minutes_since_switch_on = 180.0",
+        );
+    let reference = commission_text_with(&warm, Noise::None, &warm_checked(false), &mut |_| {});
+    let (mut station, out) = stopped_before_the_grey_drive_pass(&warm);
+
+    station.wall.advance_hours(12.0);
+    station.wall.switch_on_again();
+    station.wall.advance_seconds(60.0);
+    let (mut check, mut waited, mut measured) = (None, false, 0);
+    let resumed = station
+        .commission(out.path(), &warm_checked(true), &mut |p| match p {
+            Progress::WarmCheck(r) => check = Some(r),
+            Progress::WarmedUp(_) => waited = true,
+            Progress::DisplayDone { .. } => measured += 1,
+            _ => {}
+        })
+        .expect("resumed commissioning");
+    let mut d: f64 = 0.0;
+    for (a, b) in white_and_grey_drives(&resumed)
+        .iter()
+        .zip(white_and_grey_drives(&reference).iter())
+    {
+        for c in 0..3 {
+            d = d.max((a[c] / b[c] - 1.0).abs());
+        }
+    }
+    eprintln!(
+        "resumed against not stopped: drives within {:.3} %",
+        100.0 * d
+    );
+    let check = check.expect("the resumed run checks the wall's warmth");
+    assert!(check.warming && waited, "{check:?}");
+    assert_eq!(measured, 0, "every measurement was saved");
+    assert!(d < 0.005, "{d}");
+}
+
+/// Options with the default warm check (and the support's other defaults).
+fn warm_checked(resume: bool) -> lumiwall_calib::commission::CommissionOptions {
+    lumiwall_calib::commission::CommissionOptions {
+        warm_check: Some(lumiwall_calib::measure::warm_up::WarmCheck::default()),
+        ..crate::support::options_8500k(MeasureOptions::default(), BlackMode::Individual, resume)
+    }
+}
+
+/// The drives of every display's white and 20 % grey (where the grey-drive pass's
+/// samples lie).
+fn white_and_grey_drives(o: &lumiwall_calib::commission::CommissionOutcome) -> Vec<[f64; 3]> {
+    let white = o.solution.white_xyz_cd_m2;
+    o.solution
+        .profiles
+        .iter()
+        .flat_map(|p| {
+            let prepared = lumiwall_profiles::apply::PreparedProfile::new(
+                p,
+                &lumiwall_profiles::apply::ApplyOptions::default(),
+            )
+            .expect("profile");
+            [1.0, 0.2].map(|s| lumiwall_calib::verify::drive_for(&prepared, white * s, [0.5, 0.5]))
+        })
+        .collect()
+}
+
+/// A noiseless station on the wall in `file_text` whose commissioning (default warm
+/// check) was stopped right after the last display's measurement was saved, and its
+/// output folder; the stop is lifted again.
+fn stopped_before_the_grey_drive_pass(
+    file_text: &str,
+) -> (lumiwall_calib::station::Station, tempfile::TempDir) {
+    use std::sync::atomic::Ordering;
+    let stop = lumiwall_calib::station::StopFlag::default();
+    let mut station = lumiwall_calib::station::Station::with_wall(
+        lumiwall_devices::sim::VirtualWall::from_toml_str(file_text).expect("wall"),
+        &lumiwall_calib::station::StationOptions {
+            stop: Some(stop.clone()),
+            ..lumiwall_calib::station::StationOptions::new(
+                lumiwall_calib::station::MeterChoice::Direct,
+                Noise::None,
+            )
+        },
+    )
+    .expect("station");
+    let out = tempfile::tempdir().expect("tmp");
+    let displays = station.displays().len();
+    let mut done = 0;
+    let stopped = station.commission(out.path(), &warm_checked(false), &mut |p| {
+        if matches!(p, lumiwall_calib::measure::Progress::DisplayDone { .. }) {
+            done += 1;
+            // the last display measured: the next pattern is the grey-drive pass's
+            stop.store(done == displays, Ordering::SeqCst);
+        }
+    });
+    assert!(
+        matches!(
+            stopped,
+            Err(lumiwall_calib::commission::CommissionError::Interrupted { saved, .. })
+                if saved == displays
+        ),
+        "{stopped:?}"
+    );
+    stop.store(false, Ordering::SeqCst);
+    (station, out)
+}
+
 /// Issue 12 item 3: after the last display the first one's white is read again, and a
 /// cold wall measured without the warm-up wait shows its drift there (while a warm one
 /// does not), so the report says how far apart the first and last displays' lamp
