@@ -409,7 +409,23 @@ impl RecalibrateError {
     /// Whether a device (meter, pattern output, positioner) failed, as opposed to the
     /// files or the solve.
     pub fn is_device_failure(&self) -> bool {
-        matches!(self, Self::Measure(_) | Self::Camera { device: true, .. }) && !self.is_stopped()
+        matches!(self, Self::Measure(_) | Self::Camera { device: true, .. })
+            && !self.is_stopped()
+            && !self.is_wall_not_ready()
+    }
+
+    /// Whether the wall was not ready to be measured: while waiting for it to warm up, a
+    /// display's white kept drifting ([`MeasureError::NotWarm`]: a lamp in an eco or
+    /// dynamic mode, or failing) or showed no light ([`MeasureError::DarkWhileWarming`]:
+    /// a projector off or its shutter closed). The meter worked; the wall needs a look.
+    pub fn is_wall_not_ready(&self) -> bool {
+        matches!(
+            self,
+            Self::Measure(m) if matches!(
+                **m,
+                MeasureError::NotWarm { .. } | MeasureError::DarkWhileWarming { .. }
+            )
+        )
     }
 
     /// Whether the technician stopped the run (nothing was written).

@@ -22,6 +22,10 @@ pub(crate) const EXIT_RECALIBRATED: i32 = 10;
 pub(crate) const EXIT_LEFT_HEADROOM: i32 = 11;
 /// Exit code: a device (meter, pattern output, positioner) failed.
 pub(crate) const EXIT_DEVICE_FAILED: i32 = 12;
+/// Exit code: the wall was not ready: a display's white kept drifting or showed no light
+/// while the run waited for the lamps to warm up (the meter worked; a lamp or projector
+/// needs a look).
+pub(crate) const EXIT_WALL_NOT_READY: i32 = 13;
 
 /// Arguments of `lumiwall recalibrate`.
 #[derive(Debug, clap::Args)]
@@ -94,7 +98,8 @@ pub(crate) struct RecalibrateArgs {
 }
 
 /// Runs `lumiwall recalibrate`; returns the exit code (0: nothing drifted, 10:
-/// recalibrated, 11: a display left the headroom, 12: a device failed).
+/// recalibrated, 11: a display left the headroom, 12: a device failed, 13: the wall was
+/// not ready).
 pub(crate) fn run(args: RecalibrateArgs) -> Result<i32, CliError> {
     let mut readings = 0u32;
     let done = recalibrate_with(&args, &mut |p| match p {
@@ -108,6 +113,11 @@ pub(crate) fn run(args: RecalibrateArgs) -> Result<i32, CliError> {
             println!("recalibrate {wall}: DEVICE FAILED: {error}");
             eprintln!("lumiwall: error: {error}");
             Ok(EXIT_DEVICE_FAILED)
+        }
+        Recalibrated::WallNotReady { wall, error } => {
+            println!("recalibrate {wall}: WALL NOT READY: {error}; no profile was written");
+            eprintln!("lumiwall: error: {error}");
+            Ok(EXIT_WALL_NOT_READY)
         }
         Recalibrated::Done {
             outcome,
@@ -161,6 +171,14 @@ pub(crate) enum Recalibrated {
         /// What failed.
         error: String,
     },
+    /// The wall did not settle or showed no light while the run waited for it (the
+    /// profiles are untouched).
+    WallNotReady {
+        /// Wall name.
+        wall: String,
+        /// What the wait saw.
+        error: String,
+    },
 }
 
 /// `lumiwall recalibrate` without printing (the station app runs it too).
@@ -179,6 +197,12 @@ pub(crate) fn recalibrate_with(
         Ok(o) => o,
         Err(e) if e.is_stopped() => {
             return Err(CliError::failure(format!("{e}; no profile was written")));
+        }
+        Err(e) if e.is_wall_not_ready() => {
+            return Ok(Recalibrated::WallNotReady {
+                wall: station.wall.name(),
+                error: e.to_string(),
+            });
         }
         Err(e) if e.is_device_failure() => {
             return Ok(Recalibrated::DeviceFailed {

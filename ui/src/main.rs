@@ -56,7 +56,8 @@ enum Command {
     /// The nightly run: re-read black, primaries and white of every display, and when a
     /// display drifted, refit, solve the common white again and write new profiles.
     /// Exit 0: nothing drifted; 10: recalibrated; 11: a display left the headroom (the
-    /// wall's white was lowered); 12: a device failed.
+    /// wall's white was lowered); 12: a device failed; 13: the wall was not ready (a
+    /// display kept drifting or showed no light while the run waited for it to warm up).
     #[cfg(feature = "station")]
     Recalibrate(cmd_recalibrate::RecalibrateArgs),
     /// Show target colours through the profiles and read them back with the meter.

@@ -374,5 +374,8 @@ fn recalibrate(
         Recalibrated::DeviceFailed { wall, error } => {
             Err(format!("recalibrate {wall}: DEVICE FAILED: {error}"))
         }
+        Recalibrated::WallNotReady { wall, error } => Err(format!(
+            "recalibrate {wall}: WALL NOT READY: {error}; no profile was written"
+        )),
     }
 }
