@@ -4,13 +4,13 @@
 //! A commissioning leaves every display's full measurement in the profile folder
 //! (`run/*.measurement.json`). A recalibration reads each display again at its spot,
 //! in full on its night of the [`FullCheckRotation`]: black, the three primaries at full
-//! drive (repeated as in commissioning), white and each channel at mid drive (the
-//! tone-curve check), 8 to 17 readings instead of the ~40 of a commissioning; on the
+//! drive (repeated as in commissioning), white and each channel at its drive in a grey
+//! of half the wall white (the tone-curve check, [`curve_check_drive`]), 8 to 17 readings instead of the ~40 of a commissioning; on the
 //! other nights one reading of full white, from which the channel factors are inferred
 //! ([`scales_from_white`]; a white that shows what ageing does not do is followed by the
 //! full check at once). Each display is
 //! compared with its last measurement: the primaries' luminance (%) and chromaticity
-//! (Δxy), the black (cd/m²) and the mid-drive intensities against the last tone curves
+//! (Δxy), the black (cd/m²) and the curve-check intensities against the last tone curves
 //! (%), and the white the display shows through its current profile, predicted from
 //! the readings (ΔE2000). When no display drifted beyond the limits, nothing is written. Otherwise the
 //! measurement is refitted: black, primaries and white are the new readings, and each
@@ -72,8 +72,9 @@ pub struct DriftLimits {
     pub delta_xy: f64,
     /// Largest change of the black luminance, cd/m².
     pub black_cd_m2: f64,
-    /// Largest change of a channel's relative intensity at mid drive against its tone
-    /// curve, percent; beyond it the display is measured again in full.
+    /// Largest change of a channel's relative intensity at its curve-check drive (in a
+    /// grey of half the wall white, [`curve_check_drive`]) against its tone curve,
+    /// percent; beyond it the display is measured again in full.
     pub curve_pct: f64,
     /// Largest ΔE2000 of the white the display shows through its current profile,
     /// predicted from the night's readings, against the common white: the changes
@@ -205,9 +206,9 @@ pub struct DisplayCheck {
     pub usage_for_current_white: [f64; 3],
     /// The display's headroom (its profile's).
     pub headroom: f64,
-    /// Change of each channel's relative intensity at mid drive
-    /// ([`curve_check_drive`]) against its profile's tone curve, percent (NaN where it
-    /// could not be read).
+    /// Change of each channel's relative intensity at its drive in a grey of half the
+    /// wall white ([`curve_check_drive`]) against its profile's tone curve, percent
+    /// (NaN where it could not be read).
     pub curve_change_pct: [f64; 3],
     /// Whether a tone curve moved beyond the limit: the display is measured again in
     /// full (curves included) instead of refitted.
@@ -554,7 +555,7 @@ fn check_display(
             return Ok((c, m));
         }
     }
-    let (new, readings) = read_display(rig, info, key, &opts.measure, progress)?;
+    let (new, readings) = read_display(rig, info, key, profile, &opts.measure, progress)?;
     let new = steady_chromaticities(&old.measurement, new, opts.limits.delta_xy);
     let mut c = check(key, &old.measurement, &new, profile, readings, &opts.limits);
     c.readings += spent;
@@ -717,6 +718,7 @@ fn read_display(
     rig: &mut Rig<'_>,
     info: &DisplayInfo,
     key: &DisplayKey,
+    profile: &DisplayProfile,
     opts: &MeasureOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(Readings, u32), RecalibrateError> {
@@ -724,8 +726,8 @@ fn read_display(
     let (black, primaries) = measure_black_and_primaries(&mut s, key, opts, progress)?;
     let white = s.sample(Patch::White, true, progress)?;
     let mut mid = [None; 3];
-    let drive = curve_check_drive(info.bit_depth);
     for c in Channel::ALL {
+        let drive = curve_check_drive(profile, c.index(), info.bit_depth);
         mid[c.index()] = s
             .sample(Patch::Ramp(c, drive), true, progress)?
             .map(|xyz| (drive, xyz));
@@ -756,14 +758,33 @@ struct Readings {
     mid: [Option<(f64, Xyz)>; 3],
 }
 
-/// Drive of the tone-curve check: one reading per channel where a curve's shape shows
-/// most (mid drive, well above the meter's low-light limit), on a code the display's
-/// input shows exactly (0.5 is not: on 8 bits it is shown as 128/255, which alone is
-/// 0.9 % more light on a gamma-2.2 channel).
-pub fn curve_check_drive(bit_depth: u32) -> f64 {
+/// Drive of channel `c`'s tone-curve check: one reading where the wall uses the channel
+/// and its curve is pinned by the commissioning's samples, the channel's drive in a grey
+/// of half the wall white ([`CURVE_CHECK_GREY`] of its usage in the white, on the
+/// profile's curve), on a code the display's input shows exactly (a drive between
+/// codes is shown as the nearest: on 8 bits 0.5 is 128/255, alone 0.9 % more light on
+/// a gamma-2.2 channel). Mid drive where the profile states no usage.
+///
+/// Why not mid drive for every display: where a dimmer display sets the wall white,
+/// the others use a third of their drive range, their ramps are read there, and their
+/// fitted curves at mid drive come from the segment up to full drive. On
+/// `weak-channel-3x1` the check at mid drive found every display's curves 2–5 % off
+/// with the exact meter (4–8 % with the realistic one) on the night after
+/// commissioning, so every night measured every display again in full.
+pub fn curve_check_drive(profile: &DisplayProfile, c: usize, bit_depth: u32) -> f64 {
     let top = f64::from((1u32 << bit_depth.clamp(1, 16)) - 1);
-    (0.5 * top).round() / top
+    let usage = profile.channel_usage.get(c).copied().unwrap_or(f64::NAN);
+    let drive = if usage.is_finite() && usage > 0.0 {
+        f64::from(profile.curves[c].drive_for((CURVE_CHECK_GREY * usage.min(1.0)) as f32))
+    } else {
+        0.5
+    };
+    ((drive.clamp(0.0, 1.0) * top).round() / top).max(1.0 / top)
 }
+
+/// The grey of the tone-curve check as a share of the wall white
+/// ([`curve_check_drive`]).
+pub const CURVE_CHECK_GREY: f64 = 0.5;
 
 /// A channel's relative intensity `(Y − Y_black)/(Y_full − Y_black)` at `drive` on the
 /// profile's fitted tone curve: the intensity whose drive (the curve's inverse LUT) is
@@ -1110,7 +1131,7 @@ fn options_of(p: &DisplayProfile, headroom: f64) -> SolveOptions {
 pub fn recalibration_markdown(o: &RecalibrationOutcome) -> String {
     let mut s = format!(
         "## Recalibration of {} ({})\n\n{:?}: common white {:.2} → {:.2} cd/m², {} readings.\n\n\
-         | display | ΔY R/G/B % | Δxy primaries (max) | black Δ cd/m² | curve at mid drive R/G/B % | white shown ΔE2000 | reserve left | checked | status |\n\
+         | display | ΔY R/G/B % | Δxy primaries (max) | black Δ cd/m² | curve in the half grey R/G/B % | white shown ΔE2000 | reserve left | checked | status |\n\
          |---|---|---|---|---|---|---|---|---|\n",
         o.wall,
         now_rfc3339(),

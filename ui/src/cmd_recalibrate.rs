@@ -51,7 +51,8 @@ pub(crate) struct RecalibrateArgs {
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.05, value_parser = values::positive_finite)]
     max_black_change: f64,
     /// Measure a display again in full (tone curves included) when a channel's light at
-    /// mid drive is off its profile's curve by more than this (percent).
+    /// its drive in a grey of half the wall white is off its profile's curve by more than
+    /// this (percent).
     #[arg(long, allow_negative_numbers = true, default_value_t = 3.0, value_parser = values::positive_finite)]
     max_curve_change_pct: f64,
     /// Recalibrate when the white a display shows through its profile, predicted from
