@@ -222,11 +222,13 @@ pub fn run(
         &bench.wall,
         &StationOptions::new(bench.meter.clone(), bench.noise),
     )?;
+    // as the station matches it by default (per display on an Infitec wall)
+    let per_display = station.per_display_matrices_by_default();
     let meter_matrix = crate::readings::match_meter(
         &mut station,
         bench.noise,
         &crate::readings::default_reference(),
-        false,
+        per_display,
     )?;
     let profiles_dir = bench.out.join("profiles");
     let mut store = ProfileStore::open(&store_path)?;
