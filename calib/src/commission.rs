@@ -359,8 +359,7 @@ fn read_greys(
     measured: &mut [MeasuredDisplay],
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(), CommissionError> {
-    let pending = |m: &MeasuredDisplay| m.log.grey_drive_readings.is_none();
-    if opts.grey_levels.is_empty() || !measured.iter().any(pending) {
+    if !measured.iter().any(|m| grey_pass_left(m, opts)) {
         return Ok(());
     }
     let (_, inputs) = solve_inputs(measured, opts);
@@ -373,7 +372,7 @@ fn read_greys(
         let Some(profile) = provisional.profiles.iter().find(|p| p.display == *key) else {
             continue;
         };
-        if !pending(m) {
+        if !grey_pass_left(m, opts) {
             continue;
         }
         let pass = GreyPass {
@@ -396,6 +395,12 @@ fn read_greys(
         write_atomic(&measurement_path(&run_dir, &m.measurement.key), &to_json(m))?;
     }
     Ok(())
+}
+
+/// Whether `m`'s grey-drive pass is still to read: the run has grey levels and the
+/// measurement holds no grey-drive readings yet.
+fn grey_pass_left(m: &MeasuredDisplay, opts: &CommissionOptions) -> bool {
+    !opts.grey_levels.is_empty() && m.log.grey_drive_readings.is_none()
 }
 
 /// What one grey-drive pass over a display reads.
@@ -920,8 +925,6 @@ fn still_to_measure<'d>(
             })
             .flatten()
     };
-    let greys_pending =
-        |m: &MeasuredDisplay| !opts.grey_levels.is_empty() && m.log.grey_drive_readings.is_none();
     displays
         .iter()
         .zip(keys)
@@ -931,7 +934,7 @@ fn still_to_measure<'d>(
                 readings: budget,
                 saved: false,
             }),
-            Some(m) if greys_pending(&m) => Some(Pending {
+            Some(m) if grey_pass_left(&m, opts) => Some(Pending {
                 info,
                 readings: budget.saturating_sub(m.measurement.readings).max(1),
                 saved: true,

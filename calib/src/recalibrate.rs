@@ -5,8 +5,9 @@
 //! (`run/*.measurement.json`). A recalibration reads each display again at its spot,
 //! in full on its night of the [`FullCheckRotation`]: black, the three primaries at full
 //! drive (repeated as in commissioning), white and each channel at its drive in a grey
-//! of half the wall white (the tone-curve check, [`curve_check_drive`]), 8 to 17 readings instead of the ~40 of a commissioning; on the
-//! other nights one reading of full white, from which the channel factors are inferred
+//! of half the wall white (the tone-curve check, [`curve_check_drive`]), 8 to 17
+//! readings instead of the ~40 of a commissioning; on the other nights one reading of
+//! full white, from which the channel factors are inferred
 //! ([`scales_from_white`]; a white that shows what ageing does not do is followed by the
 //! full check at once). Each display is
 //! compared with its last measurement: the primaries' luminance (%) and chromaticity
@@ -727,7 +728,7 @@ fn read_display(
     let white = s.sample(Patch::White, true, progress)?;
     let mut mid = [None; 3];
     for c in Channel::ALL {
-        let drive = curve_check_drive(profile, c.index(), info.bit_depth);
+        let drive = curve_check_drive(profile, c, info.bit_depth);
         mid[c.index()] = s
             .sample(Patch::Ramp(c, drive), true, progress)?
             .map(|xyz| (drive, xyz));
@@ -771,11 +772,12 @@ struct Readings {
 /// `weak-channel-3x1` the check at mid drive found every display's curves 2–5 % off
 /// with the exact meter (4–8 % with the realistic one) on the night after
 /// commissioning, so every night measured every display again in full.
-pub fn curve_check_drive(profile: &DisplayProfile, c: usize, bit_depth: u32) -> f64 {
+pub fn curve_check_drive(profile: &DisplayProfile, c: Channel, bit_depth: u32) -> f64 {
     let top = f64::from((1u32 << bit_depth.clamp(1, 16)) - 1);
-    let usage = profile.channel_usage.get(c).copied().unwrap_or(f64::NAN);
+    let usage = profile.channel_usage[c.index()];
     let drive = if usage.is_finite() && usage > 0.0 {
-        f64::from(profile.curves[c].drive_for((CURVE_CHECK_GREY * usage.min(1.0)) as f32))
+        let share = (CURVE_CHECK_GREY * usage.min(1.0)) as f32;
+        f64::from(profile.curves[c.index()].drive_for(share))
     } else {
         0.5
     };

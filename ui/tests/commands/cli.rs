@@ -617,16 +617,10 @@ fn recalibrate_exit_codes_say_unchanged_recalibrated_and_left_headroom() {
     let commissioned = std::fs::read(&profile).unwrap();
     let store = tmp.path().join("store.lumistore");
     let recalibrate = |hours: &str| {
-        let mut cmd = lumiwall();
-        cmd.args(["recalibrate", "--meter", "direct", "--noise", "none"])
-            .args(["--full-check-every", "2", "--night", "0"])
-            .args(["--simulate-hours", hours, "--wall"])
-            .arg(small_wall())
-            .arg("--profiles")
-            .arg(&dir)
-            .arg("--store")
-            .arg(&store);
-        cmd.assert()
+        recalibrate_noiseless(&small_wall(), &dir, &["--full-check-every", "2"])
+            .args(["--night", "0", "--simulate-hours", hours, "--store"])
+            .arg(&store)
+            .assert()
     };
     recalibrate("0")
         .code(0)
@@ -634,18 +628,7 @@ fn recalibrate_exit_codes_say_unchanged_recalibrated_and_left_headroom() {
         .stdout(contains("recorded 2 lamp readings"));
     assert_eq!(std::fs::read(&profile).unwrap(), commissioned);
     // a store that cannot be opened loses the record, not the night's lines or verdict
-    lumiwall()
-        .args([
-            "recalibrate",
-            "--meter",
-            "direct",
-            "--noise",
-            "none",
-            "--wall",
-        ])
-        .arg(small_wall())
-        .arg("--profiles")
-        .arg(&dir)
+    recalibrate_noiseless(&small_wall(), &dir, &[])
         .arg("--store")
         .arg(tmp.path())
         .assert()
@@ -704,18 +687,7 @@ fn recalibrate_on_lamps_that_never_settle_exits_13_wall_not_ready() {
             "[projector.warmup]\ndeficit = [0.9, 0.9, 0.9]\nminutes = 60.0\n\n[scatter]\n",
         );
     std::fs::write(&drifting, text).unwrap();
-    lumiwall()
-        .args([
-            "recalibrate",
-            "--meter",
-            "direct",
-            "--noise",
-            "none",
-            "--wall",
-        ])
-        .arg(&drifting)
-        .arg("--profiles")
-        .arg(&dir)
+    recalibrate_noiseless(&drifting, &dir, &[])
         .assert()
         .code(13)
         .stdout(contains("the wall is warming up, waiting for it"))

@@ -195,14 +195,13 @@ fn recalibrate_with_the_camera_measures_again_the_flat_field_of_a_display_whose_
     .expect("write wall");
     let before = grid_max_de(&moved, &out);
     let recalibrate = |expect_code: i32| {
-        let a = lumiwall()
-            .args(["recalibrate", "--meter", "direct", "--noise", "none"])
-            .args(["--camera", "virtual", "--full-check-every", "1", "--wall"])
-            .arg(&moved)
-            .arg("--profiles")
-            .arg(&out)
-            .assert()
-            .code(expect_code);
+        let a = recalibrate_noiseless(
+            &moved,
+            &out,
+            &["--camera", "virtual", "--full-check-every", "1"],
+        )
+        .assert()
+        .code(expect_code);
         String::from_utf8_lossy(&a.get_output().stdout).to_string()
     };
     let night = recalibrate(10);

@@ -45,6 +45,19 @@ pub(crate) fn commission_small(out: &Path, extra: &[&str]) -> Command {
     cmd
 }
 
+/// `lumiwall recalibrate` of `wall` with the exact, direct meter on the profiles in
+/// `profiles`, with `extra` arguments.
+pub(crate) fn recalibrate_noiseless(wall: &Path, profiles: &Path, extra: &[&str]) -> Command {
+    let mut cmd = lumiwall();
+    cmd.args(["recalibrate", "--meter", "direct", "--noise", "none"])
+        .args(extra)
+        .arg("--wall")
+        .arg(wall)
+        .arg("--profiles")
+        .arg(profiles);
+    cmd
+}
+
 /// Commissions the small wall with the exact, direct meter into `dir/profiles`.
 pub(crate) fn commission_small_wall(dir: &Path) -> PathBuf {
     let out = dir.join("profiles");
