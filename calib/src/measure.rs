@@ -486,6 +486,11 @@ pub struct MeasuredDisplay {
     /// night after night. `None`: the measurement is itself a full reading.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub anchor: Option<FullReading>,
+    /// How the display's lamp ages, learned from its full checks
+    /// (`recalibrate::LampAgeing`): the white checks infer the channel factors along
+    /// it. `None`: not learned yet (commissioning, or too little loss so far).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ageing: Option<crate::recalibrate::LampAgeing>,
 }
 
 /// Black, primaries and white of one full reading of a display (cd/m²).
@@ -1382,6 +1387,7 @@ fn ramps_in(
         },
         log,
         anchor: None,
+        ageing: None,
     })
 }
 

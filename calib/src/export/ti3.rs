@@ -203,6 +203,7 @@ mod tests {
                 ..MeasureLog::default()
             },
             anchor: None,
+            ageing: None,
         }
     }
 
