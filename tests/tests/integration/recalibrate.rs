@@ -252,23 +252,11 @@ fn white_check_of_display_0() -> RecalibrateOptions {
 }
 
 #[test]
-fn one_white_reading_recalibrates_an_aged_lamp_as_well_as_a_full_check_once_its_ageing_is_learned()
-{
+fn one_white_reading_recalibrates_an_aged_lamp_as_well_as_a_full_check() {
     let mut station = crate::support::direct_station("mono-2x1.toml", Noise::None);
     let dir = tempfile::tempdir().unwrap();
-    commission(&mut station, dir.path(), 0.8);
-    // a night of full checks after 1000 h learns how each lamp ages
-    station.wall.advance_hours(1000.0);
-    let o = station
-        .recalibrate(dir.path(), &options(), &mut |_| {})
-        .unwrap();
-    let commissioned = o.solution.expect("profiles written").profiles;
-    for m in measured(dir.path()) {
-        let shares = m.ageing.and_then(|a| a.direction(None));
-        println!("{}: shares of the loss {shares:?}", m.measurement.key);
-        assert!(shares.is_some(), "{:?}", m.ageing);
-    }
-    station.wall.advance_hours(1000.0);
+    let commissioned = commission(&mut station, dir.path(), 0.8);
+    station.wall.advance_hours(2000.0);
     let stale = truth(&station, &commissioned);
     let o = station
         .recalibrate(dir.path(), &white_check_of_display_0(), &mut |_| {})
@@ -278,20 +266,20 @@ fn one_white_reading_recalibrates_an_aged_lamp_as_well_as_a_full_check_once_its_
     assert_eq!(white.readings, 1);
     assert_eq!(full.kind, CheckKind::Full);
     assert!(full.readings >= 8, "{} readings", full.readings);
-    // another 1000 h take several % of a channel: the white reading sees it per channel
+    // 2000 h take 10-30 % of a channel: the white reading sees it per channel
     println!(
         "display 0 from its white: ΔY {:?} %; display 1 in full: ΔY {:?} %",
         white.luminance_change_pct, full.luminance_change_pct
     );
     assert!(white.drifted);
-    assert!(white.luminance_change_pct.iter().all(|d| *d < -2.0));
+    assert!(white.luminance_change_pct.iter().all(|d| *d < -5.0));
     let new = o.solution.clone().expect("profiles written").profiles;
     let fresh = truth(&station, &new);
     println!("truth before {stale:?}\nafter {fresh:?}");
-    assert!(stale.median_de > 0.5, "ageing should show: {stale:?}");
-    assert!(fresh.median_de <= 0.1 && fresh.max_de <= 0.5, "{fresh:?}");
-    // the white-checked display keeps its last full reading as the anchor the next
-    // white check infers from; the fully checked one has none
+    assert!(stale.median_de > 1.0, "ageing should show: {stale:?}");
+    assert!(fresh.median_de <= 0.5 && fresh.max_de <= 2.0, "{fresh:?}");
+    // the white-checked display keeps its commissioning's full reading as the anchor
+    // the next white check infers from; the fully checked one has none
     let anchors = anchors(dir.path());
     assert_eq!(anchors[0], Some(previous_full_reading(dir.path(), 0)));
     assert_eq!(anchors[1], None);
@@ -313,8 +301,52 @@ fn one_white_reading_recalibrates_an_aged_lamp_as_well_as_a_full_check_once_its_
 }
 
 #[test]
+fn a_white_check_with_a_realistic_meter_follows_the_learned_ageing_within_its_noise() {
+    let mut station = crate::support::direct_station("mono-2x1.toml", Noise::Realistic);
+    let dir = tempfile::tempdir().unwrap();
+    commission(&mut station, dir.path(), 0.8);
+    // a night of full checks after 1000 h learns how each lamp ages
+    station.wall.advance_hours(1000.0);
+    station
+        .recalibrate(dir.path(), &options(), &mut |_| {})
+        .unwrap();
+    let noise = station.meter.info().noise;
+    let shares = measured(dir.path())[0]
+        .ageing
+        .and_then(|a| a.direction(noise.as_ref()));
+    println!("shares of the loss {shares:?}");
+    assert!(shares.is_some());
+    let channels = |station: &Station| {
+        let t = station
+            .wall
+            .true_primaries(lumiwall_devices::DisplayId(0))
+            .unwrap();
+        [t.red, t.green, t.blue].map(|p| (p - t.black).y)
+    };
+    let before = channels(&station);
+    station.wall.advance_hours(1000.0);
+    let after = channels(&station);
+    let o = station
+        .recalibrate(dir.path(), &white_check_of_display_0(), &mut |_| {})
+        .unwrap();
+    let c = &o.checks[0];
+    assert_eq!((c.kind, c.readings), (CheckKind::White, 1), "{c:?}");
+    // each channel's change as one white reading infers it, against the truth: within
+    // 0.6 % (one reading's colour noise inverted for three free factors moves them by
+    // 1-1.5 %)
+    for ch in 0..3 {
+        let truth = 100.0 * (after[ch] / before[ch] - 1.0);
+        let inferred = c.luminance_change_pct[ch];
+        println!("channel {ch}: inferred {inferred:.2} %, true {truth:.2} %");
+        assert!((inferred - truth).abs() < 0.6, "{inferred} vs {truth}");
+    }
+}
+
+#[test]
 fn a_white_check_that_sees_the_colour_move_before_the_lamp_ageing_is_learned_measures_in_full() {
-    let mut station = crate::support::direct_station("mono-2x1.toml", Noise::None);
+    // a CS-100A class meter: one white reading's colour noise is beyond what the
+    // ageing's direction may miss, so the white check follows the direction
+    let mut station = crate::support::direct_station("mono-2x1.toml", Noise::Realistic);
     let dir = tempfile::tempdir().unwrap();
     commission(&mut station, dir.path(), 0.8);
     station.wall.advance_hours(2000.0);
@@ -331,7 +363,10 @@ fn a_white_check_that_sees_the_colour_move_before_the_lamp_ageing_is_learned_mea
     );
     // the full check learned how the lamp ages, for the next white checks
     let ageing = measured(dir.path())[0].ageing;
-    let shares = ageing.and_then(|a| a.direction(None)).expect("learned");
+    let noise = station.meter.info().noise;
+    let shares = ageing
+        .and_then(|a| a.direction(noise.as_ref()))
+        .expect("learned");
     println!("shares of the loss {shares:?}");
     assert!(
         shares[2] > shares[0],
