@@ -61,7 +61,7 @@ mod lamp_ageing;
 
 pub use flat_fields::{FlatFieldCheck, FlatFieldFinding, FlatFieldLook};
 pub use lamp_ageing::{
-    DIRECTION_TOLERANCE_XY, LOSS_PER_CHECK_SIGMAS, LOSS_TO_USE_SIGMAS, LampAgeing, channel_factors,
+    BRIGHTER_SIGMAS, DIRECTION_TOLERANCE_XY, LOSS_TO_USE_SIGMAS, LampAgeing, channel_factors,
 };
 
 /// Folder (inside the profile folder) that keeps the profiles and measurements a
@@ -145,7 +145,9 @@ const NIGHT_READINGS_PER_DISPLAY: u32 = 17;
 /// a white segment (the whole lamp through closed or clear paths) fall with the lamp's
 /// mean. Each channel keeps its share of the loss, which the full checks learn; with
 /// it one white reading gives the three channel factors ([`channel_factors`]: one
-/// number from the luminance, the colour as the check). What it cannot see (a
+/// number from the luminance, the colour as the check; a meter more precise than that
+/// model, such as the noiseless one, inverts the white for three free factors). What
+/// it cannot see (a
 /// primary changing colour, a tone curve moving) the full check finds: every display
 /// gets one every `every_nights` nights, in turn, and at once when its white check sees
 /// something a lamp's ageing does not do (a channel brightening, as after a lamp change;
@@ -241,7 +243,9 @@ impl DisplayCheck {
     /// What the check read, as the lamp-life forecast stores it (measured at `utc`);
     /// `None` where the forecast could not use it (the primaries do not span the white,
     /// see [`LampReading::is_usable`]; a luminance-only white check, which says nothing
-    /// of each channel's decay).
+    /// of each channel's decay). A white check along the learned ageing gives each
+    /// channel its learned share of the loss (with a noiseless meter, the white's own
+    /// inversion).
     pub fn lamp_reading(&self, utc: lumiwall_profiles::store::Timestamp) -> Option<LampReading> {
         if self.kind == CheckKind::WhiteLuminance {
             return None;
@@ -566,8 +570,9 @@ fn check_display(
         }
     }
     let (new, readings) = read_display(rig, info, key, profile, &opts.measure, progress)?;
-    let new = steady_chromaticities(&old.measurement, new, opts.limits.delta_xy);
+    // the black first: a primary keeping its colour is rebuilt on tonight's black
     let new = steady_black(&old.measurement, new, noise);
+    let new = steady_chromaticities(&old.measurement, new, opts.limits.delta_xy);
     let before = old.last_full_reading();
     let ageing = LampAgeing::learn(old.ageing, &before, &new.full_reading(), noise.as_ref());
     let mut c = check(key, &old.measurement, &new, profile, readings, &opts.limits);
@@ -987,12 +992,14 @@ fn refit(old: &MeasuredDisplay, new: Readings, readings: u32) -> MeasuredDisplay
 
 /// The greys the last measurement read whole, moved onto the new black and primaries:
 /// each keeps the mix of the old primaries (less black) that shows it, `W' = K' +
-/// P'·P⁻¹·(W − K)`. Their gains against the primaries (the solve's
+/// P'·P⁻¹·(W − K)`, so that their gains against the primaries (the solve's
 /// `composite_gains`: what the display shows beyond the sum of its channels, and what
-/// the primaries' own readings missed) stay what the commissioning measured, where
-/// dropping them let a display's grey drift by up to 2 ΔE2000 on the first night that
-/// refitted it (heyewall-48, `bench season --noise realistic`). None where the old
-/// primaries do not span the colour space.
+/// the primaries' own readings missed) stay what the commissioning measured instead of
+/// being dropped. None where the old primaries do not span the colour space, and none
+/// on a display whose white holds a white segment
+/// ([`crate::solve::MIN_WHITE_SEGMENT_SHARE`] of it beyond the primaries): its share of
+/// a grey follows the lamp's mean and the grey's smallest channel, which the mix of the
+/// primaries does not carry.
 fn moved_composites(
     old: &crate::solve::DisplayMeasurement,
     new: &Readings,
@@ -1004,6 +1011,13 @@ fn moved_composites(
     let Some(inv) = lumiwall_core::mat3::inverse(&columns(old.black, &old.primaries)) else {
         return Vec::new();
     };
+    let beyond_primaries = old.white.map_or(0.0, |w| {
+        let sum = (0..3).fold(w, |acc, c| acc - (old.primaries[c] - old.black));
+        (sum - old.black).y / w.y
+    });
+    if beyond_primaries.abs() >= crate::solve::MIN_WHITE_SEGMENT_SHARE {
+        return Vec::new();
+    }
     let map = lumiwall_core::mat3::mul(&columns(new.black, &new.primaries), &inv);
     old.composites
         .iter()
@@ -1423,6 +1437,20 @@ mod tests {
             "{:?} vs {expected:?}",
             moved[0].xyz
         );
+    }
+
+    #[test]
+    fn a_refit_drops_the_greys_read_whole_of_a_display_with_a_white_segment() {
+        let (mut old, new) = full_check_with_blue_moved(0.0);
+        old.composites = vec![crate::solve::CompositeReading {
+            drive: [0.5; 3],
+            xyz: old.white.unwrap() * 0.2,
+            readings: 4,
+        }];
+        let sum = (0..3).fold(old.black, |acc, c| acc + (old.primaries[c] - old.black));
+        // a white 20 % beyond its primaries: an RGBW wheel's white segment
+        old.white = Some(sum + (sum - old.black) * 0.25);
+        assert!(moved_composites(&old, &new).is_empty());
     }
 
     #[test]

@@ -25,82 +25,91 @@ use serde::{Deserialize, Serialize};
 
 use crate::measure::FullReading;
 
-/// Each channel's loss of light, `1 − Y_now / Y_before` of its full-drive primary
-/// (black removed), between the display's last two full checks where that alone shows
-/// the direction ([`LOSS_TO_USE_SIGMAS`]: the shares drift as a lamp ages, its most
-/// depleted channel losing ever faster in relative terms), else summed over the full
-/// checks since that saw the lamp lose more than [`LOSS_PER_CHECK_SIGMAS`] times the
-/// meter's luminance repeatability on the mean. Checks where a channel brightened
-/// teach nothing (a lamp change or a fault is not ageing).
+/// How a display's lamp ages: the full reading the current span of its ageing is
+/// counted from, and each channel's loss over the last span that showed the direction.
+/// A span ends at the first full check whose loss since its start reaches
+/// [`LOSS_TO_USE_SIGMAS`] times the meter's luminance repeatability on the mean (the
+/// shares drift as a lamp ages, its most depleted channel losing ever faster in
+/// relative terms, so the last span is the one that counts; small losses add up
+/// within a span, the readings between cancelling). A channel brighter than
+/// [`BRIGHTER_SIGMAS`] since the span's start (a lamp change, or a fault) starts the
+/// learning again from that reading.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct LampAgeing {
-    /// Relative loss of red, green and blue (0.01: 1 % of the light).
-    pub loss: [f64; 3],
+    /// The full reading the current span started at.
+    pub since: FullReading,
+    /// Relative loss `1 − Y_end / Y_start` of red, green and blue over the last span
+    /// that showed the direction (0.01: 1 % of the light); `None`: none yet.
+    pub loss: Option<[f64; 3]>,
 }
 
-/// Smallest mean loss between two full checks that is added to what was learned, in
-/// the meter's stated luminance repeatability (1σ of one reading): below it a
-/// check's difference is mostly the meter's noise (0.5 % for a CS-100A class meter's
-/// 0.1 %). A noiseless meter's every loss counts.
-pub const LOSS_PER_CHECK_SIGMAS: f64 = 5.0;
+/// A channel this many times the meter's luminance repeatability (1σ of one reading)
+/// brighter than at the span's start is not ageing: a lamp change or a fault (0.5 %
+/// for a CS-100A class meter's 0.1 %; any gain for a noiseless meter).
+pub const BRIGHTER_SIGMAS: f64 = 5.0;
 
-/// Smallest summed mean loss whose direction the white checks follow, in the meter's
-/// luminance repeatability: at 20σ (2 % for a CS-100A class meter) a channel's share is
-/// known to a few percent of itself, which over a week's further loss is well inside
-/// the meter's own colour noise.
+/// Smallest mean loss over a span whose direction the white checks follow, in the
+/// meter's luminance repeatability: at 20σ (2 % for a CS-100A class meter) a channel's
+/// share is known to a few percent of itself, which over a week's further loss is well
+/// inside the meter's own colour noise. A noiseless meter's every loss shows it.
 pub const LOSS_TO_USE_SIGMAS: f64 = 20.0;
 
 /// What the model of the white's colour may miss besides the meter's noise once the
-/// lamp's shares are learned (CIE 1931 xy): they drift slowly as the lamp ages, and a
-/// noiseless meter must not send every display to a full check for that. About 0.15
-/// ΔE2000 at the white. Before they are learned a colour change beyond the meter's
-/// noise goes to the full check, which learns them.
+/// lamp's shares are learned (CIE 1931 xy): they drift slowly as the lamp ages. About
+/// 0.15 ΔE2000 at the white. A meter whose colour noise is below it gets the free
+/// inversion instead ([`channel_factors`]); before the shares are learned a colour
+/// change beyond the meter's noise goes to the full check, which learns them.
 pub const DIRECTION_TOLERANCE_XY: f64 = 0.0002;
 
 impl LampAgeing {
-    /// Each channel's share of the loss, normalised to a mean of 1, for a meter of
-    /// `noise` (`None`: noiseless); `None` until the lamp has lost
-    /// [`LOSS_TO_USE_SIGMAS`] times its luminance repeatability on the mean, or where
-    /// a share is not positive (a channel that gained light while the others aged is
-    /// not a lamp's ageing).
-    pub fn direction(&self, noise: Option<&ReadingNoise>) -> Option<[f64; 3]> {
-        let mean = self.loss.iter().sum::<f64>() / 3.0;
-        let ok = mean > 0.0
-            && mean >= LOSS_TO_USE_SIGMAS * luminance_sigma(noise)
-            && self.loss.iter().all(|l| *l > 0.0);
-        let u = self.loss.map(|l| l / mean);
+    /// Each channel's share of the loss over the last span that showed it, normalised
+    /// to a mean of 1; `None` before one did, or where a share is not positive (a
+    /// channel that gained light while the others aged is not a lamp's ageing).
+    pub fn direction(&self) -> Option<[f64; 3]> {
+        let loss = self.loss?;
+        let mean = loss.iter().sum::<f64>() / 3.0;
+        let u = loss.map(|l| l / mean);
+        let ok = mean > 0.0 && loss.iter().all(|l| *l > 0.0);
         (ok && u.iter().all(|v| v.is_finite())).then_some(u)
     }
 
-    /// What was learned (`previous`) with the loss between the full readings `before`
-    /// and `now`, read by a meter of `noise`, added where it counts (see
-    /// [`LampAgeing`]); `previous` otherwise.
+    /// What is known after the full reading `now`, read by a meter of `noise`:
+    /// `previous`'s span (or one starting at `before`, the display's last full reading,
+    /// where nothing was learned yet) ended, continued or started again (see
+    /// [`LampAgeing`]). `previous` where a reading has no light.
     pub fn learn(
         previous: Option<LampAgeing>,
         before: &FullReading,
         now: &FullReading,
         noise: Option<&ReadingNoise>,
     ) -> Option<LampAgeing> {
+        let start = previous.map_or(*before, |p| p.since);
         let loss: [f64; 3] = std::array::from_fn(|c| {
-            let was = (before.primaries[c] - before.black).y;
+            let was = (start.primaries[c] - start.black).y;
             let is = (now.primaries[c] - now.black).y;
             1.0 - is / was
         });
-        let mean = loss.iter().sum::<f64>() / 3.0;
-        let sigma = luminance_sigma(noise);
-        let counts = loss.iter().all(|l| l.is_finite() && *l >= 0.0)
-            && mean > 0.0
-            && mean >= LOSS_PER_CHECK_SIGMAS * sigma;
-        if !counts {
+        if !loss.iter().all(|l| l.is_finite()) {
             return previous;
         }
-        let shows_direction = mean >= LOSS_TO_USE_SIGMAS * sigma;
-        let sum = match previous {
-            Some(p) if !shows_direction => p.loss,
-            _ => [0.0; 3],
+        let sigma = luminance_sigma(noise);
+        let restart = LampAgeing {
+            since: *now,
+            loss: None,
         };
+        if loss.iter().any(|l| -l > BRIGHTER_SIGMAS * sigma) {
+            return Some(restart);
+        }
+        let mean = loss.iter().sum::<f64>() / 3.0;
+        if mean > 0.0 && mean >= LOSS_TO_USE_SIGMAS * sigma {
+            return Some(LampAgeing {
+                loss: Some(loss),
+                ..restart
+            });
+        }
         Some(LampAgeing {
-            loss: std::array::from_fn(|c| sum[c] + loss[c]),
+            since: start,
+            loss: previous.and_then(|p| p.loss),
         })
     }
 }
@@ -135,7 +144,7 @@ pub fn channel_factors(
     if noise_xy < DIRECTION_TOLERANCE_XY {
         return inverted_factors(old, white, noise_xy);
     }
-    let learned = ageing.and_then(|a| a.direction(noise));
+    let learned = ageing.and_then(LampAgeing::direction);
     let u = learned.unwrap_or([1.0; 3]);
     let p: [Xyz; 3] = std::array::from_fn(|c| old.primaries[c] - old.black);
     let rest = match old.white {
@@ -299,10 +308,10 @@ mod tests {
         let white = aged(&old, along_shares(0.05)).white.unwrap();
         let off = moved_x(white, 0.004);
         assert_eq!(channel_factors(&old, off, CS100A, Some(&learned())), None);
-        // a meter of a tenth of that noise: beyond the model's own tolerance, and
+        // a meter of a fifth of that noise: beyond the model's own tolerance, and
         // within it
         let precise = ReadingNoise {
-            xy: 0.00005,
+            xy: 0.0001,
             ..ReadingNoise::CS100A_CLASS
         };
         let tolerance = 3.0 * std::f64::consts::SQRT_2 * precise.xy + DIRECTION_TOLERANCE_XY;
@@ -317,7 +326,7 @@ mod tests {
 
     #[test]
     fn a_full_check_learns_each_channel_share_of_the_loss() {
-        let d = learned().direction(CS100A).unwrap();
+        let d = learned().direction().unwrap();
         let mean = SHARES.iter().sum::<f64>() / 3.0;
         for c in 0..3 {
             assert!((d[c] - SHARES[c] / mean).abs() < 1e-12, "{d:?}");
@@ -325,42 +334,54 @@ mod tests {
     }
 
     #[test]
-    fn a_lamp_change_or_a_loss_within_the_meter_noise_teaches_nothing() {
+    fn a_lamp_change_starts_the_learning_again_from_its_reading() {
         let before = commissioned();
         let known = Some(learned());
+        let span_start = learned().since;
         // a new lamp: every channel brighter
-        let brighter = aged(&before, [1.3, 1.25, 1.4]);
-        assert_eq!(LampAgeing::learn(known, &before, &brighter, CS100A), known);
-        // one channel brighter while the others fell: not ageing
-        let odd = aged(&before, [1.01, 0.95, 0.95]);
-        assert_eq!(LampAgeing::learn(known, &before, &odd, CS100A), known);
-        // 0.2 % on the mean: within a CS-100A class meter's noise
+        let brighter = aged(&span_start, [1.3, 1.25, 1.4]);
+        let after = LampAgeing::learn(known, &before, &brighter, CS100A).unwrap();
+        assert_eq!((after.since, after.direction()), (brighter, None));
+        // one channel brighter while the others fell: not ageing either
+        let odd = aged(&span_start, [1.01, 0.95, 0.95]);
+        let after = LampAgeing::learn(known, &before, &odd, CS100A).unwrap();
+        assert_eq!((after.since, after.direction()), (odd, None));
+    }
+
+    #[test]
+    fn small_losses_add_up_from_the_span_start_until_they_show_the_direction() {
+        let before = commissioned();
+        // 0.2 %, then 1 % more, then 1 % more: the span runs from the commissioning
         let little = aged(&before, along_shares(0.002));
-        assert_eq!(LampAgeing::learn(None, &before, &little, CS100A), None);
+        let first = LampAgeing::learn(None, &before, &little, CS100A).unwrap();
+        assert_eq!((first.since, first.direction()), (before, None));
+        let more = aged(&little, along_shares(0.01));
+        let second = LampAgeing::learn(Some(first), &little, &more, CS100A).unwrap();
+        assert_eq!(
+            (second.since, second.direction()),
+            (before, None),
+            "1.2 % lost"
+        );
+        let later = aged(&more, along_shares(0.01));
+        let third = LampAgeing::learn(Some(second), &more, &later, CS100A).unwrap();
+        assert_eq!(third.since, later, "2.2 % lost: the span ends");
+        let d = third.direction().expect("shown");
+        let mean = SHARES.iter().sum::<f64>() / 3.0;
+        for c in 0..3 {
+            assert!((d[c] - SHARES[c] / mean).abs() < 0.01, "{d:?}");
+        }
+        // a noiseless meter's every loss shows it
+        let exact = LampAgeing::learn(None, &before, &little, None).unwrap();
+        assert!(exact.direction().is_some(), "{exact:?}");
     }
 
     #[test]
-    fn a_check_whose_loss_alone_shows_the_direction_replaces_what_was_learned() {
-        let before = commissioned();
-        let now = aged(&before, [0.9, 0.9, 0.9]);
-        let later = aged(&now, along_shares(0.05));
-        let learned = LampAgeing::learn(Some(learned()), &now, &later, CS100A).unwrap();
-        let alone = LampAgeing::learn(None, &now, &later, CS100A).unwrap();
-        assert_eq!(learned, alone);
-    }
-
-    #[test]
-    fn a_direction_is_used_only_once_the_lamp_has_lost_enough_to_show_it() {
-        let before = commissioned();
-        let first = LampAgeing::learn(None, &before, &aged(&before, along_shares(0.01)), CS100A);
-        let first = first.unwrap();
-        assert_eq!(first.direction(CS100A), None, "1 % lost: {first:?}");
-        // a noiseless meter's every loss is the lamp's
-        let exact = LampAgeing::learn(None, &before, &aged(&before, along_shares(0.001)), None);
-        assert!(exact.and_then(|a| a.direction(None)).is_some(), "{exact:?}");
-        let now = aged(&before, along_shares(0.01));
-        let later = aged(&now, along_shares(0.015));
+    fn the_last_span_that_showed_the_direction_replaces_the_one_before() {
+        let first = learned();
+        let now = first.since;
+        let later = aged(&now, [0.95; 3]);
         let second = LampAgeing::learn(Some(first), &now, &later, CS100A).unwrap();
-        assert!(second.direction(CS100A).is_some(), "2.5 % lost: {second:?}");
+        let d = second.direction().unwrap();
+        assert!(d.iter().all(|u| (u - 1.0).abs() < 1e-12), "{d:?}");
     }
 }
