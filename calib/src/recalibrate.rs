@@ -573,6 +573,7 @@ fn check_display(
     // the black first: a primary keeping its colour is rebuilt on tonight's black
     let new = steady_black(&old.measurement, new, noise);
     let new = steady_chromaticities(&old.measurement, new, opts.limits.delta_xy);
+    let new = steady_white(&old.measurement, new, noise);
     let before = old.last_full_reading();
     let ageing = LampAgeing::learn(old.ageing, &before, &new.full_reading(), noise.as_ref());
     let mut c = check(key, &old.measurement, &new, profile, readings, &opts.limits);
@@ -650,6 +651,39 @@ fn steady_black(
     new
 }
 
+/// Tonight's white, or at its luminance the chromaticity tonight's black and primaries
+/// predict from the last measurement (what its white had beyond them, a single-chip
+/// DLP's white segment or the display's non-additivity, dimmed with the lamp) where the
+/// reading's is within the meter's noise of it (3σ of the difference of two readings):
+/// the white is read once a night, and on a DLP its noise goes whole into the white
+/// segment (dlp-infitec-cold-8bit-2x2, `bench season --noise realistic`: a display's
+/// white from 0.7 to 1.4 ΔE2000 after its full check). Tonight's as read for a meter
+/// that states no noise, or where the last measurement has no white.
+fn steady_white(
+    old: &crate::solve::DisplayMeasurement,
+    mut new: Readings,
+    noise: Option<lumiwall_devices::ReadingNoise>,
+) -> Readings {
+    let (Some(noise), Some(read), Some(was)) = (noise, new.white, old.white) else {
+        return new;
+    };
+    let channels =
+        |black: Xyz, p: &[Xyz; 3]| (0..3).fold(Xyz::default(), |acc, c| acc + (p[c] - black));
+    let old_sum = channels(old.black, &old.primaries);
+    let new_sum = channels(new.black, &new.primaries);
+    if old_sum.y <= 0.0 {
+        return new;
+    }
+    let lamp = new_sum.y / old_sum.y;
+    let predicted = new_sum + (was - old_sum) * lamp;
+    let within = xy_distance(read, predicted)
+        .is_some_and(|d| d <= 3.0 * std::f64::consts::SQRT_2 * noise.xy);
+    if let (true, Some(xy)) = (within, predicted.chromaticity()) {
+        new.white = Some(Xyz::from_xy_luminance(xy.x, xy.y, read.y));
+    }
+    new
+}
+
 /// One reading of full white (`None`: too dark to read).
 fn read_white(
     rig: &mut Rig<'_>,
@@ -668,8 +702,8 @@ fn read_white(
     Ok((white, readings))
 }
 
-/// Tonight's black and primaries inferred from one white reading and the display's
-/// last full reading (see [`FullCheckRotation`]); `None` where the white shows something
+/// Tonight's black, primaries and white inferred from one white reading and the
+/// display's last full reading (see [`FullCheckRotation`]); `None` where the white shows something
 /// a lamp's ageing does not do: a channel brighter by more than the luminance limit, a
 /// factor not positive, or primaries that do not span the white.
 fn readings_from_white(
@@ -691,10 +725,18 @@ fn readings_from_white(
     } else {
         CheckKind::White
     };
+    let p: [Xyz; 3] = std::array::from_fn(|c| old.primaries[c] - old.black);
+    // the white the factors model, not the reading: the reading's colour noise, which
+    // the factors were checked to explain, would otherwise enter the refitted white
+    // and, on a single-chip DLP, its white segment (white less the primaries)
+    let modelled = old.white.map_or(white, |w| {
+        let rest = w - (p[0] + p[1] + p[2]);
+        (0..3).fold(rest * lamp, |acc, c| acc + p[c] * s[c])
+    });
     let readings = Readings {
         black,
-        primaries: std::array::from_fn(|c| black + (old.primaries[c] - old.black) * s[c]),
-        white: Some(white),
+        primaries: std::array::from_fn(|c| black + p[c] * s[c]),
+        white: Some(modelled),
         mid: [None; 3],
     };
     Some((readings, kind))
@@ -1409,6 +1451,60 @@ mod tests {
         let (old, new) = full_check_with_black_off(0.011);
         let read = new.black;
         assert_eq!(steady_black(&old, new, None).black, read);
+    }
+
+    /// A full check's readings of a lamp dimmed by 2 %, its white read `dx` off in x
+    /// from what the lamp predicts.
+    fn full_check_with_white_off(dx: f64) -> (crate::solve::DisplayMeasurement, Readings) {
+        let (old, mut new) = full_check_with_black_off(0.0);
+        let w = old.white.unwrap() * 0.98;
+        let xy = w.chromaticity().unwrap();
+        new.white = Some(Xyz::from_xy_luminance(xy.x + dx, xy.y, w.y));
+        (old, new)
+    }
+
+    #[test]
+    fn a_white_read_within_the_meter_noise_has_the_colour_tonight_s_primaries_predict() {
+        let noise = lumiwall_devices::ReadingNoise::CS100A_CLASS;
+        let (old, new) = full_check_with_white_off(0.0015);
+        let steady = steady_white(&old, new, Some(noise)).white.unwrap();
+        let expected = old.white.unwrap() * 0.98;
+        let off = (steady - expected).to_array();
+        assert!(
+            off.iter().all(|d| d.abs() < 1e-9),
+            "{steady:?} vs {expected:?}"
+        );
+    }
+
+    #[test]
+    fn a_white_beyond_the_meter_noise_or_read_by_a_meter_without_stated_noise_is_taken_as_read() {
+        let noise = lumiwall_devices::ReadingNoise::CS100A_CLASS;
+        // 3·√2·0.0005 = 0.0021: 0.004 is beyond it
+        let (old, new) = full_check_with_white_off(0.004);
+        let read = new.white;
+        assert_eq!(steady_white(&old, new, Some(noise)).white, read);
+        let (old, new) = full_check_with_white_off(0.0015);
+        let read = new.white;
+        assert_eq!(steady_white(&old, new, None).white, read);
+    }
+
+    #[test]
+    fn a_white_check_writes_the_white_its_factors_model_not_the_reading() {
+        // 1 % darker, 1σ off in x: all channels alike; the white keeps its colour
+        let old = commissioned();
+        let read = white_moved(0.0005, 0.99);
+        let noise = lumiwall_devices::ReadingNoise::CS100A_CLASS;
+        let limits = DriftLimits::default();
+        let (r, kind) = readings_from_white(&old, read, Some(&noise), None, &limits).unwrap();
+        assert_eq!(kind, CheckKind::WhiteLuminance);
+        let white = r.white.unwrap();
+        let was = old.white.unwrap();
+        assert!((white.y - read.y).abs() < 1e-9 * read.y);
+        let moved = white
+            .chromaticity()
+            .unwrap()
+            .distance(was.chromaticity().unwrap());
+        assert!(moved < 1e-12, "{white:?} vs {was:?}");
     }
 
     #[test]

@@ -329,13 +329,14 @@ fn a_white_check_with_a_realistic_meter_follows_the_learned_ageing_within_its_no
     let c = &o.checks[0];
     assert_eq!((c.kind, c.readings), (CheckKind::White, 1), "{c:?}");
     // each channel's change as one white reading infers it, against the truth: within
-    // 0.6 % (one reading's colour noise inverted for three free factors moves them by
-    // 1-1.5 %)
+    // 1 % (the shares come from one 1000 h span of full checks, each read with the
+    // meter's noise; one reading's colour noise inverted for three free factors moved
+    // them by 1-1.5 % on heyewall-48)
     for ch in 0..3 {
         let truth = 100.0 * (after[ch] / before[ch] - 1.0);
         let inferred = c.luminance_change_pct[ch];
         println!("channel {ch}: inferred {inferred:.2} %, true {truth:.2} %");
-        assert!((inferred - truth).abs() < 0.6, "{inferred} vs {truth}");
+        assert!((inferred - truth).abs() < 1.0, "{inferred} vs {truth}");
     }
 }
 
