@@ -643,7 +643,7 @@ fn steady_black(
     let (e, n) = (expected.to_array(), new.black.to_array());
     let within = (0..3).all(|i| {
         let sigma = noise.dark_xyz_cd_m2[i] + noise.luminance_rel * e[i].abs();
-        (n[i] - e[i]).abs() <= 3.0 * std::f64::consts::SQRT_2 * sigma
+        (n[i] - e[i]).abs() <= lamp_ageing::two_reading_limit(sigma)
     });
     if within {
         new.black = expected;
@@ -676,8 +676,8 @@ fn steady_white(
     }
     let lamp = new_sum.y / old_sum.y;
     let predicted = new_sum + (was - old_sum) * lamp;
-    let within = xy_distance(read, predicted)
-        .is_some_and(|d| d <= 3.0 * std::f64::consts::SQRT_2 * noise.xy);
+    let within =
+        xy_distance(read, predicted).is_some_and(|d| d <= lamp_ageing::two_reading_limit(noise.xy));
     if let (true, Some(xy)) = (within, predicted.chromaticity()) {
         new.white = Some(Xyz::from_xy_luminance(xy.x, xy.y, read.y));
     }
@@ -725,17 +725,15 @@ fn readings_from_white(
     } else {
         CheckKind::White
     };
-    let p: [Xyz; 3] = std::array::from_fn(|c| old.primaries[c] - old.black);
     // the white the factors model, not the reading: the reading's colour noise, which
     // the factors were checked to explain, would otherwise enter the refitted white
     // and, on a single-chip DLP, its white segment (white less the primaries)
-    let modelled = old.white.map_or(white, |w| {
-        let rest = w - (p[0] + p[1] + p[2]);
-        (0..3).fold(rest * lamp, |acc, c| acc + p[c] * s[c])
-    });
+    let modelled = old
+        .white
+        .map_or(white, |_| lamp_ageing::modelled_white(old, s));
     let readings = Readings {
         black,
-        primaries: std::array::from_fn(|c| black + p[c] * s[c]),
+        primaries: std::array::from_fn(|c| black + (old.primaries[c] - old.black) * s[c]),
         white: Some(modelled),
         mid: [None; 3],
     };

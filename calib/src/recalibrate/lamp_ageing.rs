@@ -114,6 +114,33 @@ impl LampAgeing {
     }
 }
 
+/// The largest difference two readings of the same light show for a meter of 1σ
+/// repeatability `sigma` without anything having changed: 3σ of their difference.
+pub(crate) fn two_reading_limit(sigma: f64) -> f64 {
+    3.0 * std::f64::consts::SQRT_2 * sigma
+}
+
+/// A full reading's channels at full drive (black removed) and what its white holds
+/// beyond them (the black, a white segment, non-additivity; the black alone without a
+/// white): the parts the white-check model scales, each channel by its factor and the
+/// rest by their mean.
+fn channels_and_rest(old: &FullReading) -> ([Xyz; 3], Xyz) {
+    let p: [Xyz; 3] = std::array::from_fn(|c| old.primaries[c] - old.black);
+    let rest = match old.white {
+        Some(w) => w - (p[0] + p[1] + p[2]),
+        None => old.black,
+    };
+    (p, rest)
+}
+
+/// The white the model shows with channel factors `s` on the full reading `old`:
+/// `Σ s_c·p_c + mean(s)·rest` ([`channels_and_rest`]).
+pub(crate) fn modelled_white(old: &FullReading, s: [f64; 3]) -> Xyz {
+    let (p, rest) = channels_and_rest(old);
+    let lamp = (s[0] + s[1] + s[2]) / 3.0;
+    (0..3).fold(rest * lamp, |acc, c| acc + p[c] * s[c])
+}
+
 /// The meter's 1σ relative luminance repeatability (0 for a noiseless meter).
 fn luminance_sigma(noise: Option<&ReadingNoise>) -> f64 {
     noise.map_or(0.0, |n| n.luminance_rel)
@@ -140,17 +167,13 @@ pub fn channel_factors(
     noise: Option<&ReadingNoise>,
     ageing: Option<&LampAgeing>,
 ) -> Option<[f64; 3]> {
-    let noise_xy = 3.0 * std::f64::consts::SQRT_2 * noise.map_or(0.0, |n| n.xy);
+    let noise_xy = two_reading_limit(noise.map_or(0.0, |n| n.xy));
     if noise_xy < DIRECTION_TOLERANCE_XY {
         return inverted_factors(old, white, noise_xy);
     }
     let learned = ageing.and_then(LampAgeing::direction);
     let u = learned.unwrap_or([1.0; 3]);
-    let p: [Xyz; 3] = std::array::from_fn(|c| old.primaries[c] - old.black);
-    let rest = match old.white {
-        Some(w) => w - (p[0] + p[1] + p[2]),
-        None => old.black,
-    };
+    let (p, rest) = channels_and_rest(old);
     let share = |c: usize| p[c] + rest * (1.0 / 3.0);
     let unchanged = share(0) + share(1) + share(2);
     let along = (0..3).fold(Xyz::new(0.0, 0.0, 0.0), |acc, c| acc + share(c) * u[c]);
@@ -177,11 +200,7 @@ pub fn channel_factors(
 /// chromaticity moved within `noise_xy`. `None` where the old primaries do not span
 /// the white.
 fn inverted_factors(old: &FullReading, white: Xyz, noise_xy: f64) -> Option<[f64; 3]> {
-    let p: [Xyz; 3] = std::array::from_fn(|c| old.primaries[c] - old.black);
-    let rest = match old.white {
-        Some(w) => w - (p[0] + p[1] + p[2]),
-        None => old.black,
-    };
+    let (p, rest) = channels_and_rest(old);
     let unchanged = p[0] + p[1] + p[2] + rest;
     let moved = white.chromaticity()?.distance(unchanged.chromaticity()?);
     if moved <= noise_xy && unchanged.y > 0.0 {
@@ -314,7 +333,7 @@ mod tests {
             xy: 0.0001,
             ..ReadingNoise::CS100A_CLASS
         };
-        let tolerance = 3.0 * std::f64::consts::SQRT_2 * precise.xy + DIRECTION_TOLERANCE_XY;
+        let tolerance = two_reading_limit(precise.xy) + DIRECTION_TOLERANCE_XY;
         let off = moved_x(white, 1.2 * tolerance);
         assert_eq!(
             channel_factors(&old, off, Some(&precise), Some(&learned())),

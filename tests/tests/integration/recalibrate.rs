@@ -10,8 +10,8 @@ use lumiwall_calib::commission::{CommissionOptions, RUN_DIR, load_measurement};
 use lumiwall_calib::measure::warm_up::WarmCheck;
 use lumiwall_calib::measure::{FullReading, MeasureOptions, MeasuredDisplay};
 use lumiwall_calib::recalibrate::{
-    CheckKind, DriftLimits, FullCheckRotation, PREVIOUS_DIR, RecalibrateError, RecalibrateOptions,
-    Verdict, rollback,
+    CheckKind, DisplayCheck, DriftLimits, FullCheckRotation, PREVIOUS_DIR, RecalibrateError,
+    RecalibrateOptions, Verdict, rollback,
 };
 use lumiwall_calib::station::{MeterChoice, Noise, Station, StationOptions};
 use lumiwall_calib::verify::{Summary, VerifyOptions, chart_targets};
@@ -340,6 +340,23 @@ fn a_white_check_with_a_realistic_meter_follows_the_learned_ageing_within_its_no
     }
 }
 
+/// Display 0's white check ([`white_check_of_display_0`]), which must go on to its
+/// full check: the white and a full check's readings.
+fn escalated_white_check(station: &mut Station, dir: &Path) -> DisplayCheck {
+    let o = station
+        .recalibrate(dir, &white_check_of_display_0(), &mut |_| {})
+        .unwrap();
+    let c = o.checks[0].clone();
+    println!("{c:?}");
+    assert_eq!(c.kind, CheckKind::Escalated);
+    assert!(
+        c.readings >= 9,
+        "the white and a full check: {}",
+        c.readings
+    );
+    c
+}
+
 #[test]
 fn a_white_check_that_sees_the_colour_move_before_the_lamp_ageing_is_learned_measures_in_full() {
     // a CS-100A class meter: one white reading's colour noise is beyond what the
@@ -349,17 +366,7 @@ fn a_white_check_that_sees_the_colour_move_before_the_lamp_ageing_is_learned_mea
     let dir = tempfile::tempdir().unwrap();
     commission(&mut station, dir.path(), 0.8);
     station.wall.advance_hours(2000.0);
-    let o = station
-        .recalibrate(dir.path(), &white_check_of_display_0(), &mut |_| {})
-        .unwrap();
-    let c = &o.checks[0];
-    println!("{c:?}");
-    assert_eq!(c.kind, CheckKind::Escalated);
-    assert!(
-        c.readings >= 9,
-        "the white and a full check: {}",
-        c.readings
-    );
+    escalated_white_check(&mut station, dir.path());
     // the full check learned how the lamp ages, for the next white checks
     let ageing = measured(dir.path())[0].ageing;
     let shares = ageing.and_then(|a| a.direction()).expect("learned");
@@ -380,17 +387,7 @@ fn a_white_check_that_sees_a_lamp_brighten_measures_the_display_in_full() {
         .wall
         .replace_lamp(lumiwall_devices::DisplayId(0))
         .unwrap();
-    let o = station
-        .recalibrate(dir.path(), &white_check_of_display_0(), &mut |_| {})
-        .unwrap();
-    let c = &o.checks[0];
-    println!("{c:?}");
-    assert_eq!(c.kind, CheckKind::Escalated);
-    assert!(
-        c.readings >= 9,
-        "the white and a full check: {}",
-        c.readings
-    );
+    let c = &escalated_white_check(&mut station, dir.path());
     assert!(c.luminance_change_pct.iter().all(|d| *d > 5.0), "{c:?}");
     assert!(c.drifted);
 }
