@@ -51,7 +51,7 @@ pub struct ReadingsBench {
     /// the station reaches when the reference adds no error of its own).
     pub reference: SpectroModel,
     /// The grey-drive pass's greys (`commission --grey-levels`); `None`: commission's
-    /// default for each budget ([`lumiwall_calib::measure::grey_drives::default_levels`]).
+    /// default ([`lumiwall_calib::measure::grey_drives::default_levels`]).
     pub grey_levels: Option<Vec<GreyLevel>>,
 }
 
@@ -235,7 +235,7 @@ fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsR
         grey_levels: bench
             .grey_levels
             .clone()
-            .unwrap_or_else(|| lumiwall_calib::measure::grey_drives::default_levels(budget)),
+            .unwrap_or_else(lumiwall_calib::measure::grey_drives::default_levels),
     };
     let outcome =
         station

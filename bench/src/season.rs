@@ -344,9 +344,7 @@ impl Season<'_> {
             resume: false,
             meter_correction: false,
             warm_check: Some(lumiwall_calib::measure::warm_up::WarmCheck::default()),
-            grey_levels: lumiwall_calib::measure::grey_drives::default_levels(
-                MeasureOptions::default().budget,
-            ),
+            grey_levels: lumiwall_calib::measure::grey_drives::default_levels(),
         };
         let clock = station.wall.elapsed_s();
         let mut readings = 0u64;

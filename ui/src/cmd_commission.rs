@@ -233,9 +233,9 @@ pub(crate) struct CommissionArgs {
     /// grey out of each display's budget, and the meter visits every display a second
     /// time. A luminance is read only where the meter is reliable at a third of it; the
     /// brightest share (from 64 readings) is also read whole. `none` skips the pass.
-    /// Default: `1,gap,1cd,0.02split` (`1,gap,1cd` from 64 readings) where software
-    /// aims the meter, `none` where a technician aims it (guided aiming, a real meter
-    /// with `--aim auto`), who would have to aim at every display again.
+    /// Default: `1,gap,1cd,0.02split` where software aims the meter, `none` where a
+    /// technician aims it (guided aiming, a real meter with `--aim auto`), who would
+    /// have to aim at every display again.
     #[arg(long, value_parser = parse_grey_levels)]
     grey_levels: Option<GreyLevels>,
     /// Continue an interrupted run from the measurements saved in OUT/run.
@@ -302,7 +302,7 @@ impl CommissionArgs {
         match &self.grey_levels {
             Some(levels) => levels.0.clone(),
             None if technician_aims => Vec::new(),
-            None => lumiwall_calib::measure::grey_drives::default_levels(self.budget),
+            None => lumiwall_calib::measure::grey_drives::default_levels(),
         }
     }
 
@@ -686,8 +686,8 @@ pub(crate) struct BenchArgs {
     #[arg(long, default_value_t = readings::DEFAULT_REFERENCE_SEED)]
     reference_seed: u64,
     /// The grey-drive pass's greys, as `commission --grey-levels` (`none` skips the
-    /// pass). Default: commission's where software aims the meter, for each budget
-    /// (`1,gap,1cd,0.02split`, from 64 readings `1,gap,1cd`).
+    /// pass). Default: commission's where software aims the meter
+    /// (`1,gap,1cd,0.02split`).
     #[arg(long, value_parser = parse_grey_levels)]
     grey_levels: Option<GreyLevels>,
 }

@@ -215,7 +215,7 @@ fn a_meter_that_stops_in_the_grey_drive_pass_resumes_with_the_grey_drives_only()
     let wall = wall();
     use lumiwall_calib::measure::grey_drives::{default_levels, readings_needed};
     let with_greys = |resume| CommissionOptions {
-        grey_levels: default_levels(40),
+        grey_levels: default_levels(),
         ..options(resume)
     };
     // The pass's reserve depends on the noise the meter states (the emulated K-10-A's).
@@ -223,7 +223,7 @@ fn a_meter_that_stops_in_the_grey_drive_pass_resumes_with_the_grey_drives_only()
         .meter
         .info()
         .noise;
-    let measuring = 40 - readings_needed(&default_levels(40), noise.as_ref(), 40);
+    let measuring = 40 - readings_needed(&default_levels(), noise.as_ref(), 40);
     let faults = FaultPlan {
         stop_after_readings: Some(2 * measuring + 1),
         ..FaultPlan::default()

@@ -30,7 +30,7 @@ pub(crate) fn options_8500k(
     black_mode: BlackMode,
     resume: bool,
 ) -> CommissionOptions {
-    let grey_levels = lumiwall_calib::measure::grey_drives::default_levels(measure.budget);
+    let grey_levels = lumiwall_calib::measure::grey_drives::default_levels();
     CommissionOptions {
         measure,
         solve: SolveOptions {
