@@ -38,9 +38,7 @@ fn commission_options() -> CommissionOptions {
         },
         resume: false,
         meter_correction: true,
-        grey_levels: lumiwall_calib::measure::grey_drives::default_levels(
-            MeasureOptions::default().budget,
-        ),
+        grey_levels: lumiwall_calib::measure::grey_drives::default_levels(),
         // the walls here are warm: measured at once, as before the check existed
         warm_check: None,
     }

@@ -661,49 +661,40 @@ fn a_dim_walls_grey_drive_pass_leaves_its_darkest_grey_a_reading() {
 /// A dim wall (mono-2x1 with lamps of 15 cd/m² instead of 250: a wall white near 7.6
 /// cd/m², the chart's 2 % grey near 0.15 cd/m²) at 64 readings per display with the
 /// realistic meter: the grey-drive pass reads the chart's darkest grey whole where a
-/// channel of it sits below that channel's ramp samples, to split it into toe samples
-/// (`grey_drives::default_levels`: at every budget, where it once stopped at 64),
-/// within each display's budget.
+/// channel of it sits below that channel's ramp samples, and its split samples join
+/// that display's ramps at the grey's drives (`grey_drives::default_levels`: at every
+/// budget, where it once stopped at 64), within each display's budget.
 #[test]
-fn at_64_readings_a_dim_wall_reads_its_darkest_grey_whole_to_split_it() {
+fn at_64_readings_a_dim_wall_splits_its_darkest_grey_into_toe_samples() {
     use lumiwall_calib::measure::Patch;
-    use lumiwall_calib::station::{MeterChoice, Station, StationOptions};
-    let text = std::fs::read_to_string(crate::support::wall_path("mono-2x1.toml"))
-        .expect("fixture")
-        .replace("white_cd_m2 = 250.0", "white_cd_m2 = 15.0");
+    let fixture =
+        std::fs::read_to_string(crate::support::wall_path("mono-2x1.toml")).expect("fixture");
     assert!(
-        text.contains("white_cd_m2 = 15.0"),
+        fixture.contains("white_cd_m2 = 250.0"),
         "the fixture's lamp changed"
     );
-    let dir = tempfile::tempdir().expect("tmp");
-    let wall = dir.path().join("dim-mono-2x1.toml");
-    std::fs::write(&wall, text).expect("write wall");
-    let mut station = Station::open(
-        &wall,
-        &StationOptions::new(MeterChoice::Direct, Noise::Realistic),
-    )
-    .expect("station");
+    let dim = fixture.replace("white_cd_m2 = 250.0", "white_cd_m2 = 15.0");
     let measure = MeasureOptions {
         budget: 64,
         ..MeasureOptions::default()
     };
-    let opts = crate::support::options_8500k(measure, BlackMode::Individual, false);
-    let o = station
-        .commission(&dir.path().join("out"), &opts, &mut |_| {})
-        .expect("commission");
-    let read_whole = |m: &lumiwall_calib::measure::MeasuredDisplay| {
-        m.log
-            .samples
-            .iter()
-            .filter(|r| matches!(r.patch, Patch::Grey(_)) && r.xyz.is_some())
-            .count()
-    };
-    let split: Vec<usize> = o.measured.iter().map(read_whole).collect();
-    assert!(
-        split.iter().any(|n| *n > 0),
-        "no darkest grey read: {split:?}"
-    );
+    let o = commission_text(&dim, Noise::Realistic, measure);
+    let mut split = 0;
     for m in &o.measured {
         assert!(m.log.readings <= 64, "{}", m.log.readings);
+        let greys = m.log.samples.iter().filter_map(|r| match (r.patch, r.xyz) {
+            (Patch::Grey(d), Some(_)) => Some(d),
+            _ => None,
+        });
+        for d in greys {
+            let joined = (0..3).any(|c| {
+                m.measurement.ramps[c]
+                    .iter()
+                    .any(|(drive, _)| (drive - d[c]).abs() < 1e-12)
+            });
+            assert!(joined, "the grey at {d:?} left no toe sample");
+            split += 1;
+        }
     }
+    assert!(split > 0, "no darkest grey read whole on the dim wall");
 }
