@@ -7,8 +7,14 @@
 //! spectroradiometer (one matrix per eye, `lumiwall meter-matrix`), as a station
 //! commissioning Infitec walls with a filter colorimeter would. Each row says whether
 //! it meets issue 12's limits ([`Limits`]); one [`ReadingsRow`] per run.
+//!
+//! With [`ReadingsBench::seeds`] the wall file stands for its class: every run is
+//! repeated on the wall built with each seed in place of the file's (its manufacturing
+//! scatter and meter noise drawn again: walls the station has never seen), and
+//! [`class_summaries`] counts, per meter model and budget, the runs within the limits.
 #![cfg(feature = "readings")]
 
+use std::ops::RangeInclusive;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -19,7 +25,8 @@ use lumiwall_calib::measure::meter_matrix::{MeterMatrices, MeterMatrixError};
 use lumiwall_calib::solve::SolveOptions;
 use lumiwall_calib::station::{MeterChoice, Noise, Station, StationError, StationOptions};
 use lumiwall_calib::verify::{Summary, VerifyError, VerifyOptions, chart_targets};
-use lumiwall_devices::sim::SpectroModel;
+use lumiwall_devices::DeviceError;
+use lumiwall_devices::sim::{SpectroModel, VirtualWall};
 
 /// What to compare.
 #[derive(Debug, Clone)]
@@ -53,7 +60,15 @@ pub struct ReadingsBench {
     /// The grey-drive pass's greys (`commission --grey-levels`); `None`: commission's
     /// default ([`lumiwall_calib::measure::grey_drives::default_levels`]).
     pub grey_levels: Option<Vec<GreyLevel>>,
+    /// The meter error models to run, in this order.
+    pub noises: Vec<Noise>,
+    /// Seeds to build the wall with in place of the file's, one instance of its class
+    /// each (at most [`MAX_SEEDS`]); `None`: the wall as the file says.
+    pub seeds: Option<RangeInclusive<u64>>,
 }
+
+/// Most seeds one run of the benchmark takes ([`ReadingsBench::seeds`]).
+pub const MAX_SEEDS: u64 = 10_000;
 
 /// The reference of [`ReadingsBench::reference`] by default: the simulated CS-2000 of
 /// serial number 2000, the unit `lumiwall meter-matrix` simulates by default.
@@ -67,6 +82,8 @@ pub const DEFAULT_REFERENCE_SEED: u64 = 2000;
 /// One commission-and-verify run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReadingsRow {
+    /// The seed the wall was built with in place of the file's (`None`: the file's).
+    pub seed: Option<u64>,
     /// Error model of the meter.
     pub noise: Noise,
     /// Reading budget per display.
@@ -152,6 +169,30 @@ pub enum ReadingsError {
     /// Verification failed (boxed: the error is large).
     #[error(transparent)]
     Verify(#[from] Box<VerifyError>),
+    /// The wall file could not be built with a seed of [`ReadingsBench::seeds`].
+    #[error("wall {path} with seed {seed}: {source}")]
+    Wall {
+        /// The wall file.
+        path: PathBuf,
+        /// The seed.
+        seed: u64,
+        /// What failed.
+        #[source]
+        source: DeviceError,
+    },
+    /// The seed range is empty or longer than [`MAX_SEEDS`] (checked before any run).
+    #[error(
+        "seeds {first}-{last}: give a first seed at or below the last, and at most {max} \
+         seeds"
+    )]
+    Seeds {
+        /// First seed asked for.
+        first: u64,
+        /// Last seed asked for.
+        last: u64,
+        /// Most seeds allowed.
+        max: u64,
+    },
     /// A budget is below [`MeasureOptions::MIN_BUDGET`] (checked before any run).
     #[error(
         "a budget of {budget} readings per display is too small: every display needs at \
@@ -171,19 +212,114 @@ pub fn run(
     bench: &ReadingsBench,
     on_row: &mut dyn FnMut(&ReadingsRow),
 ) -> Result<Vec<ReadingsRow>, ReadingsError> {
+    check_bench(bench)?;
+    let seeds: Vec<Option<u64>> = match &bench.seeds {
+        Some(r) => r.clone().map(Some).collect(),
+        None => vec![None],
+    };
+    let mut rows = Vec::new();
+    for seed in seeds {
+        for &noise in &bench.noises {
+            for &budget in &bench.budgets {
+                let row = run_one(bench, seed, noise, budget)?;
+                on_row(&row);
+                rows.push(row);
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// Checks the budgets and the seed range before any run.
+fn check_bench(bench: &ReadingsBench) -> Result<(), ReadingsError> {
     let min = MeasureOptions::MIN_BUDGET;
     if let Some(&budget) = bench.budgets.iter().find(|&&b| b < min) {
         return Err(ReadingsError::BudgetTooSmall { budget, min });
     }
-    let mut rows = Vec::new();
-    for noise in Noise::ALL {
-        for &budget in &bench.budgets {
-            let row = run_one(bench, noise, budget)?;
-            on_row(&row);
-            rows.push(row);
+    if let Some(r) = &bench.seeds {
+        let (first, last) = (*r.start(), *r.end());
+        if first > last || last - first >= MAX_SEEDS {
+            return Err(ReadingsError::Seeds {
+                first,
+                last,
+                max: MAX_SEEDS,
+            });
         }
     }
-    Ok(rows)
+    Ok(())
+}
+
+/// What the runs of one meter model and budget over a class's seeds give: how many
+/// meet the limits, and their figures at the worst display.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ClassSummary {
+    /// Error model of the meter.
+    pub noise: Noise,
+    /// Reading budget per display.
+    pub budget: u32,
+    /// Runs (one per seed).
+    pub runs: usize,
+    /// Runs within every limit ([`ReadingsRow::meets_limits`]).
+    pub within: usize,
+    /// Mean over the runs of the worst display's grey balance.
+    pub mean_worst_grey_balance: f64,
+    /// Largest worst-display white ΔE2000 of any run.
+    pub worst_white_de: f64,
+    /// Largest ΔE2000 of any run.
+    pub max_de: f64,
+    /// Largest median ΔE2000 of any run.
+    pub worst_median_de: f64,
+}
+
+/// One [`ClassSummary`] per meter model and budget among `rows`, in the order first
+/// seen.
+pub fn class_summaries(rows: &[ReadingsRow]) -> Vec<ClassSummary> {
+    let mut keys: Vec<(Noise, u32)> = Vec::new();
+    for r in rows {
+        if !keys.contains(&(r.noise, r.budget)) {
+            keys.push((r.noise, r.budget));
+        }
+    }
+    keys.into_iter()
+        .map(|(noise, budget)| {
+            let of: Vec<&ReadingsRow> = rows
+                .iter()
+                .filter(|r| r.noise == noise && r.budget == budget)
+                .collect();
+            let largest = |f: fn(&ReadingsRow) -> f64| of.iter().map(|r| f(r)).fold(0.0, f64::max);
+            ClassSummary {
+                noise,
+                budget,
+                runs: of.len(),
+                within: of.iter().filter(|r| r.meets_limits()).count(),
+                mean_worst_grey_balance: of.iter().map(|r| r.worst_grey_balance).sum::<f64>()
+                    / of.len() as f64,
+                worst_white_de: largest(|r| r.worst_white_de),
+                max_de: largest(|r| r.truth.max_de),
+                worst_median_de: largest(|r| r.truth.median_de),
+            }
+        })
+        .collect()
+}
+
+/// The wall of `bench` for one run: the file's, or built with `seed` in its place.
+fn open_station(
+    bench: &ReadingsBench,
+    seed: Option<u64>,
+    noise: Noise,
+) -> Result<Station, ReadingsError> {
+    let opts = StationOptions::new(bench.meter.clone(), noise);
+    let Some(seed) = seed else {
+        return Ok(Station::open(&bench.wall, &opts)?);
+    };
+    let wall = VirtualWall::from_toml_file_with_seed(&bench.wall, seed).map_err(|source| {
+        ReadingsError::Wall {
+            path: bench.wall.clone(),
+            seed,
+            source,
+        }
+    })?;
+    Ok(Station::with_wall(wall, &opts)?)
 }
 
 /// With the realistic meter, the station's meter matched to the simulated reference
@@ -204,19 +340,31 @@ pub(crate) fn match_meter(
     })
 }
 
+/// The scratch folder of one run: `noise-budget` under [`ReadingsBench::out`], under
+/// `seed-N` for a seed of [`ReadingsBench::seeds`].
+fn run_dir(bench: &ReadingsBench, seed: Option<u64>, noise: Noise, budget: u32) -> PathBuf {
+    let run = format!("{}-{budget}", noise.name());
+    match seed {
+        Some(seed) => bench.out.join(format!("seed-{seed}")).join(run),
+        None => bench.out.join(run),
+    }
+}
+
 /// Commissions the wall with `budget` readings per display (after matching a noisy
 /// meter to the reference) and verifies the chart against the truth.
-fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsRow, ReadingsError> {
+fn run_one(
+    bench: &ReadingsBench,
+    seed: Option<u64>,
+    noise: Noise,
+    budget: u32,
+) -> Result<ReadingsRow, ReadingsError> {
     let started = Instant::now();
-    let mut station = Station::open(
-        &bench.wall,
-        &StationOptions::new(bench.meter.clone(), noise),
-    )?;
+    let mut station = open_station(bench, seed, noise)?;
     let per_display = bench
         .per_display_matrix
         .unwrap_or_else(|| station.per_display_matrices_by_default());
     let meter_matrix = match_meter(&mut station, noise, &bench.reference, per_display)?;
-    let out = bench.out.join(format!("{}-{budget}", noise.name()));
+    let out = run_dir(bench, seed, noise, budget);
     let opts = CommissionOptions {
         measure: MeasureOptions {
             budget,
@@ -272,6 +420,7 @@ fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsR
             .fold(0.0, |a: f64, b| if b.is_nan() || b > a { b } else { a })
     };
     Ok(ReadingsRow {
+        seed,
         noise,
         budget,
         max_readings,
@@ -281,4 +430,82 @@ fn run_one(bench: &ReadingsBench, noise: Noise, budget: u32) -> Result<ReadingsR
         limits: Limits::for_noise(noise),
         elapsed: started.elapsed(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A realistic row of `budget` readings with these figures.
+    fn row(seed: u64, budget: u32, max_de: f64, white: f64, grey: f64) -> ReadingsRow {
+        ReadingsRow {
+            seed: Some(seed),
+            noise: Noise::Realistic,
+            budget,
+            max_readings: budget,
+            truth: Summary {
+                patches: 51,
+                median_de: 0.5,
+                max_de,
+                mean_de: 0.5,
+                p95_de: 0.8,
+                white_de: Some(white),
+                white_dl_percent: Some(0.0),
+                grey_balance: Some(grey),
+                median_abs_dl_percent: 0.1,
+                max_abs_dl_percent: 1.0,
+                median_dxy: 0.001,
+                max_dxy: 0.002,
+            },
+            worst_white_de: white,
+            worst_grey_balance: grey,
+            limits: Limits::for_noise(Noise::Realistic),
+            elapsed: Duration::ZERO,
+        }
+    }
+
+    #[test]
+    fn a_class_summary_counts_the_runs_within_the_limits_per_budget() {
+        let rows = [
+            row(1, 40, 1.0, 0.5, 0.4),
+            row(1, 64, 1.0, 0.5, 0.3),
+            row(2, 40, 3.5, 0.5, 0.4),
+            row(2, 64, 1.2, 0.9, 0.2),
+            row(3, 40, 1.0, 1.1, 0.7),
+            row(3, 64, 1.1, 0.4, 0.6),
+        ];
+        let s = class_summaries(&rows);
+        assert_eq!(s.len(), 2);
+        assert_eq!((s[0].budget, s[0].runs, s[0].within), (40, 3, 1));
+        assert!((s[0].mean_worst_grey_balance - 0.5).abs() < 1e-12);
+        assert_eq!((s[0].worst_white_de, s[0].max_de), (1.1, 3.5));
+        assert_eq!((s[1].budget, s[1].runs, s[1].within), (64, 3, 2));
+        assert_eq!((s[1].worst_white_de, s[1].max_de), (0.9, 1.2));
+    }
+
+    #[test]
+    fn seed_ranges_that_are_empty_or_too_long_are_refused_before_any_run() {
+        let bench = |seeds| ReadingsBench {
+            wall: PathBuf::from("no-such-wall.toml"),
+            budgets: vec![40],
+            meter: MeterChoice::Direct,
+            solve: SolveOptions::default(),
+            patches: 20,
+            out: PathBuf::from("out"),
+            warm_up: false,
+            warm_check: false,
+            per_display_matrix: None,
+            reference: default_reference(),
+            grey_levels: None,
+            noises: vec![Noise::None],
+            seeds: Some(seeds),
+        };
+        for seeds in [RangeInclusive::new(5, 4), 0..=MAX_SEEDS] {
+            let err = run(&bench(seeds), &mut |_| {}).unwrap_err();
+            assert!(matches!(err, ReadingsError::Seeds { .. }), "{err}");
+        }
+        // A workable range goes on to open the wall, which is missing here.
+        let err = run(&bench(1..=MAX_SEEDS), &mut |_| {}).unwrap_err();
+        assert!(matches!(err, ReadingsError::Wall { seed: 1, .. }), "{err}");
+    }
 }

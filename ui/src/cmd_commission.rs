@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
-use lumiwall_bench::readings::{self, ReadingsBench, ReadingsRow};
+use lumiwall_bench::readings::{self, ClassSummary, ReadingsBench, ReadingsRow};
 use lumiwall_calib::cli_values::{GreyLevels, parse_budget, parse_grey_levels, parse_patches};
 use lumiwall_calib::colorimetry::cct_to_xy;
 use lumiwall_calib::commission::{CommissionOptions, CommissionOutcome};
@@ -690,6 +690,21 @@ pub(crate) struct BenchArgs {
     /// (`1,gap,1cd,0.02split`).
     #[arg(long, value_parser = parse_grey_levels)]
     grey_levels: Option<GreyLevels>,
+    /// Run every budget on the wall built with each of these seeds in place of the
+    /// file's (`101-160`, at most 10 000): unseen instances of the wall's class, its
+    /// manufacturing scatter and meter noise drawn again, the virtual wall's own
+    /// patterns shown. A table per meter model and budget then counts the runs within
+    /// the limits.
+    #[arg(long, value_parser = parse_seeds)]
+    seeds: Option<std::ops::RangeInclusive<u64>>,
+    /// Run only this meter error model (`none` or `realistic`); default: both.
+    #[arg(long)]
+    noise: Option<Noise>,
+}
+
+/// `--seeds`: a seed range of at most [`readings::MAX_SEEDS`].
+fn parse_seeds(s: &str) -> Result<std::ops::RangeInclusive<u64>, String> {
+    values::seed_range(s, readings::MAX_SEEDS)
 }
 
 /// Whether the meter is matched on every display: `Some(true)` for `--per-display`,
@@ -728,6 +743,8 @@ pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
         per_display_matrix: matrix_scope(args.per_display_matrix, args.per_eye_matrix),
         reference: bench_reference(&args.reference, args.reference_seed)?,
         grey_levels: args.grey_levels.map(|l| l.0),
+        noises: args.noise.map_or(Noise::ALL.to_vec(), |n| vec![n]),
+        seeds: args.seeds,
     };
     println!(
         "accuracy against meter readings per display ({}): the 51-patch chart read by a \
@@ -746,7 +763,8 @@ pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
          white ≤ 1.0, grey balance ≤ 0.5 (white and grey: worst display)"
     );
     println!(
-        "{:<10} {:>7} {:>9} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>7} {:>6}",
+        "{}{:<10} {:>7} {:>9} {:>7} {:>7} {:>7} {:>7} {:>7} {:>9} {:>7} {:>6}",
+        if bench.seeds.is_some() { "seed   " } else { "" },
         "noise",
         "budget",
         "readings",
@@ -762,10 +780,43 @@ pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
     let rows = readings::run(&bench, &mut print_readings_row)?;
     let failed = rows.iter().filter(|r| !r.meets_limits()).count();
     println!("{failed} of {} runs outside the limits", rows.len());
+    if let Some(seeds) = &bench.seeds {
+        print_class_summaries(seeds, &readings::class_summaries(&rows));
+    }
     Ok(())
 }
 
+/// The class table of a run over `seeds`: per meter model and budget, the runs within
+/// the limits and the worst figures.
+fn print_class_summaries(seeds: &std::ops::RangeInclusive<u64>, summaries: &[ClassSummary]) {
+    println!(
+        "the class over seeds {}-{}: runs within every limit, mean of the worst display's \
+         grey balance, and the largest worst white, max and median of any run",
+        seeds.start(),
+        seeds.end()
+    );
+    println!(
+        "{:<10} {:>7} {:>9} {:>11} {:>7} {:>7} {:>7}",
+        "noise", "budget", "within", "grey |ΔC'|", "white", "max", "median"
+    );
+    for c in summaries {
+        println!(
+            "{:<10} {:>7} {:>9} {:>11.3} {:>7.3} {:>7.3} {:>7.3}",
+            c.noise.name(),
+            c.budget,
+            format!("{}/{}", c.within, c.runs),
+            c.mean_worst_grey_balance,
+            c.worst_white_de,
+            c.max_de,
+            c.worst_median_de
+        );
+    }
+}
+
 fn print_readings_row(r: &ReadingsRow) {
+    if let Some(seed) = r.seed {
+        print!("{seed:<7}");
+    }
     println!(
         "{:<10} {:>7} {:>9} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>10.3} {:>7.1} {:>6}",
         r.noise.name(),

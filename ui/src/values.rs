@@ -80,6 +80,30 @@ pub(crate) fn count_in(s: &str, min: usize, max: usize) -> Result<usize, String>
     }
 }
 
+/// A range of seeds, `101-160` or one seed `101`: first at or below last, at most
+/// `max` of them.
+pub(crate) fn seed_range(s: &str, max: u64) -> Result<std::ops::RangeInclusive<u64>, String> {
+    let t = s.trim();
+    let seed = |v: &str| {
+        v.trim()
+            .parse::<u64>()
+            .map_err(|_| format!("`{s}` is not a seed range like 101-160 or one seed like 101"))
+    };
+    let (first, last) = match t.split_once('-') {
+        Some((a, b)) => (seed(a)?, seed(b)?),
+        None => (seed(t)?, seed(t)?),
+    };
+    if first > last {
+        return Err(format!("seeds {first}-{last}: give the first seed first"));
+    }
+    if last - first >= max {
+        return Err(format!(
+            "seeds {first}-{last}: at most {max} seeds at a time"
+        ));
+    }
+    Ok(first..=last)
+}
+
 /// A relative error in (0, 100 %): `1%` or `0.01`.
 pub(crate) fn fraction(s: &str) -> Result<f64, String> {
     let t = s.trim();
@@ -271,6 +295,27 @@ pub(crate) fn check_output_dir(option: &str, dir: &Path) -> Result<(), CliError>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn seed_ranges_are_first_to_last_within_the_limit() {
+        assert_eq!(seed_range("101-160", 10_000), Ok(101..=160));
+        assert_eq!(seed_range(" 7 ", 10_000), Ok(7..=7));
+        assert!(seed_range("160-101", 10_000).is_err());
+        assert!(seed_range("1-10000", 10_000).is_err());
+        assert_eq!(seed_range("1-10000", 10_001), Ok(1..=10_000));
+        for bad in [
+            "",
+            "-",
+            "a-b",
+            "1-",
+            "-5",
+            "1.5",
+            "1-2-3",
+            "18446744073709551616",
+        ] {
+            assert!(seed_range(bad, 10_000).is_err(), "{bad}");
+        }
+    }
 
     #[test]
     fn floats_refuse_nan_inf_and_out_of_range() {

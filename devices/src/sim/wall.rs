@@ -406,6 +406,26 @@ fn check_uv(uv: [f64; 2]) -> Result<(), DeviceError> {
     }
 }
 
+/// The wall file at `path`, parsed.
+fn read_wall_file(path: &Path) -> Result<WallFile, DeviceError> {
+    let text = std::fs::read_to_string(path).map_err(|source| DeviceError::Io {
+        device: format!("wall file {}", path.display()),
+        source,
+    })?;
+    toml::from_str(&text)
+        .map_err(|e| in_wall_file(DeviceError::Config(format!("wall TOML: {e}")), path))
+}
+
+/// `e` with the wall file's path in a configuration error's message.
+fn in_wall_file(e: DeviceError, path: &Path) -> DeviceError {
+    match e {
+        DeviceError::Config(msg) => {
+            DeviceError::Config(format!("wall file {}: {msg}", path.display()))
+        }
+        other => other,
+    }
+}
+
 /// A simulated projection wall. Cloning is cheap: all clones (and the pattern
 /// output, positioner and meters made from it) share one state, so a meter on
 /// another thread sees the patterns shown here.
@@ -417,16 +437,18 @@ pub struct VirtualWall {
 impl VirtualWall {
     /// Loads a wall file (TOML).
     pub fn from_toml_file(path: &Path) -> Result<Self, DeviceError> {
-        let text = std::fs::read_to_string(path).map_err(|source| DeviceError::Io {
-            device: format!("wall file {}", path.display()),
-            source,
-        })?;
-        Self::from_toml_str(&text).map_err(|e| match e {
-            DeviceError::Config(msg) => {
-                DeviceError::Config(format!("wall file {}: {msg}", path.display()))
-            }
-            other => other,
-        })
+        Self::from_wall_file(read_wall_file(path)?).map_err(|e| in_wall_file(e, path))
+    }
+
+    /// Loads a wall file (TOML) with its `seed` replaced by `seed`: another instance
+    /// of the wall's class, its manufacturing scatter and meter noise drawn again
+    /// (`lumiwall bench readings --seeds`).
+    pub fn from_toml_file_with_seed(path: &Path, seed: u64) -> Result<Self, DeviceError> {
+        let file = WallFile {
+            seed,
+            ..read_wall_file(path)?
+        };
+        Self::from_wall_file(file).map_err(|e| in_wall_file(e, path))
     }
 
     /// Builds a wall from TOML text.

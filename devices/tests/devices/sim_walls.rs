@@ -154,3 +154,32 @@ fn every_fixture_loads() {
         assert_eq!(w.name(), name.trim_end_matches(".toml"));
     }
 }
+
+/// `from_toml_file_with_seed` builds another instance of the file's wall class: with
+/// the file's own seed the same wall, with another seed other projectors (the
+/// manufacturing scatter drawn again) of the same layout; a missing file names itself.
+#[test]
+fn a_wall_file_with_another_seed_is_another_instance_of_its_class() {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures/walls/mono-2x1.toml");
+    let file = wall("mono-2x1.toml");
+    let same = VirtualWall::from_toml_file_with_seed(&p, file.seed()).unwrap();
+    let other = VirtualWall::from_toml_file_with_seed(&p, file.seed() + 1).unwrap();
+    assert_eq!(other.seed(), file.seed() + 1);
+    assert_eq!(other.displays().len(), file.displays().len());
+    for d in file.displays() {
+        let (a, b, c) = (
+            file.true_primaries(d.id).unwrap(),
+            same.true_primaries(d.id).unwrap(),
+            other.true_primaries(d.id).unwrap(),
+        );
+        assert_eq!(a, b, "display {:?}", d.id);
+        assert!(
+            (a.white.y / c.white.y - 1.0).abs() > 1e-6,
+            "display {:?}",
+            d.id
+        );
+    }
+    let missing = p.with_file_name("no-such-wall.toml");
+    let err = VirtualWall::from_toml_file_with_seed(&missing, 1).unwrap_err();
+    assert!(err.to_string().contains("no-such-wall.toml"), "{err}");
+}

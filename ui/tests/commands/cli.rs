@@ -822,6 +822,51 @@ fn bench_readings_with_an_ideal_reference_leaves_out_the_reference_units_own_err
         .stderr(contains("give --reference cs2000, specbos or ideal"));
 }
 
+/// `bench readings --seeds` runs each budget on the wall built with every seed of the
+/// range and counts, per meter model and budget, the runs within the limits; a range
+/// given backwards is refused before any run (exit 2), with what to give instead.
+#[test]
+fn bench_readings_over_seeds_counts_the_runs_of_the_class_within_the_limits() {
+    let tmp = TempDir::new().unwrap();
+    let out = lumiwall()
+        .args(["bench", "readings", "--budgets", "40", "--noise", "none"])
+        .args(["--seeds", "5-6", "--wall"])
+        .arg(fixture("walls/mono-2x1.toml"))
+        .arg("--out")
+        .arg(tmp.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let runs: Vec<&str> = stdout
+        .lines()
+        .filter(|l| l.starts_with('5') || l.starts_with('6'))
+        .collect();
+    assert_eq!(runs.len(), 2, "{stdout}");
+    assert!(
+        runs.iter()
+            .all(|l| l.contains(" none ") && l.ends_with("meet")),
+        "{stdout}"
+    );
+    assert!(stdout.contains("the class over seeds 5-6"), "{stdout}");
+    let class = stdout
+        .lines()
+        .rev()
+        .find(|l| l.starts_with("none"))
+        .unwrap_or_else(|| panic!("no class row: {stdout}"));
+    assert_eq!(class.split_whitespace().nth(2), Some("2/2"), "{stdout}");
+    lumiwall()
+        .args(["bench", "readings", "--seeds", "9-3", "--out"])
+        .arg(tmp.path().join("backwards"))
+        .assert()
+        .code(2)
+        .stderr(contains("give the first seed first"));
+}
+
 /// `--grey-levels` reaches the commissioning: without the grey-drive pass the curves
 /// are interpolated where the white and the greys sit, and the grey balance is worse.
 /// (The default's split darkest grey, read on this wall's red toe, takes its seed's
