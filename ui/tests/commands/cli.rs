@@ -769,9 +769,9 @@ fn bench_readings_prints_one_row_per_noise_model() {
         .stdout(contains("runs outside the limits"));
 }
 
-/// The realistic row of `bench readings` on mono-2x1 at 40 readings with these extra
-/// arguments: its numbers from the budget to the grey balance.
-fn realistic_row(extra: &[&str]) -> Vec<f64> {
+/// What `bench readings` on mono-2x1 at 40 readings with these extra arguments prints,
+/// once it has succeeded.
+fn bench_readings_on_mono_2x1(extra: &[&str]) -> String {
     let tmp = TempDir::new().unwrap();
     let out = lumiwall()
         .args(["bench", "readings", "--budgets", "40", "--wall"])
@@ -781,12 +781,18 @@ fn realistic_row(extra: &[&str]) -> Vec<f64> {
         .args(extra)
         .output()
         .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    String::from_utf8_lossy(&out.stdout).to_string()
+}
+
+/// The realistic row of `bench readings` on mono-2x1 at 40 readings with these extra
+/// arguments: its numbers from the budget to the grey balance.
+fn realistic_row(extra: &[&str]) -> Vec<f64> {
+    let stdout = bench_readings_on_mono_2x1(extra);
     let row = stdout
         .lines()
         .find(|l| l.starts_with("realistic"))
@@ -827,21 +833,7 @@ fn bench_readings_with_an_ideal_reference_leaves_out_the_reference_units_own_err
 /// given backwards is refused before any run (exit 2), with what to give instead.
 #[test]
 fn bench_readings_over_seeds_counts_the_runs_of_the_class_within_the_limits() {
-    let tmp = TempDir::new().unwrap();
-    let out = lumiwall()
-        .args(["bench", "readings", "--budgets", "40", "--noise", "none"])
-        .args(["--seeds", "5-6", "--wall"])
-        .arg(fixture("walls/mono-2x1.toml"))
-        .arg("--out")
-        .arg(tmp.path())
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stdout = bench_readings_on_mono_2x1(&["--noise", "none", "--seeds", "5-6"]);
     let runs: Vec<&str> = stdout
         .lines()
         .filter(|l| l.starts_with('5') || l.starts_with('6'))
@@ -859,6 +851,7 @@ fn bench_readings_over_seeds_counts_the_runs_of_the_class_within_the_limits() {
         .find(|l| l.starts_with("none"))
         .unwrap_or_else(|| panic!("no class row: {stdout}"));
     assert_eq!(class.split_whitespace().nth(2), Some("2/2"), "{stdout}");
+    let tmp = TempDir::new().unwrap();
     lumiwall()
         .args(["bench", "readings", "--seeds", "9-3", "--out"])
         .arg(tmp.path().join("backwards"))
