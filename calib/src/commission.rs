@@ -501,7 +501,9 @@ fn add_split_greys(m: &mut MeasuredDisplay, profile: &DisplayProfile, noise: Opt
     let weighted = noise.is_some_and(|n| !n.is_exact());
     for (c, samples) in split_greys(&m.log, &display, noise).into_iter().enumerate() {
         let ramp_drives: Vec<f64> = m.measurement.ramps[c].iter().map(|(d, _)| *d).collect();
-        for s in samples {
+        // The last read first: a grey aimed again lands nearer the chart's than the
+        // reading that aimed it, which then only joins where it is not beside it.
+        for s in samples.into_iter().rev() {
             let ramp = &mut m.measurement.ramps[c];
             let beside = ramp.iter().any(|(d, _)| (d - s.drive).abs() < gap);
             let wanted = below_the_samples(s.drive, &ramp_drives, gap)

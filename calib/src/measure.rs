@@ -951,11 +951,7 @@ impl<'r, 'a> Session<'r, 'a> {
             });
             return Ok(Some(mean));
         }
-        let repeats = match (self.low_light, always_average) {
-            (LowLight::Average { repeats }, _) => repeats.max(1),
-            (LowLight::Skip, true) => 4,
-            (LowLight::Skip, false) => 0,
-        };
+        let repeats = self.dark_repeats(always_average);
         let repeats = if line.is_some() {
             repeats.min(DARK_CHANNEL_REPEATS)
         } else {
@@ -984,6 +980,28 @@ impl<'r, 'a> Session<'r, 'a> {
             low_light: true,
         });
         Ok(mean)
+    }
+
+    /// Readings the low-light policy averages for a patch whose first reading of `y_cd_m2`
+    /// (cd/m²) says what it shows: one at or above the reliable limit; below it the
+    /// policy's repeats under [`LowLight::Average`], and under [`LowLight::Skip`] four
+    /// where the patch is always averaged (black, primaries) and none otherwise.
+    fn readings_for(&self, y_cd_m2: f64, always_average: bool) -> u32 {
+        if y_cd_m2 >= self.limit_cd_m2 {
+            1
+        } else {
+            self.dark_repeats(always_average)
+        }
+    }
+
+    /// The low-light policy's readings for a patch below the reliable limit
+    /// ([`Session::readings_for`]).
+    fn dark_repeats(&self, always_average: bool) -> u32 {
+        match (self.low_light, always_average) {
+            (LowLight::Average { repeats }, _) => repeats.max(1),
+            (LowLight::Skip, true) => 4,
+            (LowLight::Skip, false) => 0,
+        }
     }
 
     /// Reads the patch already shown up to `n` times (at most what the budget leaves),

@@ -228,8 +228,9 @@ pub(crate) struct CommissionArgs {
     /// in the middle of the widest gap between its samples over the drives the greys
     /// use; a share with `split` (e.g. `0.02split`) is read whole, once or as the
     /// low-light policy averages it, where one of its channels sits below that
-    /// channel's samples (a dim wall's toe), and split into three channel samples
-    /// through the primaries; then the wall is solved again. Up to three readings per
+    /// channel's samples (a dim wall's toe), its first reading aiming it again where
+    /// it shows the grey more than 10 % off in luminance above black, and split into
+    /// three channel samples through the primaries; then the wall is solved again. Up to three readings per
     /// grey out of each display's budget, and the meter visits every display a second
     /// time. A luminance is read only where the meter is reliable at a third of it; the
     /// brightest share (from 64 readings) is also read whole. `none` skips the pass.

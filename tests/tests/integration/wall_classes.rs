@@ -661,8 +661,8 @@ fn a_dim_walls_grey_drive_pass_leaves_its_darkest_grey_a_reading() {
 /// A dim wall (mono-2x1 with lamps of 15 cd/m² instead of 250: a wall white near 7.6
 /// cd/m², the chart's 2 % grey near 0.15 cd/m²) at 64 readings per display with the
 /// realistic meter: the grey-drive pass reads the chart's darkest grey whole where a
-/// channel of it sits below that channel's ramp samples, and its split samples join
-/// that display's ramps at the grey's drives (`grey_drives::default_levels`: at every
+/// channel of it sits below that channel's ramp samples, and the split samples of the
+/// grey read last join that display's ramps at the grey's drives (`grey_drives::default_levels`: at every
 /// budget, where it once stopped at 64), within each display's budget.
 #[test]
 fn at_64_readings_a_dim_wall_splits_its_darkest_grey_into_toe_samples() {
@@ -682,11 +682,13 @@ fn at_64_readings_a_dim_wall_splits_its_darkest_grey_into_toe_samples() {
     let mut split = 0;
     for m in &o.measured {
         assert!(m.log.readings <= 64, "{}", m.log.readings);
-        let greys = m.log.samples.iter().filter_map(|r| match (r.patch, r.xyz) {
+        let mut greys = m.log.samples.iter().filter_map(|r| match (r.patch, r.xyz) {
             (Patch::Grey(d), Some(_)) => Some(d),
             _ => None,
         });
-        for d in greys {
+        // The grey read last: one aimed again, if its first reading was off, whose
+        // samples come first (the reading that aimed it joins only where not beside).
+        if let Some(d) = greys.next_back() {
             let joined = (0..3).any(|c| {
                 m.measurement.ramps[c]
                     .iter()
@@ -697,4 +699,53 @@ fn at_64_readings_a_dim_wall_splits_its_darkest_grey_into_toe_samples() {
         }
     }
     assert!(split > 0, "no darkest grey read whole on the dim wall");
+}
+
+/// A dim wall (mono-2x1 with 15 cd/m² lamps) at 40 readings per display, realistic
+/// meter: the provisional profile's toe, extrapolated from ramp samples above the
+/// chart's darkest grey, shows that grey too bright; its first reading says so, the rest
+/// of its readings go to drives aimed again (`grey_drives::reaimed`), and those land
+/// nearer the grey's luminance. Each display reads it twice at most, within its budget.
+#[test]
+fn a_dim_walls_darkest_grey_read_off_its_luminance_is_read_again_nearer_it() {
+    use lumiwall_calib::measure::Patch;
+    use lumiwall_calib::measure::black_readings::DARKEST_GREY_SHARE;
+    use lumiwall_calib::measure::grey_drives::SPLIT_REAIM_REL;
+    let fixture =
+        std::fs::read_to_string(crate::support::wall_path("mono-2x1.toml")).expect("fixture");
+    let dim = fixture.replace("white_cd_m2 = 250.0", "white_cd_m2 = 15.0");
+    let measure = MeasureOptions {
+        budget: 40,
+        ..MeasureOptions::default()
+    };
+    let o = commission_text(&dim, Noise::Realistic, measure);
+    let wanted = DARKEST_GREY_SHARE * o.solution.white_xyz_cd_m2.y;
+    let mut aimed_again = 0;
+    for m in &o.measured {
+        assert!(m.log.readings <= 40, "{}", m.log.readings);
+        let black = m.measurement.black.y;
+        let off = |y: f64| ((y - black) / (wanted - black) - 1.0).abs();
+        let greys: Vec<f64> = m
+            .log
+            .samples
+            .iter()
+            .filter_map(|r| match (r.patch, r.xyz) {
+                (Patch::Grey(_), Some(x)) => Some(x.y),
+                _ => None,
+            })
+            .collect();
+        assert!(greys.len() <= 2, "{greys:?}");
+        if let [first, again] = greys[..] {
+            assert!(
+                off(first) > SPLIT_REAIM_REL,
+                "aimed again at {first} for {wanted}"
+            );
+            assert!(
+                off(again) < 0.5 * off(first),
+                "aimed again at {again} cd/m², first {first}, wanted {wanted}"
+            );
+            aimed_again += 1;
+        }
+    }
+    assert!(aimed_again > 0, "no display aimed its darkest grey again");
 }
