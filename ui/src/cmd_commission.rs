@@ -695,7 +695,7 @@ pub(crate) struct BenchArgs {
     /// file's (`101-160`, at most 10 000): unseen instances of the wall's class, its
     /// manufacturing scatter and meter noise drawn again, the virtual wall's own
     /// patterns shown. A table per meter model and budget then counts the runs within
-    /// the limits.
+    /// the limits. Each seed's scratch folder under `--out` is removed after its run.
     #[arg(long, value_parser = parse_seeds)]
     seeds: Option<std::ops::RangeInclusive<u64>>,
     /// Run only this meter error model (`none` or `realistic`); default: both.

@@ -773,11 +773,16 @@ fn bench_readings_prints_one_row_per_noise_model() {
 /// once it has succeeded.
 fn bench_readings_on_mono_2x1(extra: &[&str]) -> String {
     let tmp = TempDir::new().unwrap();
+    bench_readings_on_mono_2x1_in(tmp.path(), extra)
+}
+
+/// [`bench_readings_on_mono_2x1`] with the scratch folder `out`.
+fn bench_readings_on_mono_2x1_in(out: &std::path::Path, extra: &[&str]) -> String {
     let out = lumiwall()
         .args(["bench", "readings", "--budgets", "40", "--wall"])
         .arg(fixture("walls/mono-2x1.toml"))
         .arg("--out")
-        .arg(tmp.path())
+        .arg(out)
         .args(extra)
         .output()
         .unwrap();
@@ -829,11 +834,19 @@ fn bench_readings_with_an_ideal_reference_leaves_out_the_reference_units_own_err
 }
 
 /// `bench readings --seeds` runs each budget on the wall built with every seed of the
-/// range and counts, per meter model and budget, the runs within the limits; a range
-/// given backwards is refused before any run (exit 2), with what to give instead.
+/// range and counts, per meter model and budget, the runs within the limits, keeping
+/// no seed's scratch folder; a range given backwards is refused before any run (exit
+/// 2), with what to give instead.
 #[test]
 fn bench_readings_over_seeds_counts_the_runs_of_the_class_within_the_limits() {
-    let stdout = bench_readings_on_mono_2x1(&["--noise", "none", "--seeds", "5-6"]);
+    let scratch = TempDir::new().unwrap();
+    let stdout =
+        bench_readings_on_mono_2x1_in(scratch.path(), &["--noise", "none", "--seeds", "5-6"]);
+    let kept: Vec<_> = std::fs::read_dir(scratch.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(kept.is_empty(), "scratch folders kept: {kept:?}");
     let runs: Vec<&str> = stdout
         .lines()
         .filter(|l| l.starts_with('5') || l.starts_with('6'))
