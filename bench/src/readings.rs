@@ -366,22 +366,15 @@ fn remove_scratch(dir: &std::path::Path) {
     }
 }
 
-/// Commissions the wall with `budget` readings per display (after matching a noisy
-/// meter to the reference) and verifies the chart against the truth.
-fn run_one(
+/// The commissioning of one run: `budget` readings per display, the meter matched by
+/// `meter_matrix`, the bench's solve, warm-up, warm check and grey levels, no resume
+/// and no additivity-based meter correction.
+fn commission_options(
     bench: &ReadingsBench,
-    seed: Option<u64>,
-    noise: Noise,
     budget: u32,
-) -> Result<ReadingsRow, ReadingsError> {
-    let started = Instant::now();
-    let mut station = open_station(bench, seed, noise)?;
-    let per_display = bench
-        .per_display_matrix
-        .unwrap_or_else(|| station.per_display_matrices_by_default());
-    let meter_matrix = match_meter(&mut station, noise, &bench.reference, per_display)?;
-    let out = run_dir(bench, seed, noise, budget);
-    let opts = CommissionOptions {
+    meter_matrix: Option<MeterMatrices>,
+) -> CommissionOptions {
+    CommissionOptions {
         measure: MeasureOptions {
             budget,
             meter_matrix,
@@ -400,7 +393,25 @@ fn run_one(
             .grey_levels
             .clone()
             .unwrap_or_else(lumiwall_calib::measure::grey_drives::default_levels),
-    };
+    }
+}
+
+/// Commissions the wall with `budget` readings per display (after matching a noisy
+/// meter to the reference) and verifies the chart against the truth.
+fn run_one(
+    bench: &ReadingsBench,
+    seed: Option<u64>,
+    noise: Noise,
+    budget: u32,
+) -> Result<ReadingsRow, ReadingsError> {
+    let started = Instant::now();
+    let mut station = open_station(bench, seed, noise)?;
+    let per_display = bench
+        .per_display_matrix
+        .unwrap_or_else(|| station.per_display_matrices_by_default());
+    let meter_matrix = match_meter(&mut station, noise, &bench.reference, per_display)?;
+    let out = run_dir(bench, seed, noise, budget);
+    let opts = commission_options(bench, budget, meter_matrix);
     let outcome =
         station
             .commission(&out, &opts, &mut |_| {})
