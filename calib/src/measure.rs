@@ -1004,6 +1004,25 @@ impl<'r, 'a> Session<'r, 'a> {
         }
     }
 
+    /// Reads the patch `patch` already shown `n` more times (what the budget leaves at
+    /// most) and averages them with its reading `first` in XYZ, in the log's last
+    /// record.
+    fn average_more(
+        &mut self,
+        patch: Patch,
+        first: Xyz,
+        n: u32,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<(), MeasureError> {
+        let mut sum = first;
+        let (more, ok) = self.read_into(patch, n, &mut sum, progress)?;
+        if let Some(r) = self.log.samples.last_mut() {
+            r.xyz = Some(sum * (1.0 / f64::from(1 + ok)));
+            r.repeats = 1 + more;
+        }
+        Ok(())
+    }
+
     /// Reads the patch already shown up to `n` times (at most what the budget leaves),
     /// adding each value to `sum`. Returns the readings taken and those that gave a
     /// value (the others were refused as too dark).

@@ -571,7 +571,7 @@ fn read_split_if_extrapolated(
     push_below(out, drive, below);
     let rest = split_readings(s.readings_for(first.y, true), noise.as_ref()) - 1;
     match reaimed(targets.black, xyz, first, noise.as_ref()) {
-        None => average_more(s, Patch::Grey(drive), first, rest, progress),
+        None => s.average_more(Patch::Grey(drive), first, rest, progress),
         Some(aim) => {
             // At least one, never past the budget (a first reading is not capped).
             let n = rest.max(1).min(s.remaining());
@@ -673,24 +673,6 @@ pub fn reaimed(black: Xyz, target: Xyz, first: Xyz, noise: Option<&ReadingNoise>
     let off = read / wanted - 1.0;
     (off.abs() > SPLIT_REAIM_REL.max(2.0 * sigma_rel))
         .then(|| black + (target - black) * (wanted / read))
-}
-
-/// Reads the patch `patch` already shown `n` more times (what the budget leaves at
-/// most) and averages them with its reading `first` in XYZ, in the log's last record.
-fn average_more(
-    s: &mut Session<'_, '_>,
-    patch: Patch,
-    first: Xyz,
-    n: u32,
-    progress: &mut dyn FnMut(Progress),
-) -> Result<(), MeasureError> {
-    let mut sum = first;
-    let (more, ok) = s.read_into(patch, n, &mut sum, progress)?;
-    if let Some(r) = s.log.samples.last_mut() {
-        r.xyz = Some(sum * (1.0 / f64::from(1 + ok)));
-        r.repeats = 1 + more;
-    }
-    Ok(())
 }
 
 /// Reads the grey at `drive` whole, as often as `targets` says (what the budget
