@@ -889,8 +889,9 @@ impl<'r, 'a> Session<'r, 'a> {
     /// reliable limit (or refused as too dark) is repeated and the successful readings
     /// averaged under [`LowLight::Average`], or always when `always_average` is set
     /// (black, primaries); under [`LowLight::Skip`] the sample is dropped. Returns
-    /// `None` when the sample was skipped or every reading was refused as too dark.
-    /// Repeats never exceed the budget.
+    /// `None` when the sample was skipped, every reading was refused as too dark, or
+    /// the display's budget was already spent (then nothing is shown or read): no
+    /// reading, the first included, ever exceeds the budget.
     pub fn sample(
         &mut self,
         patch: Patch,
@@ -935,6 +936,10 @@ impl<'r, 'a> Session<'r, 'a> {
         bounds: Repeats,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<Option<Xyz>, MeasureError> {
+        if self.remaining() == 0 {
+            tracing::debug!(display = %self.name, %patch, "budget spent: not read");
+            return Ok(None);
+        }
         let at_most = bounds.at_most.max(1);
         self.show(patch)?;
         let first = self.read_once(patch, progress)?;
@@ -1087,8 +1092,8 @@ impl Session<'_, '_> {
     }
 
     /// Shows `patch` and averages `repeats` readings (in xyY), or more under the
-    /// low-light policy when the patch is dark. `None` when every reading was refused as
-    /// too dark.
+    /// low-light policy when the patch is dark, never more than the budget leaves.
+    /// `None` when every reading was refused as too dark or the budget was spent.
     pub fn repeated(
         &mut self,
         patch: Patch,
@@ -1104,8 +1109,9 @@ impl Session<'_, '_> {
         }
         let mut sum = [0.0f64; 3];
         let mut n = 0.0;
+        let more = (repeats - 1).min(self.remaining());
         for x in std::iter::once(Some(first)).chain(
-            (1..repeats)
+            (0..more)
                 .map(|_| self.read_once(patch, progress))
                 .collect::<Result<Vec<_>, _>>()?,
         ) {

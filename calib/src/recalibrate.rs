@@ -107,8 +107,10 @@ impl Default for DriftLimits {
 /// Options of a recalibration.
 #[derive(Debug, Clone)]
 pub struct RecalibrateOptions {
-    /// How to read (spot, repeats, low-light policy, meter matrices); the budget is not
-    /// used (a recalibration takes black, primaries and white only).
+    /// How to read (spot, repeats, low-light policy, meter matrices). The budget sets
+    /// the primaries' repeats as in commissioning and bounds each display's readings
+    /// (a check reads black, primaries, white and a mid-drive sample per channel; a
+    /// display measured again in full reads as commissioning does).
     pub measure: MeasureOptions,
     /// When a display counts as drifted.
     pub limits: DriftLimits,

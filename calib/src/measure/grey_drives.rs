@@ -562,7 +562,7 @@ fn read_split_if_extrapolated(
     };
     let drive = drive_at_codes(targets.prepared, xyz, at.spot_uv, at.max_code);
     let below = channels_below(targets, out, drive, at.gap);
-    if !below.contains(&true) || s.remaining() == 0 {
+    if !below.contains(&true) {
         return Ok(());
     }
     let Some(first) = s.sample_until(Patch::Grey(drive), true, None, ONE_READING, progress)? else {
@@ -573,11 +573,8 @@ fn read_split_if_extrapolated(
     match reaimed(targets.black, xyz, first, noise.as_ref()) {
         None => s.average_more(Patch::Grey(drive), first, rest, progress),
         Some(aim) => {
-            // At least one, never past the budget (a first reading is not capped).
-            let n = rest.max(1).min(s.remaining());
-            if n == 0 {
-                return Ok(());
-            }
+            // At least one; `sample_until` never reads past the budget.
+            let n = rest.max(1);
             let drive = drive_at_codes(targets.prepared, aim, at.spot_uv, at.max_code);
             let below = channels_below(targets, out, drive, at.gap);
             let n = Repeats {

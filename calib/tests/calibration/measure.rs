@@ -290,6 +290,56 @@ fn too_small_budget_is_refused() {
     assert_eq!(bench.reading, 0);
 }
 
+/// A session whose budget is spent shows and reads nothing more: not a first reading
+/// (`sample`, `sample_channel`), not the repeats of an averaged patch (`repeated`).
+#[test]
+fn a_session_never_reads_past_its_budget_not_even_a_samples_first_reading() {
+    use lumiwall_calib::measure::{ChannelLine, Patch, Session};
+    use lumiwall_core::Channel;
+    let cell = std::cell::RefCell::new(Bench::new());
+    let (mut pattern, mut meter, mut aim) = (Pattern(&cell), Meter(&cell), Aim);
+    let mut rig = Rig {
+        pattern: &mut pattern,
+        meter: &mut meter,
+        positioner: &mut aim,
+    };
+    let opts = MeasureOptions {
+        budget: 6,
+        ..MeasureOptions::default()
+    };
+    let key = display_key("bench", &info());
+    let mut s = Session::start(&mut rig, &key, info().id, [0.5, 0.5], &opts).expect("session");
+    let line = ChannelLine {
+        black: display().black,
+        full: display().primaries[0],
+        noise: None,
+    };
+    let ramp = s.sample_channel(Patch::Ramp(Channel::Red, 0.5), &line, &mut |_| {});
+    assert!(ramp.unwrap().is_some());
+    for _ in 0..2 {
+        assert!(s.sample(Patch::White, true, &mut |_| {}).unwrap().is_some());
+    }
+    // Four readings asked, three left: three read.
+    let red = s.repeated(Patch::Primary(Channel::Red), 4, &mut |_| {});
+    assert!(red.unwrap().is_some());
+    assert_eq!(s.remaining(), 0);
+    let shown_before = cell.borrow().shown;
+    let spent = s.sample_channel(Patch::Ramp(Channel::Red, 0.25), &line, &mut |_| {});
+    assert!(
+        spent.unwrap().is_none(),
+        "a sample past the budget gave a reading"
+    );
+    assert!(s.sample(Patch::Black, true, &mut |_| {}).unwrap().is_none());
+    assert!(s.repeated(Patch::White, 4, &mut |_| {}).unwrap().is_none());
+    drop(s);
+    let bench = cell.into_inner();
+    assert_eq!(bench.reading, 6, "readings taken with a budget of 6");
+    assert_eq!(
+        bench.shown, shown_before,
+        "a patch was shown past the budget"
+    );
+}
+
 #[test]
 fn patch_channels_are_logged_as_indices() {
     use lumiwall_calib::measure::Patch;
