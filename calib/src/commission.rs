@@ -474,6 +474,7 @@ fn read_greys_of(
         m.measurement.black = merged_black(m.measurement.black, first, again, n);
     }
     m.log.samples.extend(read.samples);
+    m.log.noise_seen.merge(read.noise_seen);
     let (primaries, ramps) = pool(&m.log, m.measurement.black, m.measurement.primaries, noise);
     m.measurement.ramp_sigma_rel = ramp_sigma_rel(&m.log, m.measurement.black, primaries, noise);
     (m.measurement.primaries, m.measurement.ramps) = (primaries, ramps);
@@ -514,7 +515,8 @@ fn add_split_greys(m: &mut MeasuredDisplay, profile: &DisplayProfile, noise: Opt
             }
             ramp.push((s.drive, s.xyz));
             if weighted {
-                m.measurement.ramp_sigma_rel[c].push(s.sigma_rel);
+                let seen = m.log.noise_seen.scale();
+                m.measurement.ramp_sigma_rel[c].push(s.sigma_rel * seen);
             }
         }
     }

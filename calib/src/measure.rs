@@ -49,6 +49,7 @@ pub mod drift;
 pub mod grey_drives;
 pub mod meter_matrix;
 pub mod meter_offset;
+pub mod noise_seen;
 pub mod split_grey;
 pub mod warm_up;
 pub mod wavelength_check;
@@ -439,6 +440,10 @@ pub struct MeasureLog {
     /// in `samples` and the ramps.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grey_drive_readings: Option<u32>,
+    /// The spread of the repeated readings against the meter's stated noise
+    /// ([`noise_seen`]); the default (nothing seen) in logs written before it.
+    #[serde(default)]
+    pub noise_seen: noise_seen::NoiseSeen,
 }
 
 impl MeasureLog {
@@ -777,6 +782,11 @@ pub struct Session<'r, 'a> {
     max_retries: u32,
     limit_cd_m2: f64,
     low_light: LowLight,
+    /// The meter's stated noise, against which the spread of repeated readings is
+    /// taken ([`noise_seen`]).
+    noise: Option<ReadingNoise>,
+    /// The readings of the patch on show so far.
+    spread: Option<noise_seen::PatchSpread>,
     /// The log so far.
     pub log: MeasureLog,
 }
@@ -808,6 +818,7 @@ impl<'r, 'a> Session<'r, 'a> {
             .low_light_limit_cd_m2
             .unwrap_or_else(|| rig.meter.info().min_reliable_cd_m2)
             .max(0.0);
+        let noise = rig.meter.info().noise;
         Ok(Self {
             rig,
             id,
@@ -820,6 +831,8 @@ impl<'r, 'a> Session<'r, 'a> {
             max_retries: opts.max_retries,
             limit_cd_m2,
             low_light: opts.low_light,
+            noise,
+            spread: None,
             log: MeasureLog {
                 low_light_limit_cd_m2: limit_cd_m2,
                 low_light: Some(opts.low_light),
@@ -853,10 +866,15 @@ impl<'r, 'a> Session<'r, 'a> {
                         xyz,
                     });
                 }
-                Ok(xyz) => Some(match &self.correction {
-                    Some(m) => meter_matrix::apply(m, xyz),
-                    None => xyz,
-                }),
+                Ok(xyz) => {
+                    let xyz = match &self.correction {
+                        Some(m) => meter_matrix::apply(m, xyz),
+                        None => xyz,
+                    };
+                    let seen = &mut self.log.noise_seen;
+                    noise_seen::PatchSpread::add(&mut self.spread, seen, self.noise.as_ref(), xyz);
+                    Some(xyz)
+                }
                 Err(DeviceError::TooDark { .. }) => None,
                 Err(e) if e.is_transient() && attempts <= self.max_retries => {
                     tracing::warn!(display = %self.name, %patch, "transient meter error, retrying: {e}");
@@ -1053,6 +1071,7 @@ impl<'r, 'a> Session<'r, 'a> {
 impl Session<'_, '_> {
     /// Shows `patch` on the session's display.
     fn show(&mut self, patch: Patch) -> Result<(), MeasureError> {
+        self.spread = None;
         self.rig
             .pattern
             .show(self.id, patch.drive())

@@ -110,10 +110,13 @@ pub fn pool(
 /// Relative standard error of each ramp sample's intensity, per channel in the order
 /// [`pool`] gives the ramps: one reading's error along the channel's line
 /// ([`ChannelLine::intensity_sigma`], `primaries`: the pooled ones) over the square root
-/// of the `n` readings averaged, divided by the sample's intensity along the line. The black's own noise is left
-/// out: it moves every sample of a channel alike, which no smoothing removes. Empty
-/// without a stated, non-zero noise (the curves then pass through the samples:
-/// [`crate::tone::smoothing`]); 0 for a sample with no light along `p`.
+/// of the `n` readings averaged, divided by the sample's intensity along the line,
+/// times the share of the stated noise the log's repeated readings showed
+/// ([`super::noise_seen::NoiseSeen::scale`]). The black's own noise is left out: it
+/// moves every sample of a channel alike, which no smoothing removes. Empty without a
+/// stated, non-zero noise (the curves then pass through the samples:
+/// [`crate::tone::smoothing`]); 0 for a sample with no light along `p`, and for every
+/// sample where the repeated readings showed no noise at all.
 pub fn ramp_sigma_rel(
     log: &MeasureLog,
     black: Xyz,
@@ -123,6 +126,7 @@ pub fn ramp_sigma_rel(
     let Some(noise) = noise.filter(|n| !n.is_exact()) else {
         return Default::default();
     };
+    let seen = log.noise_seen.scale();
     std::array::from_fn(|i| {
         let line = ChannelLine {
             black,
@@ -136,7 +140,7 @@ pub fn ramp_sigma_rel(
                     return 0.0;
                 };
                 let r = relative_intensity(s.xyz, black, primaries[i]);
-                let rel = one / (f64::from(s.readings).sqrt() * r);
+                let rel = seen * one / (f64::from(s.readings).sqrt() * r);
                 if rel.is_finite() && rel > 0.0 {
                     rel
                 } else {

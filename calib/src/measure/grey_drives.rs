@@ -329,6 +329,9 @@ pub struct GreyDrives {
     /// it, for the commissioning to average with the black read first
     /// ([`merged_black`]).
     pub black: Option<(Xyz, u32)>,
+    /// The spread of the pass's repeated readings, for the display's log
+    /// ([`super::noise_seen`]).
+    pub noise_seen: super::noise_seen::NoiseSeen,
 }
 
 /// The display's black `first`, read `first_readings` times, averaged with the pass's
@@ -490,6 +493,7 @@ pub fn read_grey_drives(
     }
     out.readings = s.log.readings;
     out.samples = std::mem::take(&mut s.log.samples);
+    out.noise_seen = s.log.noise_seen;
     progress(Progress::GreyDrivesRead {
         display: id,
         samples: out.drives.iter().map(Vec::len).sum(),

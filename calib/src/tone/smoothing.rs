@@ -19,7 +19,10 @@
 //! the number of noisy samples (a discrepancy principle, Reinsch 1967, with a share
 //! below 1): the smoothest curve that stays within a fraction of the samples' noise.
 //! The full drive (intensity 1 by definition) and samples without stated noise stay
-//! where they are; an exact meter's samples are not moved at all.
+//! where they are; an exact meter's samples are not moved at all. The noise is the
+//! meter's stated noise times the share of it that the display's repeated readings
+//! showed ([`crate::measure::noise_seen`]): a meter that states a noise its readings do
+//! not have (the emulated K-10-A reading exactly) is not smoothed within it.
 //!
 //! Why a share of 0.2 and not Reinsch's 1: the toe of an LCD or DLP curve bends in the
 //! log–log plane (a near-linear part below a power law), and at a χ² of one per sample

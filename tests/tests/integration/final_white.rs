@@ -7,8 +7,9 @@
 //! 0.17 % once the grey-drive pass reads each channel's widest gap, 0.02 % read again;
 //! 0.14 % and 0.06 % once the solve smoothed the samples within the K-10-A's stated
 //! noise, [`lumiwall_calib::tone::smoothing`], which moves the noiseless emulator's exact
-//! samples by up to about half that noise; the test prints its figures, 0.30 % and
-//! 0.07 % at c586d54).
+//! samples by up to about half that noise; 0.30 % and 0.07 % at c586d54; 0.17 % and
+//! 0.04 % once the solve smoothed within the noise the repeated readings show,
+//! [`lumiwall_calib::measure::noise_seen`], none here; the test prints its figures).
 
 use lumiwall_calib::commission::CommissionOutcome;
 use lumiwall_calib::commission::final_white::resample_at_final_white;
