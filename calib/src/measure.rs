@@ -787,6 +787,9 @@ pub struct Session<'r, 'a> {
     noise: Option<ReadingNoise>,
     /// The readings of the patch on show so far.
     spread: Option<noise_seen::PatchSpread>,
+    /// Each sample's first reading is taken even with the budget spent
+    /// ([`Session::essential`]).
+    essential: bool,
     /// The log so far.
     pub log: MeasureLog,
 }
@@ -833,6 +836,7 @@ impl<'r, 'a> Session<'r, 'a> {
             low_light: opts.low_light,
             noise,
             spread: None,
+            essential: false,
             log: MeasureLog {
                 low_light_limit_cd_m2: limit_cd_m2,
                 low_light: Some(opts.low_light),
@@ -844,6 +848,30 @@ impl<'r, 'a> Session<'r, 'a> {
     /// Readings still allowed.
     pub fn remaining(&self) -> u32 {
         self.budget.saturating_sub(self.log.readings)
+    }
+
+    /// Runs `read` with each sample's first reading taken even where the budget is
+    /// spent (its repeats stay within it): the black and the primaries, without which
+    /// there is no display model (a budget too small for the ramps then fails with
+    /// [`MeasureError::RampBudgetSpent`]), and a recalibration's check, whose every
+    /// sample is compared.
+    pub(crate) fn essential<T>(&mut self, read: impl FnOnce(&mut Self) -> T) -> T {
+        let was = std::mem::replace(&mut self.essential, true);
+        let out = read(self);
+        self.essential = was;
+        out
+    }
+
+    /// [`Session::sample`], always averaged in the dark, read once even where the
+    /// budget is spent (its repeats stay within it): a sample without which a display
+    /// model or a recalibration's check cannot do (the black, the primaries, the
+    /// check's white and mid-drive samples).
+    pub fn essential_sample(
+        &mut self,
+        patch: Patch,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Option<Xyz>, MeasureError> {
+        self.essential(|s| s.sample(patch, true, progress))
     }
 
     /// One meter reading with bounded retries of transient errors. A reading the meter
@@ -909,7 +937,8 @@ impl<'r, 'a> Session<'r, 'a> {
     /// (black, primaries); under [`LowLight::Skip`] the sample is dropped. Returns
     /// `None` when the sample was skipped, every reading was refused as too dark, or
     /// the display's budget was already spent (then nothing is shown or read): no
-    /// reading, the first included, ever exceeds the budget.
+    /// reading, the first included, exceeds the budget (except an essential sample's
+    /// first: [`Session::essential_sample`]).
     pub fn sample(
         &mut self,
         patch: Patch,
@@ -954,7 +983,7 @@ impl<'r, 'a> Session<'r, 'a> {
         bounds: Repeats,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<Option<Xyz>, MeasureError> {
-        if self.remaining() == 0 {
+        if self.remaining() == 0 && !self.essential {
             tracing::debug!(display = %self.name, %patch, "budget spent: not read");
             return Ok(None);
         }
@@ -1457,6 +1486,16 @@ fn ramps_in(
 /// dark even on repeats is below its floor and taken as 0) and the three full-drive
 /// primaries, each of which must be brighter than black.
 pub(crate) fn measure_black_and_primaries(
+    s: &mut Session<'_, '_>,
+    key: &DisplayKey,
+    opts: &MeasureOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(Xyz, [Xyz; 3]), MeasureError> {
+    s.essential(|s| black_and_primaries_in(s, key, opts, progress))
+}
+
+/// [`measure_black_and_primaries`] inside [`Session::essential`].
+fn black_and_primaries_in(
     s: &mut Session<'_, '_>,
     key: &DisplayKey,
     opts: &MeasureOptions,

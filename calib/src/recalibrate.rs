@@ -108,9 +108,11 @@ impl Default for DriftLimits {
 #[derive(Debug, Clone)]
 pub struct RecalibrateOptions {
     /// How to read (spot, repeats, low-light policy, meter matrices). The budget sets
-    /// the primaries' repeats as in commissioning and bounds each display's readings
-    /// (a check reads black, primaries, white and a mid-drive sample per channel; a
-    /// display measured again in full reads as commissioning does).
+    /// the primaries' repeats as in commissioning and bounds each session on a
+    /// display: a check reads its black, primaries, white and a mid-drive sample per
+    /// channel at least once each, their repeats within the budget; a display measured
+    /// again in full reads as commissioning does (a display can take a white check, a
+    /// full check and a full measurement in one night).
     pub measure: MeasureOptions,
     /// When a display counts as drifted.
     pub limits: DriftLimits,
@@ -695,7 +697,7 @@ fn read_white(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(Option<Xyz>, u32), RecalibrateError> {
     let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
-    let white = s.sample(Patch::White, true, progress)?;
+    let white = s.essential_sample(Patch::White, progress)?;
     let readings = s.log.readings;
     progress(Progress::DisplayDone {
         display: info.id,
@@ -788,13 +790,13 @@ fn read_display(
 ) -> Result<(Readings, u32), RecalibrateError> {
     let mut s = Session::start(rig, key, info.id, opts.spot_uv, opts)?;
     let (black, primaries) = measure_black_and_primaries(&mut s, key, opts, progress)?;
-    let white = s.sample(Patch::White, true, progress)?;
+    // Every sample of the check is compared: none is left out for the budget.
+    let white = s.essential_sample(Patch::White, progress)?;
     let mut mid = [None; 3];
     for c in Channel::ALL {
         let drive = curve_check_drive(profile, c, info.bit_depth);
-        mid[c.index()] = s
-            .sample(Patch::Ramp(c, drive), true, progress)?
-            .map(|xyz| (drive, xyz));
+        let patch = Patch::Ramp(c, drive);
+        mid[c.index()] = s.essential_sample(patch, progress)?.map(|xyz| (drive, xyz));
     }
     let readings = s.log.readings;
     progress(Progress::DisplayDone {

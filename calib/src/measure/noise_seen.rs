@@ -15,6 +15,11 @@
 //! 1: a meter is never taken as noisier than it says (the smoothing's share of the
 //! noise was chosen for the stated noise), only as quieter where it shows it.
 //!
+//! One scale serves the whole display, from its black to its white. A meter that
+//! rounds, clamps or averages its dark readings inside so that repeats come out
+//! equal shows less noise than it has; its samples are then smoothed less, down to
+//! not at all (the curves through the samples, as with an exact meter).
+//!
 //! What the readings show (dim-mono-2x1, 40 readings, first pass): the direct
 //! simulated CS-100A 1.07 and 0.91 of its stated noise (so 1 and 0.91: the same
 //! figures within a seed's noise, e.g. dim-mono-2x1 44 → 43 and dim-infitec-pair
@@ -27,9 +32,9 @@ use lumiwall_devices::{ReadingNoise, Xyz};
 use serde::{Deserialize, Serialize};
 
 /// Degrees of freedom below which the readings say nothing about the noise
-/// ([`NoiseSeen::scale`] is 1): two patches read four times each. With 9 the scale's
-/// relative standard error is about 24 %; a display's first pass at 40 readings
-/// pools 20 to 40.
+/// ([`NoiseSeen::scale`] is 1): one patch read four times, or three read twice each.
+/// With 9 the scale's relative standard error is about 24 %; a display's first pass
+/// at 40 readings pools about 40.
 pub const MIN_DOF: u32 = 9;
 
 /// Pooled spread of repeated readings, in units of the meter's stated noise.
@@ -114,7 +119,7 @@ mod tests {
     /// Reads `patches` patches `n` times each with noise `share` × the stated.
     fn seen_with(share: f64, patches: usize, n: usize) -> NoiseSeen {
         let noise = ReadingNoise::CS100A_CLASS;
-        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
         let mut seen = NoiseSeen::default();
         for p in 0..patches {
             let truth = Xyz::new(0.05 + 0.3 * p as f64, 0.04 + 0.2 * p as f64, 0.1 + p as f64);

@@ -291,7 +291,8 @@ fn too_small_budget_is_refused() {
 }
 
 /// A session whose budget is spent shows and reads nothing more: not a first reading
-/// (`sample`, `sample_channel`), not the repeats of an averaged patch (`repeated`).
+/// (`sample`, `sample_channel`), not the repeats of an averaged patch (`repeated`);
+/// `Session::essential_sample` reads once past it.
 #[test]
 fn a_session_never_reads_past_its_budget_not_even_a_samples_first_reading() {
     use lumiwall_calib::measure::{ChannelLine, Patch, Session};
@@ -331,12 +332,24 @@ fn a_session_never_reads_past_its_budget_not_even_a_samples_first_reading() {
     );
     assert!(s.sample(Patch::Black, true, &mut |_| {}).unwrap().is_none());
     assert!(s.repeated(Patch::White, 4, &mut |_| {}).unwrap().is_none());
-    drop(s);
-    let bench = cell.into_inner();
-    assert_eq!(bench.reading, 6, "readings taken with a budget of 6");
     assert_eq!(
-        bench.shown, shown_before,
+        cell.borrow().reading,
+        6,
+        "readings taken with a budget of 6"
+    );
+    assert_eq!(
+        cell.borrow().shown,
+        shown_before,
         "a patch was shown past the budget"
+    );
+    // What a display model or a check cannot do without is read once even so.
+    let black = s.essential_sample(Patch::Black, &mut |_| {});
+    assert!(black.unwrap().is_some());
+    drop(s);
+    assert_eq!(
+        cell.into_inner().reading,
+        7,
+        "an essential sample past the budget"
     );
 }
 
