@@ -500,6 +500,7 @@ fn add_split_greys(m: &mut MeasuredDisplay, profile: &DisplayProfile, noise: Opt
     let gap = drive_gap(noise.as_ref());
     // As `ramp_sigma_rel` weighs the ramps: with a stated, non-zero noise only.
     let weighted = noise.is_some_and(|n| !n.is_exact());
+    let seen = m.log.noise_seen.scale();
     for (c, samples) in split_greys(&m.log, &display, noise).into_iter().enumerate() {
         let ramp_drives: Vec<f64> = m.measurement.ramps[c].iter().map(|(d, _)| *d).collect();
         // The last read first: a grey aimed again lands nearer the chart's than the
@@ -515,7 +516,6 @@ fn add_split_greys(m: &mut MeasuredDisplay, profile: &DisplayProfile, noise: Opt
             }
             ramp.push((s.drive, s.xyz));
             if weighted {
-                let seen = m.log.noise_seen.scale();
                 m.measurement.ramp_sigma_rel[c].push(s.sigma_rel * seen);
             }
         }

@@ -41,7 +41,17 @@ fn commission_and_verify_outcome(
     file: &str,
     opts: &lumiwall_calib::commission::CommissionOptions,
 ) -> (lumiwall_calib::commission::CommissionOutcome, VerifyReport) {
-    let mut station = crate::support::direct_station(file, Noise::None);
+    let station = crate::support::direct_station(file, Noise::None);
+    commission_and_verify_on(station, file, opts)
+}
+
+/// [`commission_and_verify_outcome`] with the station given (`file`: its wall, named
+/// in the messages).
+fn commission_and_verify_on(
+    mut station: lumiwall_calib::station::Station,
+    file: &str,
+    opts: &lumiwall_calib::commission::CommissionOptions,
+) -> (lumiwall_calib::commission::CommissionOutcome, VerifyReport) {
     let out = tempfile::tempdir().expect("tmp");
     let o = station
         .commission(out.path(), opts, &mut |_| {})
@@ -763,13 +773,10 @@ fn an_exact_meter_that_states_its_noise_is_not_smoothed_within_it_and_verifies_e
     use lumiwall_calib::station::{MeterChoice, Station, StationOptions};
     let file = "weak-channel-3x1.toml";
     let options = StationOptions::new(MeterChoice::Emulated, Noise::None);
-    let mut station = Station::open(&crate::support::wall_path(file), &options).expect("station");
-    let out = tempfile::tempdir().expect("tmp");
+    let station = Station::open(&crate::support::wall_path(file), &options).expect("station");
     let opts =
         crate::support::options_8500k(MeasureOptions::default(), BlackMode::Individual, false);
-    let o = station
-        .commission(out.path(), &opts, &mut |_| {})
-        .expect("commission");
+    let (o, report) = commission_and_verify_on(station, file, &opts);
     for m in &o.measured {
         let seen = m.log.noise_seen;
         assert!(
@@ -778,11 +785,6 @@ fn an_exact_meter_that_states_its_noise_is_not_smoothed_within_it_and_verifies_e
             m.measurement.key
         );
     }
-    let profiles = &o.solution.profiles;
-    let targets = chart_targets(profiles).expect("chart");
-    let report = station
-        .verify(profiles, &targets, &VerifyOptions::default(), &mut |_| {})
-        .expect("verify");
     let all = &report.overall;
     let grey = all.grey_balance.unwrap_or(f64::INFINITY);
     eprintln!(
