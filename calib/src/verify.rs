@@ -79,6 +79,14 @@ pub struct VerifyOptions {
     pub black_repeats: u32,
     /// The meter's xy correction from commissioning (same instrument), if any.
     pub meter_xy_offset: Option<[f64; 2]>,
+    /// Check first whether the wall is still warming, and wait for it when it is
+    /// ([`crate::measure::warm_up::wait_or_check`] on the first display; `measure`'s
+    /// `warm_up` waits without the check). A calibration is made for the warm wall: on
+    /// lamps still warming the chart would judge a state the wall is not used in (and
+    /// on the virtual wall, whose lamps start at the wall file's minutes after
+    /// switch-on in every process, a commissioning that waited would be verified cold).
+    /// `None` (the default): read at once.
+    pub warm_check: Option<crate::measure::warm_up::WarmCheck>,
 }
 
 impl Default for VerifyOptions {
@@ -89,6 +97,7 @@ impl Default for VerifyOptions {
             measure: MeasureOptions::default(),
             black_repeats: 8,
             meter_xy_offset: None,
+            warm_check: None,
         }
     }
 }
@@ -780,6 +789,7 @@ pub fn verify_wall(
         positioner: &mut *rig.positioner,
     };
     let rig = &mut rig;
+    wait_if_warming(rig, displays, profiles, targets.len(), opts, progress)?;
     for info in displays {
         let profile = profiles
             .iter()
@@ -823,6 +833,38 @@ pub fn verify_wall(
         readings,
         eyes_delta_e2000,
     })
+}
+
+/// Before the chart: [`VerifyOptions::warm_check`] (or the wait `opts.measure.warm_up`)
+/// on the first display, extrapolated over the `patches` readings of each display.
+fn wait_if_warming(
+    rig: &mut Rig<'_>,
+    displays: &[DisplayInfo],
+    profiles: &[DisplayProfile],
+    patches: usize,
+    opts: &VerifyOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(), VerifyError> {
+    let Some(first) = displays.first() else {
+        return Ok(());
+    };
+    if opts.warm_check.is_none() && opts.measure.warm_up.is_none() {
+        return Ok(());
+    }
+    let wall = profiles.first().map_or("", |p| p.display.wall.as_str());
+    let per_display = u32::try_from(patches).unwrap_or(u32::MAX);
+    let run = crate::measure::warm_up::readings_of_run(per_display, displays.len());
+    // A first display skipped while aiming is aimed again for its chart.
+    crate::measure::warm_up::wait_or_check(
+        rig,
+        wall,
+        first,
+        &opts.measure,
+        opts.warm_check.as_ref(),
+        run,
+        progress,
+    )?;
+    Ok(())
 }
 
 /// DisplayCAL's judgement of one display's white and greys: on the white patch

@@ -249,9 +249,9 @@ pub(crate) struct CommissionArgs {
     warm_up: bool,
     /// Without `--warm-up` the station first reads the white of the first display still
     /// to measure 40 times and waits as `--warm-up` does when the wall is warming: when
-    /// the trend,
-    /// extrapolated over the run, would drift more than 1 % (by more than 4σ of its own
-    /// noise). This skips that check (the drift over the run is still reported).
+    /// the trend, by more than 4σ of its own noise, would drift more than 1 % over the
+    /// run or more than the wait calls stable (0.05 % per 120 readings). This skips
+    /// that check (the drift over the run is still reported).
     #[arg(long, conflicts_with = "warm_up")]
     no_warm_check: bool,
     /// Fault injection for demonstrations and tests: the emulated meter stops answering
@@ -330,7 +330,7 @@ impl CommissionArgs {
 
 /// Prints a line above the progress bar, or plainly when the bar is hidden (output
 /// not a terminal).
-fn say(pb: &ProgressBar, line: String) {
+pub(crate) fn say(pb: &ProgressBar, line: String) {
     if pb.is_hidden() {
         println!("{line}");
     } else {

@@ -19,7 +19,7 @@ use lumiwall_devices::Colorimeter;
 use lumiwall_profiles::ProfileSet;
 
 use crate::CliError;
-use crate::cmd_commission::MeterArgs;
+use crate::cmd_commission::{MeterArgs, say};
 use crate::values;
 
 /// Arguments of `lumiwall verify`.
@@ -87,6 +87,13 @@ pub(crate) struct VerifyArgs {
     /// Write the spatial verification's heat map (SVG) here (with `--grid`).
     #[arg(long, requires = "grid")]
     heat_map: Option<PathBuf>,
+    /// Read the chart at once. By default the station first reads the first display's
+    /// white 40 times and, when the wall is still warming (as `commission` judges it),
+    /// waits until it is warm: a calibration is made for the warm wall, and lamps still
+    /// warming would be judged in a state the wall is not used in (the virtual wall's
+    /// lamps start at its file's minutes after switch-on in every run).
+    #[arg(long)]
+    no_warm_check: bool,
 }
 
 /// Parses `CxR` (e.g. `5x5`), each 1..=64.
@@ -205,8 +212,21 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
             );
             b
         });
-        if let Progress::Reading { .. } = p {
-            bar.inc(1);
+        match p {
+            Progress::Reading { .. } => bar.inc(1),
+            Progress::WarmCheck(r) => say(bar, r.summary()),
+            Progress::WarmedUp(r) => say(bar, r.summary()),
+            Progress::WarmingUp {
+                readings,
+                change_percent,
+            } if readings % 120 == 0 => say(
+                bar,
+                format!(
+                    "warming up: {readings} readings of the white, luminance still changing \
+                 {change_percent:+.2} % per 120 readings"
+                ),
+            ),
+            _ => {}
         }
     });
     if let Some(b) = &pb {
@@ -284,6 +304,7 @@ pub(crate) fn verify_with(
             meter_matrix: meter_matrices(&args.meter, &args.profiles, station.meter.as_ref())?,
             ..MeasureOptions::default()
         },
+        warm_check: warm_check(args),
         ..VerifyOptions::default()
     };
     let total = (station.displays().len() * targets.len()) as u64;
@@ -338,9 +359,15 @@ fn truth_report(
     }
     let opts = VerifyOptions {
         patches: targets.len(),
+        warm_check: warm_check(args),
         ..VerifyOptions::default()
     };
     Ok(Some(truth.verify(profiles, targets, &opts, &mut |_| {})?))
+}
+
+/// The warm check before the chart, unless `--no-warm-check`.
+fn warm_check(args: &VerifyArgs) -> Option<lumiwall_calib::measure::warm_up::WarmCheck> {
+    (!args.no_warm_check).then(lumiwall_calib::measure::warm_up::WarmCheck::default)
 }
 
 /// The truth's summary and its verdict against the same tolerances (printed; the exit

@@ -137,6 +137,55 @@ fn commission_warm_up_prints_the_drift_until_the_wall_is_warm() {
         .stdout(contains("warm: after"));
 }
 
+/// A one-display wall five minutes after switch-on (the cold-start fixture cut to one
+/// tile): `commission` waits for it though its short run would drift within 1 %;
+/// `verify`, whose virtual lamps start cold again in a run of its own, checks first,
+/// waits as well and meets the limits; read at once (`--no-warm-check`), the same
+/// profiles miss the white limit (noiseless: 1.99).
+#[test]
+fn verify_waits_for_a_wall_still_warming_before_it_reads_the_chart() {
+    let tmp = TempDir::new().unwrap();
+    let text = std::fs::read_to_string(fixture("walls/cold-start-2x2.toml"))
+        .unwrap()
+        .replace("cols = 2\nrows = 2", "cols = 1\nrows = 1")
+        .replace(
+            "minutes_since_switch_on = 2.0",
+            "minutes_since_switch_on = 5.0",
+        );
+    assert!(text.contains("cols = 1\nrows = 1") && text.contains("switch_on = 5.0"));
+    let wall = tmp.path().join("one-tile.toml");
+    std::fs::write(&wall, text).unwrap();
+    let out = tmp.path().join("p");
+    lumiwall()
+        .args([
+            "commission",
+            "--meter",
+            "direct",
+            "--noise",
+            "none",
+            "--wall",
+        ])
+        .arg(&wall)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success()
+        .stdout(contains("the wall is warming up, waiting for it"));
+    verify(&wall, &out)
+        .args(["--chart", "51", "--summary-only"])
+        .assert()
+        .success()
+        .stdout(contains("the wall is warming up, waiting for it"))
+        .stdout(contains("warm: after"))
+        .stdout(contains("PASS"));
+    verify(&wall, &out)
+        .args(["--chart", "51", "--summary-only", "--no-warm-check"])
+        .assert()
+        .code(3)
+        .stdout(contains("warm check").not())
+        .stderr(contains("white ΔE2000"));
+}
+
 /// `lumiwall verify` of `profiles` on `wall` with the exact, direct meter.
 fn verify(wall: &Path, profiles: &Path) -> Command {
     let mut cmd = lumiwall();
