@@ -7,6 +7,8 @@ pub mod image_reference;
 #[cfg(feature = "patterns")]
 pub mod patterns;
 pub mod radiosity;
+#[cfg(feature = "readings")]
+pub mod random_walls;
 pub mod readings;
 pub mod season;
 pub mod view;

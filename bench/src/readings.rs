@@ -90,6 +90,9 @@ pub struct ReadingsRow {
     pub budget: u32,
     /// Most readings any display took.
     pub max_readings: u32,
+    /// Luminance of the common white the commissioning chose (cd/m²): how dim the wall
+    /// is.
+    pub wall_white_cd_m2: f64,
     /// The truth's figures over every display's chart.
     pub truth: Summary,
     /// Worst white ΔE2000 of any display.
@@ -425,6 +428,7 @@ fn run_one(
         .map(|m| m.measurement.readings)
         .max()
         .unwrap_or(0);
+    let wall_white_cd_m2 = outcome.solution.white_xyz_cd_m2.y;
     let profiles = &outcome.solution.profiles;
     let targets = chart_targets(profiles).map_err(Box::new)?;
     let mut truth = Station::with_wall(
@@ -454,6 +458,7 @@ fn run_one(
         noise,
         budget,
         max_readings,
+        wall_white_cd_m2,
         worst_white_de: worst(|s| s.white_de),
         worst_grey_balance: worst(|s| s.grey_balance),
         truth: report.overall,
@@ -473,6 +478,7 @@ mod tests {
             noise: Noise::Realistic,
             budget,
             max_readings: budget,
+            wall_white_cd_m2: 12.0,
             truth: Summary {
                 patches: 51,
                 median_de: 0.5,

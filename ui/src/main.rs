@@ -19,6 +19,8 @@ mod cmd_meter_emulator;
 mod cmd_pattern_server;
 mod cmd_profiles;
 #[cfg(feature = "station")]
+mod cmd_random_walls;
+#[cfg(feature = "station")]
 mod cmd_recalibrate;
 mod cmd_render;
 #[cfg(feature = "station")]
@@ -108,6 +110,10 @@ enum BenchCommand {
     /// Calibration accuracy against the number of meter readings per display.
     #[cfg(feature = "station")]
     Readings(cmd_commission::BenchArgs),
+    /// Issue 12's acceptance on walls drawn at random from its classes: one row per
+    /// wall, the counts per class.
+    #[cfg(feature = "station")]
+    RandomWalls(cmd_random_walls::RandomWallsArgs),
     /// A season of nightly recalibrations on the virtual wall (lamps ageing, one lamp
     /// changed) against the simulator's truth; the forecast checked.
     #[cfg(feature = "station")]
@@ -162,6 +168,8 @@ fn main() {
         Command::Bench(BenchCommand::Cie171(a)) => cmd_cie171::bench(a),
         #[cfg(feature = "station")]
         Command::Bench(BenchCommand::Readings(a)) => cmd_commission::bench(a),
+        #[cfg(feature = "station")]
+        Command::Bench(BenchCommand::RandomWalls(a)) => cmd_random_walls::run(a),
         #[cfg(feature = "station")]
         Command::Bench(BenchCommand::Season(a)) => cmd_season::bench(a),
         #[cfg(all(feature = "station", feature = "pattern-server"))]

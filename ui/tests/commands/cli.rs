@@ -818,6 +818,35 @@ fn bench_readings_prints_one_row_per_noise_model() {
         .stdout(contains("runs outside the limits"));
 }
 
+/// `bench random-walls` writes each drawn wall's file (the same one for the same
+/// number) and prints a row per wall and the walls within the limits per class; with
+/// the exact meter two drawn walls meet the noiseless limits.
+#[test]
+fn bench_random_walls_keeps_each_drawn_wall_and_counts_those_within_the_limits() {
+    let tmp = TempDir::new().unwrap();
+    let run = || {
+        lumiwall()
+            .args(["bench", "random-walls", "--walls", "3-4", "--noise", "none"])
+            .arg("--out")
+            .arg(tmp.path())
+            .assert()
+            .success()
+            .stdout(contains("all:                         2 of 2"))
+            .stdout(is_match(r"(?m)^3 +[0-9.]+ +(40|64) ").unwrap())
+            .stdout(is_match(r"(?m)^4 +[0-9.]+ +(40|64) ").unwrap());
+    };
+    run();
+    let wall = tmp.path().join("walls").join("random-3.toml");
+    let first = std::fs::read_to_string(&wall).unwrap();
+    assert!(first.contains("name = \"random-3\""), "{first}");
+    run();
+    assert_eq!(std::fs::read_to_string(&wall).unwrap(), first);
+    assert!(
+        !tmp.path().join("run-3").exists(),
+        "scratch profiles removed"
+    );
+}
+
 /// What `bench readings` on mono-2x1 at 40 readings with these extra arguments prints,
 /// once it has succeeded.
 fn bench_readings_on_mono_2x1(extra: &[&str]) -> String {
