@@ -1,8 +1,9 @@
 //! Walls of issue 12's classes drawn at random, for `lumiwall bench random-walls`: the
 //! station is judged on walls nobody chose, not on the fixtures it was tuned on.
 //!
-//! Wall `n` is drawn from a generator seeded with `n` alone, so a wall that fails can be
-//! rebuilt, written out and run again with `bench readings --wall`. Each draw mixes the
+//! Wall `n` is drawn from a generator seeded with `n` alone (ChaCha8, so the same wall
+//! on every machine as long as the locked `rand` versions stay), and its file is
+//! written out: a wall that fails can be run again with `bench readings --wall`. Each draw mixes the
 //! classes of issue 12 within the ranges real projection walls show:
 //! - mono or Infitec stereo (a third), 1–3 × 1–2 tiles (at most 3 on Infitec);
 //! - 8-, 10- or 12-bit inputs; UHP or xenon lamps of 5500–9000 K;
@@ -143,10 +144,11 @@ fn write_header(t: &mut String, rng: &mut ChaCha8Rng, index: u64, d: &Draw) {
 
 /// The projector model: lamp, curves, warm-up, black, falloff and scatter.
 fn write_projector(t: &mut String, rng: &mut ChaCha8Rng, d: &Draw) {
-    let (throw, hours) = (rng.random_range(1.4..3.0), rng.random_range(0.0..2500.0));
+    // Lamp hours are drawn per projector by the scatter (100–1500 h).
+    let throw = rng.random_range(1.4..3.0);
     let _ = writeln!(
         t,
-        "[projector]\nmodel = \"drawn\"\nbit_depth = {}\nthrow_m = {throw:.2}\nlamp_hours = {hours:.0}\nwhite_segment = {:.3}",
+        "[projector]\nmodel = \"drawn\"\nbit_depth = {}\nthrow_m = {throw:.2}\nwhite_segment = {:.3}",
         d.bit_depth, d.white_segment
     );
     let kind = if rng.random_bool(0.5) { "uhp" } else { "xenon" };

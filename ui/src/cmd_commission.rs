@@ -16,6 +16,7 @@ use lumiwall_calib::cli_values::{GreyLevels, parse_budget, parse_grey_levels, pa
 use lumiwall_calib::colorimetry::cct_to_xy;
 use lumiwall_calib::commission::{CommissionOptions, CommissionOutcome};
 use lumiwall_calib::measure::meter_matrix::{MeterMatrices, PatchXyError};
+use lumiwall_calib::measure::warm_up::{WarmUp, warming_up_line};
 use lumiwall_calib::measure::{LowLight, MeasureOptions, Progress};
 use lumiwall_calib::solve::{SolveOptions, WhiteTarget};
 use lumiwall_calib::station::{
@@ -392,13 +393,8 @@ impl ProgressReport {
                 readings,
                 change_percent,
             } => {
-                if readings % 120 == 0 {
-                    say(
-                        &self.bar,
-                        format!(
-                            "warming up: {readings} readings of the white, luminance still changing {change_percent:+.2} % per 120 readings"
-                        ),
-                    );
+                if let Some(line) = warming_up_line(&WarmUp::default(), readings, change_percent) {
+                    say(&self.bar, line);
                 }
             }
             Progress::WarmCheck(r) => say(&self.bar, r.summary()),

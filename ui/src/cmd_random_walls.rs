@@ -3,15 +3,17 @@
 //! the truth as `bench readings` does, one row per wall and the counts per class.
 
 use std::ops::RangeInclusive;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use lumiwall_bench::random_walls::{RandomWall, random_wall};
 use lumiwall_bench::readings::{self, ReadingsBench, ReadingsRow};
 use lumiwall_calib::cli_values::parse_budget;
 use lumiwall_calib::solve::SolveOptions;
 use lumiwall_calib::station::{MeterChoice, Noise};
+use lumiwall_calib::verify::CHART_PATCHES;
 
 use crate::CliError;
+use crate::cmd_commission::SolveArgs;
 use crate::values;
 
 /// Arguments of `lumiwall bench random-walls`.
@@ -33,6 +35,10 @@ pub(crate) struct RandomWallsArgs {
     /// Meter path (direct is fastest; emulated goes through the pty).
     #[arg(long, default_value = "direct")]
     meter: MeterChoice,
+    /// The wall solve, as `bench readings` (the same defaults, so that a wall's file
+    /// runs again there as it ran here).
+    #[command(flatten)]
+    solve: SolveArgs,
     /// Folder for the drawn wall files, kept so that a wall can be run again with
     /// `bench readings --wall`, and each run's scratch profiles (removed after it).
     #[arg(long, default_value = "out/bench-random-walls")]
@@ -52,9 +58,15 @@ fn parse_walls(s: &str) -> Result<RangeInclusive<u64>, String> {
     values::seed_range(s, MAX_WALLS)
 }
 
-/// Runs `lumiwall bench random-walls`.
+/// One drawn wall's outcome: its row, or why its commissioning or verification failed.
+type WallOutcome = Result<ReadingsRow, String>;
+
+/// Runs `lumiwall bench random-walls`. A wall whose run ends in an error is printed as
+/// such and counted outside the limits, and the other walls still run; the command then
+/// fails (exit 1) after the counts.
 pub(crate) fn run(args: RandomWallsArgs) -> Result<(), CliError> {
     values::check_output_dir("--out", &args.out)?;
+    let solve = args.solve.solve_options()?;
     let walls_dir = args.out.join("walls");
     std::fs::create_dir_all(&walls_dir)
         .map_err(|e| CliError::input(format!("cannot create {}: {e}", walls_dir.display())))?;
@@ -75,23 +87,32 @@ pub(crate) fn run(args: RandomWallsArgs) -> Result<(), CliError> {
     let mut results = Vec::new();
     for n in args.walls.clone() {
         let wall = random_wall(n);
-        let row = run_wall(&args, &wall, &walls_dir)?;
-        print_row(&wall, &row);
-        results.push((wall.non_additive, row));
+        let path = walls_dir.join(format!("random-{n}.toml"));
+        std::fs::write(&path, &wall.toml)
+            .map_err(|e| CliError::input(format!("cannot write {}: {e}", path.display())))?;
+        let outcome = run_wall(&args, solve, &wall, path);
+        print_row(&wall, &outcome);
+        results.push((wall.non_additive, outcome));
     }
     print_counts(&results);
+    let errors = results.iter().filter(|(_, o)| o.is_err()).count();
+    if errors > 0 {
+        return Err(CliError::failure(format!(
+            "the runs of {errors} of {} drawn walls ended in an error (the ERROR rows)",
+            results.len()
+        )));
+    }
     Ok(())
 }
 
-/// Writes `wall` under `walls_dir`, commissions and verifies it once.
+/// Commissions and verifies the drawn `wall` (its file at `path`) once; its scratch
+/// profiles are removed after, whatever the outcome.
 fn run_wall(
     args: &RandomWallsArgs,
+    solve: SolveOptions,
     wall: &RandomWall,
-    walls_dir: &Path,
-) -> Result<ReadingsRow, CliError> {
-    let path = walls_dir.join(format!("random-{}.toml", wall.index));
-    std::fs::write(&path, &wall.toml)
-        .map_err(|e| CliError::input(format!("cannot write {}: {e}", path.display())))?;
+    path: PathBuf,
+) -> WallOutcome {
     let budget = if wall.non_additive {
         args.budget_non_additive
     } else {
@@ -102,8 +123,8 @@ fn run_wall(
         wall: path,
         budgets: vec![budget],
         meter: args.meter.clone(),
-        solve: SolveOptions::default(),
-        patches: 51,
+        solve,
+        patches: CHART_PATCHES,
         out: scratch.clone(),
         warm_up: false,
         warm_check: true,
@@ -113,20 +134,30 @@ fn run_wall(
         noises: vec![args.noise],
         seeds: None,
     };
-    let rows = readings::run(&bench, &mut |_| {})?;
-    if let Err(e) = std::fs::remove_dir_all(&scratch) {
+    let rows = readings::run(&bench, &mut |_| {});
+    if scratch.exists()
+        && let Err(e) = std::fs::remove_dir_all(&scratch)
+    {
         tracing::warn!(
             "cannot remove the scratch folder {}: {e}",
             scratch.display()
         );
     }
-    rows.into_iter()
+    rows.map_err(|e| e.to_string())?
+        .into_iter()
         .next()
-        .ok_or_else(|| CliError::input("the benchmark gave no row".to_string()))
+        .ok_or_else(|| "the benchmark gave no row".to_string())
 }
 
-/// One wall's row.
-fn print_row(wall: &RandomWall, r: &ReadingsRow) {
+/// One wall's row, or the error its run ended with.
+fn print_row(wall: &RandomWall, outcome: &WallOutcome) {
+    let r = match outcome {
+        Ok(r) => r,
+        Err(e) => {
+            println!("{:<6} ERROR  {}: {e}", wall.index, wall.summary);
+            return;
+        }
+    };
     println!(
         "{:<6} {:>8.2} {:>6} {:>7.3} {:>7.3} {:>7.3} {:>9.3} {:>6}  {}",
         wall.index,
@@ -141,23 +172,28 @@ fn print_row(wall: &RandomWall, r: &ReadingsRow) {
     );
 }
 
-/// Walls within every limit: all, additive and not, dim and not.
-fn print_counts(results: &[(bool, ReadingsRow)]) {
-    let count = |keep: &dyn Fn(&(bool, ReadingsRow)) -> bool| {
+/// Walls within every limit: all, additive and not, dim and not (a wall whose run
+/// ended in an error counts in the first three only).
+fn print_counts(results: &[(bool, WallOutcome)]) {
+    let count = |keep: &dyn Fn(&(bool, WallOutcome)) -> bool| {
         let group: Vec<_> = results.iter().filter(|r| keep(r)).collect();
-        let meet = group.iter().filter(|(_, r)| r.meets_limits()).count();
+        let meet = group
+            .iter()
+            .filter(|(_, o)| o.as_ref().is_ok_and(ReadingsRow::meets_limits))
+            .count();
         format!("{meet} of {}", group.len())
     };
+    let white = |r: &(bool, WallOutcome)| r.1.as_ref().map_or(f64::NAN, |r| r.wall_white_cd_m2);
     println!("walls within every limit of issue 12:");
     println!("  all:                         {}", count(&|_| true));
     println!("  additive:                    {}", count(&|r| !r.0));
     println!("  with a white segment:        {}", count(&|r| r.0));
     println!(
         "  wall white {DIM_WALL_CD_M2} cd/m² or more:  {}",
-        count(&|r| r.1.wall_white_cd_m2 >= DIM_WALL_CD_M2)
+        count(&|r| white(r) >= DIM_WALL_CD_M2)
     );
     println!(
         "  dimmer:                      {}",
-        count(&|r| r.1.wall_white_cd_m2 < DIM_WALL_CD_M2)
+        count(&|r| white(r) < DIM_WALL_CD_M2)
     );
 }

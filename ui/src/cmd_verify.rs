@@ -9,6 +9,7 @@ use lumiwall_calib::cli_values::parse_patches;
 use lumiwall_calib::measure::Rig;
 use lumiwall_calib::measure::meter_matrix::MeterMatrices;
 use lumiwall_calib::measure::meter_offset::{CorrectedMeter, MeterCorrection};
+use lumiwall_calib::measure::warm_up::{WarmUp, warming_up_line};
 use lumiwall_calib::measure::{MeasureOptions, Progress};
 use lumiwall_calib::spatial::{GridOptions, MatrixCorrected, Truth, verify_grid};
 use lumiwall_calib::station::Station;
@@ -91,8 +92,10 @@ pub(crate) struct VerifyArgs {
     /// white 40 times and, when the wall is still warming (as `commission` judges it),
     /// waits until it is warm: a calibration is made for the warm wall, and lamps still
     /// warming would be judged in a state the wall is not used in (the virtual wall's
-    /// lamps start at its file's minutes after switch-on in every run).
-    #[arg(long)]
+    /// lamps start at its file's minutes after switch-on in every run). A wall that does
+    /// not settle within the wait is verified as it is, with a warning. (`--grid` reads
+    /// at once.)
+    #[arg(long, conflicts_with = "grid")]
     no_warm_check: bool,
 }
 
@@ -219,13 +222,11 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
             Progress::WarmingUp {
                 readings,
                 change_percent,
-            } if readings % 120 == 0 => say(
-                bar,
-                format!(
-                    "warming up: {readings} readings of the white, luminance still changing \
-                 {change_percent:+.2} % per 120 readings"
-                ),
-            ),
+            } => {
+                if let Some(line) = warming_up_line(&WarmUp::default(), readings, change_percent) {
+                    say(bar, line);
+                }
+            }
             _ => {}
         }
     });
@@ -236,9 +237,10 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
         report,
         profiles,
         targets,
+        wall,
     } = verified?;
     let verdict = print_report(&report, &args);
-    match truth_report(&args, &profiles, &targets) {
+    match truth_report(&args, wall, &profiles, &targets) {
         Ok(Some(t)) => print_truth(&t, &args),
         Ok(None) => {}
         Err(e) => println!("\nthe simulator's truth could not be read: {e}"),
@@ -254,6 +256,9 @@ pub(crate) struct Verified {
     pub(crate) profiles: Vec<lumiwall_profiles::DisplayProfile>,
     /// The targets shown.
     pub(crate) targets: Vec<lumiwall_calib::verify::Target>,
+    /// The virtual wall as the verification left it (its lamps' state, for the truth's
+    /// reading).
+    pub(crate) wall: lumiwall_devices::sim::VirtualWall,
 }
 
 /// The station and the folder's profiles, checked to be of the same wall.
@@ -314,6 +319,7 @@ pub(crate) fn verify_with(
         report,
         profiles,
         targets,
+        wall: station.wall.clone(),
     })
 }
 
@@ -338,10 +344,12 @@ fn save_report(profiles: &std::path::Path, report: &VerifyReport) {
 }
 
 /// On the virtual wall with a noisy simulated meter: the same verification with a
-/// perfect meter (the simulator's truth), so the station meter's own error does not
+/// perfect meter (the simulator's truth) on `wall` as the station's verification left
+/// it, lamps as warm as they were then, so the station meter's own error does not
 /// vanish from the verdict. `None` for a real meter or `--noise none`.
 fn truth_report(
     args: &VerifyArgs,
+    wall: lumiwall_devices::sim::VirtualWall,
     profiles: &[lumiwall_profiles::DisplayProfile],
     targets: &[lumiwall_calib::verify::Target],
 ) -> Result<Option<VerifyReport>, CliError> {
@@ -350,16 +358,10 @@ fn truth_report(
     if !simulated || matches!(args.meter.noise, crate::cmd_commission::NoiseArg::None) {
         return Ok(None);
     }
-    let mut truth = Station::open(
-        &args.wall,
-        &StationOptions::new(MeterChoice::Direct, Noise::None),
-    )?;
-    if let Some(h) = args.simulate_hours {
-        truth.wall.advance_hours(h);
-    }
+    let mut truth =
+        Station::with_wall(wall, &StationOptions::new(MeterChoice::Direct, Noise::None))?;
     let opts = VerifyOptions {
         patches: targets.len(),
-        warm_check: warm_check(args),
         ..VerifyOptions::default()
     };
     Ok(Some(truth.verify(profiles, targets, &opts, &mut |_| {})?))

@@ -15,7 +15,9 @@
 //! ([`WarmCheck`]), beyond the trend's own noise, extrapolated over the readings the
 //! run will take and over the wait's window. A wall that would drift more over the run
 //! than the drift check at its end allows ([`super::drift::WARN_LUMINANCE_PERCENT`]),
-//! or that the wait would not call stable, is waited for as above; a warm wall costs
+//! or that the wait would not call stable, is waited for as above (with a meter that
+//! has noise, the second holds for every trend beyond its noise:
+//! [`WarmCheckReport::warming`]); a warm wall costs
 //! the check's readings (not counted in any display's budget) and nothing else. On a
 //! wall two minutes after switch-on the first and last displays were otherwise
 //! measured 5 % apart in luminance and the calibration was off by a white ΔE2000 of 6.6
@@ -74,7 +76,8 @@ pub struct WarmCheck {
     /// Readings of the first display's white the trend is fitted over.
     pub readings: u32,
     /// Largest luminance drift over the run (percent, the trend extrapolated over the
-    /// readings the run will take) that does not call for the wait.
+    /// readings the run will take) that does not call for the wait by itself: a trend
+    /// the wait would not call stable calls for it too ([`WarmCheckReport::warming`]).
     pub max_run_drift_percent: f64,
     /// Standard errors of its own by which the trend must differ from flat to count.
     pub sigmas: f64,
@@ -114,13 +117,20 @@ pub struct WarmCheckReport {
     pub change_sigma_percent: f64,
     /// The change extrapolated over the readings the run will take (percent).
     pub run_drift_percent: f64,
-    /// The change extrapolated over the wait's window ([`WarmUp::window`], percent):
-    /// beyond [`WarmUp::max_change_percent`] the wait would not call the wall stable.
+    /// The change extrapolated over the wait's window (percent, as the wait measures
+    /// it: [`trend_over_window`]): beyond [`WarmUp::max_change_percent`] the wait would
+    /// not call the wall stable.
     #[serde(default)]
     pub window_drift_percent: f64,
+    /// The wait's window ([`WarmUp::window`], readings).
+    #[serde(default = "default_window")]
+    pub window_readings: u32,
     /// True when the check is conclusive and the trend, beyond its own noise, would
     /// drift the run beyond the limit or is one the wait would not call stable: the
-    /// wall is waited for.
+    /// wall is waited for. With a meter that has noise the second holds whenever the
+    /// trend is beyond its noise (4σ of the slope of 40 readings of 0.1 % is 0.66 % per
+    /// 120 readings, where the wait calls 0.05 % stable): such a meter waits for any
+    /// trend it can see; the exact simulated meter for one the wait would see.
     pub warming: bool,
 }
 
@@ -143,7 +153,7 @@ impl WarmCheckReport {
             self.change_sigma_percent,
             self.run_drift_percent,
             self.window_drift_percent,
-            WarmUp::default().window,
+            self.window_readings,
             if self.warming {
                 "the wall is warming up, waiting for it (--no-warm-check skips this)"
             } else {
@@ -191,6 +201,36 @@ fn slope_with_sigma(points: &[(f64, f64)]) -> (f64, f64) {
     (100.0 * slope / mean_y, 100.0 * slope_sigma / mean_y)
 }
 
+/// The change over the window of `wait` of a trend of `per_reading` percent a reading,
+/// as the wait measures it (the least-squares trend of its window, from its first
+/// reading to its last).
+pub fn trend_over_window(per_reading: f64, wait: &WarmUp) -> f64 {
+    per_reading * f64::from(wait_window(wait) - 1)
+}
+
+/// Readings the wait fits its trend over ([`WarmUp::window`], at least 8).
+fn wait_window(wait: &WarmUp) -> u32 {
+    wait.window.max(8)
+}
+
+/// [`WarmCheckReport::window_readings`] of a report kept before it was recorded.
+fn default_window() -> u32 {
+    WarmUp::default().window
+}
+
+/// The console line of the wait's progress, once per window of `wait` (`None` between):
+/// `readings` of the white so far, its luminance changing `change_percent` over the
+/// last window.
+pub fn warming_up_line(wait: &WarmUp, readings: u32, change_percent: f64) -> Option<String> {
+    let window = wait_window(wait);
+    readings.is_multiple_of(window).then(|| {
+        format!(
+            "warming up: {readings} readings of the white, luminance still changing \
+             {change_percent:+.2} % per {window} readings"
+        )
+    })
+}
+
 /// Change over `y` (percent of its mean) along its least-squares line, `y` read one
 /// after the other.
 fn trend_percent(y: &[f64]) -> f64 {
@@ -204,19 +244,29 @@ pub fn readings_of_run(per_display: u32, displays: usize) -> u32 {
     per_display.saturating_mul(u32::try_from(displays).unwrap_or(u32::MAX))
 }
 
+/// What follows a warm check: the readings of the run, and the wait if the wall is
+/// warming.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ahead {
+    /// Readings the run will take.
+    pub run_readings: u32,
+    /// The wait that follows when the wall is warming.
+    pub wait: WarmUp,
+}
+
 /// Whether the wall is warming (module docs): reads `info`'s white `check.readings`
-/// times and extrapolates the trend over `run_readings`, the readings the run will take,
-/// and over the window of `wait`, the wait that follows when it is.
+/// times and extrapolates the trend over the readings the run will take and over the
+/// window of the wait that follows when it is (`ahead`).
 pub fn check_warm(
     rig: &mut Rig<'_>,
     wall: &str,
     info: &DisplayInfo,
     opts: &MeasureOptions,
     check: &WarmCheck,
-    run: (u32, &WarmUp),
+    ahead: Ahead,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<WarmCheckReport, MeasureError> {
-    let (run_readings, wait) = run;
+    let Ahead { run_readings, wait } = ahead;
     let n = check.readings.max(3);
     let session_opts = MeasureOptions {
         budget: n,
@@ -239,7 +289,7 @@ pub fn check_warm(
             break;
         }
     }
-    let report = judge_warmth(&points, (s.log.readings, used), check, run_readings, wait);
+    let report = judge_warmth(&points, (s.log.readings, used), check, run_readings, &wait);
     progress(Progress::WarmCheck(report));
     Ok(report)
 }
@@ -259,20 +309,15 @@ pub fn wait_or_check(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<bool, MeasureError> {
     let waited = (|| {
-        let if_warming = WarmUp::default();
+        let ahead = Ahead {
+            run_readings,
+            wait: WarmUp::default(),
+        };
         let wait = match (opts.warm_up, check) {
             (Some(w), _) => Some(w),
-            (None, Some(c)) => check_warm(
-                rig,
-                wall,
-                first,
-                opts,
-                c,
-                (run_readings, &if_warming),
-                progress,
-            )?
-            .warming
-            .then_some(if_warming),
+            (None, Some(c)) => check_warm(rig, wall, first, opts, c, ahead, progress)?
+                .warming
+                .then_some(ahead.wait),
             (None, None) => None,
         };
         if let Some(w) = wait {
@@ -303,7 +348,7 @@ fn judge_warmth(
     let (per_reading, sigma) = slope_with_sigma(points);
     let span = points.last().map_or(0.0, |p| p.0) - points.first().map_or(0.0, |p| p.0);
     let run_drift = per_reading * f64::from(run_readings);
-    let window_drift = per_reading * f64::from(wait.window);
+    let window_drift = trend_over_window(per_reading, wait);
     let conclusive = points.len() >= 3 && 2 * used >= taken;
     let beyond_noise = per_reading.abs() > check.sigmas * sigma;
     let too_much = run_drift.abs() > check.max_run_drift_percent
@@ -316,6 +361,7 @@ fn judge_warmth(
         change_sigma_percent: sigma * span,
         run_drift_percent: run_drift,
         window_drift_percent: window_drift,
+        window_readings: wait.window,
         warming: conclusive && beyond_noise && too_much,
     }
 }
@@ -329,7 +375,7 @@ pub fn wait_for_warm_up(
     warm_up: &WarmUp,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<WarmUpReport, MeasureError> {
-    let window = warm_up.window.max(8) as usize;
+    let window = wait_window(warm_up) as usize;
     let session_opts = MeasureOptions {
         budget: warm_up.max_readings.max(warm_up.window),
         ..opts.clone()
@@ -429,7 +475,7 @@ mod tests {
         let steady = judge(&readings(24, 0.0003, 0.0), 500);
         assert!(steady.change_sigma_percent < 1e-9, "{steady:?}");
         assert!(
-            (steady.window_drift_percent - 0.036).abs() < 1e-3,
+            (steady.window_drift_percent - 0.0003 * 119.0).abs() < 1e-5,
             "{steady:?}"
         );
         assert!((steady.run_drift_percent - 0.15).abs() < 1e-3, "{steady:?}");
@@ -437,13 +483,35 @@ mod tests {
     }
 
     #[test]
+    fn a_steady_trend_that_would_drift_a_long_run_past_the_limit_is_warming() {
+        // the steady rise above over a run of 5000 readings: 1.5 %, past the drift
+        // check's 1 %, though the wait would call it stable
+        let long = judge(&readings(24, 0.0003, 0.0), 5000);
+        assert!(long.window_drift_percent < WarmUp::default().max_change_percent);
+        assert!((long.run_drift_percent - 1.5).abs() < 1e-3, "{long:?}");
+        assert!(long.warming, "{long:?}");
+    }
+
+    #[test]
+    fn the_wait_prints_its_progress_once_per_window() {
+        let wait = WarmUp::default();
+        assert_eq!(warming_up_line(&wait, 119, 1.0), None);
+        let line = warming_up_line(&wait, 240, 0.72).expect("a line at 240");
+        assert!(
+            line.contains("240 readings") && line.contains("+0.72 % per 120"),
+            "{line}"
+        );
+    }
+
+    #[test]
     fn a_lamp_still_warming_is_waited_for_even_where_a_short_run_drifts_within_the_limit() {
         // 0.01 % a reading, beyond its ±0.01 % scatter: 0.64 % over a one-display run of
-        // 64 readings (within the 1 % drift limit), 1.2 % per 120 readings (the wait
+        // 64 readings (within the 1 % drift limit), 1.19 % per 120 readings (the wait
         // calls 0.05 % stable): the lamps would go on warming after the run
         let r = judge(&readings(40, 0.01, 0.01), 64);
         assert!(r.run_drift_percent.abs() < WarmCheck::default().max_run_drift_percent);
-        assert!((r.window_drift_percent - 1.2).abs() < 0.01, "{r:?}");
+        assert!((r.window_drift_percent - 1.19).abs() < 0.01, "{r:?}");
+        assert_eq!(r.window_readings, 120);
         assert!(r.conclusive && r.warming, "{r:?}");
         assert!(r.summary().contains("waiting"), "{}", r.summary());
     }

@@ -389,13 +389,17 @@ fn a_short_run_on_a_lamp_still_warming_is_waited_for_and_gets_the_warm_calibrati
             "minutes_since_switch_on = 2.0",
             "minutes_since_switch_on = 5.0",
         );
-    assert!(one.contains("cols = 1\nrows = 1") && one.contains("= 5.0"));
+    assert!(one.contains("cols = 1\nrows = 1") && one.contains("switch_on = 5.0"));
     let warm = one.replace(
         "minutes_since_switch_on = 5.0",
         "minutes_since_switch_on = 180.0",
     );
     for noise in [Noise::None, Noise::Realistic] {
-        let (reference, _, _) = calibration_with_the_warm_check(&warm, noise);
+        let (reference, warm_check, warm_waited) = calibration_with_the_warm_check(&warm, noise);
+        assert!(
+            !warm_check.warming && !warm_waited,
+            "{noise:?}: the warm wall {warm_check:?}"
+        );
         let (checked, check, waited) = calibration_with_the_warm_check(&one, noise);
         let d = largest_difference(&checked, &reference);
         eprintln!(
