@@ -868,11 +868,13 @@ fn readings_per_display(patches: usize, opts: &VerifyOptions) -> u32 {
         .saturating_add(opts.black_repeats)
 }
 
-/// Before the chart: [`VerifyOptions::warm_check`] (or the wait `opts.measure.warm_up`)
-/// on the first display the technician does not skip while aiming, extrapolated over
-/// `per_display` readings of every display. A wall whose lamps do not settle within the
-/// wait is verified as it is, with a warning: the verdict then shows the drift.
-fn wait_if_warming(
+/// Before a verification: [`VerifyOptions::warm_check`] (or the wait
+/// `opts.measure.warm_up`) on the first display the technician does not skip while
+/// aiming, extrapolated over `per_display` readings of every display (`profiles` name
+/// the wall). A wall whose lamps do not settle within the wait is verified as it is,
+/// with a warning: the verdict then shows the drift. [`verify_wall`] calls it; the
+/// spatial verification's caller calls it before the grid.
+pub fn wait_if_warming(
     rig: &mut Rig<'_>,
     displays: &[DisplayInfo],
     profiles: &[DisplayProfile],

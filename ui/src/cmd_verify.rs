@@ -14,7 +14,7 @@ use lumiwall_calib::measure::{MeasureOptions, Progress};
 use lumiwall_calib::spatial::{GridOptions, MatrixCorrected, Truth, verify_grid};
 use lumiwall_calib::station::Station;
 use lumiwall_calib::verify::{
-    Tolerances, VerifyOptions, VerifyReport, chart_targets, default_targets,
+    Tolerances, VerifyOptions, VerifyReport, chart_targets, default_targets, wait_if_warming,
 };
 use lumiwall_devices::Colorimeter;
 use lumiwall_profiles::ProfileSet;
@@ -93,9 +93,9 @@ pub(crate) struct VerifyArgs {
     /// waits until it is warm: a calibration is made for the warm wall, and lamps still
     /// warming would be judged in a state the wall is not used in (the virtual wall's
     /// lamps start at its file's minutes after switch-on in every run). A wall that does
-    /// not settle within the wait is verified as it is, with a warning. (`--grid` reads
-    /// at once.)
-    #[arg(long, conflicts_with = "grid")]
+    /// not settle within the wait is verified as it is, with a warning. The same before
+    /// `--grid`'s cells.
+    #[arg(long)]
     no_warm_check: bool,
 }
 
@@ -217,17 +217,11 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
         });
         match p {
             Progress::Reading { .. } => bar.inc(1),
-            Progress::WarmCheck(r) => say(bar, r.summary()),
-            Progress::WarmedUp(r) => say(bar, r.summary()),
-            Progress::WarmingUp {
-                readings,
-                change_percent,
-            } => {
-                if let Some(line) = warming_up_line(&WarmUp::default(), readings, change_percent) {
+            _ => {
+                if let Some(line) = warm_line(&p) {
                     say(bar, line);
                 }
             }
-            _ => {}
         }
     });
     if let Some(b) = &pb {
@@ -367,6 +361,40 @@ fn truth_report(
     Ok(Some(truth.verify(profiles, targets, &opts, &mut |_| {})?))
 }
 
+/// The warm check (and wait) before `--grid`'s `cells` on every display, printed.
+fn wait_before_grid(
+    rig: &mut Rig<'_>,
+    displays: &[lumiwall_devices::DisplayInfo],
+    profiles: &[lumiwall_profiles::DisplayProfile],
+    cells: [u32; 2],
+    args: &VerifyArgs,
+) -> Result<(), CliError> {
+    let warm = VerifyOptions {
+        warm_check: warm_check(args),
+        ..VerifyOptions::default()
+    };
+    let per_display = cells[0].saturating_mul(cells[1]);
+    wait_if_warming(rig, displays, profiles, per_display, &warm, &mut |p| {
+        if let Some(line) = warm_line(&p) {
+            println!("{line}");
+        }
+    })?;
+    Ok(())
+}
+
+/// The console line of the warm check and the wait, for those steps.
+fn warm_line(p: &Progress) -> Option<String> {
+    match p {
+        Progress::WarmCheck(r) => Some(r.summary()),
+        Progress::WarmedUp(r) => Some(r.summary()),
+        Progress::WarmingUp {
+            readings,
+            change_percent,
+        } => warming_up_line(&WarmUp::default(), *readings, *change_percent),
+        _ => None,
+    }
+}
+
 /// The warm check before the chart, unless `--no-warm-check`.
 fn warm_check(args: &VerifyArgs) -> Option<lumiwall_calib::measure::warm_up::WarmCheck> {
     (!args.no_warm_check).then(lumiwall_calib::measure::warm_up::WarmCheck::default)
@@ -417,11 +445,12 @@ fn run_grid(
         xy_offset: offset.unwrap_or([0.0; 2]),
     };
     let matrices = meter_matrices(&args.meter, &args.profiles, corrected.inner)?;
-    let rig = Rig {
+    let mut rig = Rig {
         pattern: station.pattern.as_mut(),
         meter: &mut corrected,
         positioner: station.positioner.as_mut(),
     };
+    wait_before_grid(&mut rig, &displays, profiles, cells, args)?;
     let report = match &matrices {
         Some(m) => verify_grid(
             &mut MatrixCorrected {

@@ -141,7 +141,7 @@ fn commission_warm_up_prints_the_drift_until_the_wall_is_warm() {
 /// tile): `commission` waits for it though its short run would drift within 1 %;
 /// `verify`, whose virtual lamps start cold again in a run of its own, checks first,
 /// waits as well and meets the limits; read at once (`--no-warm-check`), the same
-/// profiles miss the white limit (noiseless: 1.99).
+/// profiles miss the white limit (noiseless: 1.99). `--grid` waits the same way.
 #[test]
 fn verify_waits_for_a_wall_still_warming_before_it_reads_the_chart() {
     let tmp = TempDir::new().unwrap();
@@ -184,6 +184,13 @@ fn verify_waits_for_a_wall_still_warming_before_it_reads_the_chart() {
         .code(3)
         .stdout(contains("warm check").not())
         .stderr(contains("white ΔE2000"));
+    // the spatial verification waits the same way (its verdict is the flat field's
+    // business: no camera here)
+    verify(&wall, &out)
+        .args(["--grid", "2x2"])
+        .assert()
+        .stdout(contains("the wall is warming up, waiting for it"))
+        .stdout(contains("warm: after"));
 }
 
 /// `lumiwall verify` of `profiles` on `wall` with the exact, direct meter.
