@@ -176,29 +176,23 @@ fn write_projector(t: &mut String, rng: &mut ChaCha8Rng, d: &Draw) {
         let deficit: [f64; 3] = std::array::from_fn(|_| rng.random_range(0.03..0.15));
         let _ = writeln!(
             t,
-            "[projector.warmup]\ndeficit = [{:.3}, {:.3}, {:.3}]\nminutes = {:.1}",
-            deficit[0],
-            deficit[1],
-            deficit[2],
+            "[projector.warmup]\ndeficit = {}\nminutes = {:.1}",
+            triple(deficit, 3),
             rng.random_range(2.0..10.0)
         );
     }
     let leak: [f64; 3] = std::array::from_fn(|_| rng.random_range(0.0002..0.006));
     let _ = writeln!(
         t,
-        "[projector.black]\nleak = [{:.5}, {:.5}, {:.5}]\nstray = {:.5}",
-        leak[0],
-        leak[1],
-        leak[2],
+        "[projector.black]\nleak = {}\nstray = {:.5}",
+        triple(leak, 5),
         rng.random_range(0.0..0.0005)
     );
     let v: [f64; 3] = std::array::from_fn(|_| rng.random_range(0.1..0.45));
     let _ = writeln!(
         t,
-        "[projector.falloff]\nvignetting = [{:.2}, {:.2}, {:.2}]\nhotspot_gain = {:.3}\nhotspot_sigma = {:.2}\nhotspot_offset = [{:.3}, {:.3}]",
-        v[0],
-        v[1],
-        v[2],
+        "[projector.falloff]\nvignetting = {}\nhotspot_gain = {:.3}\nhotspot_sigma = {:.2}\nhotspot_offset = [{:.3}, {:.3}]",
+        triple(v, 2),
         rng.random_range(0.0..0.1),
         rng.random_range(0.15..0.35),
         rng.random_range(-0.05..0.05),
@@ -218,8 +212,8 @@ fn write_overrides(t: &mut String, d: &Draw) {
         g[channel] = gain;
         let _ = writeln!(
             t,
-            "[[override]]\ndisplay = {display}\nchannel_gain = [{:.3}, {:.3}, {:.3}]",
-            g[0], g[1], g[2]
+            "[[override]]\ndisplay = {display}\nchannel_gain = {}",
+            triple(g, 3)
         );
     }
     if let Some((display, segment)) = d.mixed_segment {
@@ -228,6 +222,14 @@ fn write_overrides(t: &mut String, d: &Draw) {
             "[[override]]\ndisplay = {display}\nwhite_segment = {segment:.3}"
         );
     }
+}
+
+/// `[a, b, c]` with `decimals` decimals each (a TOML array of three).
+fn triple(v: [f64; 3], decimals: usize) -> String {
+    format!(
+        "[{:.*}, {:.*}, {:.*}]",
+        decimals, v[0], decimals, v[1], decimals, v[2]
+    )
 }
 
 /// The two eyes' comb filters, shifted together by up to ±2 nm.

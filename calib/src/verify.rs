@@ -882,9 +882,6 @@ pub fn wait_if_warming(
     opts: &VerifyOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(), VerifyError> {
-    if opts.warm_check.is_none() && opts.measure.warm_up.is_none() {
-        return Ok(());
-    }
     let wall = profiles.first().map_or("", |p| p.display.wall.as_str());
     let run = crate::measure::warm_up::readings_of_run(per_display, displays.len());
     for first in displays {

@@ -16,7 +16,7 @@ use lumiwall_calib::cli_values::{GreyLevels, parse_budget, parse_grey_levels, pa
 use lumiwall_calib::colorimetry::cct_to_xy;
 use lumiwall_calib::commission::{CommissionOptions, CommissionOutcome};
 use lumiwall_calib::measure::meter_matrix::{MeterMatrices, PatchXyError};
-use lumiwall_calib::measure::warm_up::{WarmUp, warming_up_line};
+use lumiwall_calib::measure::warm_up::progress_line;
 use lumiwall_calib::measure::{LowLight, MeasureOptions, Progress};
 use lumiwall_calib::solve::{SolveOptions, WhiteTarget};
 use lumiwall_calib::station::{
@@ -389,16 +389,11 @@ impl ProgressReport {
                     self.name_of(display.0)
                 ));
             }
-            Progress::WarmingUp {
-                readings,
-                change_percent,
-            } => {
-                if let Some(line) = warming_up_line(&WarmUp::default(), readings, change_percent) {
+            p @ (Progress::WarmingUp { .. } | Progress::WarmCheck(_) | Progress::WarmedUp(_)) => {
+                if let Some(line) = progress_line(&p) {
                     say(&self.bar, line);
                 }
             }
-            Progress::WarmCheck(r) => say(&self.bar, r.summary()),
-            Progress::WarmedUp(r) => say(&self.bar, r.summary()),
             Progress::GreyDrivesRead {
                 display,
                 samples,

@@ -9,7 +9,7 @@ use lumiwall_calib::cli_values::parse_patches;
 use lumiwall_calib::measure::Rig;
 use lumiwall_calib::measure::meter_matrix::MeterMatrices;
 use lumiwall_calib::measure::meter_offset::{CorrectedMeter, MeterCorrection};
-use lumiwall_calib::measure::warm_up::{WarmUp, warming_up_line};
+use lumiwall_calib::measure::warm_up::progress_line;
 use lumiwall_calib::measure::{MeasureOptions, Progress};
 use lumiwall_calib::spatial::{GridOptions, MatrixCorrected, Truth, verify_grid};
 use lumiwall_calib::station::Station;
@@ -218,7 +218,7 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), CliError> {
         match p {
             Progress::Reading { .. } => bar.inc(1),
             _ => {
-                if let Some(line) = warm_line(&p) {
+                if let Some(line) = progress_line(&p) {
                     say(bar, line);
                 }
             }
@@ -375,24 +375,11 @@ fn wait_before_grid(
     };
     let per_display = cells[0].saturating_mul(cells[1]);
     wait_if_warming(rig, displays, profiles, per_display, &warm, &mut |p| {
-        if let Some(line) = warm_line(&p) {
+        if let Some(line) = progress_line(&p) {
             println!("{line}");
         }
     })?;
     Ok(())
-}
-
-/// The console line of the warm check and the wait, for those steps.
-fn warm_line(p: &Progress) -> Option<String> {
-    match p {
-        Progress::WarmCheck(r) => Some(r.summary()),
-        Progress::WarmedUp(r) => Some(r.summary()),
-        Progress::WarmingUp {
-            readings,
-            change_percent,
-        } => warming_up_line(&WarmUp::default(), *readings, *change_percent),
-        _ => None,
-    }
 }
 
 /// The warm check before the chart, unless `--no-warm-check`.

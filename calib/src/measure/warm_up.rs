@@ -222,10 +222,25 @@ fn default_window() -> u32 {
     WarmUp::default().window
 }
 
+/// The console line of a warm check's or a wait's step `p` (the wait as
+/// [`WarmUp::default`] waits: a line per window); `None` for other steps, and between
+/// the wait's lines.
+pub fn progress_line(p: &Progress) -> Option<String> {
+    match p {
+        Progress::WarmCheck(r) => Some(r.summary()),
+        Progress::WarmedUp(r) => Some(r.summary()),
+        Progress::WarmingUp {
+            readings,
+            change_percent,
+        } => warming_up_line(&WarmUp::default(), *readings, *change_percent),
+        _ => None,
+    }
+}
+
 /// The console line of the wait's progress, once per window of `wait` (`None` between):
 /// `readings` of the white so far, its luminance changing `change_percent` over the
 /// last window.
-pub fn warming_up_line(wait: &WarmUp, readings: u32, change_percent: f64) -> Option<String> {
+fn warming_up_line(wait: &WarmUp, readings: u32, change_percent: f64) -> Option<String> {
     let window = wait_window(wait);
     readings.is_multiple_of(window).then(|| {
         format!(
