@@ -88,7 +88,7 @@ pub(crate) fn run(args: RandomWallsArgs) -> Result<(), CliError> {
     for n in args.walls.clone() {
         let wall = random_wall(n);
         let path = walls_dir.join(format!("random-{n}.toml"));
-        std::fs::write(&path, &wall.toml)
+        lumiwall_core::files::write_atomic(&path, wall.toml.as_bytes())
             .map_err(|e| CliError::input(format!("cannot write {}: {e}", path.display())))?;
         let outcome = run_wall(&args, solve, &wall, path);
         print_row(&wall, &outcome);
