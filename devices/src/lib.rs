@@ -5,9 +5,11 @@
 //! (colorimeters over a serial port); [`sim`] is the virtual wall: simulated
 //! projectors, screen and meter, the embedded default so that everything runs and is
 //! tested without hardware. [`xyz`] holds the measured quantity and the CIE 1931
-//! observer used to integrate spectra; [`spectral`] what a spectroradiometer measures
+//! observer used to integrate spectra; [`averaging`] a meter whose readings are each
+//! the mean of several (a dim wall's); [`spectral`] what a spectroradiometer measures
 //! ([`Spectroradiometer`]), and [`line_lamp`] the lamp that checks its wavelengths.
 
+pub mod averaging;
 pub mod camera;
 pub mod error;
 mod guided;
@@ -23,6 +25,7 @@ pub mod sim;
 #[cfg(feature = "camera-uvc")]
 pub mod uvc;
 
+pub use averaging::AveragingMeter;
 pub use camera::{Camera, CameraInfo, DriveImage, Frame};
 pub use error::DeviceError;
 pub use guided::GuidedPositioner;
