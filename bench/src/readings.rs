@@ -20,6 +20,7 @@ use std::time::{Duration, Instant};
 
 use lumiwall_calib::commission::{CommissionError, CommissionOptions};
 use lumiwall_calib::measure::MeasureOptions;
+use lumiwall_calib::measure::averaging::Averaging;
 use lumiwall_calib::measure::grey_drives::GreyLevel;
 use lumiwall_calib::measure::meter_matrix::{MeterMatrices, MeterMatrixError};
 use lumiwall_calib::solve::SolveOptions;
@@ -60,6 +61,8 @@ pub struct ReadingsBench {
     /// The grey-drive pass's greys (`commission --grey-levels`); `None`: commission's
     /// default ([`lumiwall_calib::measure::grey_drives::default_levels`]).
     pub grey_levels: Option<Vec<GreyLevel>>,
+    /// Meter readings each reading averages (`commission --averaging`).
+    pub averaging: Averaging,
     /// The meter error models to run, in this order.
     pub noises: Vec<Noise>,
     /// Seeds to build the wall with in place of the file's, one instance of its class
@@ -88,7 +91,9 @@ pub struct ReadingsRow {
     pub noise: Noise,
     /// Reading budget per display.
     pub budget: u32,
-    /// Most readings any display took.
+    /// Most meter readings any display took: its readings times the meter readings each
+    /// averaged, and where that is more than one, the first survey's share per display
+    /// ([`lumiwall_calib::measure::averaging`]).
     pub max_readings: u32,
     /// Luminance of the common white the commissioning chose (cd/m²): how dim the wall
     /// is.
@@ -381,6 +386,7 @@ fn commission_options(
         measure: MeasureOptions {
             budget,
             meter_matrix,
+            averaging: bench.averaging,
             warm_up: bench
                 .warm_up
                 .then(lumiwall_calib::measure::warm_up::WarmUp::default),
@@ -422,10 +428,15 @@ fn run_one(
                 budget,
                 source: Box::new(e),
             })?;
+    let n = outcome.readings_per_reading;
+    let first_survey = match outcome.averaging {
+        Some(c) if n > 1 => c.estimate_readings / outcome.measured.len().max(1) as u32,
+        _ => 0,
+    };
     let max_readings = outcome
         .measured
         .iter()
-        .map(|m| m.measurement.readings)
+        .map(|m| m.measurement.readings * n + first_survey)
         .max()
         .unwrap_or(0);
     let wall_white_cd_m2 = outcome.solution.white_xyz_cd_m2.y;
@@ -533,6 +544,7 @@ mod tests {
             per_display_matrix: None,
             reference: default_reference(),
             grey_levels: None,
+            averaging: Averaging::Fixed(1),
             noises: vec![Noise::None],
             seeds: Some(seeds),
         };

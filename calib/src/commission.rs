@@ -40,6 +40,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::CalibError;
 use crate::colorimetry::cct_to_xy;
+use crate::measure::averaging::{self, Averaging, AveragingChoice, with_averaging};
 use crate::measure::channel_colour::{MIN_POOLED_INTENSITY, pool, ramp_sigma_rel};
 use crate::measure::drift::{DriftCheck, recheck};
 use crate::measure::grey_drives::{
@@ -131,6 +132,11 @@ pub struct CommissionOutcome {
     /// The first display's white re-read after the last display, if any display was
     /// measured in this run.
     pub drift: Option<DriftCheck>,
+    /// Meter readings each reading of the run averaged ([`MeasureOptions::averaging`]);
+    /// a display's readings in its measurement count the averaged ones.
+    pub readings_per_reading: u32,
+    /// What [`Averaging::Auto`] chose and why, where it estimated the wall white.
+    pub averaging: Option<AveragingChoice>,
 }
 
 /// Errors of a commissioning run.
@@ -342,10 +348,54 @@ pub fn commission(
         grey_levels: grey_levels_for(opts, rig),
         ..opts.clone()
     };
-    let (mut measured, resumed) = measure_wall(wall, displays, rig, out_dir, opts, progress)?;
-    read_greys(displays, rig, out_dir, opts, &mut measured, progress)?;
-    let drift = drift_over_run(displays, rig, &measured, &resumed, opts, progress);
-    finish(wall, measured, resumed, out_dir, opts, drift.as_ref())
+    let WallMeasured {
+        mut measured,
+        resumed,
+        readings_per_reading: n,
+        averaging: choice,
+    } = measure_wall(wall, displays, rig, out_dir, opts, progress)?;
+    let noise = rig.meter.info().noise;
+    let drift = with_averaging(rig, n, |rig| {
+        read_greys(displays, rig, out_dir, opts, &mut measured, progress)?;
+        Ok::<_, CommissionError>(drift_over_run(
+            displays, rig, &measured, &resumed, opts, progress,
+        ))
+    })?;
+    let mut outcome = finish(wall, measured, resumed, out_dir, opts, drift.as_ref())?;
+    outcome.readings_per_reading = n;
+    outcome.averaging = choice;
+    warn_if_too_few_averaged(&outcome, noise.as_ref(), opts);
+    Ok(outcome)
+}
+
+/// Under [`Averaging::Auto`], where the run could not choose before the ramps (a
+/// technician aims the meter) and read each reading once: tells the technician when
+/// the solved wall white needed more, and what to run.
+fn warn_if_too_few_averaged(
+    outcome: &CommissionOutcome,
+    noise: Option<&ReadingNoise>,
+    opts: &CommissionOptions,
+) {
+    let (Averaging::Auto, Some(noise)) = (opts.measure.averaging, noise) else {
+        return;
+    };
+    let Some(profile) = outcome.solution.profiles.first() else {
+        return;
+    };
+    let white = Xyz::from_array(profile.target_white_xyz_cd_m2);
+    let Some(xy) = white.xy() else {
+        return;
+    };
+    let (n, _) = averaging::needed(noise, xy, white.y);
+    if n > outcome.readings_per_reading {
+        tracing::warn!(
+            "the wall white of {:.1} cd/m² is dim for this meter: each reading should have \
+             averaged {n} meter readings for the chart's darkest greys, and this run read \
+             each {} time(s); run again with --averaging {n}",
+            white.y,
+            outcome.readings_per_reading,
+        );
+    }
 }
 
 /// [`CommissionOptions::grey_levels`]: the wall solved once as measured, then every
@@ -697,20 +747,80 @@ impl WallPass<'_> {
 
     /// Two visits per display: first every display's black, primaries and white
     /// ([`survey_display`]), then each display's ramps focused on the wall white that
-    /// all of them allow ([`measure_ramps`]), the first display's too.
+    /// all of them allow ([`measure_ramps`]), the first display's too. Each reading
+    /// averages the meter readings [`MeasureOptions::averaging`] asks; under
+    /// [`Averaging::Auto`] the survey's wall white chooses ([`AveragingChoice`]), and
+    /// where it asks for more than one the displays are surveyed again with it (the
+    /// first survey's readings counted in the choice). Returns the readings each reading
+    /// averaged and the choice.
     fn survey_first(
         &self,
         rig: &mut Rig<'_>,
-        mut mopts: MeasureOptions,
         progress: &mut dyn FnMut(Progress),
-    ) -> Result<PassOutcome, CommissionError> {
+    ) -> Result<(PassOutcome, u32, Option<AveragingChoice>), CommissionError> {
+        let fixed = match self.opts.measure.averaging {
+            Averaging::Fixed(n) => Some(n.max(1)),
+            Averaging::Auto => None,
+        };
+        let mut n = fixed.unwrap_or(1);
+        let mut slots = with_averaging(rig, n, |rig| {
+            let mopts = self.measure_options(rig);
+            self.survey_all(rig, &mopts, None, progress)
+        })?;
+        let noise = rig.meter.info().noise;
+        let choice = match (fixed, noise) {
+            (None, Some(noise)) if !noise.is_exact() => self.averaging_choice(&noise, &slots),
+            _ => None,
+        };
+        if let Some(c) = choice {
+            progress(Progress::Averaging(c));
+            if c.readings_per_reading > 1 {
+                n = c.readings_per_reading;
+                slots = with_averaging(rig, n, |rig| {
+                    let mopts = self.measure_options(rig);
+                    self.survey_all(rig, &mopts, Some(slots), progress)
+                })?;
+            }
+        }
+        let outcome = with_averaging(rig, n, |rig| {
+            let mopts = self.measure_options(rig);
+            self.ramps_after_survey(rig, mopts, slots, progress)
+        })?;
+        Ok((outcome, n, choice))
+    }
+
+    /// The run's measuring options with `rig`'s meter: the readings the grey-drive pass
+    /// reserves follow its stated noise.
+    fn measure_options(&self, rig: &Rig<'_>) -> MeasureOptions {
+        MeasureOptions {
+            reserved: grey_reserve(self.opts, rig.meter.info().noise.as_ref()),
+            ..self.opts.measure.clone()
+        }
+    }
+
+    /// Every display's slot: its saved measurement when resuming, else its survey; with
+    /// `again` (an earlier survey's slots), only the surveyed displays are surveyed
+    /// anew.
+    fn survey_all(
+        &self,
+        rig: &mut Rig<'_>,
+        mopts: &MeasureOptions,
+        again: Option<Vec<Slot>>,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Vec<Slot>, CommissionError> {
+        let mut earlier = again.map(Vec::into_iter);
         let mut slots = Vec::with_capacity(self.displays.len());
         for (k, info) in self.displays.iter().enumerate() {
-            if let Some(m) = self.saved(k, progress)? {
-                slots.push(Slot::Saved(Box::new(m)));
+            let kept = match earlier.as_mut().and_then(Iterator::next) {
+                Some(Slot::Surveyed(_)) => None,
+                Some(slot) => Some(slot),
+                None => self.saved(k, progress)?.map(|m| Slot::Saved(Box::new(m))),
+            };
+            if let Some(slot) = kept {
+                slots.push(slot);
                 continue;
             }
-            match survey_display(rig, info, &self.keys[k], &mopts, progress) {
+            match survey_display(rig, info, &self.keys[k], mopts, progress) {
                 Ok(s) => slots.push(Slot::Surveyed(Box::new(s))),
                 Err(e) if is_skip(&e) => slots.push(Slot::Skipped),
                 Err(source) => {
@@ -719,6 +829,38 @@ impl WallPass<'_> {
                 }
             }
         }
+        Ok(slots)
+    }
+
+    /// What [`Averaging::Auto`] chooses for the wall white the surveyed and saved
+    /// displays allow at the target white, with a meter of this stated noise; `None`
+    /// when no display was surveyed in this run or the wall white is not known.
+    fn averaging_choice(&self, noise: &ReadingNoise, slots: &[Slot]) -> Option<AveragingChoice> {
+        let xy = target_white_xy(self.opts)?;
+        let readings: u32 = slots
+            .iter()
+            .map(|s| match s {
+                Slot::Surveyed(s) => s.log.readings,
+                _ => 0,
+            })
+            .sum();
+        if readings == 0 {
+            return None;
+        }
+        let focus = ramp_focus(self.opts, xy, slots.iter().filter_map(Slot::readings));
+        let white_y = focus.white_y_cd_m2?;
+        Some(AveragingChoice::for_wall(noise, xy, white_y, readings))
+    }
+
+    /// The ramps of every surveyed display, focused on the wall white all of them
+    /// allow; saved displays as they are.
+    fn ramps_after_survey(
+        &self,
+        rig: &mut Rig<'_>,
+        mut mopts: MeasureOptions,
+        slots: Vec<Slot>,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<PassOutcome, CommissionError> {
         if mopts.focus.is_none() {
             mopts.focus = target_white_xy(self.opts)
                 .map(|xy| ramp_focus(self.opts, xy, slots.iter().filter_map(Slot::readings)));
@@ -793,8 +935,7 @@ fn is_skip(e: &MeasureError) -> bool {
     )
 }
 
-/// The measuring half of [`commission`]: returns every display's measurement and the
-/// displays taken from an earlier run.
+/// The measuring half of [`commission`].
 pub fn measure_wall(
     wall: &str,
     displays: &[DisplayInfo],
@@ -802,7 +943,7 @@ pub fn measure_wall(
     out_dir: &Path,
     opts: &CommissionOptions,
     progress: &mut dyn FnMut(Progress),
-) -> Result<(Vec<MeasuredDisplay>, Vec<DisplayId>), CommissionError> {
+) -> Result<WallMeasured, CommissionError> {
     if displays.is_empty() {
         return Err(CommissionError::NoDisplays);
     }
@@ -817,20 +958,24 @@ pub fn measure_wall(
     prepare_run_dir(&run_dir, &manifest, opts.resume)?;
 
     warm_up_first(wall, displays, rig, &run_dir, &keys, opts, progress)?;
-    let mopts = MeasureOptions {
-        reserved: grey_reserve(opts, rig.meter.info().noise.as_ref()),
-        ..opts.measure.clone()
-    };
     let pass = WallPass {
         displays,
         keys: &keys,
         run_dir: &run_dir,
         opts,
     };
-    let (measured, resumed, skipped) = if rig.positioner.revisits_cheaply() {
-        pass.survey_first(rig, mopts, progress)?
+    let ((measured, resumed, skipped), n, choice) = if rig.positioner.revisits_cheaply() {
+        pass.survey_first(rig, progress)?
     } else {
-        pass.one_visit_each(rig, mopts, progress)?
+        let n = match opts.measure.averaging {
+            Averaging::Fixed(n) => n.max(1),
+            Averaging::Auto => 1,
+        };
+        let outcome = with_averaging(rig, n, |rig| {
+            let mopts = pass.measure_options(rig);
+            pass.one_visit_each(rig, mopts, progress)
+        })?;
+        (outcome, n, None)
     };
     if !skipped.is_empty() {
         return Err(CommissionError::Skipped {
@@ -840,7 +985,26 @@ pub fn measure_wall(
             run_dir,
         });
     }
-    Ok((measured, resumed))
+    Ok(WallMeasured {
+        measured,
+        resumed,
+        readings_per_reading: n,
+        averaging: choice,
+    })
+}
+
+/// What [`measure_wall`] measured.
+#[derive(Debug)]
+pub struct WallMeasured {
+    /// Every display's measurement, in wall order.
+    pub measured: Vec<MeasuredDisplay>,
+    /// The displays taken from an earlier run.
+    pub resumed: Vec<DisplayId>,
+    /// Meter readings each reading averaged ([`MeasureOptions::averaging`]; the
+    /// grey-drive pass and the drift re-read average as many).
+    pub readings_per_reading: u32,
+    /// What [`Averaging::Auto`] chose and why, where it chose.
+    pub averaging: Option<AveragingChoice>,
 }
 
 /// The target white's chromaticity when it is known before measuring.
@@ -993,6 +1157,8 @@ pub fn finish(
         reports,
         meter_correction: correction,
         drift: drift.cloned(),
+        readings_per_reading: 1,
+        averaging: None,
     })
 }
 

@@ -42,6 +42,7 @@
     reason = "errors carry the display, the reading and the device error and occur at most once per run"
 )]
 
+pub mod averaging;
 pub mod black_readings;
 pub mod ccmx;
 pub mod channel_colour;
@@ -137,6 +138,11 @@ pub struct MeasureOptions {
     /// them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub meter_matrix: Option<meter_matrix::MeterMatrices>,
+    /// How many of the meter's readings each reading averages ([`averaging`]): a
+    /// commissioning wraps its meter in [`lumiwall_devices::AveragingMeter`]; the budget
+    /// counts the averaged readings.
+    #[serde(default)]
+    pub averaging: averaging::Averaging,
 }
 
 /// Information to concentrate ramp samples on the used part of each channel.
@@ -185,6 +191,7 @@ impl Default for MeasureOptions {
             focus: None,
             warm_up: None,
             meter_matrix: None,
+            averaging: averaging::Averaging::default(),
         }
     }
 }
@@ -401,6 +408,9 @@ pub enum Progress {
         /// Readings the pass cost.
         readings: u32,
     },
+    /// How many of the meter's readings each reading of the run averages, chosen before
+    /// the first display ([`averaging`]).
+    Averaging(averaging::AveragingChoice),
     /// A display's measurement was taken from an earlier, interrupted run.
     Resumed {
         /// The display.

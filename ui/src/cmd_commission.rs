@@ -222,6 +222,15 @@ pub(crate) struct CommissionArgs {
     /// ramp sample at most 2) or skip ramp samples (skip).
     #[arg(long, default_value = "avg:4")]
     low_light: LowLight,
+    /// Meter readings each reading averages: `auto` chooses from the wall white that
+    /// the survey of every display's black, primaries and white allows, where the
+    /// meter revisits displays at no cost (a dim wall's darkest chart grey needs the
+    /// meter quieter: 3 on a 12.7 cd/m² wall with a CS-100A class meter, 1 from about
+    /// 18 cd/m²; the displays are then surveyed again), and otherwise reads once and
+    /// says after the solve what the wall needed; a number fixes it. The budget counts
+    /// averaged readings.
+    #[arg(long, default_value = "auto")]
+    averaging: lumiwall_calib::measure::averaging::Averaging,
     /// After every display is measured: each channel read alone at the code each
     /// display's provisional profile gives it for these greys (a share of the target
     /// white's luminance, e.g. `1` or `0.5`, or a luminance, e.g. `1cd`), so the tone
@@ -313,6 +322,7 @@ impl CommissionArgs {
             measure: MeasureOptions {
                 budget: self.budget,
                 low_light: self.low_light,
+                averaging: self.averaging,
                 warm_up: self
                     .warm_up
                     .then(lumiwall_calib::measure::warm_up::WarmUp::default),
@@ -406,6 +416,7 @@ impl ProgressReport {
                     self.name_of(display.0)
                 ),
             ),
+            Progress::Averaging(choice) => say(&self.bar, choice.summary()),
             Progress::Resumed { display, readings } => {
                 self.display_finished(format!(
                     "{:<28} {readings:>3} readings (saved by the interrupted run)",
@@ -613,8 +624,19 @@ fn print_readings(o: &CommissionOutcome, elapsed: Duration) {
     let per: Vec<u32> = o.measured.iter().map(|m| m.measurement.readings).collect();
     let max = per.iter().copied().max().unwrap_or(0);
     let total: u32 = per.iter().sum();
+    let n = o.readings_per_reading;
+    let averaged = match (n, o.averaging) {
+        (1, _) => String::new(),
+        (n, Some(c)) => format!(
+            " (each the mean of {n} meter readings: {} meter readings with the first survey's {})",
+            total * n + c.estimate_readings,
+            c.estimate_readings
+        ),
+        (n, None) => format!(" (each the mean of {n} meter readings: {})", total * n),
+    };
     println!(
-        "measured {} displays ({} resumed) in {:.1} s: {total} readings, at most {max} per display",
+        "measured {} displays ({} resumed) in {:.1} s: {total} readings, at most {max} per \
+         display{averaged}",
         o.measured.len(),
         o.resumed.len(),
         elapsed.as_secs_f64()
@@ -689,6 +711,10 @@ pub(crate) struct BenchArgs {
     /// the limits. Each seed's scratch folder under `--out` is removed after its run.
     #[arg(long, value_parser = parse_seeds)]
     seeds: Option<std::ops::RangeInclusive<u64>>,
+    /// Meter readings each reading averages, as `commission --averaging` (`auto`: from
+    /// the wall white; the readings column counts every meter reading).
+    #[arg(long, default_value = "auto")]
+    averaging: lumiwall_calib::measure::averaging::Averaging,
     /// Run only this meter error model (`none` or `realistic`); default: both.
     #[arg(long)]
     noise: Option<Noise>,
@@ -735,6 +761,7 @@ pub(crate) fn bench(args: BenchArgs) -> Result<(), CliError> {
         per_display_matrix: matrix_scope(args.per_display_matrix, args.per_eye_matrix),
         reference: bench_reference(&args.reference, args.reference_seed)?,
         grey_levels: args.grey_levels.map(|l| l.0),
+        averaging: args.averaging,
         noises: args.noise.map_or(Noise::ALL.to_vec(), |n| vec![n]),
         seeds: args.seeds,
     };

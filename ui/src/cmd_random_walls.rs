@@ -35,6 +35,10 @@ pub(crate) struct RandomWallsArgs {
     /// Meter path (direct is fastest; emulated goes through the pty).
     #[arg(long, default_value = "direct")]
     meter: MeterChoice,
+    /// Meter readings each reading averages, as `commission --averaging` (`auto`: from
+    /// the wall white).
+    #[arg(long, default_value = "auto")]
+    averaging: lumiwall_calib::measure::averaging::Averaging,
     /// The wall solve, as `bench readings` (the same defaults, so that a wall's file
     /// runs again there as it ran here).
     #[command(flatten)]
@@ -131,6 +135,7 @@ fn run_wall(
         per_display_matrix: None,
         reference: readings::default_reference(),
         grey_levels: None,
+        averaging: args.averaging,
         noises: vec![args.noise],
         seeds: None,
     };

@@ -264,6 +264,7 @@ impl Counter<'_> {
             }
             Progress::WarmCheck(r) => (self.send)(JobEvent::Line(r.summary())),
             Progress::WarmedUp(r) => (self.send)(JobEvent::Line(r.summary())),
+            Progress::Averaging(c) => (self.send)(JobEvent::Line(c.summary())),
             _ => {}
         }
         let fraction = match readings_total {

@@ -1158,3 +1158,53 @@ fn apply_states_the_luminance_scale_and_auto_brings_the_bright_cornell_box_into_
         .code(2)
         .stderr(contains("the factor must be between"));
 }
+
+/// `commission --averaging auto` (the default) on a wall of about 12.7 cd/m² (mono-2x1
+/// with lamps of 25 cd/m²) and the realistic meter: the survey's wall white chooses,
+/// and the run says how many meter readings each reading averages and why; the
+/// fixture's own bright wall reads once. A count outside 1–64 is refused before any
+/// reading.
+#[test]
+fn commission_averages_each_reading_on_a_dim_wall_and_says_so() {
+    let tmp = TempDir::new().unwrap();
+    let text = std::fs::read_to_string(fixture("walls/mono-2x1.toml")).unwrap();
+    assert!(
+        text.contains("white_cd_m2 = 250.0"),
+        "the fixture's lamp changed"
+    );
+    let dim = tmp.path().join("dim.toml");
+    std::fs::write(
+        &dim,
+        text.replace("white_cd_m2 = 250.0", "white_cd_m2 = 25.0"),
+    )
+    .unwrap();
+    let commission = |wall: &Path, out: &str| {
+        let mut c = lumiwall();
+        c.args([
+            "commission",
+            "--meter",
+            "direct",
+            "--noise",
+            "realistic",
+            "--wall",
+        ])
+        .arg(wall)
+        .arg("--out")
+        .arg(tmp.path().join(out));
+        c
+    };
+    commission(&dim, "dim")
+        .assert()
+        .success()
+        .stdout(is_match(r"wall white about 1[0-4]\.\d cd/m² \(survey of \d+ readings\)").unwrap())
+        .stdout(is_match(r"each reading averages [2-4] meter readings").unwrap());
+    commission(&fixture("walls/mono-2x1.toml"), "bright")
+        .assert()
+        .success()
+        .stdout(contains("one meter reading per reading"));
+    commission(&dim, "refused")
+        .args(["--averaging", "0"])
+        .assert()
+        .code(2)
+        .stderr(contains("is not an averaging"));
+}
