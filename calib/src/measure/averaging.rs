@@ -41,8 +41,12 @@ use super::Rig;
 /// (0.0047) 39 of 40 with one. At 0.005 those walls average 3, 5 and 1.
 pub const DARKEST_GREY_XY_SIGMA: f64 = 0.005;
 
-/// Most readings [`Averaging::Auto`] averages: a wall that needs more is too dim for
-/// the meter (below about 4 cd/m² with a CS-100A class one), and the run says so.
+/// Most readings [`Averaging::Auto`] averages: a wall that needs more is dimmer than the
+/// meter resolves within the rule (below about 4 cd/m² with a CS-100A class one, whose
+/// readings take a second; below about 17 cd/m² by the stated noise of a K-10-A's
+/// eighth-of-a-second reading, whose simulated noise is about half that: dim-mono-2x1
+/// through the emulated K-10-A at 16, seeds 101–106, 6 of 6 within every limit, mean
+/// worst grey balance 0.15), and the run says so.
 pub const MAX_AUTO: u32 = 16;
 
 /// How many of the meter's readings each reading averages.
@@ -156,9 +160,11 @@ impl AveragingChoice {
                  long; the displays are surveyed again)"
             ),
             (n, true) => format!(
-                "{head}: each reading averages {n} meter readings, and the wall is still too \
-                 dim for this meter to meet a grey balance of 0.5 (a meter quieter in the \
-                 dark, or brighter lamps, would)"
+                "{head}: each reading averages {n} meter readings, the most it will, and the \
+                 darkest greys stay noisier than it aims for (±{:.4} per averaged reading, \
+                 against {DARKEST_GREY_XY_SIGMA}; a meter quieter in the dark, or brighter \
+                 lamps, help)",
+                self.darkest_grey_sigma_xy / f64::from(n).sqrt()
             ),
         }
     }
