@@ -19,10 +19,10 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use lumiwall_calib::commission::{CommissionError, CommissionOptions};
-use lumiwall_calib::measure::MeasureOptions;
 use lumiwall_calib::measure::averaging::Averaging;
 use lumiwall_calib::measure::grey_drives::GreyLevel;
 use lumiwall_calib::measure::meter_matrix::{MeterMatrices, MeterMatrixError};
+use lumiwall_calib::measure::{MeasureOptions, MeasuredDisplay};
 use lumiwall_calib::solve::SolveOptions;
 use lumiwall_calib::station::{MeterChoice, Noise, Station, StationError, StationOptions};
 use lumiwall_calib::verify::{Summary, VerifyError, VerifyOptions, chart_targets};
@@ -91,9 +91,9 @@ pub struct ReadingsRow {
     pub noise: Noise,
     /// Reading budget per display.
     pub budget: u32,
-    /// Most meter readings any display took: its readings times the meter readings each
-    /// averaged, and where that is more than one, the first survey's share per display
-    /// ([`lumiwall_calib::measure::averaging`]).
+    /// Most meter readings any display took
+    /// ([`lumiwall_calib::measure::MeasuredDisplay::meter_readings`]: its readings times
+    /// the meter readings each averaged, and a first survey read again).
     pub max_readings: u32,
     /// Luminance of the common white the commissioning chose (cd/m²): how dim the wall
     /// is.
@@ -428,15 +428,10 @@ fn run_one(
                 budget,
                 source: Box::new(e),
             })?;
-    let n = outcome.readings_per_reading;
-    let first_survey = match outcome.averaging {
-        Some(c) if n > 1 => c.estimate_readings / outcome.measured.len().max(1) as u32,
-        _ => 0,
-    };
     let max_readings = outcome
         .measured
         .iter()
-        .map(|m| m.measurement.readings * n + first_survey)
+        .map(MeasuredDisplay::meter_readings)
         .max()
         .unwrap_or(0);
     let wall_white_cd_m2 = outcome.solution.white_xyz_cd_m2.y;

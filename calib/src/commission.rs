@@ -368,15 +368,21 @@ pub fn commission(
     Ok(outcome)
 }
 
-/// Under [`Averaging::Auto`], where the run could not choose before the ramps (a
-/// technician aims the meter) and read each reading once: tells the technician when
-/// the solved wall white needed more, and what to run.
+/// Under [`Averaging::Auto`], where the run chose nothing before the ramps (a
+/// technician aims the meter; the target white is a display's native one, unknown
+/// before measuring) and read each reading once: tells the technician when the solved
+/// wall white needed more, and what to run.
 fn warn_if_too_few_averaged(
     outcome: &CommissionOutcome,
     noise: Option<&ReadingNoise>,
     opts: &CommissionOptions,
 ) {
-    let (Averaging::Auto, Some(noise)) = (opts.measure.averaging, noise) else {
+    let (Averaging::Auto, Some(noise), None, 1) = (
+        opts.measure.averaging,
+        noise,
+        outcome.averaging,
+        outcome.readings_per_reading,
+    ) else {
         return;
     };
     let Some(profile) = outcome.solution.profiles.first() else {
@@ -759,28 +765,33 @@ impl WallPass<'_> {
         progress: &mut dyn FnMut(Progress),
     ) -> Result<(PassOutcome, u32, Option<AveragingChoice>), CommissionError> {
         let fixed = match self.opts.measure.averaging {
-            Averaging::Fixed(n) => Some(n.max(1)),
+            Averaging::Fixed(_) => Some(self.opts.measure.averaging.count_or_one()),
             Averaging::Auto => None,
         };
         let mut n = fixed.unwrap_or(1);
         let mut slots = with_averaging(rig, n, |rig| {
             let mopts = self.measure_options(rig);
-            self.survey_all(rig, &mopts, None, progress)
+            self.survey_all(rig, &mopts, n, None, progress)
         })?;
         let noise = rig.meter.info().noise;
         let choice = match (fixed, noise) {
             (None, Some(noise)) if !noise.is_exact() => self.averaging_choice(&noise, &slots),
             _ => None,
         };
-        if let Some(c) = choice {
-            progress(Progress::Averaging(c));
-            if c.readings_per_reading > 1 {
-                n = c.readings_per_reading;
-                slots = with_averaging(rig, n, |rig| {
-                    let mopts = self.measure_options(rig);
-                    self.survey_all(rig, &mopts, Some(slots), progress)
-                })?;
+        match choice {
+            Some(c) => {
+                progress(Progress::Averaging(c));
+                if c.readings_per_reading > 1 {
+                    n = c.readings_per_reading;
+                    slots = with_averaging(rig, n, |rig| {
+                        let mopts = self.measure_options(rig);
+                        self.survey_all(rig, &mopts, n, Some(slots), progress)
+                    })?;
+                }
             }
+            // A resumed run with every display saved: as the saved ones averaged.
+            None if fixed.is_none() => n = saved_averaging(&slots),
+            None => {}
         }
         let outcome = with_averaging(rig, n, |rig| {
             let mopts = self.measure_options(rig);
@@ -805,23 +816,31 @@ impl WallPass<'_> {
         &self,
         rig: &mut Rig<'_>,
         mopts: &MeasureOptions,
+        n: u32,
         again: Option<Vec<Slot>>,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<Vec<Slot>, CommissionError> {
         let mut earlier = again.map(Vec::into_iter);
         let mut slots = Vec::with_capacity(self.displays.len());
         for (k, info) in self.displays.iter().enumerate() {
-            let kept = match earlier.as_mut().and_then(Iterator::next) {
-                Some(Slot::Surveyed(_)) => None,
-                Some(slot) => Some(slot),
-                None => self.saved(k, progress)?.map(|m| Slot::Saved(Box::new(m))),
+            let (kept, first_survey) = match earlier.as_mut().and_then(Iterator::next) {
+                Some(Slot::Surveyed(first)) => (None, first.log.readings),
+                Some(slot) => (Some(slot), 0),
+                None => (
+                    self.saved(k, progress)?.map(|m| Slot::Saved(Box::new(m))),
+                    0,
+                ),
             };
             if let Some(slot) = kept {
                 slots.push(slot);
                 continue;
             }
             match survey_display(rig, info, &self.keys[k], mopts, progress) {
-                Ok(s) => slots.push(Slot::Surveyed(Box::new(s))),
+                Ok(mut s) => {
+                    s.log.readings_averaged = n;
+                    s.log.first_survey_readings = first_survey;
+                    slots.push(Slot::Surveyed(Box::new(s)));
+                }
                 Err(e) if is_skip(&e) => slots.push(Slot::Skipped),
                 Err(source) => {
                     let saved = slots.iter().filter(|s| matches!(s, Slot::Saved(_))).count();
@@ -893,6 +912,7 @@ impl WallPass<'_> {
         &self,
         rig: &mut Rig<'_>,
         mopts: MeasureOptions,
+        n: u32,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<PassOutcome, CommissionError> {
         let (mut measured, mut resumed, mut skipped) = (Vec::new(), Vec::new(), Vec::new());
@@ -912,7 +932,8 @@ impl WallPass<'_> {
             }
             let key = &self.keys[k];
             match measure_display(rig, info, key, &o, progress) {
-                Ok(m) => {
+                Ok(mut m) => {
+                    m.log.readings_averaged = n;
                     write_atomic(&measurement_path(self.run_dir, key), &to_json(&m))?;
                     measured.push(m);
                 }
@@ -967,13 +988,10 @@ pub fn measure_wall(
     let ((measured, resumed, skipped), n, choice) = if rig.positioner.revisits_cheaply() {
         pass.survey_first(rig, progress)?
     } else {
-        let n = match opts.measure.averaging {
-            Averaging::Fixed(n) => n.max(1),
-            Averaging::Auto => 1,
-        };
+        let n = opts.measure.averaging.count_or_one();
         let outcome = with_averaging(rig, n, |rig| {
             let mopts = pass.measure_options(rig);
-            pass.one_visit_each(rig, mopts, progress)
+            pass.one_visit_each(rig, mopts, n, progress)
         })?;
         (outcome, n, None)
     };
@@ -1001,10 +1019,25 @@ pub struct WallMeasured {
     /// The displays taken from an earlier run.
     pub resumed: Vec<DisplayId>,
     /// Meter readings each reading averaged ([`MeasureOptions::averaging`]; the
-    /// grey-drive pass and the drift re-read average as many).
+    /// grey-drive pass, the drift re-read and the camera stage's re-read at the final
+    /// white average as many; the warm check reads once).
     pub readings_per_reading: u32,
     /// What [`Averaging::Auto`] chose and why, where it chose.
     pub averaging: Option<AveragingChoice>,
+}
+
+/// Meter readings each reading averaged in the saved measurements of `slots` (the
+/// most of any; 1 where none is saved): what a resumed run's remaining passes average
+/// when it surveys nothing and so chooses nothing.
+fn saved_averaging(slots: &[Slot]) -> u32 {
+    slots
+        .iter()
+        .filter_map(|s| match s {
+            Slot::Saved(m) => Some(m.log.meter_readings_each()),
+            _ => None,
+        })
+        .max()
+        .unwrap_or(1)
 }
 
 /// The target white's chromaticity when it is known before measuring.

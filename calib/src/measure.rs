@@ -408,8 +408,8 @@ pub enum Progress {
         /// Readings the pass cost.
         readings: u32,
     },
-    /// How many of the meter's readings each reading of the run averages, chosen before
-    /// the first display ([`averaging`]).
+    /// How many of the meter's readings each reading of the run averages, chosen from
+    /// the survey of every display before any ramp ([`averaging`]).
     Averaging(averaging::AveragingChoice),
     /// A display's measurement was taken from an earlier, interrupted run.
     Resumed {
@@ -454,9 +454,27 @@ pub struct MeasureLog {
     /// ([`noise_seen`]); the default (nothing seen) in logs written before it.
     #[serde(default)]
     pub noise_seen: noise_seen::NoiseSeen,
+    /// Meter readings each reading averaged ([`averaging`]); 0 (logs written before it)
+    /// and 1: each read once.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub readings_averaged: u32,
+    /// Meter readings of a first survey of the display that the run read again with
+    /// more readings averaged ([`averaging`]): spent, not in `readings`.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub first_survey_readings: u32,
+}
+
+/// For `skip_serializing_if`.
+fn is_zero(v: &u32) -> bool {
+    *v == 0
 }
 
 impl MeasureLog {
+    /// Meter readings each reading averaged (at least 1).
+    pub fn meter_readings_each(&self) -> u32 {
+        self.readings_averaged.max(1)
+    }
+
     /// Samples that were below the reliable limit and averaged.
     pub fn averaged(&self) -> usize {
         self.samples
@@ -527,6 +545,15 @@ impl MeasuredDisplay {
             primaries: self.measurement.primaries,
             white: self.measurement.white,
         })
+    }
+
+    /// Meter readings the display cost: its readings times the meter readings each
+    /// averaged, and a first survey read again ([`MeasureLog::first_survey_readings`]).
+    pub fn meter_readings(&self) -> u32 {
+        self.measurement
+            .readings
+            .saturating_mul(self.log.meter_readings_each())
+            .saturating_add(self.log.first_survey_readings)
     }
 }
 

@@ -33,9 +33,9 @@ impl ReadingNoise {
             return None;
         }
         let [sx, sy, sz] = self.sigma_xyz(xyz);
-        let s4 = sum * sum;
-        let dx = ((y + z) * sx).hypot(x * sy).hypot(x * sz) / s4;
-        let dy = (y * sx).hypot((x + z) * sy).hypot(y * sz) / s4;
+        let sum_sq = sum * sum;
+        let dx = ((y + z) * sx).hypot(x * sy).hypot(x * sz) / sum_sq;
+        let dy = (y * sx).hypot((x + z) * sy).hypot(y * sz) / sum_sq;
         Some([dx, dy])
     }
 }
@@ -73,7 +73,10 @@ impl Colorimeter for AveragingMeter<'_> {
 
     /// The mean of the readings the instrument gives; one it refuses as too dark is
     /// left out (as a dark sample's repeats are), and only when all are refused is the
-    /// reading refused. Any other error ends the reading.
+    /// reading refused. Near the instrument's floor that biases the mean high (the
+    /// readings it keeps are the brighter ones), as it does a dark sample's repeats.
+    /// Any other error ends the reading, so a retry of a transient error reads all `n`
+    /// again.
     fn measure(&mut self) -> Result<Xyz, DeviceError> {
         let mut sum = Xyz::new(0.0, 0.0, 0.0);
         let mut taken = 0u32;

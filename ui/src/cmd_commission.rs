@@ -624,15 +624,10 @@ fn print_readings(o: &CommissionOutcome, elapsed: Duration) {
     let per: Vec<u32> = o.measured.iter().map(|m| m.measurement.readings).collect();
     let max = per.iter().copied().max().unwrap_or(0);
     let total: u32 = per.iter().sum();
-    let n = o.readings_per_reading;
-    let averaged = match (n, o.averaging) {
-        (1, _) => String::new(),
-        (n, Some(c)) => format!(
-            " (each the mean of {n} meter readings: {} meter readings with the first survey's {})",
-            total * n + c.estimate_readings,
-            c.estimate_readings
-        ),
-        (n, None) => format!(" (each the mean of {n} meter readings: {})", total * n),
+    let meter: u32 = o.measured.iter().map(|m| m.meter_readings()).sum();
+    let averaged = match o.readings_per_reading {
+        1 => String::new(),
+        n => format!(" (each the mean of {n} meter readings: {meter} meter readings in all)"),
     };
     println!(
         "measured {} displays ({} resumed) in {:.1} s: {total} readings, at most {max} per \

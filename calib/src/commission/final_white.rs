@@ -19,6 +19,7 @@ use super::{
     CommissionError, CommissionOptions, CommissionOutcome, GreyPass, finish, grey_levels_for,
     read_greys_of,
 };
+use crate::measure::averaging::with_averaging;
 use crate::measure::grey_drives::readings_needed;
 use crate::measure::{Progress, Rig};
 
@@ -37,7 +38,9 @@ pub struct Resampled {
 /// readings and solves the wall again: profiles and report in `outcome.out_dir` are
 /// rewritten; flat fields and uniformity are the caller's to apply again. Nothing is
 /// read (and the outcome is returned as it was) without grey levels. The new samples
-/// are not saved in the run folder: a resumed commission reads them again.
+/// are not saved in the run folder: a resumed commission reads them again. Each
+/// reading averages as many meter readings as the commissioning's
+/// ([`CommissionOutcome::readings_per_reading`]).
 pub fn resample_at_final_white(
     displays: &[DisplayInfo],
     rig: &mut Rig<'_>,
@@ -66,15 +69,18 @@ pub fn resample_at_final_white(
     };
     let mut measured = outcome.measured.clone();
     let mut readings = 0;
-    for (display, m) in displays.iter().zip(measured.iter_mut()) {
-        let key = &m.measurement.key;
-        let Some(profile) = finals.iter().find(|p| p.display == *key) else {
-            continue;
-        };
-        readings += read_greys_of(display, m, profile, rig, &pass, opts, progress)
-            .map_err(|e| e.into_commission(|source| CommissionError::FinalWhite { source }))?;
-    }
-    let outcome = finish(
+    with_averaging(rig, outcome.readings_per_reading, |rig| {
+        for (display, m) in displays.iter().zip(measured.iter_mut()) {
+            let key = &m.measurement.key;
+            let Some(profile) = finals.iter().find(|p| p.display == *key) else {
+                continue;
+            };
+            readings += read_greys_of(display, m, profile, rig, &pass, opts, progress)
+                .map_err(|e| e.into_commission(|source| CommissionError::FinalWhite { source }))?;
+        }
+        Ok::<_, CommissionError>(())
+    })?;
+    let resampled = finish(
         &outcome.wall,
         measured,
         outcome.resumed.clone(),
@@ -82,5 +88,10 @@ pub fn resample_at_final_white(
         opts,
         outcome.drift.as_ref(),
     )?;
+    let outcome = CommissionOutcome {
+        readings_per_reading: outcome.readings_per_reading,
+        averaging: outcome.averaging,
+        ..resampled
+    };
     Ok(Resampled { outcome, readings })
 }

@@ -61,6 +61,17 @@ pub enum Averaging {
     Fixed(u32),
 }
 
+impl Averaging {
+    /// The fixed count, within 1..=[`lumiwall_devices::averaging::MAX_AVERAGED`]; one
+    /// under [`Averaging::Auto`] (until a run chooses).
+    pub fn count_or_one(self) -> u32 {
+        match self {
+            Averaging::Fixed(n) => n.clamp(1, lumiwall_devices::averaging::MAX_AVERAGED),
+            Averaging::Auto => 1,
+        }
+    }
+}
+
 impl Default for Averaging {
     fn default() -> Self {
         Averaging::Fixed(1)
@@ -92,16 +103,24 @@ impl FromStr for Averaging {
 /// x and y within [`DARKEST_GREY_XY_SIGMA`], 1 to [`MAX_AUTO`]; and whether the
 /// wall needed more than that.
 pub fn needed(noise: &ReadingNoise, white_xy: [f64; 2], white_y_cd_m2: f64) -> (u32, bool) {
+    let (n, _, too_dim) = rule(noise, white_xy, white_y_cd_m2);
+    (n, too_dim)
+}
+
+/// [`needed`] with the darkest grey's x or y scatter of one reading, whichever is
+/// larger (0 for light without a chromaticity): `(n, sigma, too_dim)`.
+fn rule(noise: &ReadingNoise, white_xy: [f64; 2], white_y_cd_m2: f64) -> (u32, f64, bool) {
     let grey = super::black_readings::darkest_grey(white_xy, white_y_cd_m2);
     let Some([sx, sy]) = noise.sigma_xy(grey) else {
-        return (1, false);
+        return (1, 0.0, false);
     };
-    let ratio = sx.max(sy) / DARKEST_GREY_XY_SIGMA;
+    let sigma = sx.max(sy);
+    let ratio = sigma / DARKEST_GREY_XY_SIGMA;
     let n = (ratio * ratio).ceil();
     if !n.is_finite() || n > f64::from(MAX_AUTO) {
-        return (MAX_AUTO, true);
+        return (MAX_AUTO, sigma, true);
     }
-    ((n as u32).max(1), false)
+    ((n as u32).max(1), sigma, false)
 }
 
 /// What [`Averaging::Auto`] chose for a run, and why.
@@ -115,8 +134,9 @@ pub struct AveragingChoice {
     /// The darkest chart grey's x or y scatter of one reading of the meter, whichever
     /// is larger.
     pub darkest_grey_sigma_xy: f64,
-    /// Meter readings of the survey that chose (all displays); where it chose more
-    /// than one, the displays were surveyed again and these readings are extra.
+    /// Meter readings of the survey that chose (the displays surveyed in this run);
+    /// where it chose more than one, those displays were surveyed again and these
+    /// readings are extra ([`super::MeasureLog::first_survey_readings`]).
     pub estimate_readings: u32,
     /// The wall needs more than [`MAX_AUTO`].
     pub too_dim: bool,
@@ -131,9 +151,7 @@ impl AveragingChoice {
         white_y_cd_m2: f64,
         estimate_readings: u32,
     ) -> Self {
-        let grey = super::black_readings::darkest_grey(white_xy, white_y_cd_m2);
-        let sigma = noise.sigma_xy(grey).map_or(0.0, |[x, y]| x.max(y));
-        let (readings_per_reading, too_dim) = needed(noise, white_xy, white_y_cd_m2);
+        let (readings_per_reading, sigma, too_dim) = rule(noise, white_xy, white_y_cd_m2);
         Self {
             readings_per_reading,
             wall_white_cd_m2: white_y_cd_m2,

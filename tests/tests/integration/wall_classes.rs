@@ -500,6 +500,16 @@ fn white_and_grey_drives(o: &lumiwall_calib::commission::CommissionOutcome) -> V
 fn stopped_before_the_grey_drive_pass(
     file_text: &str,
 ) -> (lumiwall_calib::station::Station, tempfile::TempDir) {
+    stopped_before_the_grey_drive_pass_with(file_text, Noise::None, &warm_checked(false))
+}
+
+/// [`stopped_before_the_grey_drive_pass`] with this meter error model and these
+/// commissioning options.
+fn stopped_before_the_grey_drive_pass_with(
+    file_text: &str,
+    noise: Noise,
+    opts: &lumiwall_calib::commission::CommissionOptions,
+) -> (lumiwall_calib::station::Station, tempfile::TempDir) {
     use std::sync::atomic::Ordering;
     let stop = lumiwall_calib::station::StopFlag::default();
     let mut station = lumiwall_calib::station::Station::with_wall(
@@ -508,7 +518,7 @@ fn stopped_before_the_grey_drive_pass(
             stop: Some(stop.clone()),
             ..lumiwall_calib::station::StationOptions::new(
                 lumiwall_calib::station::MeterChoice::Direct,
-                Noise::None,
+                noise,
             )
         },
     )
@@ -516,7 +526,7 @@ fn stopped_before_the_grey_drive_pass(
     let out = tempfile::tempdir().expect("tmp");
     let displays = station.displays().len();
     let mut done = 0;
-    let stopped = station.commission(out.path(), &warm_checked(false), &mut |p| {
+    let stopped = station.commission(out.path(), opts, &mut |p| {
         if matches!(p, lumiwall_calib::measure::Progress::DisplayDone { .. }) {
             done += 1;
             // the last display measured: the next pattern is the grey-drive pass's
@@ -951,4 +961,52 @@ fn a_dim_wall_averages_each_reading_as_its_white_needs_and_its_greys_keep_their_
         mean(&auto) < 0.8 * mean(&once),
         "once {once:?}, auto {auto:?}"
     );
+}
+
+/// A dim wall's commissioning with `--averaging auto`, stopped after the last display
+/// was measured and resumed for its grey-drive pass: the resumed run surveys nothing,
+/// so it chooses nothing, and reads the pass with as many meter readings each as the
+/// saved displays did (three on mono-2x1 with lamps of 25 cd/m²), not once.
+#[test]
+fn a_dim_wall_resumed_for_its_grey_drive_pass_averages_as_its_saved_displays_did() {
+    use lumiwall_calib::measure::averaging::Averaging;
+    let fixture =
+        std::fs::read_to_string(crate::support::wall_path("mono-2x1.toml")).expect("fixture");
+    assert!(
+        fixture.contains("white_cd_m2 = 250.0"),
+        "the fixture's lamp changed"
+    );
+    let dim = fixture.replace("white_cd_m2 = 250.0", "white_cd_m2 = 25.0");
+    let auto = |resume| {
+        let measure = MeasureOptions {
+            averaging: Averaging::Auto,
+            ..MeasureOptions::default()
+        };
+        crate::support::options_8500k(measure, BlackMode::Individual, resume)
+    };
+    let (mut station, out) =
+        stopped_before_the_grey_drive_pass_with(&dim, Noise::Realistic, &auto(false));
+    let resumed = station
+        .commission(out.path(), &auto(true), &mut |_| {})
+        .expect("resumed commissioning");
+    let saved: Vec<u32> = resumed
+        .measured
+        .iter()
+        .map(|m| m.log.meter_readings_each())
+        .collect();
+    assert_eq!(resumed.averaging, None, "nothing surveyed, nothing chosen");
+    assert!(saved.iter().all(|n| *n == 3), "{saved:?}");
+    assert_eq!(resumed.readings_per_reading, 3);
+    for m in &resumed.measured {
+        assert!(
+            m.log.grey_drive_readings.is_some_and(|r| r > 0),
+            "{}",
+            m.measurement.key
+        );
+        assert!(m.measurement.readings <= 40, "{}", m.measurement.readings);
+        assert!(
+            m.log.first_survey_readings > 0,
+            "the first survey is counted"
+        );
+    }
 }
