@@ -29,6 +29,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use lumiwall_calib::commission::{CommissionError, CommissionOptions};
+use lumiwall_calib::measure::averaging::Averaging;
 use lumiwall_calib::measure::meter_matrix::{MeterMatrices, MeterMatrixError};
 use lumiwall_calib::measure::{MeasureOptions, Progress};
 use lumiwall_calib::recalibrate::{
@@ -76,6 +77,9 @@ pub struct SeasonBench {
     pub full_check_every_nights: u32,
     /// Verification tolerances a night is held to (see the module documentation).
     pub tolerances: Tolerances,
+    /// Meter readings each reading averages, commissioning and nights alike
+    /// (`commission --averaging`; the nights' `auto` averages as the commissioning did).
+    pub averaging: Averaging,
     /// Scratch folder: profiles, the store and the plot.
     pub out: PathBuf,
     /// Calendar time of the commissioning (night 0).
@@ -240,6 +244,7 @@ pub fn run(
         forecast: Vec::new(),
         lamp_change: None,
         last_reserve: Vec::new(),
+        night_each: 1,
     };
     let row = season.commission(&mut station, &mut store, meter_matrix.clone())?;
     on_night(&row);
@@ -247,6 +252,7 @@ pub fn run(
     let mut opts = RecalibrateOptions {
         measure: MeasureOptions {
             meter_matrix,
+            averaging: bench.averaging,
             ..MeasureOptions::default()
         },
         limits: bench.limits,
@@ -306,6 +312,9 @@ struct Season<'a> {
     lamp_change: Option<(u32, DisplayKey)>,
     /// Each display's reserve for the white after the last night's readings.
     last_reserve: Vec<(DisplayKey, f64)>,
+    /// Meter readings each reading of a night averages (the commissioning's under
+    /// [`Averaging::Auto`]).
+    night_each: u64,
 }
 
 /// The simulated lamp change and whether it was found on its night; the displays
@@ -338,6 +347,7 @@ impl Season<'_> {
         let opts = CommissionOptions {
             measure: MeasureOptions {
                 meter_matrix,
+                averaging: self.bench.averaging,
                 ..MeasureOptions::default()
             },
             solve: self.bench.solve,
@@ -347,12 +357,15 @@ impl Season<'_> {
             grey_levels: lumiwall_calib::measure::grey_drives::default_levels(),
         };
         let clock = station.wall.elapsed_s();
-        let mut readings = 0u64;
+        let mut readings = MeterReadings::each(self.bench.averaging.count_or_one());
         let outcome = station
-            .commission(&self.profiles_dir, &opts, &mut |p| {
-                count_reading(&mut readings, &p)
-            })
+            .commission(&self.profiles_dir, &opts, &mut |p| readings.count(&p))
             .map_err(Box::new)?;
+        self.night_each = match self.bench.averaging {
+            Averaging::Auto => u64::from(outcome.readings_per_reading),
+            fixed => u64::from(fixed.count_or_one()),
+        };
+        let readings = readings.total;
         let measuring_s = station.wall.elapsed_s() - clock;
         let run =
             lumiwall_profiles::store::CommissionRun::new(outcome.wall.clone(), self.night_utc(0));
@@ -408,16 +421,18 @@ impl Season<'_> {
         station.wall.advance_hours(self.bench.lamp_hours_per_day);
         let lamp_changed = self.change_lamp(night, station)?;
         let clock = station.wall.elapsed_s();
-        let mut readings = 0u64;
+        let mut readings = MeterReadings {
+            total: 0,
+            each: self.night_each,
+        };
         let outcome = station
-            .recalibrate(&self.profiles_dir, opts, &mut |p| {
-                count_reading(&mut readings, &p)
-            })
+            .recalibrate(&self.profiles_dir, opts, &mut |p| readings.count(&p))
             .map_err(|e| SeasonError::Recalibrate {
                 night,
                 source: Box::new(e),
             })?;
         let measuring_s = station.wall.elapsed_s() - clock;
+        let readings = readings.total;
         record_in_store(store, &outcome, self.night_utc(night))?;
         let (_, profiles) = ProfileSet::load_dir(&self.profiles_dir)?;
         let Truth { de, worst_white } = verify_truth(&station.wall, &profiles, night)?;
@@ -583,9 +598,27 @@ impl Season<'_> {
     }
 }
 
-fn count_reading(readings: &mut u64, p: &Progress) {
-    if let Progress::Reading { .. } = p {
-        *readings += 1;
+/// Meter readings counted from a run's progress: each reading averages `each`, which
+/// the commissioning's choice ([`Progress::Averaging`]) sets for the readings after it.
+struct MeterReadings {
+    total: u64,
+    each: u64,
+}
+
+impl MeterReadings {
+    fn each(n: u32) -> Self {
+        Self {
+            total: 0,
+            each: u64::from(n.max(1)),
+        }
+    }
+
+    fn count(&mut self, p: &Progress) {
+        match p {
+            Progress::Reading { .. } => self.total += self.each,
+            Progress::Averaging(c) => self.each = u64::from(c.readings_per_reading.max(1)),
+            _ => {}
+        }
     }
 }
 

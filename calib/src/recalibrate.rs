@@ -47,6 +47,7 @@ use crate::CalibError;
 use crate::commission::{
     CommissionError, RUN_DIR, corrected_measurement, load_measurement, measurement_path, to_json,
 };
+use crate::measure::averaging::{Averaging, with_averaging};
 use crate::measure::warm_up::{WarmCheck, readings_of_run, wait_or_check};
 use crate::measure::{
     FullReading, MeasureError, MeasureOptions, MeasuredDisplay, Patch, Progress, Rig, Session,
@@ -495,13 +496,18 @@ pub fn recalibrate_with_camera(
     }
     let mut checks = Vec::with_capacity(displays.len());
     let mut refitted = Vec::with_capacity(displays.len());
-    for (i, ((info, old), profile)) in displays.iter().zip(&last).zip(&profiles).enumerate() {
-        let key = display_key(wall, info);
-        let full = opts.rotation.is_full(i);
-        let (c, m) = check_display(rig, info, &key, old, profile, full, opts, progress)?;
-        checks.push(c);
-        refitted.push(m);
-    }
+    let n = night_averaging(opts.measure.averaging, &last);
+    with_averaging(rig, n, |rig| {
+        for (i, ((info, old), profile)) in displays.iter().zip(&last).zip(&profiles).enumerate() {
+            let key = display_key(wall, info);
+            let full = opts.rotation.is_full(i);
+            let (c, mut m) = check_display(rig, info, &key, old, profile, full, opts, progress)?;
+            m.log.readings_averaged = n;
+            checks.push(c);
+            refitted.push(m);
+        }
+        Ok::<_, RecalibrateError>(())
+    })?;
     let mut current = profiles.clone();
     if let Some(camera) = camera {
         let tonight: Vec<usize> = checks
@@ -537,6 +543,22 @@ pub fn recalibrate_with_camera(
     write_report(dir, &outcome, &refitted, &solution)?;
     outcome.solution = Some(solution);
     Ok(outcome)
+}
+
+/// Meter readings each reading of the night averages: a fixed count as given; under
+/// [`crate::measure::averaging::Averaging::Auto`] as the last measurements did (the
+/// commissioning's choice for a dim wall, `MeasureLog::readings_averaged`), so that the
+/// night compares like with like and a full check or a measurement again keeps the
+/// commissioning's noise.
+fn night_averaging(averaging: Averaging, last: &[MeasuredDisplay]) -> u32 {
+    match averaging {
+        Averaging::Auto => last
+            .iter()
+            .map(|m| m.log.meter_readings_each())
+            .max()
+            .unwrap_or(1),
+        fixed => fixed.count_or_one(),
+    }
 }
 
 /// One display's check (full, or the white check escalated to a full one where it saw

@@ -70,6 +70,11 @@ pub(crate) struct RecalibrateArgs {
     /// do). 1: every display in full every night.
     #[arg(long, default_value_t = 7, value_parser = clap::value_parser!(u32).range(1..=366))]
     full_check_every: u32,
+    /// Meter readings each reading of the night averages: `auto` as the commissioning's
+    /// saved measurements did (a dim wall's `commission --averaging`), a number fixes
+    /// it.
+    #[arg(long, default_value = "auto")]
+    averaging: lumiwall_calib::measure::averaging::Averaging,
     /// Tonight's number for the rotation of full checks (default: days since
     /// 1970-01-01 UTC, so a nightly service needs none).
     #[arg(long)]
@@ -319,6 +324,7 @@ fn options(args: &RecalibrateArgs, station: &Station) -> Result<RecalibrateOptio
                 &args.profiles,
                 station.meter.as_ref(),
             )?,
+            averaging: args.averaging,
             ..MeasureOptions::default()
         },
         limits: DriftLimits {

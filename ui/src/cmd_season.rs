@@ -58,6 +58,10 @@ pub(crate) struct SeasonArgs {
     /// Scratch folder: profiles, the season's store, the plot (season.svg).
     #[arg(long, default_value = "out/bench-season")]
     out: PathBuf,
+    /// Meter readings each reading averages, as `commission --averaging` (the nights
+    /// average as the commissioning did, as `recalibrate`'s default).
+    #[arg(long, default_value = "auto")]
+    averaging: lumiwall_calib::measure::averaging::Averaging,
 }
 
 /// Runs `lumiwall bench season`: prints the night-by-night table, the forecast check,
@@ -84,6 +88,7 @@ pub(crate) fn bench(a: SeasonArgs) -> Result<(), CliError> {
         limits: DriftLimits::default(),
         full_check_every_nights: a.full_check_every,
         tolerances: Tolerances::default(),
+        averaging: a.averaging,
         out: a.out,
         start_utc: Timestamp::now(),
     };

@@ -509,3 +509,57 @@ fn the_curve_check_on_a_wall_using_a_third_of_its_drive_range_finds_nothing_move
         }
     }
 }
+
+/// A dim wall commissioned with `--averaging auto` (mono-2x1 with lamps of 25 cd/m²,
+/// the realistic meter: each reading the mean of three) is checked at night with as
+/// many meter readings each (`recalibrate --averaging auto`, as the commissioning's
+/// saved measurements did), so that the night compares like with like: the night's
+/// meter readings, counted on the virtual wall's clock (one second each), are three
+/// times its readings; with `--averaging 1` they are its readings.
+#[test]
+fn a_dim_wall_is_checked_at_night_with_as_many_meter_readings_each_as_it_was_commissioned() {
+    use lumiwall_calib::measure::averaging::Averaging;
+    let fixture = std::fs::read_to_string(crate::support::wall_path("mono-2x1.toml")).unwrap();
+    assert!(
+        fixture.contains("white_cd_m2 = 250.0"),
+        "the fixture's lamp changed"
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    let wall = tmp.path().join("dim.toml");
+    std::fs::write(
+        &wall,
+        fixture.replace("white_cd_m2 = 250.0", "white_cd_m2 = 25.0"),
+    )
+    .unwrap();
+    let mut station = Station::open(
+        &wall,
+        &StationOptions::new(MeterChoice::Direct, Noise::Realistic),
+    )
+    .unwrap();
+    let dir = tmp.path().join("profiles");
+    let measure = MeasureOptions {
+        averaging: Averaging::Auto,
+        ..MeasureOptions::default()
+    };
+    let opts = crate::support::options_8500k(measure, BlackMode::Individual, false);
+    let commissioned = station.commission(&dir, &opts, &mut |_| {}).unwrap();
+    let n = commissioned.readings_per_reading;
+    assert_eq!(n, 3, "{:?}", commissioned.averaging);
+    for (averaging, each) in [(Averaging::Auto, n), (Averaging::Fixed(1), 1)] {
+        station.wall.advance_hours(1.0);
+        let before_s = station.wall.elapsed_s();
+        let night = RecalibrateOptions {
+            measure: MeasureOptions {
+                averaging,
+                ..MeasureOptions::default()
+            },
+            ..options()
+        };
+        let o = station.recalibrate(&dir, &night, &mut |_| {}).unwrap();
+        let readings: u32 = o.checks.iter().map(|c| c.readings).sum();
+        let meter_readings = (station.wall.elapsed_s() - before_s).round() as u32;
+        println!("{averaging:?}: {readings} readings, {meter_readings} meter readings");
+        assert!(readings > 0);
+        assert_eq!(meter_readings, readings * each, "{averaging:?}");
+    }
+}

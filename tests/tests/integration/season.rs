@@ -29,6 +29,7 @@ fn bench(out: &std::path::Path) -> SeasonBench {
         limits: DriftLimits::default(),
         full_check_every_nights: 3,
         tolerances: Tolerances::default(),
+        averaging: lumiwall_calib::measure::averaging::Averaging::Fixed(1),
         out: out.to_path_buf(),
         start_utc: "2026-01-01T02:00:00Z".parse::<Timestamp>().unwrap(),
     }

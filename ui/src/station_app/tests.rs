@@ -230,6 +230,7 @@ fn the_forecast_view_lists_every_display_of_the_store_and_charts_the_selected_on
         limits: DriftLimits::default(),
         full_check_every_nights: 1,
         tolerances: Tolerances::default(),
+        averaging: lumiwall_calib::measure::averaging::Averaging::Fixed(1),
         out: out.clone(),
         start_utc: "2026-01-01T02:00:00Z".parse().expect("a time"),
     };
