@@ -1030,14 +1030,10 @@ pub struct WallMeasured {
 /// most of any; 1 where none is saved): what a resumed run's remaining passes average
 /// when it surveys nothing and so chooses nothing.
 fn saved_averaging(slots: &[Slot]) -> u32 {
-    slots
-        .iter()
-        .filter_map(|s| match s {
-            Slot::Saved(m) => Some(m.log.meter_readings_each()),
-            _ => None,
-        })
-        .max()
-        .unwrap_or(1)
+    averaging::of_saved(slots.iter().filter_map(|s| match s {
+        Slot::Saved(m) => Some(m.as_ref()),
+        _ => None,
+    }))
 }
 
 /// The target white's chromaticity when it is known before measuring.

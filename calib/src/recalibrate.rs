@@ -552,11 +552,7 @@ pub fn recalibrate_with_camera(
 /// commissioning's noise.
 fn night_averaging(averaging: Averaging, last: &[MeasuredDisplay]) -> u32 {
     match averaging {
-        Averaging::Auto => last
-            .iter()
-            .map(|m| m.log.meter_readings_each())
-            .max()
-            .unwrap_or(1),
+        Averaging::Auto => crate::measure::averaging::of_saved(last),
         fixed => fixed.count_or_one(),
     }
 }

@@ -188,6 +188,16 @@ impl AveragingChoice {
     }
 }
 
+/// Meter readings each reading averaged in these saved measurements
+/// ([`super::MeasureLog::readings_averaged`]): the most of any, 1 for none.
+pub fn of_saved<'m>(measured: impl IntoIterator<Item = &'m super::MeasuredDisplay>) -> u32 {
+    measured
+        .into_iter()
+        .map(|m| m.log.meter_readings_each())
+        .max()
+        .unwrap_or(1)
+}
+
 /// Runs `f` with `rig`'s meter averaging `n` readings for each
 /// ([`lumiwall_devices::AveragingMeter`]).
 pub fn with_averaging<T>(rig: &mut Rig<'_>, n: u32, f: impl FnOnce(&mut Rig<'_>) -> T) -> T {

@@ -519,18 +519,9 @@ fn the_curve_check_on_a_wall_using_a_third_of_its_drive_range_finds_nothing_move
 #[test]
 fn a_dim_wall_is_checked_at_night_with_as_many_meter_readings_each_as_it_was_commissioned() {
     use lumiwall_calib::measure::averaging::Averaging;
-    let fixture = std::fs::read_to_string(crate::support::wall_path("mono-2x1.toml")).unwrap();
-    assert!(
-        fixture.contains("white_cd_m2 = 250.0"),
-        "the fixture's lamp changed"
-    );
     let tmp = tempfile::tempdir().unwrap();
     let wall = tmp.path().join("dim.toml");
-    std::fs::write(
-        &wall,
-        fixture.replace("white_cd_m2 = 250.0", "white_cd_m2 = 25.0"),
-    )
-    .unwrap();
+    std::fs::write(&wall, crate::support::dim_mono_2x1(25.0)).unwrap();
     let mut station = Station::open(
         &wall,
         &StationOptions::new(MeterChoice::Direct, Noise::Realistic),

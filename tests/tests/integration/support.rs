@@ -15,6 +15,20 @@ pub(crate) fn wall_path(file: &str) -> PathBuf {
         .join(file)
 }
 
+/// `fixtures/walls/mono-2x1.toml` with lamps of `lamp_cd_m2` instead of its 250
+/// cd/m²: a dim wall (25 cd/m²: a wall white near 12.7 cd/m²; 15: near 7.6).
+pub(crate) fn dim_mono_2x1(lamp_cd_m2: f64) -> String {
+    let fixture = std::fs::read_to_string(wall_path("mono-2x1.toml")).expect("fixture");
+    assert!(
+        fixture.contains("white_cd_m2 = 250.0"),
+        "the fixture's lamp changed"
+    );
+    fixture.replace(
+        "white_cd_m2 = 250.0",
+        &format!("white_cd_m2 = {lamp_cd_m2:?}"),
+    )
+}
+
 /// The fixture wall `file` with the simulated meter called directly.
 pub(crate) fn direct_station(file: &str, noise: Noise) -> Station {
     Station::open(

@@ -734,13 +734,7 @@ fn a_dim_walls_grey_drive_pass_leaves_its_darkest_grey_a_reading() {
 #[test]
 fn at_64_readings_a_dim_wall_splits_its_darkest_grey_into_toe_samples() {
     use lumiwall_calib::measure::Patch;
-    let fixture =
-        std::fs::read_to_string(crate::support::wall_path("mono-2x1.toml")).expect("fixture");
-    assert!(
-        fixture.contains("white_cd_m2 = 250.0"),
-        "the fixture's lamp changed"
-    );
-    let dim = fixture.replace("white_cd_m2 = 250.0", "white_cd_m2 = 15.0");
+    let dim = crate::support::dim_mono_2x1(15.0);
     let measure = MeasureOptions {
         budget: 64,
         ..MeasureOptions::default()
@@ -778,9 +772,7 @@ fn a_dim_walls_darkest_grey_read_off_its_luminance_is_read_again_nearer_it() {
     use lumiwall_calib::measure::Patch;
     use lumiwall_calib::measure::black_readings::DARKEST_GREY_SHARE;
     use lumiwall_calib::measure::grey_drives::SPLIT_REAIM_REL;
-    let fixture =
-        std::fs::read_to_string(crate::support::wall_path("mono-2x1.toml")).expect("fixture");
-    let dim = fixture.replace("white_cd_m2 = 250.0", "white_cd_m2 = 15.0");
+    let dim = crate::support::dim_mono_2x1(15.0);
     let measure = MeasureOptions {
         budget: 40,
         ..MeasureOptions::default()
@@ -891,22 +883,16 @@ fn truth_grey_balance(
 #[test]
 fn a_dim_wall_averages_each_reading_as_its_white_needs_and_its_greys_keep_their_balance() {
     use lumiwall_calib::measure::averaging::Averaging;
-    let fixture =
-        std::fs::read_to_string(crate::support::wall_path("mono-2x1.toml")).expect("fixture");
-    assert!(
-        fixture.contains("white_cd_m2 = 250.0") && fixture.contains("\nseed = "),
-        "the fixture's lamp or seed changed"
-    );
-    let seed_line = fixture
+    let dim = crate::support::dim_mono_2x1(25.0);
+    assert!(dim.contains("\nseed = "), "the fixture's seed changed");
+    let seed_line = dim
         .lines()
         .find(|l| l.starts_with("seed = "))
         .expect("seed")
         .to_string();
     let (mut once, mut auto) = (Vec::new(), Vec::new());
     for seed in 101..=104 {
-        let dim = fixture
-            .replace("white_cd_m2 = 250.0", "white_cd_m2 = 25.0")
-            .replace(&seed_line, &format!("seed = {seed}"));
+        let dim = dim.replace(&seed_line, &format!("seed = {seed}"));
         for (averaging, grey) in [
             (Averaging::Fixed(1), &mut once),
             (Averaging::Auto, &mut auto),
@@ -970,13 +956,7 @@ fn a_dim_wall_averages_each_reading_as_its_white_needs_and_its_greys_keep_their_
 #[test]
 fn a_dim_wall_resumed_for_its_grey_drive_pass_averages_as_its_saved_displays_did() {
     use lumiwall_calib::measure::averaging::Averaging;
-    let fixture =
-        std::fs::read_to_string(crate::support::wall_path("mono-2x1.toml")).expect("fixture");
-    assert!(
-        fixture.contains("white_cd_m2 = 250.0"),
-        "the fixture's lamp changed"
-    );
-    let dim = fixture.replace("white_cd_m2 = 250.0", "white_cd_m2 = 25.0");
+    let dim = crate::support::dim_mono_2x1(25.0);
     let auto = |resume| {
         let measure = MeasureOptions {
             averaging: Averaging::Auto,
