@@ -526,8 +526,11 @@ fn read_greys_of(
         .map_err(GreyPassError::Measure)?;
     let readings = read.readings;
     if let Some((again, n)) = read.black {
-        let first = m.log.readings_of(Patch::Black);
-        m.measurement.black = merged_black(m.measurement.black, first, again, n);
+        m.measurement.black = black_read_again(m, &read.black_readings, noise, &mopts)
+            .unwrap_or_else(|| {
+                let first = m.log.readings_of(Patch::Black);
+                merged_black(m.measurement.black, first, again, n)
+            });
     }
     m.log.samples.extend(read.samples);
     m.log.noise_seen.merge(read.noise_seen);
@@ -539,6 +542,24 @@ fn read_greys_of(
     m.measurement.readings += readings;
     m.log.readings += readings;
     Ok(readings)
+}
+
+/// `m`'s black from its log's readings of it and those of the grey-drive pass
+/// (`again`), added to its log ([`crate::measure::black_of`]); `None` for a log written
+/// before it kept them (then the two means are weighted by readings: [`merged_black`]).
+fn black_read_again(
+    m: &mut MeasuredDisplay,
+    again: &lumiwall_devices::CensoredReadings,
+    noise: Option<ReadingNoise>,
+    opts: &MeasureOptions,
+) -> Option<Xyz> {
+    if m.log.black_readings.is_empty() {
+        return None;
+    }
+    m.log.black_readings.merge(again);
+    let m = &*m;
+    let primaries = &m.measurement.primaries;
+    crate::measure::black_of(&m.log, noise.as_ref(), opts, &m.measurement.key, primaries)
 }
 
 /// The greys of `m`'s log read whole ([`GreyLevel::Split`]) split into channel samples

@@ -57,8 +57,8 @@ pub mod wavelength_check;
 
 use lumiwall_core::{BitDepth, Channel};
 use lumiwall_devices::{
-    AimingAids, Colorimeter, DeviceError, DisplayId, DisplayInfo, MeterPositioner, PatternOutput,
-    ReadingNoise, Xyz,
+    AimingAids, CensoredReadings, Colorimeter, DeviceError, DisplayId, DisplayInfo,
+    MeterPositioner, PatternOutput, ReadingNoise, Xyz,
 };
 use lumiwall_profiles::DisplayKey;
 use serde::{Deserialize, Serialize};
@@ -462,6 +462,11 @@ pub struct MeasureLog {
     /// more readings averaged ([`averaging`]): spent, not in `readings`.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub first_survey_readings: u32,
+    /// Every reading of the black as the meter gave it (before its correction), those
+    /// it refused as too dark counted: the black is their mean ([`black_of`]), however
+    /// many times the run came back to it. Empty in logs written before it.
+    #[serde(default, skip_serializing_if = "CensoredReadings::is_empty")]
+    pub black_readings: CensoredReadings,
 }
 
 /// For `skip_serializing_if`.
@@ -796,6 +801,56 @@ pub struct Rig<'a> {
     pub positioner: &'a mut dyn MeterPositioner,
 }
 
+/// The meter's correction for `display`'s type that `opts` carries, if any.
+fn correction_for(opts: &MeasureOptions, display: &DisplayKey) -> Option<nalgebra::Matrix3<f64>> {
+    opts.meter_matrix
+        .as_ref()
+        .and_then(|m| m.for_display(display.display, display.eye))
+}
+
+/// A reading as the meter gave it, with `correction` applied where there is one.
+fn corrected(correction: Option<&nalgebra::Matrix3<f64>>, xyz: Xyz) -> Xyz {
+    match correction {
+        Some(m) => meter_matrix::apply(m, xyz),
+        None => xyz,
+    }
+}
+
+/// `display`'s black from every reading of it in its log
+/// ([`MeasureLog::black_readings`]), the display's `primaries` as measured: their mean
+/// with those the meter refused as too dark counted ([`CensoredReadings::mean`], the
+/// meter's stated `noise`), corrected by the meter's correction in `opts`. Where the
+/// meter refused them all, the luminance they leave ([`CensoredReadings::below_floor_y`])
+/// at the chromaticity of the display's white: the readings give no colour, and a
+/// projector's black is its lamp's light leaking through all three channels. `None`
+/// when the log holds none (written before it kept them) or the meter states no noise
+/// and refused them all.
+pub fn black_of(
+    log: &MeasureLog,
+    noise: Option<&ReadingNoise>,
+    opts: &MeasureOptions,
+    display: &DisplayKey,
+    primaries: &[Xyz; 3],
+) -> Option<Xyz> {
+    let correction = correction_for(opts, display);
+    black_from(&log.black_readings, noise, correction.as_ref(), primaries)
+}
+
+/// [`black_of`] from the readings themselves.
+fn black_from(
+    readings: &CensoredReadings,
+    noise: Option<&ReadingNoise>,
+    correction: Option<&nalgebra::Matrix3<f64>>,
+    primaries: &[Xyz; 3],
+) -> Option<Xyz> {
+    if let Some(mean) = readings.mean(noise) {
+        return Some(corrected(correction, mean));
+    }
+    let y = readings.below_floor_y(noise)?;
+    let white = primaries[0] + primaries[1] + primaries[2];
+    (white.y > 0.0).then(|| white * (y / white.y))
+}
+
 /// The `DisplayKey` of a display of wall `wall`.
 pub fn display_key(wall: &str, info: &DisplayInfo) -> DisplayKey {
     DisplayKey {
@@ -824,6 +879,9 @@ pub struct Session<'r, 'a> {
     noise: Option<ReadingNoise>,
     /// The readings of the patch on show so far.
     spread: Option<noise_seen::PatchSpread>,
+    /// The same readings as the meter gave them (before its correction), with those it
+    /// refused as too dark: what their mean is taken from ([`Session::shown_mean`]).
+    shown: CensoredReadings,
     /// Each sample's first reading is taken even with the budget spent
     /// ([`Session::essential`]).
     essential: bool,
@@ -863,16 +921,14 @@ impl<'r, 'a> Session<'r, 'a> {
             rig,
             id,
             name,
-            correction: opts
-                .meter_matrix
-                .as_ref()
-                .and_then(|m| m.for_display(display.display, display.eye)),
+            correction: correction_for(opts, display),
             budget: opts.budget,
             max_retries: opts.max_retries,
             limit_cd_m2,
             low_light: opts.low_light,
             noise,
             spread: None,
+            shown: CensoredReadings::default(),
             essential: false,
             log: MeasureLog {
                 low_light_limit_cd_m2: limit_cd_m2,
@@ -932,15 +988,22 @@ impl<'r, 'a> Session<'r, 'a> {
                     });
                 }
                 Ok(xyz) => {
-                    let xyz = match &self.correction {
-                        Some(m) => meter_matrix::apply(m, xyz),
-                        None => xyz,
-                    };
+                    self.shown.add(xyz);
+                    if patch == Patch::Black {
+                        self.log.black_readings.add(xyz);
+                    }
+                    let xyz = self.corrected(xyz);
                     let seen = &mut self.log.noise_seen;
                     noise_seen::PatchSpread::add(&mut self.spread, seen, self.noise.as_ref(), xyz);
                     Some(xyz)
                 }
-                Err(DeviceError::TooDark { .. }) => None,
+                Err(DeviceError::TooDark { limit_cd_m2, .. }) => {
+                    self.shown.add_refused(limit_cd_m2);
+                    if patch == Patch::Black {
+                        self.log.black_readings.add_refused(limit_cd_m2);
+                    }
+                    None
+                }
                 Err(e) if e.is_transient() && attempts <= self.max_retries => {
                     tracing::warn!(display = %self.name, %patch, "transient meter error, retrying: {e}");
                     self.log.retries += 1;
@@ -969,8 +1032,9 @@ impl<'r, 'a> Session<'r, 'a> {
     }
 
     /// Shows `patch` and reads it, applying the low-light policy. A reading below the
-    /// reliable limit (or refused as too dark) is repeated and the successful readings
-    /// averaged under [`LowLight::Average`], or always when `always_average` is set
+    /// reliable limit (or refused as too dark) is repeated and the readings averaged,
+    /// the refused ones counted ([`CensoredReadings::mean`]), under [`LowLight::Average`],
+    /// or always when `always_average` is set
     /// (black, primaries); under [`LowLight::Skip`] the sample is dropped. Returns
     /// `None` when the sample was skipped, every reading was refused as too dark, or
     /// the display's budget was already spent (then nothing is shown or read): no
@@ -1028,10 +1092,9 @@ impl<'r, 'a> Session<'r, 'a> {
         self.show(patch)?;
         let first = self.read_once(patch, progress)?;
         if let Some(x) = first.filter(|x| x.y >= self.limit_cd_m2) {
-            let mut sum = x;
             let more = bounds.at_least.min(at_most).saturating_sub(1);
-            let (more, ok) = self.read_into(patch, more, &mut sum, progress)?;
-            let mean = sum * (1.0 / f64::from(1 + ok));
+            let more = self.read_into(patch, more, progress)?;
+            let mean = self.shown_mean().unwrap_or(x);
             self.log.samples.push(ReadingRecord {
                 patch,
                 xyz: Some(mean),
@@ -1057,11 +1120,9 @@ impl<'r, 'a> Session<'r, 'a> {
         };
         // Average in XYZ: in the dark a colorimeter's noise is its sensors' zero-light
         // noise, Gaussian in X, Y and Z (in x and y it has heavy tails: x = X/(X+Y+Z)).
-        let mut sum = first.unwrap_or_default();
-        let (more, more_ok) =
-            self.read_into(patch, repeats.saturating_sub(1), &mut sum, progress)?;
-        let ok = u32::from(first.is_some()) + more_ok;
-        let mean = (repeats > 0 && ok > 0).then(|| sum * (1.0 / f64::from(ok)));
+        // Readings refused as too dark count in the mean's luminance.
+        let more = self.read_into(patch, repeats.saturating_sub(1), progress)?;
+        let mean = if repeats > 0 { self.shown_mean() } else { None };
         self.log.samples.push(ReadingRecord {
             patch,
             xyz: mean,
@@ -1103,34 +1164,59 @@ impl<'r, 'a> Session<'r, 'a> {
         n: u32,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<(), MeasureError> {
-        let mut sum = first;
-        let (more, ok) = self.read_into(patch, n, &mut sum, progress)?;
+        let more = self.read_into(patch, n, progress)?;
+        let mean = self.shown_mean().unwrap_or(first);
         if let Some(r) = self.log.samples.last_mut() {
-            r.xyz = Some(sum * (1.0 / f64::from(1 + ok)));
+            r.xyz = Some(mean);
             r.repeats = 1 + more;
         }
         Ok(())
     }
 
     /// Reads the patch already shown up to `n` times (at most what the budget leaves),
-    /// adding each value to `sum`. Returns the readings taken and those that gave a
-    /// value (the others were refused as too dark).
+    /// each reading into the patch's readings ([`Session::shown_mean`]). Returns the
+    /// readings taken.
     fn read_into(
         &mut self,
         patch: Patch,
         n: u32,
-        sum: &mut Xyz,
         progress: &mut dyn FnMut(Progress),
-    ) -> Result<(u32, u32), MeasureError> {
+    ) -> Result<u32, MeasureError> {
         let n = n.min(self.remaining());
-        let mut ok = 0;
         for _ in 0..n {
-            if let Some(x) = self.read_once(patch, progress)? {
-                *sum = *sum + x;
-                ok += 1;
-            }
+            self.read_once(patch, progress)?;
         }
-        Ok((n, ok))
+        Ok(n)
+    }
+
+    /// The mean of the readings of the patch on show, corrected as each reading is:
+    /// where the meter refused some as too dark, their luminance counts
+    /// ([`CensoredReadings::mean`] with the meter's stated noise), so a black near the
+    /// meter's floor is not biased high by the readings its noise lifted. (Readings that
+    /// are themselves means, [`lumiwall_devices::AveragingMeter`]'s, are refused only
+    /// when all their readings were; the estimate treats them as single readings of the
+    /// mean's noise, which holds while refusals are rare or the readings given lie well
+    /// below the floor.) `None` when every reading was refused or none was taken.
+    fn shown_mean(&self) -> Option<Xyz> {
+        let mean = self.shown.mean(self.noise.as_ref())?;
+        Some(self.corrected(mean))
+    }
+
+    /// A reading as the meter gave it, with the meter's correction for this display's
+    /// type where there is one.
+    fn corrected(&self, xyz: Xyz) -> Xyz {
+        corrected(self.correction.as_ref(), xyz)
+    }
+
+    /// The black from every reading of it in this session, of a display with these
+    /// `primaries` ([`black_of`]).
+    fn black_estimate(&self, primaries: &[Xyz; 3]) -> Option<Xyz> {
+        black_from(
+            &self.log.black_readings,
+            self.noise.as_ref(),
+            self.correction.as_ref(),
+            primaries,
+        )
     }
 }
 
@@ -1138,6 +1224,7 @@ impl Session<'_, '_> {
     /// Shows `patch` on the session's display.
     fn show(&mut self, patch: Patch) -> Result<(), MeasureError> {
         self.spread = None;
+        self.shown = CensoredReadings::default();
         self.rig
             .pattern
             .show(self.id, patch.drive())
@@ -1164,9 +1251,9 @@ impl Session<'_, '_> {
             return Ok(None);
         }
         self.show(patch)?;
-        let mut sum = Xyz::default();
-        let (n, ok) = self.read_into(patch, n, &mut sum, progress)?;
-        let mean = (ok > 0).then(|| sum * (1.0 / f64::from(ok)));
+        let n = self.read_into(patch, n, progress)?;
+        let mean = self.shown_mean();
+        let ok = self.shown.given();
         self.log.samples.push(ReadingRecord {
             patch,
             xyz: mean,
@@ -1538,7 +1625,8 @@ fn black_and_primaries_in(
     opts: &MeasureOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(Xyz, [Xyz; 3]), MeasureError> {
-    let black = s.sample(Patch::Black, true, progress)?.unwrap_or_default();
+    let read_black = s.sample(Patch::Black, true, progress)?;
+    let black = read_black.unwrap_or_default();
     let mut primaries = [Xyz::default(); 3];
     let primary_repeats = opts.primary_repeats();
     for c in Channel::ALL {
@@ -1566,6 +1654,10 @@ fn black_and_primaries_in(
             });
         }
     }
+    // Every reading of the black refused as too dark: the luminance they leave.
+    let black = read_black
+        .or_else(|| s.black_estimate(&primaries))
+        .unwrap_or_default();
     Ok((black, primaries))
 }
 
@@ -1603,10 +1695,8 @@ fn black_for_darkest_grey(
     if want <= have {
         return Ok(black);
     }
-    Ok(match s.averaged(Patch::Black, want - have, progress)? {
-        Some((again, n)) => grey_drives::merged_black(black, have, again, n),
-        None => black,
-    })
+    s.averaged(Patch::Black, want - have, progress)?;
+    Ok(s.black_estimate(primaries).unwrap_or(black))
 }
 
 /// Tells the technician that display `name`'s black gets fewer readings (`allowed`)

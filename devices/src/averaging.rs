@@ -7,7 +7,7 @@
 //! (the high-light repeatability and the sensors' zero-light noise are independent
 //! from reading to reading). The reliable limit stays the instrument's.
 
-use crate::{Colorimeter, DeviceError, MeterInfo, ReadingNoise, Xyz};
+use crate::{CensoredReadings, Colorimeter, DeviceError, MeterInfo, ReadingNoise, Xyz};
 
 /// Most readings one averaged reading may take.
 pub const MAX_AVERAGED: u32 = 64;
@@ -44,14 +44,19 @@ impl ReadingNoise {
 pub struct AveragingMeter<'m> {
     inner: &'m mut dyn Colorimeter,
     n: u32,
+    /// The instrument's stated noise of one reading, for the mean of readings some of
+    /// which it refused.
+    noise: Option<ReadingNoise>,
 }
 
 impl<'m> AveragingMeter<'m> {
     /// `inner` averaged over `n` readings (clamped to 1..=[`MAX_AVERAGED`]).
     pub fn new(inner: &'m mut dyn Colorimeter, n: u32) -> Self {
+        let noise = inner.info().noise;
         Self {
             inner,
             n: n.clamp(1, MAX_AVERAGED),
+            noise,
         }
     }
 
@@ -71,29 +76,31 @@ impl Colorimeter for AveragingMeter<'_> {
         info
     }
 
-    /// The mean of the readings the instrument gives; one it refuses as too dark is
-    /// left out (as a dark sample's repeats are), and only when all are refused is the
-    /// reading refused. Near the instrument's floor that biases the mean high (the
-    /// readings it keeps are the brighter ones), as it does a dark sample's repeats.
-    /// Any other error ends the reading, so a retry of a transient error reads all `n`
-    /// again.
+    /// The mean of the readings the instrument gives. Where it refused some as too dark,
+    /// their luminance is estimated with the refused ones and the instrument's stated
+    /// noise ([`CensoredReadings::mean`]): near its floor the readings it gives are the
+    /// brighter ones, and their plain mean is biased high. Only when all are refused is
+    /// the reading refused. Any other error ends the reading, so a retry of a transient
+    /// error reads all `n` again.
     fn measure(&mut self) -> Result<Xyz, DeviceError> {
-        let mut sum = Xyz::new(0.0, 0.0, 0.0);
-        let mut taken = 0u32;
+        let mut readings = CensoredReadings::default();
         let mut refused = None;
         for _ in 0..self.n {
             match self.inner.measure() {
-                Ok(xyz) => {
-                    sum = sum + xyz;
-                    taken += 1;
+                Ok(xyz) => readings.add(xyz),
+                Err(e @ DeviceError::TooDark { limit_cd_m2, .. }) => {
+                    readings.add_refused(limit_cd_m2);
+                    refused = Some(e);
                 }
-                Err(e @ DeviceError::TooDark { .. }) => refused = Some(e),
                 Err(e) => return Err(e),
             }
         }
-        match (taken, refused) {
-            (0, Some(e)) => Err(e),
-            _ => Ok(sum * (1.0 / f64::from(taken.max(1)))),
+        match (readings.mean(self.noise.as_ref()), refused) {
+            (Some(mean), _) => Ok(mean),
+            (None, Some(e)) => Err(e),
+            (None, None) => Err(DeviceError::Config(
+                "an averaged reading took no readings".into(),
+            )),
         }
     }
 }
@@ -141,11 +148,17 @@ mod tests {
     }
 
     #[test]
-    fn readings_refused_as_too_dark_are_left_out_and_all_refused_is_a_refusal() {
+    fn readings_refused_as_too_dark_lower_the_luminance_of_the_mean_and_all_refused_is_a_refusal() {
         let mut inner = Scripted(vec![Some(0.02), None, Some(0.04), None], 0);
         let mut m = AveragingMeter::new(&mut inner, 4);
-        let y = m.measure().unwrap().y;
-        assert!((y - 0.03).abs() < 1e-12, "{y}");
+        let mean = m.measure().unwrap();
+        // X and Z: the mean of the readings given; Y: the censored estimate with the
+        // two refused below the 0.01 cd/m² floor (σ_Y 0.004 there).
+        assert!((mean.x - 0.03).abs() < 1e-12 && (mean.z - 0.03).abs() < 1e-12);
+        let sigma_y = ReadingNoise::CS100A_CLASS.sigma_xyz(Xyz::new(0.0, 0.01, 0.0))[1];
+        let expected = crate::censored::censored_mean_y(0.06, 2, 2, 0.01, sigma_y);
+        assert!(expected < 0.025, "{expected}");
+        assert!((mean.y - expected).abs() < 1e-12, "{mean:?}");
         let mut dark = Scripted(vec![None], 0);
         let mut m = AveragingMeter::new(&mut dark, 3);
         assert!(matches!(m.measure(), Err(DeviceError::TooDark { .. })));

@@ -11,6 +11,7 @@
 
 pub mod averaging;
 pub mod camera;
+pub mod censored;
 pub mod error;
 mod guided;
 pub mod line_lamp;
@@ -27,6 +28,7 @@ pub mod uvc;
 
 pub use averaging::AveragingMeter;
 pub use camera::{Camera, CameraInfo, DriveImage, Frame};
+pub use censored::CensoredReadings;
 pub use error::DeviceError;
 pub use guided::GuidedPositioner;
 pub use line_lamp::{EmissionLine, GuidedLampHolder, LampHolder, LineLamp};

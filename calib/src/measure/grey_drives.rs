@@ -329,6 +329,10 @@ pub struct GreyDrives {
     /// it, for the commissioning to average with the black read first
     /// ([`merged_black`]).
     pub black: Option<(Xyz, u32)>,
+    /// The same readings of the black as the meter gave them, refusals counted
+    /// ([`super::MeasureLog::black_readings`]): what the commissioning adds to the
+    /// display's own.
+    pub black_readings: lumiwall_devices::CensoredReadings,
     /// The spread of the pass's repeated readings, for the display's log
     /// ([`super::noise_seen`]).
     pub noise_seen: super::noise_seen::NoiseSeen,
@@ -494,6 +498,7 @@ pub fn read_grey_drives(
     out.readings = s.log.readings;
     out.samples = std::mem::take(&mut s.log.samples);
     out.noise_seen = s.log.noise_seen;
+    out.black_readings = s.log.black_readings;
     progress(Progress::GreyDrivesRead {
         display: id,
         samples: out.drives.iter().map(Vec::len).sum(),
