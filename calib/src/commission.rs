@@ -525,12 +525,15 @@ fn read_greys_of(
     let read = read_grey_drives(rig, &m.measurement.key, info.id, &targets, &mopts, progress)
         .map_err(GreyPassError::Measure)?;
     let readings = read.readings;
-    if let Some((again, n)) = read.black {
-        m.measurement.black = black_read_again(m, &read.black_readings, noise, &mopts)
-            .unwrap_or_else(|| {
-                let first = m.log.readings_of(Patch::Black);
-                merged_black(m.measurement.black, first, again, n)
-            });
+    let instrument_noise = rig.meter.instrument_noise();
+    let pooled = black_read_again(m, &read.black_readings, instrument_noise, &mopts);
+    match (pooled, read.black) {
+        (Some(black), _) => m.measurement.black = black,
+        (None, Some((again, n))) => {
+            let first = m.log.readings_of(Patch::Black);
+            m.measurement.black = merged_black(m.measurement.black, first, again, n);
+        }
+        (None, None) => {}
     }
     m.log.samples.extend(read.samples);
     m.log.noise_seen.merge(read.noise_seen);
@@ -545,15 +548,17 @@ fn read_greys_of(
 }
 
 /// `m`'s black from its log's readings of it and those of the grey-drive pass
-/// (`again`), added to its log ([`crate::measure::black_of`]); `None` for a log written
-/// before it kept them (then the two means are weighted by readings: [`merged_black`]).
+/// (`again`, its refusals counted too), added to its log ([`crate::measure::black_of`],
+/// `noise` that of one of the instrument's readings); `None` where the pass read no
+/// black, or for a log written before it kept them (then the two means are weighted by
+/// readings: [`merged_black`]).
 fn black_read_again(
     m: &mut MeasuredDisplay,
     again: &lumiwall_devices::CensoredReadings,
     noise: Option<ReadingNoise>,
     opts: &MeasureOptions,
 ) -> Option<Xyz> {
-    if m.log.black_readings.is_empty() {
+    if m.log.black_readings.is_empty() || again.is_empty() {
         return None;
     }
     m.log.black_readings.merge(again);

@@ -25,8 +25,10 @@
 //! averages them in XYZ (each repeat counts against the budget; in the dark the noise
 //! is the sensors' own, Gaussian in X, Y and Z); [`LowLight::Skip`] drops ramp samples
 //! below the limit (black and the primaries are always averaged, never skipped). A
-//! reading the meter refuses as too dark costs a reading and is left out of the
-//! average. A ramp sample is put on its channel's line (a channel's chromaticity above
+//! reading the meter refuses as too dark costs a reading and counts in the mean's
+//! luminance as a reading below the meter's floor ([`CensoredReadings`]); every reading
+//! of a display's black is pooled in its log ([`MeasureLog::black_readings`]). A ramp
+//! sample is put on its channel's line (a channel's chromaticity above
 //! black does not change with drive) at its least-squares component along it, X, Y and
 //! Z weighted by the meter's stated noise ([`channel_reading`]): the Z of a dim blue,
 //! twenty times its Y, then carries the sample. A meter that states no noise is read
@@ -879,9 +881,13 @@ pub struct Session<'r, 'a> {
     noise: Option<ReadingNoise>,
     /// The readings of the patch on show so far.
     spread: Option<noise_seen::PatchSpread>,
-    /// The same readings as the meter gave them (before its correction), with those it
-    /// refused as too dark: what their mean is taken from ([`Session::shown_mean`]).
+    /// The same readings as the instrument gave them (before the meter's correction;
+    /// behind each averaged reading, its own), with those it refused as too dark: what
+    /// their mean is taken from ([`Session::shown_mean`]).
     shown: CensoredReadings,
+    /// The stated noise of one of the instrument's own readings
+    /// ([`Colorimeter::instrument_noise`]), with which refused ones count.
+    instrument_noise: Option<ReadingNoise>,
     /// Each sample's first reading is taken even with the budget spent
     /// ([`Session::essential`]).
     essential: bool,
@@ -917,6 +923,7 @@ impl<'r, 'a> Session<'r, 'a> {
             .unwrap_or_else(|| rig.meter.info().min_reliable_cd_m2)
             .max(0.0);
         let noise = rig.meter.info().noise;
+        let instrument_noise = rig.meter.instrument_noise();
         Ok(Self {
             rig,
             id,
@@ -929,6 +936,7 @@ impl<'r, 'a> Session<'r, 'a> {
             noise,
             spread: None,
             shown: CensoredReadings::default(),
+            instrument_noise,
             essential: false,
             log: MeasureLog {
                 low_light_limit_cd_m2: limit_cd_m2,
@@ -988,20 +996,14 @@ impl<'r, 'a> Session<'r, 'a> {
                     });
                 }
                 Ok(xyz) => {
-                    self.shown.add(xyz);
-                    if patch == Patch::Black {
-                        self.log.black_readings.add(xyz);
-                    }
+                    self.tally(patch, Ok(xyz));
                     let xyz = self.corrected(xyz);
                     let seen = &mut self.log.noise_seen;
                     noise_seen::PatchSpread::add(&mut self.spread, seen, self.noise.as_ref(), xyz);
                     Some(xyz)
                 }
                 Err(DeviceError::TooDark { limit_cd_m2, .. }) => {
-                    self.shown.add_refused(limit_cd_m2);
-                    if patch == Patch::Black {
-                        self.log.black_readings.add_refused(limit_cd_m2);
-                    }
+                    self.tally(patch, Err(limit_cd_m2));
                     None
                 }
                 Err(e) if e.is_transient() && attempts <= self.max_retries => {
@@ -1144,6 +1146,12 @@ impl<'r, 'a> Session<'r, 'a> {
         }
     }
 
+    /// Readings a sample below the reliable limit that is always averaged (the black)
+    /// takes under the low-light policy: at least one.
+    pub(crate) fn dark_sample_readings(&self) -> u32 {
+        self.dark_repeats(true).max(1)
+    }
+
     /// The low-light policy's readings for a patch below the reliable limit
     /// ([`Session::readings_for`]).
     fn dark_repeats(&self, always_average: bool) -> u32 {
@@ -1189,17 +1197,34 @@ impl<'r, 'a> Session<'r, 'a> {
         Ok(n)
     }
 
-    /// The mean of the readings of the patch on show, corrected as each reading is:
-    /// where the meter refused some as too dark, their luminance counts
-    /// ([`CensoredReadings::mean`] with the meter's stated noise), so a black near the
-    /// meter's floor is not biased high by the readings its noise lifted. (Readings that
-    /// are themselves means, [`lumiwall_devices::AveragingMeter`]'s, are refused only
-    /// when all their readings were; the estimate treats them as single readings of the
-    /// mean's noise, which holds while refusals are rare or the readings given lie well
-    /// below the floor.) `None` when every reading was refused or none was taken.
+    /// The mean of the readings of the patch on show, with the meter's correction
+    /// (applied to the mean, where the old per-reading average clamped each corrected
+    /// reading at 0): where the meter refused some as too dark, their luminance counts
+    /// ([`CensoredReadings::mean`] with the noise of one of the instrument's readings),
+    /// so a black near the meter's floor is not biased high by the readings its noise
+    /// lifted. An averaged reading ([`lumiwall_devices::AveragingMeter`]) counts as the
+    /// instrument's readings behind it. `None` when every reading was refused or none
+    /// was taken.
     fn shown_mean(&self) -> Option<Xyz> {
-        let mean = self.shown.mean(self.noise.as_ref())?;
+        let mean = self.shown.mean(self.instrument_noise.as_ref())?;
         Some(self.corrected(mean))
+    }
+
+    /// Adds the last reading of `patch`, given (`Ok`) or refused below the floor
+    /// (`Err`), to the patch's readings and, for the black, to the log's: the
+    /// instrument's own readings behind it where the meter averages
+    /// ([`Colorimeter::readings_behind_last`]), else the reading itself.
+    fn tally(&mut self, patch: Patch, reading: Result<Xyz, f64>) {
+        let mut one = CensoredReadings::default();
+        match (self.rig.meter.readings_behind_last(), reading) {
+            (Some(behind), _) => one = behind,
+            (None, Ok(xyz)) => one.add(xyz),
+            (None, Err(floor_cd_m2)) => one.add_refused(floor_cd_m2),
+        }
+        self.shown.merge(&one);
+        if patch == Patch::Black {
+            self.log.black_readings.merge(&one);
+        }
     }
 
     /// A reading as the meter gave it, with the meter's correction for this display's
@@ -1213,7 +1238,7 @@ impl<'r, 'a> Session<'r, 'a> {
     fn black_estimate(&self, primaries: &[Xyz; 3]) -> Option<Xyz> {
         black_from(
             &self.log.black_readings,
-            self.noise.as_ref(),
+            self.instrument_noise.as_ref(),
             self.correction.as_ref(),
             primaries,
         )
@@ -1607,8 +1632,8 @@ fn ramps_in(
 }
 
 /// Black (always averaged when dark, as it usually is; a black the meter refuses as too
-/// dark even on repeats is below its floor and taken as 0) and the three full-drive
-/// primaries, each of which must be brighter than black.
+/// dark on every repeat takes the luminance the refusals leave, [`black_of`]) and the
+/// three full-drive primaries, each of which must be brighter than black.
 pub(crate) fn measure_black_and_primaries(
     s: &mut Session<'_, '_>,
     key: &DisplayKey,
@@ -1661,8 +1686,9 @@ fn black_and_primaries_in(
     Ok((black, primaries))
 }
 
-/// `black` averaged with the black read again as often as the darkest grey of the wall
-/// white this display is expected to show needs ([`black_readings::for_darkest_grey`]):
+/// The black from its first readings and as many more as the darkest grey of the wall
+/// white this display is expected to show needs ([`black_readings::for_darkest_grey`]),
+/// all pooled ([`black_of`]):
 /// the white of `opts.focus` at the luminance the display reaches (at most the wall's
 /// so far). Unchanged without a focus or a meter that states its noise.
 fn black_for_darkest_grey(

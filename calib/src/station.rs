@@ -674,8 +674,9 @@ impl Station {
         )
     }
 
-    /// Verifies right after commissioning: [`Station::verify`] with the default options
-    /// and the meter correction `outcome` estimated, without progress reports.
+    /// Verifies right after commissioning: [`Station::verify`] with the default options,
+    /// the meter correction `outcome` estimated and each reading averaged as the
+    /// commissioning's were, without progress reports.
     pub fn verify_commissioned(
         &mut self,
         outcome: &CommissionOutcome,
@@ -684,6 +685,9 @@ impl Station {
     ) -> Result<VerifyReport, VerifyError> {
         let opts = VerifyOptions {
             meter_xy_offset: outcome.meter_correction.as_ref().map(|c| c.xy_offset),
+            averaging: crate::measure::averaging::Averaging::Fixed(
+                outcome.readings_per_reading.max(1),
+            ),
             ..VerifyOptions::default()
         };
         self.verify(profiles, targets, &opts, &mut |_| {})

@@ -9,6 +9,11 @@
 //! wall white as shown (luminance-absolute: a 5 % luminance error is a lightness error).
 //! In `Common` black mode the black (input 0) of every display is measured too and
 //! compared with the common black.
+//!
+//! On a dim wall each reading of the chart averages as many meter readings as the
+//! commissioning's rule asks for the wall white verified ([`VerifyOptions::averaging`],
+//! [`crate::measure::averaging::needed`]): the station meter's verdict on the darkest
+//! greys is then as quiet as the readings the calibration was made from.
 
 // Errors carry the display, the reading and the device error for the technician and
 // occur at most once per run, so their size does not matter.
@@ -24,6 +29,7 @@ use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::colorimetry::delta_e2000_xyz;
+use crate::measure::averaging::{self, Averaging};
 use crate::measure::meter_offset::CorrectedMeter;
 use crate::measure::{MeasureError, MeasureOptions, Patch, Progress, Rig, Session};
 use lumiwall_core::lab::delta_c2000_xyz;
@@ -87,6 +93,10 @@ pub struct VerifyOptions {
     /// switch-on in every process, a commissioning that waited would be verified cold).
     /// `None` (the default): read at once.
     pub warm_check: Option<crate::measure::warm_up::WarmCheck>,
+    /// Meter readings each reading of the chart averages (the warm check reads once):
+    /// [`Averaging::Auto`] as the commissioning's rule asks for the dimmest profile's
+    /// target white ([`readings_per_reading`]); `Fixed(1)`, the default, reads once.
+    pub averaging: Averaging,
 }
 
 impl Default for VerifyOptions {
@@ -98,6 +108,7 @@ impl Default for VerifyOptions {
             black_repeats: 8,
             meter_xy_offset: None,
             warm_check: None,
+            averaging: Averaging::default(),
         }
     }
 }
@@ -341,12 +352,21 @@ pub struct VerifyReport {
     pub overall: Summary,
     /// Black comparison (`Common` mode only).
     pub black: Vec<BlackResult>,
-    /// Meter readings taken.
+    /// Readings taken (each the mean of `readings_per_reading` meter readings).
     pub readings: u32,
     /// Infitec walls: ΔE2000 between the left and the right eye's readings of the same
     /// target on the same tile (what a viewer sees as a stereo colour mismatch).
     #[serde(default)]
     pub eyes_delta_e2000: Vec<f64>,
+    /// Meter readings each reading averaged ([`VerifyOptions::averaging`]); 1 in
+    /// reports written before it.
+    #[serde(default = "one")]
+    pub readings_per_reading: u32,
+}
+
+/// For `#[serde(default)]`.
+fn one() -> u32 {
+    1
 }
 
 impl VerifyReport {
@@ -760,7 +780,10 @@ impl DisplayUnderTest<'_> {
         })
     }
 
-    /// Reads the black (input 0) `repeats` times, averaged, against the common black.
+    /// Reads the black (input 0) as `repeats` dark samples would (each as many readings
+    /// as the low-light policy averages), all pooled, so that readings refused below
+    /// the meter's floor count once each ([`Session::averaged`]), against the common
+    /// black; every reading refused reads as 0.
     fn read_black(
         &self,
         s: &mut Session<'_, '_>,
@@ -769,12 +792,10 @@ impl DisplayUnderTest<'_> {
     ) -> Result<BlackResult, VerifyError> {
         let drive = drive_for(&self.prepared, Xyz::default(), self.spot_uv);
         let patch = Patch::Drive(drive);
-        let mut sum = Xyz::default();
-        let n = repeats.max(1);
-        for _ in 0..n {
-            sum = sum + s.sample(patch, true, progress)?.unwrap_or_default();
-        }
-        let measured = sum * (1.0 / f64::from(n));
+        let n = repeats.max(1).saturating_mul(s.dark_sample_readings());
+        let measured = s
+            .averaged(patch, n, progress)?
+            .map_or_else(Xyz::default, |(mean, _)| mean);
         let expected = Xyz::from_array(self.profile.shown_black_xyz_cd_m2);
         Ok(BlackResult {
             display: self.profile.display.clone(),
@@ -787,7 +808,8 @@ impl DisplayUnderTest<'_> {
 }
 
 /// Verifies every display: shows each target through its profile, reads it and
-/// compares. `displays` and `profiles` are matched by display index.
+/// compares. `displays` and `profiles` are matched by display index. The warm check
+/// reads once; the chart's readings average as `opts.averaging` says.
 pub fn verify_wall(
     rig: &mut Rig<'_>,
     displays: &[DisplayInfo],
@@ -796,13 +818,6 @@ pub fn verify_wall(
     opts: &VerifyOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<VerifyReport, VerifyError> {
-    let mut patches = Vec::new();
-    let mut per_display = Vec::new();
-    let mut black = Vec::new();
-    let mut whites = Vec::new();
-    let mut readings = 0;
-    let mut mopts = opts.measure.clone();
-    mopts.budget = u32::MAX;
     let mut corrected = CorrectedMeter {
         inner: &mut *rig.meter,
         xy_offset: opts.meter_xy_offset.unwrap_or([0.0; 2]),
@@ -817,7 +832,8 @@ pub fn verify_wall(
         .iter()
         .map(|info| DisplayUnderTest::of(info, profiles, opts.spot_uv))
         .collect::<Result<Vec<_>, _>>()?;
-    let per_display_readings = readings_per_display(targets.len(), opts);
+    let each = readings_per_reading(opts.averaging, rig.meter.info().noise.as_ref(), profiles);
+    let per_display_readings = readings_per_display(targets.len(), opts).saturating_mul(each);
     wait_if_warming(
         rig,
         displays,
@@ -826,7 +842,54 @@ pub fn verify_wall(
         opts,
         progress,
     )?;
-    for (info, display) in displays.iter().zip(&under_test) {
+    let mut report = averaging::with_averaging(rig, each, |rig| {
+        read_charts(rig, displays, &under_test, targets, opts, progress)
+    })?;
+    report.readings_per_reading = each;
+    Ok(report)
+}
+
+/// Meter readings each reading of a verification of `profiles` averages with a meter
+/// of this stated `noise`: a fixed count as it is (1 to
+/// [`lumiwall_devices::averaging::MAX_AVERAGED`]); [`Averaging::Auto`] as
+/// [`averaging::needed`] asks for the dimmest profile's target white (1 for a meter
+/// that states no noise, or profiles without a white).
+pub fn readings_per_reading(
+    averaging: Averaging,
+    noise: Option<&lumiwall_devices::ReadingNoise>,
+    profiles: &[DisplayProfile],
+) -> u32 {
+    if averaging != Averaging::Auto {
+        return averaging.count_or_one();
+    }
+    let dimmest = profiles
+        .iter()
+        .map(|p| Xyz::from_array(p.target_white_xyz_cd_m2))
+        .filter(|w| w.y.is_finite() && w.y > 0.0)
+        .min_by(|a, b| a.y.total_cmp(&b.y));
+    match (noise, dimmest.and_then(|w| Some((w.xy()?, w.y)))) {
+        (Some(noise), Some((xy, y))) => averaging::needed(noise, xy, y).0,
+        _ => 1,
+    }
+}
+
+/// Reads every display's chart ([`verify_wall`] after its warm check).
+fn read_charts(
+    rig: &mut Rig<'_>,
+    displays: &[DisplayInfo],
+    under_test: &[DisplayUnderTest<'_>],
+    targets: &[Target],
+    opts: &VerifyOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<VerifyReport, VerifyError> {
+    let mut patches = Vec::new();
+    let mut per_display = Vec::new();
+    let mut black = Vec::new();
+    let mut whites = Vec::new();
+    let mut readings = 0;
+    let mut mopts = opts.measure.clone();
+    mopts.budget = u32::MAX;
+    for (info, display) in displays.iter().zip(under_test) {
         let profile = display.profile;
         let key = &profile.display;
         whites.push((key.clone(), display.reference_white));
@@ -856,6 +919,7 @@ pub fn verify_wall(
         black,
         readings,
         eyes_delta_e2000,
+        readings_per_reading: 1,
     })
 }
 

@@ -47,6 +47,8 @@ pub struct AveragingMeter<'m> {
     /// The instrument's stated noise of one reading, for the mean of readings some of
     /// which it refused.
     noise: Option<ReadingNoise>,
+    /// The instrument's readings behind the last reading.
+    last: CensoredReadings,
 }
 
 impl<'m> AveragingMeter<'m> {
@@ -57,6 +59,7 @@ impl<'m> AveragingMeter<'m> {
             inner,
             n: n.clamp(1, MAX_AVERAGED),
             noise,
+            last: CensoredReadings::default(),
         }
     }
 
@@ -83,25 +86,39 @@ impl Colorimeter for AveragingMeter<'_> {
     /// the reading refused. Any other error ends the reading, so a retry of a transient
     /// error reads all `n` again.
     fn measure(&mut self) -> Result<Xyz, DeviceError> {
-        let mut readings = CensoredReadings::default();
+        self.last = CensoredReadings::default();
         let mut refused = None;
         for _ in 0..self.n {
             match self.inner.measure() {
-                Ok(xyz) => readings.add(xyz),
+                Ok(xyz) => self.last.add(xyz),
                 Err(e @ DeviceError::TooDark { limit_cd_m2, .. }) => {
-                    readings.add_refused(limit_cd_m2);
+                    self.last.add_refused(limit_cd_m2);
                     refused = Some(e);
                 }
-                Err(e) => return Err(e),
+                Err(e) => {
+                    self.last = CensoredReadings::default();
+                    return Err(e);
+                }
             }
         }
-        match (readings.mean(self.noise.as_ref()), refused) {
+        match (self.last.mean(self.noise.as_ref()), refused) {
             (Some(mean), _) => Ok(mean),
             (None, Some(e)) => Err(e),
             (None, None) => Err(DeviceError::Config(
                 "an averaged reading took no readings".into(),
             )),
         }
+    }
+
+    /// The instrument's readings behind the last reading (every one of the `n`), where
+    /// it averages more than one.
+    fn readings_behind_last(&self) -> Option<CensoredReadings> {
+        (self.n > 1 && !self.last.is_empty()).then_some(self.last)
+    }
+
+    /// The instrument's own stated noise of one reading.
+    fn instrument_noise(&self) -> Option<ReadingNoise> {
+        self.noise
     }
 }
 
@@ -162,6 +179,25 @@ mod tests {
         let mut dark = Scripted(vec![None], 0);
         let mut m = AveragingMeter::new(&mut dark, 3);
         assert!(matches!(m.measure(), Err(DeviceError::TooDark { .. })));
+    }
+
+    #[test]
+    fn an_averaged_reading_hands_over_the_readings_behind_it_and_the_noise_of_one() {
+        let mut inner = Scripted(vec![Some(0.02), None, Some(0.04), None], 0);
+        let mut m = AveragingMeter::new(&mut inner, 4);
+        assert_eq!(m.readings_behind_last(), None, "nothing read yet");
+        m.measure().unwrap();
+        let behind = m.readings_behind_last().expect("four readings behind it");
+        assert_eq!((behind.given(), behind.refused()), (2, 2));
+        assert_eq!(m.instrument_noise(), Some(ReadingNoise::CS100A_CLASS));
+        let mut once = Scripted(vec![Some(0.02)], 0);
+        let mut m = AveragingMeter::new(&mut once, 1);
+        m.measure().unwrap();
+        assert_eq!(
+            m.readings_behind_last(),
+            None,
+            "one reading is the instrument's own"
+        );
     }
 
     #[test]

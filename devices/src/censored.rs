@@ -7,10 +7,17 @@
 //! refused and the mean of the rest is 0.012 cd/m², half as much again as the truth; the
 //! chart's 2 % grey then comes out 0.007 off in xy.
 //!
-//! The readings given and the count refused are a censored normal sample, whose
-//! maximum-likelihood mean (Tobit, with the instrument's stated noise) is unbiased:
-//! [`CensoredReadings::mean`]. Only Y is censored: X and Z come from their own sensors,
+//! The readings given and the count refused are a censored normal sample, and its
+//! maximum-likelihood mean (Tobit, with the instrument's stated noise) is the estimate
+//! to take: [`CensoredReadings::mean`]. The plain mean's bias stays however many
+//! readings there are; this one's shrinks with them (a few percent at four readings
+//! that are not all refused). Only Y is censored: X and Z come from their own sensors,
 //! whose noise is independent of Y's, so their mean over the readings given stands.
+//!
+//! The readings are the instrument's own: a reading that is itself a mean of several
+//! ([`crate::AveragingMeter`]) hands over the readings behind it
+//! ([`crate::Colorimeter::readings_behind_last`]), so each refusal counts once, at one
+//! reading's noise.
 
 use serde::{Deserialize, Serialize};
 
@@ -66,10 +73,11 @@ impl CensoredReadings {
     }
 
     /// The mean of the readings given, Y estimated with the refused ones
-    /// ([`censored_mean_y`]) where there were any and `noise` states the instrument's
-    /// noise (without it, or for an exact instrument, the plain mean). `None` when every
-    /// reading was refused: the readings then say only that the light is below the
-    /// floor.
+    /// ([`censored_mean_y`]) where there were any and `noise` states the noise of one of
+    /// the instrument's readings (without it, for an exact instrument or without a
+    /// known floor, the plain mean). `None` when every reading was refused: the
+    /// readings then say only that the light is below the floor
+    /// ([`CensoredReadings::below_floor_y`]).
     pub fn mean(&self, noise: Option<&ReadingNoise>) -> Option<Xyz> {
         if self.given == 0 {
             return None;
@@ -78,7 +86,8 @@ impl CensoredReadings {
         let sigma_y = noise.map_or(0.0, |n| {
             n.sigma_xyz(Xyz::new(0.0, self.floor_cd_m2, 0.0))[1]
         });
-        if self.refused == 0 || sigma_y.is_nan() || sigma_y <= 0.0 {
+        let unknown = |v: f64| v.is_nan() || v <= 0.0;
+        if self.refused == 0 || unknown(sigma_y) || unknown(self.floor_cd_m2) {
             return Some(mean);
         }
         let y = censored_mean_y(
@@ -99,7 +108,7 @@ impl CensoredReadings {
     /// ([`below_floor_mean_y`]). `None` where a reading was given (then
     /// [`CensoredReadings::mean`]), none was refused, or `noise` states none.
     pub fn below_floor_y(&self, noise: Option<&ReadingNoise>) -> Option<f64> {
-        if self.given > 0 || self.refused == 0 {
+        if self.given > 0 || self.refused == 0 || self.floor_cd_m2.is_nan() {
             return None;
         }
         let sigma_y = noise?.sigma_xyz(Xyz::new(0.0, self.floor_cd_m2, 0.0))[1];
@@ -132,8 +141,13 @@ pub fn below_floor_mean_y(refused: u32, floor: f64, sigma: f64) -> f64 {
 /// (a left-censored sample), at least 0 (light is not negative). The log-likelihood is
 /// concave in the mean, its slope `(Σy − k·μ)/σ − r·φ(z)/Φ(z)` with `z = (floor − μ)/σ`
 /// falls from +∞ to below 0 at the plain mean of the values seen, so bisection finds
-/// its one root.
+/// its one root (the bracket reaches down at most 1000σ below that mean, where a floor
+/// that far below the values seen leaves the refusals unexplained anyway). Without a
+/// value seen (`given` 0: NaN) or a noise (`sigma` not above 0), the plain mean.
 pub fn censored_mean_y(sum_given: f64, given: u32, refused: u32, floor: f64, sigma: f64) -> f64 {
+    if given == 0 || sigma.is_nan() || sigma <= 0.0 {
+        return sum_given / f64::from(given);
+    }
     let k = f64::from(given);
     let r = f64::from(refused);
     let plain = sum_given / k;
@@ -258,6 +272,35 @@ mod tests {
     }
 
     #[test]
+    fn readings_merged_and_saved_estimate_as_if_taken_together() {
+        let draws = normals(400);
+        let (a, b) = draws.split_at(150);
+        let mut merged = censor(0.008, 0.004, 0.01, a);
+        merged.merge(&censor(0.008, 0.004, 0.01, b));
+        let together = censor(0.008, 0.004, 0.01, &draws);
+        assert_eq!(
+            (merged.given(), merged.refused()),
+            (together.given(), together.refused())
+        );
+        let noise = Some(&ReadingNoise::CS100A_CLASS);
+        let (m, t) = (merged.mean(noise).unwrap(), together.mean(noise).unwrap());
+        assert!((m.y - t.y).abs() < 1e-12 && (m.x - t.x).abs() < 1e-12);
+        let text = serde_json::to_string(&merged).unwrap();
+        let back: CensoredReadings = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, merged);
+        assert!(CensoredReadings::default().is_empty() && !merged.is_empty());
+    }
+
+    #[test]
+    fn refusals_without_a_known_floor_leave_the_plain_mean() {
+        let mut r = CensoredReadings::default();
+        r.add(Xyz::new(0.02, 0.02, 0.02));
+        r.add_refused(f64::NAN);
+        let m = r.mean(Some(&ReadingNoise::CS100A_CLASS)).unwrap();
+        assert_eq!(m.y, 0.02);
+    }
+
+    #[test]
     fn readings_all_refused_leave_a_luminance_below_the_floor_that_falls_with_their_number() {
         let one = below_floor_mean_y(1, 0.01, 0.004);
         let four = below_floor_mean_y(4, 0.01, 0.004);
@@ -278,7 +321,9 @@ mod tests {
     fn one_reading_given_of_many_refused_stays_finite_and_not_negative() {
         let y = censored_mean_y(0.0101, 1, 63, 0.01, 0.004);
         assert!(y.is_finite() && (0.0..0.01).contains(&y), "{y}");
+        // One reading at 5 and one refused below 0.01 at a noise of 1e-6: each lies
+        // equally many noise widths from the mean, which is halfway.
         let far = censored_mean_y(5.0, 1, 1, 0.01, 1e-6);
-        assert!(far.is_finite() && far <= 5.0, "{far}");
+        assert!((far - 2.505).abs() < 1e-3, "{far}");
     }
 }

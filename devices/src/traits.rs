@@ -114,6 +114,19 @@ pub trait Colorimeter {
     fn info(&self) -> MeterInfo;
     /// Takes one reading.
     fn measure(&mut self) -> Result<Xyz, DeviceError>;
+    /// Where the last reading (given or refused) was itself the mean of several of the
+    /// instrument's own ([`crate::AveragingMeter`]): those readings, the refused ones
+    /// counted, so that a mean over several such readings counts each refusal once, at
+    /// one reading's noise ([`crate::CensoredReadings`], [`Colorimeter::instrument_noise`]).
+    /// `None`, the default: the last reading is the instrument's own.
+    fn readings_behind_last(&self) -> Option<crate::CensoredReadings> {
+        None
+    }
+    /// The stated noise of one of the instrument's own readings: [`MeterInfo::noise`]
+    /// unless each reading is a mean of several.
+    fn instrument_noise(&self) -> Option<ReadingNoise> {
+        self.info().noise
+    }
 }
 
 /// Fails unless every channel of a pattern drive is finite and in 0..=1: the one check

@@ -97,6 +97,13 @@ pub(crate) struct VerifyArgs {
     /// `--grid`'s cells.
     #[arg(long)]
     no_warm_check: bool,
+    /// Meter readings each reading of the chart averages: `auto` as `commission
+    /// --averaging auto` chooses for the profiles' wall white (the dimmest target
+    /// white; 3 on a 12.7 cd/m² wall with a CS-100A class meter, 1 from about 18
+    /// cd/m²), so the darkest greys are judged as quietly as they were calibrated; a
+    /// number fixes it. The warm check reads once.
+    #[arg(long, default_value = "auto")]
+    averaging: lumiwall_calib::measure::averaging::Averaging,
 }
 
 /// Parses `CxR` (e.g. `5x5`), each 1..=64.
@@ -304,6 +311,7 @@ pub(crate) fn verify_with(
             ..MeasureOptions::default()
         },
         warm_check: warm_check(args),
+        averaging: args.averaging,
         ..VerifyOptions::default()
     };
     let total = (station.displays().len() * targets.len()) as u64;
@@ -517,7 +525,14 @@ fn print_report(report: &VerifyReport, args: &VerifyArgs) -> Result<(), CliError
         println!();
     }
     print!("{}", report.summary_table());
-    println!("{} meter readings", report.readings);
+    match report.readings_per_reading {
+        0 | 1 => println!("{} meter readings", report.readings),
+        n => println!(
+            "{} readings, each the mean of {n} meter readings ({} meter readings)",
+            report.readings,
+            u64::from(report.readings) * u64::from(n)
+        ),
+    }
     let tol = tolerances(args);
     let violations = report.violations(&tol);
     if violations.is_empty() {

@@ -6,8 +6,8 @@
 //! display, the brightest grey given as a share of the white (the white itself by
 //! default) is also read whole ([`whole_grey_repeats`]). What the pass leaves of the
 //! display's budget goes first, when it holds a reading per channel, to each channel's
-//! widest gap in drive ratio ([`widest_ratio_gap_drive`]), then to the black
-//! ([`merged_black`]). A grey given as a split share ([`GreyLevel::Split`], the
+//! widest gap in drive ratio ([`widest_ratio_gap_drive`]), then to the black (pooled
+//! with the display's readings of it, [`GreyDrives::black_readings`]). A grey given as a split share ([`GreyLevel::Split`], the
 //! default's darkest grey: [`default_levels`]) is read whole where one of its channels
 //! sits below that channel's samples, aimed again where its first reading shows the
 //! provisional toe off ([`reaimed`]), and split into three channel samples through the
@@ -304,8 +304,8 @@ pub struct GreyTargets<'a> {
     /// Readings averaged for each grey read whole ([`whole_grey_repeats`]; 0: none).
     pub whole_repeats: u32,
     /// Whether the readings left of the budget re-read the black (with a meter that
-    /// has noise; [`merged_black`]): the commissioning's pass, not a re-read of the
-    /// curves at a lowered white.
+    /// has noise; pooled with the display's own, [`GreyDrives::black_readings`]): the
+    /// commissioning's pass, not a re-read of the curves at a lowered white.
     pub black_with_rest: bool,
 }
 
@@ -326,8 +326,9 @@ pub struct GreyDrives {
     pub samples: Vec<super::ReadingRecord>,
     /// The black read again with what the pass leaves of the display's budget (a
     /// meter with noise only): its mean (black included, cd/m²) and the readings in
-    /// it, for the commissioning to average with the black read first
-    /// ([`merged_black`]).
+    /// it, which the commissioning averages with the black read first
+    /// ([`merged_black`]) only for a display log written before it kept the black's
+    /// readings (otherwise it pools `black_readings`).
     pub black: Option<(Xyz, u32)>,
     /// The same readings of the black as the meter gave them, refusals counted
     /// ([`super::MeasureLog::black_readings`]): what the commissioning adds to the

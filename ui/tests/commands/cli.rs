@@ -1165,7 +1165,7 @@ fn apply_states_the_luminance_scale_and_auto_brings_the_bright_cornell_box_into_
 /// fixture's own bright wall reads once. A count outside 1–64 is refused before any
 /// reading.
 #[test]
-fn commission_averages_each_reading_on_a_dim_wall_and_says_so() {
+fn commission_and_verify_average_each_reading_on_a_dim_wall_and_say_so() {
     let tmp = TempDir::new().unwrap();
     let text = std::fs::read_to_string(fixture("walls/mono-2x1.toml")).unwrap();
     assert!(
@@ -1207,4 +1207,36 @@ fn commission_averages_each_reading_on_a_dim_wall_and_says_so() {
         .assert()
         .code(2)
         .stderr(contains("is not an averaging"));
+    // The verification averages as the commissioning did, for the wall white it
+    // verifies; a number fixes it.
+    let verify = |wall: &Path, profiles: &str| {
+        let mut c = lumiwall();
+        c.args([
+            "verify",
+            "--meter",
+            "direct",
+            "--noise",
+            "realistic",
+            "--chart",
+            "51",
+            "--summary-only",
+            "--no-warm-check",
+            "--wall",
+        ])
+        .arg(wall)
+        .arg("--profiles")
+        .arg(tmp.path().join(profiles));
+        c
+    };
+    let averaged = r"^\d+ readings, each the mean of [2-4] meter readings \(\d+ meter readings\)$";
+    verify(&dim, "dim")
+        .assert()
+        .stdout(is_match(format!("(?m){averaged}")).unwrap());
+    verify(&dim, "dim")
+        .args(["--averaging", "1"])
+        .assert()
+        .stdout(is_match(r"(?m)^\d+ meter readings$").unwrap());
+    verify(&fixture("walls/mono-2x1.toml"), "bright")
+        .assert()
+        .stdout(is_match(r"(?m)^\d+ meter readings$").unwrap());
 }
