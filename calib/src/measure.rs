@@ -102,6 +102,17 @@ pub enum LowLight {
     Skip,
 }
 
+impl LowLight {
+    /// Readings averaged for a sample below the reliable limit that is never skipped
+    /// (the black, the primaries): the policy's repeats, four under [`LowLight::Skip`].
+    pub fn black_readings(self) -> u32 {
+        match self {
+            LowLight::Average { repeats } => repeats.max(1),
+            LowLight::Skip => 4,
+        }
+    }
+}
+
 /// How to measure one display.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MeasureOptions {
@@ -1095,7 +1106,7 @@ impl<'r, 'a> Session<'r, 'a> {
         let first = self.read_once(patch, progress)?;
         if let Some(x) = first.filter(|x| x.y >= self.limit_cd_m2) {
             let more = bounds.at_least.min(at_most).saturating_sub(1);
-            let more = self.read_into(patch, more, progress)?;
+            let (more, _) = self.read_into(patch, more, progress)?;
             let mean = self.shown_mean().unwrap_or(x);
             self.log.samples.push(ReadingRecord {
                 patch,
@@ -1123,7 +1134,7 @@ impl<'r, 'a> Session<'r, 'a> {
         // Average in XYZ: in the dark a colorimeter's noise is its sensors' zero-light
         // noise, Gaussian in X, Y and Z (in x and y it has heavy tails: x = X/(X+Y+Z)).
         // Readings refused as too dark count in the mean's luminance.
-        let more = self.read_into(patch, repeats.saturating_sub(1), progress)?;
+        let (more, _) = self.read_into(patch, repeats.saturating_sub(1), progress)?;
         let mean = if repeats > 0 { self.shown_mean() } else { None };
         self.log.samples.push(ReadingRecord {
             patch,
@@ -1147,18 +1158,17 @@ impl<'r, 'a> Session<'r, 'a> {
     }
 
     /// Readings a sample below the reliable limit that is always averaged (the black)
-    /// takes under the low-light policy: at least one.
+    /// takes under the low-light policy ([`LowLight::black_readings`]).
     pub(crate) fn dark_sample_readings(&self) -> u32 {
-        self.dark_repeats(true).max(1)
+        self.low_light.black_readings()
     }
 
     /// The low-light policy's readings for a patch below the reliable limit
     /// ([`Session::readings_for`]).
     fn dark_repeats(&self, always_average: bool) -> u32 {
         match (self.low_light, always_average) {
-            (LowLight::Average { repeats }, _) => repeats.max(1),
-            (LowLight::Skip, true) => 4,
             (LowLight::Skip, false) => 0,
+            _ => self.low_light.black_readings(),
         }
     }
 
@@ -1172,7 +1182,7 @@ impl<'r, 'a> Session<'r, 'a> {
         n: u32,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<(), MeasureError> {
-        let more = self.read_into(patch, n, progress)?;
+        let (more, _) = self.read_into(patch, n, progress)?;
         let mean = self.shown_mean().unwrap_or(first);
         if let Some(r) = self.log.samples.last_mut() {
             r.xyz = Some(mean);
@@ -1183,18 +1193,22 @@ impl<'r, 'a> Session<'r, 'a> {
 
     /// Reads the patch already shown up to `n` times (at most what the budget leaves),
     /// each reading into the patch's readings ([`Session::shown_mean`]). Returns the
-    /// readings taken.
+    /// readings taken and those that gave a value (the others were refused as too
+    /// dark), both in the session's readings (an averaged reading is one).
     fn read_into(
         &mut self,
         patch: Patch,
         n: u32,
         progress: &mut dyn FnMut(Progress),
-    ) -> Result<u32, MeasureError> {
+    ) -> Result<(u32, u32), MeasureError> {
         let n = n.min(self.remaining());
+        let mut given = 0;
         for _ in 0..n {
-            self.read_once(patch, progress)?;
+            if self.read_once(patch, progress)?.is_some() {
+                given += 1;
+            }
         }
-        Ok(n)
+        Ok((n, given))
     }
 
     /// The mean of the readings of the patch on show, with the meter's correction
@@ -1276,9 +1290,8 @@ impl Session<'_, '_> {
             return Ok(None);
         }
         self.show(patch)?;
-        let n = self.read_into(patch, n, progress)?;
+        let (n, ok) = self.read_into(patch, n, progress)?;
         let mean = self.shown_mean();
-        let ok = self.shown.given();
         self.log.samples.push(ReadingRecord {
             patch,
             xyz: mean,

@@ -781,9 +781,10 @@ impl DisplayUnderTest<'_> {
     }
 
     /// Reads the black (input 0) as `repeats` dark samples would (each as many readings
-    /// as the low-light policy averages), all pooled, so that readings refused below
-    /// the meter's floor count once each ([`Session::averaged`]), against the common
-    /// black; every reading refused reads as 0.
+    /// as the low-light policy averages, even where the black is above the reliable
+    /// limit), all pooled, so that readings refused below the meter's floor count once
+    /// each ([`Session::averaged`]), against the common black; every reading refused
+    /// reads as 0.
     fn read_black(
         &self,
         s: &mut Session<'_, '_>,
@@ -833,7 +834,8 @@ pub fn verify_wall(
         .map(|info| DisplayUnderTest::of(info, profiles, opts.spot_uv))
         .collect::<Result<Vec<_>, _>>()?;
     let each = readings_per_reading(opts.averaging, rig.meter.info().noise.as_ref(), profiles);
-    let per_display_readings = readings_per_display(targets.len(), opts).saturating_mul(each);
+    let per_display_readings =
+        readings_per_display(targets.len(), opts, profiles).saturating_mul(each);
     wait_if_warming(
         rig,
         displays,
@@ -851,26 +853,25 @@ pub fn verify_wall(
 
 /// Meter readings each reading of a verification of `profiles` averages with a meter
 /// of this stated `noise`: a fixed count as it is (1 to
-/// [`lumiwall_devices::averaging::MAX_AVERAGED`]); [`Averaging::Auto`] as
-/// [`averaging::needed`] asks for the dimmest profile's target white (1 for a meter
-/// that states no noise, or profiles without a white).
+/// [`lumiwall_devices::averaging::MAX_AVERAGED`]); [`Averaging::Auto`] the most
+/// [`averaging::needed`] asks for any profile's target white (an Infitec wall's eyes
+/// differ in colour as well as luminance); 1 for a meter that states no noise, or
+/// profiles without a white.
 pub fn readings_per_reading(
     averaging: Averaging,
     noise: Option<&lumiwall_devices::ReadingNoise>,
     profiles: &[DisplayProfile],
 ) -> u32 {
-    if averaging != Averaging::Auto {
+    let Some(noise) = noise.filter(|_| averaging == Averaging::Auto) else {
         return averaging.count_or_one();
-    }
-    let dimmest = profiles
+    };
+    profiles
         .iter()
         .map(|p| Xyz::from_array(p.target_white_xyz_cd_m2))
         .filter(|w| w.y.is_finite() && w.y > 0.0)
-        .min_by(|a, b| a.y.total_cmp(&b.y));
-    match (noise, dimmest.and_then(|w| Some((w.xy()?, w.y)))) {
-        (Some(noise), Some((xy, y))) => averaging::needed(noise, xy, y).0,
-        _ => 1,
-    }
+        .filter_map(|w| Some(averaging::needed(noise, w.xy()?, w.y).0))
+        .max()
+        .unwrap_or(1)
 }
 
 /// Reads every display's chart ([`verify_wall`] after its warm check).
@@ -923,13 +924,20 @@ fn read_charts(
     })
 }
 
-/// Readings of one display's chart for the warm check's extrapolation: its patches and
-/// the black's repeats (read in common black mode only; low-light averages come on
-/// top).
-fn readings_per_display(patches: usize, opts: &VerifyOptions) -> u32 {
+/// Readings of one display's chart for the warm check's extrapolation: its patches and,
+/// where a profile keeps the common black, the black's readings (its repeats, each as
+/// many as the low-light policy averages; the darker patches' low-light averages come
+/// on top).
+fn readings_per_display(patches: usize, opts: &VerifyOptions, profiles: &[DisplayProfile]) -> u32 {
+    let common = profiles.iter().any(|p| p.black_mode == BlackMode::Common);
+    let black = if common {
+        (opts.black_repeats.max(1)).saturating_mul(opts.measure.low_light.black_readings())
+    } else {
+        0
+    };
     u32::try_from(patches)
         .unwrap_or(u32::MAX)
-        .saturating_add(opts.black_repeats)
+        .saturating_add(black)
 }
 
 /// Before a verification: [`VerifyOptions::warm_check`] (or the wait

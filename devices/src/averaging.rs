@@ -198,6 +198,41 @@ mod tests {
             None,
             "one reading is the instrument's own"
         );
+        // Every reading refused: the refusals are handed over all the same.
+        let mut dark = Scripted(vec![None], 0);
+        let mut m = AveragingMeter::new(&mut dark, 3);
+        assert!(m.measure().is_err());
+        let behind = m.readings_behind_last().expect("three refusals behind it");
+        assert_eq!((behind.given(), behind.refused()), (0, 3));
+    }
+
+    /// Gives one reading, then times out.
+    struct Failing(u32);
+
+    impl Colorimeter for Failing {
+        fn info(&self) -> MeterInfo {
+            Scripted(vec![], 0).info()
+        }
+
+        fn measure(&mut self) -> Result<Xyz, DeviceError> {
+            self.0 += 1;
+            if self.0 == 1 {
+                Ok(Xyz::new(1.0, 1.0, 1.0))
+            } else {
+                Err(DeviceError::Timeout {
+                    device: "failing".into(),
+                    timeout_ms: 10,
+                })
+            }
+        }
+    }
+
+    #[test]
+    fn a_reading_ended_by_an_error_hands_over_nothing() {
+        let mut inner = Failing(0);
+        let mut m = AveragingMeter::new(&mut inner, 4);
+        assert!(matches!(m.measure(), Err(DeviceError::Timeout { .. })));
+        assert_eq!(m.readings_behind_last(), None);
     }
 
     #[test]

@@ -108,7 +108,8 @@ impl CensoredReadings {
     /// ([`below_floor_mean_y`]). `None` where a reading was given (then
     /// [`CensoredReadings::mean`]), none was refused, or `noise` states none.
     pub fn below_floor_y(&self, noise: Option<&ReadingNoise>) -> Option<f64> {
-        if self.given > 0 || self.refused == 0 || self.floor_cd_m2.is_nan() {
+        let no_floor = self.floor_cd_m2.is_nan() || self.floor_cd_m2 <= 0.0;
+        if self.given > 0 || self.refused == 0 || no_floor {
             return None;
         }
         let sigma_y = noise?.sigma_xyz(Xyz::new(0.0, self.floor_cd_m2, 0.0))[1];

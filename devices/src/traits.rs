@@ -118,7 +118,10 @@ pub trait Colorimeter {
     /// instrument's own ([`crate::AveragingMeter`]): those readings, the refused ones
     /// counted, so that a mean over several such readings counts each refusal once, at
     /// one reading's noise ([`crate::CensoredReadings`], [`Colorimeter::instrument_noise`]).
-    /// `None`, the default: the last reading is the instrument's own.
+    /// `None`, the default: the last reading is the instrument's own. A meter that
+    /// corrects another's readings (its xy offset or matrix) keeps the defaults and so
+    /// belongs inside an [`crate::AveragingMeter`], never around one: around one it
+    /// would hide the readings behind each mean, which are the uncorrected ones.
     fn readings_behind_last(&self) -> Option<crate::CensoredReadings> {
         None
     }

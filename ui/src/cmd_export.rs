@@ -152,6 +152,7 @@ fn load_verification(dir: &std::path::Path) -> Option<serde_json::Value> {
     Some(serde_json::json!({
         "patches_per_display": report.targets.len(),
         "readings": report.readings,
+        "meter_readings_per_reading": report.readings_per_reading,
         "overall": report.overall,
         "per_display": report.per_display.iter().map(|(k, s)| serde_json::json!({
             "display": k.file_stem(), "summary": s

@@ -101,7 +101,7 @@ pub(crate) struct VerifyArgs {
     /// --averaging auto` chooses for the profiles' wall white (the dimmest target
     /// white; 3 on a 12.7 cd/m² wall with a CS-100A class meter, 1 from about 18
     /// cd/m²), so the darkest greys are judged as quietly as they were calibrated; a
-    /// number fixes it. The warm check reads once.
+    /// number fixes it. The warm check, and `--grid`'s cells, read once.
     #[arg(long, default_value = "auto")]
     averaging: lumiwall_calib::measure::averaging::Averaging,
 }

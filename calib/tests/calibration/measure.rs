@@ -596,35 +596,11 @@ fn the_white_is_averaged_by_the_stated_noise_only_where_the_budget_allows() {
 /// eighth of 64 are allowed; at the fixture's 250 cd/m² it keeps the survey's readings.
 #[test]
 fn a_dim_walls_black_is_read_as_often_as_its_darkest_grey_needs_within_an_eighth_of_the_budget() {
-    use lumiwall_calib::measure::{Patch, RampFocus};
-    use lumiwall_devices::sim::{MeterModel, VirtualWall};
+    use lumiwall_calib::measure::Patch;
+    use lumiwall_devices::sim::MeterModel;
     let black_readings = |lamp_cd_m2: f64| {
-        let dim = mono_2x1_with_lamps(lamp_cd_m2);
-        let wall = VirtualWall::from_toml_str(&dim).expect("wall");
-        let info = wall.pattern_output().displays()[0].clone();
-        let (mut out, mut meter, mut pos) = (
-            wall.pattern_output(),
-            wall.meter(MeterModel::cs100a(7)),
-            wall.positioner(),
-        );
-        let mut rig = Rig {
-            pattern: &mut out,
-            meter: &mut meter,
-            positioner: &mut pos,
-        };
-        let opts = MeasureOptions {
-            budget: 64,
-            focus: Some(RampFocus {
-                white_xy: [0.3127, 0.3290],
-                headroom: 1.0,
-                white_y_cd_m2: None,
-                toe_samples: false,
-                common_black: None,
-            }),
-            ..MeasureOptions::default()
-        };
-        let key = display_key("mono-2x1", &info);
-        let m = measure_display(&mut rig, &info, &key, &opts, &mut |_| {}).expect("measured");
+        let wall = mono_2x1_with_lamps(lamp_cd_m2);
+        let m = measured_with_focus(&wall, MeterModel::cs100a(7), 1);
         m.log.readings_of(Patch::Black)
     };
     let (dim, bright) = (black_readings(12.5), black_readings(250.0));
@@ -634,39 +610,14 @@ fn a_dim_walls_black_is_read_as_often_as_its_darkest_grey_needs_within_an_eighth
 
 #[test]
 fn a_black_below_the_meters_floor_is_measured_without_the_bias_of_the_readings_it_gives() {
-    use lumiwall_calib::measure::RampFocus;
-    use lumiwall_devices::sim::{MeterModel, VirtualWall};
+    use lumiwall_devices::sim::MeterModel;
     // mono-2x1 with lamps of 12 cd/m²: its LCD black, about 0.008 cd/m² in Y, lies
     // below a CS-100A class meter's floor of 0.01 cd/m², and its zero-light noise
     // (0.004 cd/m² in Y) has the meter refuse two readings in three. The mean of the
     // readings it gives was 0.012 cd/m², half as much again as the truth.
     let dim = mono_2x1_with_lamps(12.0);
     let black_y = |model: MeterModel, averaged: u32| {
-        let wall = VirtualWall::from_toml_str(&dim).expect("wall");
-        let info = wall.pattern_output().displays()[0].clone();
-        let (mut out, mut meter, mut pos) =
-            (wall.pattern_output(), wall.meter(model), wall.positioner());
-        let mut meter = lumiwall_devices::AveragingMeter::new(&mut meter, averaged);
-        let mut rig = Rig {
-            pattern: &mut out,
-            meter: &mut meter,
-            positioner: &mut pos,
-        };
-        // As a commissioning reads it: the black as often as the darkest chart grey
-        // needs, within an eighth of the budget (eight readings at 64).
-        let opts = MeasureOptions {
-            budget: 64,
-            focus: Some(RampFocus {
-                white_xy: [0.3127, 0.3290],
-                headroom: 1.0,
-                white_y_cd_m2: None,
-                toe_samples: false,
-                common_black: None,
-            }),
-            ..MeasureOptions::default()
-        };
-        let key = display_key("mono-2x1", &info);
-        let m = measure_display(&mut rig, &info, &key, &opts, &mut |_| {}).expect("measured");
+        let m = measured_with_focus(&dim, model, averaged);
         // The plain mean of the instrument's readings it gave (NaN where it gave none).
         let given = m.log.black_readings.mean(None).map_or(f64::NAN, |b| b.y);
         (m.measurement.black.y, given)
@@ -746,4 +697,56 @@ fn a_black_the_meter_refused_every_time_lies_below_its_floor_at_the_displays_whi
     assert!((b[0] - w[0]).abs() < 1e-12 && (b[1] - w[1]).abs() < 1e-12);
     // A meter that states no noise leaves the refusals unexplained.
     assert_eq!(black_of(&log, None, &opts, &key, &d.primaries), None);
+}
+
+#[test]
+fn an_averaged_meters_black_pools_every_instrument_reading_behind_its_readings() {
+    use lumiwall_calib::measure::Patch;
+    use lumiwall_devices::sim::MeterModel;
+    let dim = mono_2x1_with_lamps(12.0);
+    let m = measured_with_focus(&dim, MeterModel::cs100a(7), 3);
+    let session_readings: u32 = m
+        .log
+        .samples
+        .iter()
+        .filter(|r| r.patch == Patch::Black)
+        .map(|r| r.repeats.max(1))
+        .sum();
+    let pooled = &m.log.black_readings;
+    assert!(pooled.refused() > 0, "a black below the floor: {pooled:?}");
+    assert_eq!(pooled.given() + pooled.refused(), 3 * session_readings);
+}
+
+/// One display of the wall `toml` measured as a commissioning reads it (budget 64, the
+/// black as often as the darkest chart grey needs within an eighth of it) with `model`,
+/// each reading the mean of `averaged`.
+fn measured_with_focus(
+    toml: &str,
+    model: lumiwall_devices::sim::MeterModel,
+    averaged: u32,
+) -> lumiwall_calib::measure::MeasuredDisplay {
+    use lumiwall_calib::measure::RampFocus;
+    let wall = lumiwall_devices::sim::VirtualWall::from_toml_str(toml).expect("wall");
+    let info = wall.pattern_output().displays()[0].clone();
+    let (mut out, mut meter, mut pos) =
+        (wall.pattern_output(), wall.meter(model), wall.positioner());
+    let mut meter = lumiwall_devices::AveragingMeter::new(&mut meter, averaged);
+    let mut rig = Rig {
+        pattern: &mut out,
+        meter: &mut meter,
+        positioner: &mut pos,
+    };
+    let opts = MeasureOptions {
+        budget: 64,
+        focus: Some(RampFocus {
+            white_xy: [0.3127, 0.3290],
+            headroom: 1.0,
+            white_y_cd_m2: None,
+            toe_samples: false,
+            common_black: None,
+        }),
+        ..MeasureOptions::default()
+    };
+    let key = display_key("mono-2x1", &info);
+    measure_display(&mut rig, &info, &key, &opts, &mut |_| {}).expect("measured")
 }

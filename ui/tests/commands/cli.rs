@@ -1163,7 +1163,9 @@ fn apply_states_the_luminance_scale_and_auto_brings_the_bright_cornell_box_into_
 /// with lamps of 25 cd/m²) and the realistic meter: the survey's wall white chooses,
 /// and the run says how many meter readings each reading averages and why; the
 /// fixture's own bright wall reads once. A count outside 1–64 is refused before any
-/// reading.
+/// reading. `verify --averaging auto` (the default) averages the dim wall's chart as
+/// the rule asks for its profiles' white and says so; `--averaging 1` and the bright
+/// wall read once.
 #[test]
 fn commission_and_verify_average_each_reading_on_a_dim_wall_and_say_so() {
     let tmp = TempDir::new().unwrap();
