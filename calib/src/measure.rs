@@ -1157,12 +1157,6 @@ impl<'r, 'a> Session<'r, 'a> {
         }
     }
 
-    /// Readings a sample below the reliable limit that is always averaged (the black)
-    /// takes under the low-light policy ([`LowLight::black_readings`]).
-    pub(crate) fn dark_sample_readings(&self) -> u32 {
-        self.low_light.black_readings()
-    }
-
     /// The low-light policy's readings for a patch below the reliable limit
     /// ([`Session::readings_for`]).
     fn dark_repeats(&self, always_average: bool) -> u32 {

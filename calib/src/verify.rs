@@ -780,20 +780,18 @@ impl DisplayUnderTest<'_> {
         })
     }
 
-    /// Reads the black (input 0) as `repeats` dark samples would (each as many readings
-    /// as the low-light policy averages, even where the black is above the reliable
-    /// limit), all pooled, so that readings refused below the meter's floor count once
-    /// each ([`Session::averaged`]), against the common black; every reading refused
-    /// reads as 0.
+    /// Reads the black (input 0) `n` times ([`common_black_readings`]), all pooled, so
+    /// that readings refused below the meter's floor count once each
+    /// ([`Session::averaged`]), against the common black; every reading refused reads
+    /// as 0.
     fn read_black(
         &self,
         s: &mut Session<'_, '_>,
-        repeats: u32,
+        n: u32,
         progress: &mut dyn FnMut(Progress),
     ) -> Result<BlackResult, VerifyError> {
         let drive = drive_for(&self.prepared, Xyz::default(), self.spot_uv);
         let patch = Patch::Drive(drive);
-        let n = repeats.max(1).saturating_mul(s.dark_sample_readings());
         let measured = s
             .averaged(patch, n, progress)?
             .map_or_else(Xyz::default, |(mean, _)| mean);
@@ -844,11 +842,9 @@ pub fn verify_wall(
         opts,
         progress,
     )?;
-    let mut report = averaging::with_averaging(rig, each, |rig| {
-        read_charts(rig, displays, &under_test, targets, opts, progress)
-    })?;
-    report.readings_per_reading = each;
-    Ok(report)
+    averaging::with_averaging(rig, each, |rig| {
+        read_charts(rig, displays, &under_test, targets, opts, each, progress)
+    })
 }
 
 /// Meter readings each reading of a verification of `profiles` averages with a meter
@@ -874,13 +870,15 @@ pub fn readings_per_reading(
         .unwrap_or(1)
 }
 
-/// Reads every display's chart ([`verify_wall`] after its warm check).
+/// Reads every display's chart ([`verify_wall`] after its warm check) with `rig`'s
+/// meter, each of its readings the mean of `readings_per_reading` meter readings.
 fn read_charts(
     rig: &mut Rig<'_>,
     displays: &[DisplayInfo],
     under_test: &[DisplayUnderTest<'_>],
     targets: &[Target],
     opts: &VerifyOptions,
+    readings_per_reading: u32,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<VerifyReport, VerifyError> {
     let mut patches = Vec::new();
@@ -900,7 +898,8 @@ fn read_charts(
             patches.push(display.read_target(&mut s, t, progress)?);
         }
         if profile.black_mode == BlackMode::Common {
-            black.push(display.read_black(&mut s, opts.black_repeats, progress)?);
+            let n = common_black_readings(opts);
+            black.push(display.read_black(&mut s, n, progress)?);
         }
         readings += s.log.readings;
         judge_against_the_white(&mut patches[start..], display.reference_white);
@@ -920,7 +919,7 @@ fn read_charts(
         black,
         readings,
         eyes_delta_e2000,
-        readings_per_reading: 1,
+        readings_per_reading,
     })
 }
 
@@ -931,13 +930,22 @@ fn read_charts(
 fn readings_per_display(patches: usize, opts: &VerifyOptions, profiles: &[DisplayProfile]) -> u32 {
     let common = profiles.iter().any(|p| p.black_mode == BlackMode::Common);
     let black = if common {
-        (opts.black_repeats.max(1)).saturating_mul(opts.measure.low_light.black_readings())
+        common_black_readings(opts)
     } else {
         0
     };
     u32::try_from(patches)
         .unwrap_or(u32::MAX)
         .saturating_add(black)
+}
+
+/// Readings of a display's black in common black mode: `opts.black_repeats` dark
+/// samples' worth, each as many readings as the low-light policy averages
+/// ([`crate::measure::LowLight::black_readings`]), even where the black is above the
+/// reliable limit.
+fn common_black_readings(opts: &VerifyOptions) -> u32 {
+    let repeats = opts.black_repeats.max(1);
+    repeats.saturating_mul(opts.measure.low_light.black_readings())
 }
 
 /// Before a verification: [`VerifyOptions::warm_check`] (or the wait

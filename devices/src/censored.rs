@@ -83,13 +83,9 @@ impl CensoredReadings {
             return None;
         }
         let mean = self.sum * (1.0 / f64::from(self.given));
-        let sigma_y = noise.map_or(0.0, |n| {
-            n.sigma_xyz(Xyz::new(0.0, self.floor_cd_m2, 0.0))[1]
-        });
-        let unknown = |v: f64| v.is_nan() || v <= 0.0;
-        if self.refused == 0 || unknown(sigma_y) || unknown(self.floor_cd_m2) {
+        let Some(sigma_y) = self.sigma_y_at_floor(noise).filter(|_| self.refused > 0) else {
             return Some(mean);
-        }
+        };
         let y = censored_mean_y(
             self.sum.y,
             self.given,
@@ -99,21 +95,27 @@ impl CensoredReadings {
         );
         Some(Xyz::new(mean.x, y, mean.z))
     }
-}
 
-impl CensoredReadings {
     /// Where every reading was refused, the luminance they leave likeliest on average:
     /// the mean of the light's luminance given only that each of the refused readings
     /// fell below the floor, over a flat prior on luminances from 0 up
     /// ([`below_floor_mean_y`]). `None` where a reading was given (then
     /// [`CensoredReadings::mean`]), none was refused, or `noise` states none.
     pub fn below_floor_y(&self, noise: Option<&ReadingNoise>) -> Option<f64> {
-        let no_floor = self.floor_cd_m2.is_nan() || self.floor_cd_m2 <= 0.0;
-        if self.given > 0 || self.refused == 0 || no_floor {
+        if self.given > 0 || self.refused == 0 {
             return None;
         }
-        let sigma_y = noise?.sigma_xyz(Xyz::new(0.0, self.floor_cd_m2, 0.0))[1];
-        (sigma_y > 0.0).then(|| below_floor_mean_y(self.refused, self.floor_cd_m2, sigma_y))
+        let sigma_y = self.sigma_y_at_floor(noise)?;
+        Some(below_floor_mean_y(self.refused, self.floor_cd_m2, sigma_y))
+    }
+
+    /// 1σ of one reading's Y at the floor by the stated `noise`, what the refusals are
+    /// weighed with: `None` without a stated noise, for an exact instrument (σ 0) or
+    /// without a known floor.
+    fn sigma_y_at_floor(&self, noise: Option<&ReadingNoise>) -> Option<f64> {
+        let floor = self.floor_cd_m2;
+        let sigma_y = noise?.sigma_xyz(Xyz::new(0.0, floor, 0.0))[1];
+        (floor > 0.0 && sigma_y > 0.0).then_some(sigma_y)
     }
 }
 

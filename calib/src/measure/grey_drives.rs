@@ -7,11 +7,11 @@
 //! default) is also read whole ([`whole_grey_repeats`]). What the pass leaves of the
 //! display's budget goes first, when it holds a reading per channel, to each channel's
 //! widest gap in drive ratio ([`widest_ratio_gap_drive`]), then to the black (pooled
-//! with the display's readings of it, [`GreyDrives::black_readings`]). A grey given as a split share ([`GreyLevel::Split`], the
-//! default's darkest grey: [`default_levels`]) is read whole where one of its channels
-//! sits below that channel's samples, aimed again where its first reading shows the
-//! provisional toe off ([`reaimed`]), and split into three channel samples through the
-//! primaries ([`super::split_grey`]).
+//! with the display's readings of it, [`GreyDrives::black_readings`]). A grey given as
+//! a split share ([`GreyLevel::Split`], the default's darkest grey: [`default_levels`])
+//! is read whole where one of its channels sits below that channel's samples, aimed
+//! again where its first reading shows the provisional toe off ([`reaimed`]), and split
+//! into three channel samples through the primaries ([`super::split_grey`]).
 //!
 //! Why the channel samples: the ramps are spread over each channel's range and the
 //! curve is interpolated between samples. Where the white sits between two samples, the
